@@ -1,0 +1,49 @@
+"""Shared test fixtures and helpers."""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = Path(__file__).resolve().parent / "data"
+REAL_PCS = ROOT.parent / "shared" / "real-data" / "pcs"
+
+
+@pytest.fixture
+def runner():
+    from typer.testing import CliRunner
+
+    return CliRunner()
+
+
+@pytest.fixture
+def cli(runner):
+    """Invoke the torlab CLI; returns the click Result."""
+    from torlab.cli import app
+
+    def invoke(*args: str):
+        return runner.invoke(app, [str(a) for a in args])
+
+    return invoke
+
+
+def sha(path: Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def error_lines(result) -> list[str]:
+    """Non-empty stderr lines of a CLI result."""
+    err = getattr(result, "stderr", None)
+    if err is None:
+        err = result.output
+    return [ln for ln in err.splitlines() if ln.strip()]
+
+
+def real_pcs_file(name: str) -> Path:
+    p = REAL_PCS / name
+    if not p.exists():
+        pytest.skip(f"real PCS data not available ({p})")
+    return p

@@ -1,0 +1,64 @@
+"""HPT figures: shear stress and friction against displacement (thesis Fig. 5.10)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+from torlab.reports.plotting import subplots
+
+__all__ = ["hpt_figure"]
+
+
+def hpt_figure(results: Sequence[Any], title: str = "") -> Any:
+    """Shear stress and friction against displacement, every run on one figure.
+
+    Parameters
+    ----------
+    results
+        :class:`torlab.reduce.hpt.HptResult` objects.
+    title
+        Figure title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Two panels: ``tau`` (MPa) and ``f`` (-) against displacement (um); the
+        window of the reported friction is shaded on the friction panel for
+        each run, and the reported value marked.
+    """
+    import matplotlib
+
+    many = len(results) > 8
+    fig, (ax1, ax2) = subplots(2, 1, sharex=True, figsize=(10.5 if many else 7.5, 6.5))
+    cmap = matplotlib.colormaps["viridis"]
+    n = len(results)
+    for i, r in enumerate(results):
+        d = r.data
+        u_um = d["displacement_m"].to_numpy() * 1e6
+        color = cmap(i / (n - 1)) if n > 1 else "C0"
+        label = r.meta.label
+        ax1.plot(u_um, d["shear_stress_Pa"].to_numpy() / 1e6, lw=1.0, color=color, label=label)
+        ax2.plot(u_um, d["friction"].to_numpy(), lw=1.0, color=color)
+        umax = r.u_max_m * 1e6
+        ax2.axvspan(umax - r.window_m * 1e6, umax, color=color, alpha=min(0.08, 0.5 / n), lw=0)
+        ax2.plot([umax - r.window_m * 1e6, umax], [r.f_window, r.f_window], color=color,
+                 lw=2.5, solid_capstyle="butt")
+    ax1.set_ylabel("shear stress τ (MPa)")
+    ax2.set_ylabel("friction coefficient f (–)")
+    xl = "displacement at r_e (µm)"
+    if results and results[0].compliance:
+        xl += ", rig compliance subtracted"
+    ax2.set_xlabel(xl)
+    ax1.set_ylim(bottom=0)
+    ax2.set_ylim(bottom=0)
+    if many:
+        ax1.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=6,
+                   ncols=1 + len(results) // 25)
+    elif results:
+        ax1.legend(loc="lower right")
+    ax2.text(0.01, 0.02, "bars: mean f over the window before the maximum displacement",
+             transform=ax2.transAxes, fontsize=7, alpha=0.7)
+    if title:
+        fig.suptitle(title)
+    return fig
