@@ -1,0 +1,1 @@
+"""Parameter identification: model parameters with uncertainties from reduced data."""

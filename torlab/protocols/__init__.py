@@ -1,0 +1,1 @@
+"""YAML test protocols: a campaign from raw logs to reports (``torlab run``)."""

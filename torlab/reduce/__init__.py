@@ -1,0 +1,1 @@
+"""Reductions: parsed instrument channels -> the quantities the thesis reports."""

@@ -1,0 +1,1 @@
+"""Seeded virtual experiments: synthetic raw logs with a stored, known truth."""
