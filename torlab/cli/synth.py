@@ -31,3 +31,77 @@ def synth_hpt(
     with OutputDir(out, force=force, command=command_line()) as dest:
         names = write_hpt_sample_data(dest, seed=seed)
     console().print(f"wrote {len(names)} synthetic HPT logs, rig_compliance.csv and truth.yaml to {out}")
+
+
+@app.command("mtm")
+def synth_mtm(
+    out: OutOpt,
+    seed: Annotated[int, typer.Option(help="Random seed (the same seed gives the same files).")] = 2020,
+    force: ForceOpt = False,
+) -> None:
+    """Virtual Paper B MTM time tests after application: PCS 'MTM311 Test Data File' exports
+    (BOD_TIMED, 1 Hz, 20 min after the application) of compositions of thesis Tab. 5.3 and two
+    amounts of TOR A, with truth.yaml (application time, minimum, recovery time, plateau)."""
+    from torlab.outputs import OutputDir
+    from torlab.synth.mtm import write_mtm_sample_data
+
+    with OutputDir(out, force=force, command=command_line()) as dest:
+        names = write_mtm_sample_data(dest, seed=seed)
+    console().print(f"wrote {len(names)} synthetic MTM exports and truth.yaml to {out}")
+
+
+@app.command("visc")
+def synth_visc(
+    out: OutOpt,
+    seed: Annotated[int, typer.Option(help="Random seed (the same seed gives the same files).")] = 2021,
+    force: ForceOpt = False,
+) -> None:
+    """Virtual Paper B viscometer campaign: a reference-liquid calibration log and the ester oil
+    at 0.1-300 MPa in 50 MPa steps at 25 °C (Roelands law), with truth.yaml."""
+    from torlab.outputs import OutputDir
+    from torlab.synth.viscometer import write_viscometer_sample_data
+
+    with OutputDir(out, force=force, command=command_line()) as dest:
+        names = write_viscometer_sample_data(dest, seed=seed)
+    console().print(f"wrote {len(names)} synthetic viscometer logs and truth.yaml to {out}")
+
+
+@app.command("optical")
+def synth_optical(
+    out: OutOpt,
+    seed: Annotated[int, typer.Option(help="Random seed (the same seed gives the same files).")] = 2019,
+    tests: Annotated[str, typer.Option(help="Comma list of the Tab. 5.2 tests to write (names as "
+                                       "in paper_a_conditions(), or 'all').")] = "all",
+    force: ForceOpt = False,
+) -> None:
+    """Demo optical tribometer logs of the Paper A test sequence (thesis Tab. 5.2) at 1 kHz.
+
+    The truth is a simple *analytic stand-in* (documented in docs/sample-data.md), not torlab's
+    friction model: mu = mu_max(U) tanh(SRR / 1 %) with mu_max falling with speed (0.25 dry),
+    h = 40 nm (U / 1 m/s)^0.67.  truth.yaml lists it per condition."""
+    from torlab.errors import TorlabInputError
+    from torlab.outputs import OutputDir
+    from torlab.synth.optical import demo_truth, paper_a_conditions, write_optical_log
+    from torlab.yamlio import dump_yaml
+
+    all_tests = paper_a_conditions()
+    names = [t.name for t in all_tests]
+    pick = names if tests.strip() == "all" else [s.strip() for s in tests.split(",") if s.strip()]
+    bad = [p for p in pick if p not in names]
+    if bad or not pick:
+        raise TorlabInputError(f"unknown test {', '.join(bad) or tests!r} (known: {', '.join(names)})",
+                               key="--tests")
+    with OutputDir(out, force=force, command=command_line()) as dest:
+        truth = {"description": "SYNTHETIC optical tribometer logs (torlab synth optical): Paper A "
+                                "test sequence of thesis Tab. 5.2 with an analytic stand-in truth "
+                                "(not the torlab model)", "seed": seed, "tests": []}
+        for k, t in enumerate(all_tests):
+            if t.name not in pick:
+                continue
+            mu_fn, h_fn, desc = demo_truth(t)
+            rows = write_optical_log(dest.path(f"{t.name}.csv"), t, mu_fn, h_fn, seed=seed + k,
+                                     notes=f"demo truth: {desc}")
+            truth["tests"].append({"file": f"{t.name}.csv", "test": t.test, "surface": t.surface,
+                                   "truth": desc, "conditions": rows})
+        dest.write_text("truth.yaml", dump_yaml(truth))
+    console().print(f"wrote {len(pick)} synthetic optical logs and truth.yaml to {out}")

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import io
 import os
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import IO, Any
@@ -20,6 +21,9 @@ from typing import IO, Any
 import numpy as np
 
 from torlab.errors import TorlabInputError
+
+_NUMBER_FIELD = re.compile(r"[+-]?(?:(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|inf(?:inity)?|nan)",
+                           re.IGNORECASE)
 
 __all__ = ["PathOrBuffer", "detect_delimiter", "parse_numeric_rows", "read_text", "split_unit"]
 
@@ -179,16 +183,16 @@ def _scan_for_error(lines: Sequence[str], first_line_no: int, columns: Sequence[
             raise TorlabInputError(f"expected {ncol} fields separated by {delimiter!r}, found "
                                    f"{len(fields)}{hint}", path=path, line=ln)
         for j, ae in zip(use, allow_empty, strict=True):
-            f = fields[j].strip()
+            f = fields[j].strip(" \t")
             if not f:
                 if ae:
                     continue
                 raise TorlabInputError("empty value", path=path, line=ln, key=f"column {columns[j]!r}")
-            try:
-                v = float(f.replace(decimal, ".") if decimal != "." else f)
-            except ValueError:
+            g = f.replace(decimal, ".") if decimal != "." else f
+            if not _NUMBER_FIELD.fullmatch(g):  # float() would accept '1_0' or control characters
                 raise TorlabInputError(f"{f!r} is not a number", path=path, line=ln,
-                                       key=f"column {columns[j]!r}") from None
+                                       key=f"column {columns[j]!r}")
+            v = float(g)
             if not np.isfinite(v):
                 raise TorlabInputError(f"{f!r} is not a finite number", path=path, line=ln,
                                        key=f"column {columns[j]!r}")

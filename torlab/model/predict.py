@@ -1,0 +1,195 @@
+"""Predictions from a scene: traction curves (and Stribeck curves, :mod:`torlab.model.mixed`).
+
+:func:`predict_traction` models only what the scene needs and says what it
+modelled:
+
+* a dry scene (no ``lubricant:``): Hertz + FASTSIM with the third-body layer,
+  plus the contact temperature when the scene has ``thermal:``;
+* a lubricated scene: see :mod:`torlab.model.mixed` (film, asperity load
+  sharing, FASTSIM only where the asperities carry load).
+
+The traction-curve trend after saturation (thesis H4.1) is classified by
+:func:`classify_trend`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from torlab.model.contact import ContactModel, build_contact
+from torlab.model.fastsim import FastsimGrid, FastsimProblem, ThermalParams, boundary_traction
+from torlab.model.layer import LayerParams
+
+__all__ = [
+    "TractionPrediction",
+    "classify_trend",
+    "fastsim_problem",
+    "predict_traction",
+]
+
+
+@dataclass
+class TractionPrediction:
+    """A predicted traction curve.
+
+    Attributes
+    ----------
+    table
+        DataFrame with the scene-contract columns ``creepage`` (fraction) and
+        ``mu``, and where the scene has them ``mu_boundary``, ``mu_ehl``,
+        ``load_share_asperity``, ``film_thickness_m``, ``max_temperature_C``;
+        also ``adhesion_fraction`` (load fraction still elastic).
+    contact
+        The resolved contact.
+    modelled
+        Human-readable list of what was modelled (and what was skipped, why).
+    trend
+        Trend after saturation (:func:`classify_trend`).
+    summary
+        Key numbers for ``summary.json``.
+    """
+
+    table: Any
+    contact: ContactModel
+    modelled: list[str]
+    trend: dict[str, Any]
+    summary: dict[str, Any] = field(default_factory=dict)
+
+
+def fastsim_problem(scene: Any, contact: ContactModel | None = None) -> FastsimProblem:
+    """The :class:`FastsimProblem` of a scene's boundary part."""
+    contact = contact or build_contact(scene)
+    b = scene.boundary
+    layer = LayerParams(b.mu_c1, b.mu_c2, b.L_mue, b.L_mup, b.mu_c1_T, b.mu_c2_T)
+    th = scene.thermal
+    thermal = None if th is None else ThermalParams(
+        th.conductivity, th.density, th.heat_capacity, th.partition, th.slip_velocity,
+        th.tolerance, th.max_iterations)
+    p = contact.patch
+    return FastsimProblem(a=p.a, b=p.b, p0=p.p0, L1=contact.L1, layer=layer,
+                          speed=scene.kinematics.speed,
+                          ambient_temperature=scene.kinematics.ambient_temperature, thermal=thermal)
+
+
+def fastsim_grid(scene: Any) -> FastsimGrid:
+    """The FASTSIM grid of a scene's ``grid:`` section."""
+    g = scene.grid
+    return FastsimGrid(n=g.n, m=g.m, temperature_nodes=g.temperature_nodes)
+
+
+def classify_trend(creepage: np.ndarray, mu: np.ndarray, *, saturation: float = 0.95,
+                   tolerance: float = 0.01) -> dict[str, Any]:
+    """Trend of the traction curve after saturation (thesis H4.1, Fig. 2.2).
+
+    The saturation point is the smallest positive creepage at which ``|mu|``
+    reaches ``saturation`` times its maximum over the curve.  A straight line is
+    fitted to ``|mu|`` from there to the largest creepage; its change over that
+    range relative to ``|mu|`` at saturation is the trend: ``negative`` below
+    ``-tolerance``, ``positive`` above ``+tolerance``, ``neutral`` between.
+
+    Returns
+    -------
+    dict
+        ``trend`` (``negative``/``neutral``/``positive``/``not saturated``),
+        ``saturation_creepage``, ``mu_saturation``, ``slope_per_unit_creepage``,
+        ``relative_change``, ``tolerance``.
+    """
+    x = np.abs(np.asarray(creepage, dtype=float))
+    y = np.abs(np.asarray(mu, dtype=float))
+    order = np.argsort(x)
+    x, y = x[order], y[order]
+    keep = x > 0
+    x, y = x[keep], y[keep]
+    out: dict[str, Any] = {"tolerance": tolerance, "saturation_fraction": saturation}
+    if len(x) < 3 or y.max() <= 0:
+        out.update(trend="not saturated", saturation_creepage=None, mu_saturation=None,
+                   slope_per_unit_creepage=None, relative_change=None)
+        return out
+    k = int(np.argmax(y >= saturation * y.max()))
+    xs, ys = x[k:], y[k:]
+    out["saturation_creepage"] = float(x[k])
+    out["mu_saturation"] = float(y[k])
+    if len(xs) < 3:
+        out.update(trend="not saturated", slope_per_unit_creepage=None, relative_change=None)
+        return out
+    slope = float(np.polyfit(xs, ys, 1)[0])
+    change = slope * (xs[-1] - xs[0]) / ys[0]
+    trend = "negative" if change < -tolerance else "positive" if change > tolerance else "neutral"
+    out.update(trend=trend, slope_per_unit_creepage=slope, relative_change=float(change))
+    return out
+
+
+def predict_traction(scene: Any, creepage: Any, *, trend_tolerance: float = 0.01) -> TractionPrediction:
+    """Predict ``mu`` against creepage for a scene.
+
+    Parameters
+    ----------
+    scene
+        A validated :class:`~torlab.scene.Scene`.
+    creepage
+        Creepages (fractions; SRR as a fraction), any sign.
+    trend_tolerance
+        Relative change after saturation below which the trend is neutral.
+
+    Returns
+    -------
+    TractionPrediction
+    """
+    import pandas as pd
+
+    if scene.lubricant is not None:
+        from torlab.model.mixed import predict_traction_mixed
+
+        return predict_traction_mixed(scene, creepage, trend_tolerance=trend_tolerance)
+    xi = np.atleast_1d(np.asarray(creepage, dtype=float))
+    contact = build_contact(scene)
+    prob = fastsim_problem(scene, contact)
+    res = boundary_traction(prob, xi, fastsim_grid(scene))
+    table = pd.DataFrame({"creepage": xi, "mu": res.mu, "mu_boundary": res.mu,
+                          "adhesion_fraction": res.adhesion_fraction})
+    if res.max_temperature_C is not None:
+        table["max_temperature_C"] = res.max_temperature_C
+    modelled = [f"Hertz contact ({contact.patch.method})",
+                "boundary friction: FASTSIM with the third-body layer (elastic + Voce)",
+                "EHL film: not modelled (dry scene, no lubricant:)",
+                "asperity load sharing: not modelled (dry scene)"]
+    modelled.append(_temperature_note(res.temperature_loop, scene))
+    trend = classify_trend(xi, res.mu, tolerance=trend_tolerance)
+    summary = _summary(scene, contact, modelled, trend, table)
+    if res.temperature_iterations is not None:
+        summary["temperature_iterations_max"] = int(np.max(res.temperature_iterations))
+    return TractionPrediction(table=table, contact=contact, modelled=modelled, trend=trend,
+                              summary=summary)
+
+
+def _temperature_note(loop: str, scene: Any) -> str:
+    if loop == "off":
+        return "contact temperature: not modelled (no thermal: section)"
+    if loop == "single pass":
+        b = scene.boundary
+        why = ("the temperature coefficients are zero" if b.mu_c1_T == 0 and b.mu_c2_T == 0
+               else "the heating changes the limits by less than 1e-6")
+        return f"contact temperature: computed once, no tau-T loop ({why})"
+    return "contact temperature: coupled to the limits, iterated to convergence"
+
+
+def _summary(scene: Any, contact: ContactModel, modelled: list[str], trend: dict[str, Any],
+             table: Any) -> dict[str, Any]:
+    from torlab import __version__
+
+    mu = table["mu"].to_numpy()
+    s = {
+        "torlab_version": __version__,
+        "scene": scene.name,
+        "contact": contact.summary(),
+        "modelled": modelled,
+        "notes": list(contact.notes),
+        "mu_max": float(np.max(np.abs(mu))) if len(mu) else None,
+        "trend_after_saturation": trend,
+    }
+    if scene.boundary is not None:
+        s["boundary"] = scene.boundary.model_dump()
+    return s

@@ -1,0 +1,480 @@
+"""MTM/ETM reductions: time tests after application (Paper B), traction and Stribeck curves.
+
+Time test after application (thesis 5.3.2, Fig. 5.9)
+----------------------------------------------------
+Paper B applies a TOR lubricant to the running MTM contact (800 MPa, 2 % SRR,
+1 m/s) and follows the coefficient for 20 minutes: it drops at the application,
+recovers, and is averaged "after initial drop recovery until the end of the
+test".  :func:`time_test_metrics` computes, from the coefficient ``mu(t)``:
+
+* the **application moment** ``t_app`` (given, or detected: the largest drop of
+  the mean coefficient between two adjacent windows of ``application_window``;
+  ``t_app`` is the last sample before the smoothed coefficient has fallen by a
+  quarter of that drop.  A largest drop under ``min_drop`` means the record
+  holds no application and it is evaluated from its start);
+* the **minimum** of the smoothed coefficient after ``t_app`` and its time;
+* the **plateau**: the median coefficient over the last ``tail`` of the
+  evaluated record;
+* the **time to recover**: from ``t_app`` to the first sample after the minimum
+  where the smoothed coefficient reaches the *recovery level*.  By default the
+  level is ``min + 0.9 (plateau - min)`` -- 90 % of the way back from the
+  minimum to the level the coefficient settles at (a rise time, which does not
+  depend on how high the plateau is); ``recovery_level=`` gives a fixed level
+  instead.  A record whose plateau is less than ``min_rise`` above its minimum
+  has *not recovered* (over-application: the coefficient stays low), and the
+  recovery figures are left empty;
+* the **mean after recovery** (and its standard deviation) from the recovery
+  time to the end -- the figure Paper B reports;
+* the **time below the low-adhesion threshold** (0.15 by default, the value
+  used in the literature for sufficient adhesion): the time from ``t_app`` to the
+  end during which the smoothed coefficient is below it (each sample counts
+  until the next one).
+
+"Smoothed" is a running median over ``smooth`` (10 s by default; ``0`` uses the
+raw samples), so one noisy sample does not make a minimum or a crossing.
+
+Curves
+------
+:func:`reduce_pcs` turns every data step of a PCS file into tidy curves:
+traction steps -> mu against SRR, Stribeck steps -> mu against rolling speed,
+timed steps -> mu against time, film steps (EHD2) -> film thickness and traction
+against rolling speed; each row with the load and temperatures.  The
+coefficient is the signed one (see :mod:`torlab.parsers.pcs`); SRR is a
+fraction as PCS defines it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from torlab.errors import TorlabInputError
+from torlab.parsers.pcs import PcsMetadata, coefficient_column
+
+__all__ = [
+    "DEFAULT_THRESHOLD",
+    "PcsReduction",
+    "TimeTestResult",
+    "mu_series",
+    "reduce_pcs",
+    "running_median",
+    "time_test_metrics",
+]
+
+DEFAULT_THRESHOLD = 0.15
+DEFAULT_RECOVERY_FRACTION = 0.9
+DEFAULT_SMOOTH_S = 10.0
+DEFAULT_MIN_DROP = 0.05
+DEFAULT_MIN_RISE = 0.03
+DEFAULT_TAIL_S = 120.0
+DEFAULT_APPLICATION_WINDOW_S = 30.0
+
+#: x column of each curve type
+CURVE_X = {"traction": "srr", "stribeck": "rolling_speed_m_s", "timed": "step_time_s",
+           "film": "rolling_speed_m_s"}
+#: columns carried into the curve tables where the file has them
+_CARRY = ("step_time_s", "srr", "rolling_speed_m_s", "sliding_speed_m_s", "traction_force_N",
+          "ball_load_N", "lube_temperature_C", "pot_temperature_C", "film_thickness_m",
+          "film_thickness_sd_m", "wear_m", "ecr")
+
+
+@dataclass
+class TimeTestResult:
+    """Figures of one time test after application (see the module docstring).
+
+    Times ``*_s`` are step times (s) except ``recovery_time_s`` (from the
+    application) and ``time_below_threshold_s`` (a duration).  Figures that do
+    not exist (no recovery) are NaN.
+    """
+
+    label: str
+    step: int
+    n: int
+    application_time_s: float
+    application_source: str
+    pre_application_mean: float
+    minimum: float
+    minimum_time_s: float
+    plateau: float
+    recovery_level: float
+    recovered: bool
+    recovery_at_s: float
+    recovery_time_s: float
+    mean_after_recovery: float
+    sd_after_recovery: float
+    mean_after_application: float
+    time_below_threshold_s: float
+    threshold: float
+    evaluated_until_s: float
+    smooth_s: float
+    notes: list[str] = field(default_factory=list)
+
+    def summary(self) -> dict[str, Any]:
+        """One row for ``time_tests.csv``."""
+        d = asdict(self)
+        d["notes"] = "; ".join(self.notes)
+        return d
+
+
+#: columns of time_tests.csv that may be empty (figure does not exist)
+TIME_TEST_OPTIONAL = ("pre_application_mean", "recovery_at_s", "recovery_time_s",
+                      "mean_after_recovery", "sd_after_recovery")
+
+
+def running_median(y: np.ndarray, k: int) -> np.ndarray:
+    """Running median over ``k`` samples (made odd; edges mirror the record)."""
+    y = np.asarray(y, dtype=float)
+    if k <= 1 or y.size < 3:
+        return y.copy()
+    k = k if k % 2 else k + 1
+    if k > y.size:
+        k = y.size if y.size % 2 else y.size - 1
+    from scipy.ndimage import median_filter
+
+    return median_filter(y, size=k, mode="mirror")
+
+
+def _window_samples(seconds: float, dt: float) -> int:
+    return max(1, round(seconds / dt)) if seconds > 0 else 1
+
+
+def time_test_metrics(
+    t: np.ndarray,
+    mu: np.ndarray,
+    *,
+    application_time: float | None = None,
+    threshold: float = DEFAULT_THRESHOLD,
+    recovery_fraction: float = DEFAULT_RECOVERY_FRACTION,
+    recovery_level: float | None = None,
+    smooth: float = DEFAULT_SMOOTH_S,
+    min_drop: float = DEFAULT_MIN_DROP,
+    min_rise: float = DEFAULT_MIN_RISE,
+    tail: float = DEFAULT_TAIL_S,
+    application_window: float = DEFAULT_APPLICATION_WINDOW_S,
+    duration: float | None = None,
+    label: str = "",
+    step: int = 0,
+) -> TimeTestResult:
+    """Figures of a time test after application (thesis Fig. 5.9, Paper B).
+
+    Parameters
+    ----------
+    t, mu
+        Time (s, increasing) and coefficient.
+    application_time
+        Application moment (s, on the ``t`` axis); detected when ``None``.
+    threshold
+        Low-adhesion threshold (default 0.15).
+    recovery_fraction
+        Recovery level as the fraction of the way from the minimum back to the
+        plateau (default 0.9); ignored when ``recovery_level`` is given.
+    recovery_level
+        Fixed recovery level (coefficient) instead.
+    smooth
+        Running-median window (s) for minimum, crossings and detection.
+    min_drop
+        Smallest drop taken as an application when detecting it.
+    min_rise
+        Smallest plateau - minimum taken as a recovery (relative definition).
+    tail
+        Window (s) at the end over which the plateau is the median.
+    application_window
+        Window (s) of the drop detector.
+    duration
+        Evaluate up to ``t_app + duration`` (Paper B: 20 min); default the end.
+    label, step
+        Carried into the result.
+
+    Returns
+    -------
+    TimeTestResult
+
+    Raises
+    ------
+    TorlabInputError
+        Fewer than 5 samples, non-increasing time, bad options, or an
+        application time outside the record.
+    """
+    t = np.asarray(t, dtype=float)
+    mu = np.asarray(mu, dtype=float)
+    ok = np.isfinite(t) & np.isfinite(mu)
+    t, mu = t[ok], mu[ok]
+    if t.size < 5:
+        raise TorlabInputError(f"{label or 'time test'}: needs at least 5 samples with a "
+                               f"coefficient, got {t.size}")
+    if np.any(np.diff(t) <= 0):
+        raise TorlabInputError(f"{label or 'time test'}: time does not increase")
+    for nm, v in (("threshold", threshold), ("smooth", smooth), ("tail", tail),
+                  ("min_drop", min_drop), ("min_rise", min_rise),
+                  ("application_window", application_window)):
+        if not (math.isfinite(v) and v >= 0):
+            raise TorlabInputError(f"must be a non-negative number, got {v}", key=nm)
+    if not (0 < recovery_fraction <= 1):
+        raise TorlabInputError(f"must be in (0, 1], got {recovery_fraction}", key="recovery_fraction")
+    notes: list[str] = []
+    dt = float(np.median(np.diff(t)))
+    ks = _window_samples(smooth, dt)
+    mus = running_median(mu, ks)
+
+    # -- application moment
+    if application_time is not None:
+        if not (t[0] <= application_time < t[-1]):
+            raise TorlabInputError(f"application time {application_time:g} s is outside the record "
+                                   f"({t[0]:g}-{t[-1]:g} s)", key="application_time")
+        i_app = int(np.searchsorted(t, application_time, side="right") - 1)
+        t_app = float(application_time)
+        source = "given"
+    else:
+        w = max(2, _window_samples(application_window, dt))
+        i_app, t_app, source = 0, float(t[0]), "start (no drop found)"
+        if t.size >= 2 * w + 1:
+            c = np.concatenate(([0.0], np.cumsum(mu)))
+            idx = np.arange(w, t.size - w + 1)
+            after = (c[idx + w] - c[idx]) / w
+            before = (c[idx] - c[idx - w]) / w
+            contrast = after - before
+            k = int(np.argmin(contrast))
+            drop = -float(contrast[k])
+            if drop >= min_drop:
+                i0 = int(idx[k])
+                pre = float(np.median(mu[i0 - w:i0]))
+                low = float(np.min(mus[i0:i0 + w]))
+                level = pre - 0.25 * (pre - low)
+                lo = max(1, i0 - w)
+                below = np.nonzero(mus[lo:i0 + w] < level)[0]
+                j = lo + int(below[0]) if below.size else i0
+                i_app = max(0, j - 1)
+                t_app = float(t[i_app])
+                source = "detected"
+        if source != "detected":
+            notes.append(f"no drop of at least {min_drop:g} found; evaluated from the start")
+    # -- evaluated range
+    end = t[-1] if duration is None else min(t[-1], t_app + duration)
+    if duration is not None and t_app + duration > t[-1] + dt:
+        notes.append(f"record ends {t_app + duration - t[-1]:.0f} s before the requested duration")
+    sel = (t >= t_app) & (t <= end)
+    if np.count_nonzero(sel) < 3:
+        raise TorlabInputError(f"{label or 'time test'}: fewer than 3 samples after the "
+                               "application moment")
+    ia = np.nonzero(sel)[0]
+    tt, mm, ms = t[ia], mu[ia], mus[ia]
+    pre_mean = float(np.mean(mu[:i_app])) if i_app > 0 and source != "start (no drop found)" \
+        else float("nan")
+    k_min = int(np.argmin(ms))
+    mu_min, t_min = float(ms[k_min]), float(tt[k_min])
+    tail_sel = tt >= tt[-1] - tail
+    plateau = float(np.median(mm[tail_sel]))
+    if recovery_level is not None:
+        level = float(recovery_level)
+        can = True
+    else:
+        level = mu_min + recovery_fraction * (plateau - mu_min)
+        can = plateau - mu_min >= min_rise
+        if not can:
+            notes.append(f"plateau {plateau:.3f} is less than {min_rise:g} above the minimum "
+                         f"{mu_min:.3f}: not recovered")
+    recovered = False
+    rec_at = rec_time = mean_rec = sd_rec = float("nan")
+    if can:
+        up = np.nonzero(ms[k_min:] >= level)[0]
+        if up.size:
+            kr = k_min + int(up[0])
+            recovered = True
+            rec_at = float(tt[kr])
+            rec_time = rec_at - t_app
+            mean_rec = float(np.mean(mm[kr:]))
+            sd_rec = float(np.std(mm[kr:], ddof=1)) if mm[kr:].size > 1 else 0.0
+        else:
+            notes.append(f"never reaches the recovery level {level:.3f}")
+    # time below threshold: each sample holds until the next one
+    dts = np.diff(tt, append=tt[-1] + dt)
+    below_time = float(np.sum(dts[ms < threshold]))
+    return TimeTestResult(
+        label=label, step=step, n=int(tt.size), application_time_s=t_app,
+        application_source=source, pre_application_mean=pre_mean, minimum=mu_min,
+        minimum_time_s=t_min, plateau=plateau, recovery_level=level, recovered=recovered,
+        recovery_at_s=rec_at, recovery_time_s=rec_time, mean_after_recovery=mean_rec,
+        sd_after_recovery=sd_rec, mean_after_application=float(np.mean(mm)),
+        time_below_threshold_s=below_time, threshold=threshold, evaluated_until_s=float(tt[-1]),
+        smooth_s=float(ks * dt if ks > 1 else 0.0), notes=notes,
+    )
+
+
+def mu_series(df: Any) -> tuple[np.ndarray | None, str]:
+    """The signed traction coefficient of PCS rows and where it comes from.
+
+    In order: the coefficient column (signed, see
+    :func:`torlab.parsers.pcs.coefficient_column`); ``Traction Force / Ball
+    Load``; ``Traction Force 1 / Ball Load`` (EHD2 film steps, which log only
+    that force).  ``(None, "")`` when none is available.
+    """
+    col, src = coefficient_column(df)
+    if col and df[col].notna().any():
+        return df[col].to_numpy(dtype=float), src
+    if "ball_load_N" in df:
+        w = df["ball_load_N"].to_numpy(dtype=float)
+        for fcol, label in (("traction_force_N", "Traction Force / Ball Load"),
+                            ("traction_force_1_N", "Traction Force 1 / Ball Load")):
+            if fcol in df and df[fcol].notna().any():
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    mu = np.where(w > 0, df[fcol].to_numpy(dtype=float) / w, np.nan)
+                return mu, label
+    return None, ""
+
+
+@dataclass
+class PcsReduction:
+    """Reduced PCS file.
+
+    Attributes
+    ----------
+    meta
+        The file's :class:`~torlab.parsers.pcs.PcsMetadata`.
+    curves
+        Curve type (``traction``, ``stribeck``, ``timed``, ``film``) -> tidy
+        DataFrame: ``step``, ``traction_coefficient`` (signed), the x column of
+        :data:`CURVE_X`, loads, speeds, temperatures where logged, ``line``.
+    steps
+        One summary row per data step.
+    time_tests
+        :class:`TimeTestResult` of every timed step.
+    mu_source
+        Where the coefficient came from.
+    """
+
+    meta: PcsMetadata
+    curves: dict[str, Any]
+    steps: Any
+    time_tests: list[TimeTestResult]
+    mu_source: str
+
+    @property
+    def label(self) -> str:
+        """File name for tables and figures."""
+        return Path(self.meta.source).name
+
+
+def _nan_stat(fn: Any, v: np.ndarray) -> float:
+    v = v[np.isfinite(v)]
+    return float(fn(v)) if v.size else float("nan")
+
+
+def reduce_pcs(df: Any, meta: PcsMetadata, *, time_tests: bool = True, **time_test_options: Any
+               ) -> PcsReduction:
+    """Reduce a parsed PCS file to curves per step type, step summaries and time tests.
+
+    Parameters
+    ----------
+    df, meta
+        From :func:`torlab.parsers.pcs.read_pcs`.
+    time_tests
+        Compute :func:`time_test_metrics` for every timed step.
+    **time_test_options
+        Passed to :func:`time_test_metrics` (``threshold``, ``application_time``,
+        ``recovery_fraction``, ``recovery_level``, ``smooth``, ``duration`` ...).
+
+    Returns
+    -------
+    PcsReduction
+
+    Raises
+    ------
+    TorlabInputError
+        The file has no data step with a traction coefficient or film
+        thickness to reduce.
+    """
+    import pandas as pd
+
+    mu, src = mu_series(df)
+    curves: dict[str, Any] = {}
+    rows = []
+    tts: list[TimeTestResult] = []
+    if len(df) == 0:
+        raise TorlabInputError("no data rows in any step (nothing to reduce)", path=meta.source)
+    step_no = df["step"].to_numpy()
+    line = df["line"].to_numpy()
+    for kind, xcol in CURVE_X.items():
+        sel = (df["step_type"] == kind).to_numpy()
+        if not sel.any():
+            continue
+        sub = df.loc[sel]
+        out = {"step": sub["step"].to_numpy()}
+        if mu is not None:
+            out["traction_coefficient"] = mu[sel]
+        for c in _CARRY:
+            if c in sub and sub[c].notna().any():
+                out[c] = sub[c].to_numpy(dtype=float)
+        if xcol not in out:
+            continue
+        if kind == "film" and "film_thickness_m" not in out and mu is None:
+            continue
+        if kind != "film" and mu is None:
+            continue
+        out["line"] = sub["line"].to_numpy()
+        cdf = pd.DataFrame(out)
+        # a row is useful only with its x and its y
+        ycol = "film_thickness_m" if kind == "film" and "film_thickness_m" in cdf else \
+            "traction_coefficient"
+        keep = cdf[xcol].notna() & cdf[ycol].notna()
+        curves[kind] = cdf.loc[keep].reset_index(drop=True)
+    if not curves:
+        raise TorlabInputError("no traction, Stribeck, timed or film step with a traction "
+                               "coefficient or film thickness to reduce", path=meta.source)
+    for st in meta.steps:
+        if not st.has_data:
+            continue
+        sel = step_no == st.number
+        sel &= (line >= st.first_line) & (line <= st.last_line)
+        if not sel.any():
+            continue
+        sub = df.loc[sel]
+
+        def col(c: str, sub: Any = sub) -> np.ndarray:
+            return sub[c].to_numpy(dtype=float) if c in sub else np.array([])
+
+        m = mu[sel] if mu is not None else np.array([])
+        row = {
+            "file": Path(meta.source).name,
+            "instrument": meta.instrument,
+            "step": st.number,
+            "step_type": st.type,
+            "step_type_raw": st.type_raw,
+            "description": st.description,
+            "started_at": "" if st.started_at is None else st.started_at.isoformat(sep=" "),
+            "n_rows": int(sel.sum()),
+            "ball_load_N": _nan_stat(np.mean, col("ball_load_N")),
+            "lube_temperature_C": _nan_stat(np.mean, col("lube_temperature_C")),
+            "pot_temperature_C": _nan_stat(np.mean, col("pot_temperature_C")),
+            "rolling_speed_min_m_s": _nan_stat(np.min, col("rolling_speed_m_s")),
+            "rolling_speed_max_m_s": _nan_stat(np.max, col("rolling_speed_m_s")),
+            "srr_min": _nan_stat(np.min, col("srr")),
+            "srr_max": _nan_stat(np.max, col("srr")),
+            "traction_coefficient_mean": _nan_stat(np.mean, m),
+            "traction_coefficient_min": _nan_stat(np.min, m),
+            "traction_coefficient_max": _nan_stat(np.max, m),
+            "film_thickness_min_m": _nan_stat(np.min, col("film_thickness_m")),
+            "film_thickness_max_m": _nan_stat(np.max, col("film_thickness_m")),
+            "first_line": st.first_line,
+            "last_line": st.last_line,
+        }
+        rows.append(row)
+        if time_tests and st.type == "timed" and m.size and "step_time_s" in sub:
+            tcol = col("step_time_s")
+            ok = np.isfinite(tcol) & np.isfinite(m)
+            if ok.sum() >= 5:
+                try:
+                    tts.append(time_test_metrics(tcol[ok], m[ok], label=Path(meta.source).name,
+                                                 step=st.number, **time_test_options))
+                except TorlabInputError as e:
+                    if e.key is not None:  # a bad option: the user's error, not the file's
+                        raise
+                    raise TorlabInputError(f"step {st.number}: {e.message}", path=meta.source,
+                                           line=st.first_line) from None
+    steps = pd.DataFrame(rows)
+    # summary columns never filled in this file are dropped
+    steps = steps[[c for c in steps.columns if steps[c].dtype == object or steps[c].notna().any()]]
+    return PcsReduction(meta=meta, curves=curves, steps=steps, time_tests=tts, mu_source=src)

@@ -1,0 +1,441 @@
+"""Scene files: the contact, materials, kinematics and product parameters of a prediction.
+
+The keys are a contract with users and external checks (``spec/scene-contract.md``);
+``docs/scenes.md`` documents every key.  A scene is one YAML file or several
+merged in order (a base scene plus a parameter file written by ``torlab fit``):
+later files override earlier ones key by key.
+
+Every quantity is a plain number in SI units or a string with a unit
+(``"20 kN"``, ``"0.373 mm"``, ``"1 mPa*s"``, ``"21500 mm^-2"``, ``"20 degC"``).
+Unknown keys, missing keys, wrong units and physically impossible values are
+reported all at once, each naming the file, line and key
+(:class:`~torlab.errors.ValidationErrors`).
+
+>>> scene = load_scene("protocols/scenes/wheel_rail_tab54.yaml")   # doctest: +SKIP
+>>> scene.contact.load, scene.boundary.mu_c2                        # doctest: +SKIP
+(20000.0, 0.45)
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Sequence
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, model_validator
+
+from torlab.errors import TorlabInputError, ValidationErrors
+
+__all__ = [
+    "Boundary",
+    "Contact",
+    "Grid",
+    "Kinematics",
+    "Lubricant",
+    "Materials",
+    "Roughness",
+    "Scene",
+    "Thermal",
+    "load_scene",
+    "scene_from_dict",
+]
+
+
+def _q(kind: str, *, allow_inf: bool = False):
+    """A pydantic before-validator turning a user quantity into SI via torlab.units."""
+
+    def conv(v: Any) -> Any:
+        from torlab.units import to_si
+
+        if v is None:
+            return v
+        try:
+            return to_si(v, kind, allow_inf=allow_inf)
+        except TorlabInputError as e:
+            raise ValueError(e.message) from None
+
+    return BeforeValidator(conv)
+
+
+Length = Annotated[float, _q("length")]
+LengthOrInf = Annotated[float, _q("length", allow_inf=True)]
+Force = Annotated[float, _q("force")]
+Pressure = Annotated[float, _q("pressure")]
+InvPressure = Annotated[float, _q("inverse_pressure")]
+Velocity = Annotated[float, _q("velocity")]
+Viscosity = Annotated[float, _q("viscosity")]
+Temperature = Annotated[float, _q("temperature")]
+InvTemperature = Annotated[float, _q("inverse_temperature")]
+Dimensionless = Annotated[float, _q("dimensionless")]
+Conductivity = Annotated[float, _q("conductivity")]
+Density = Annotated[float, _q("density")]
+HeatCapacity = Annotated[float, _q("heat_capacity")]
+ArealDensity = Annotated[float, _q("areal_density")]
+
+
+class _Section(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
+
+
+class Contact(_Section):
+    """``contact:``: normal load and geometry (radii for Hertz, or the semi-axes directly).
+
+    Attributes
+    ----------
+    load
+        Normal force F (N), > 0.
+    r1x, r1y, r2x, r2y
+        Principal radii (m) of body 1 (wheel/ball) and body 2 (rail/disc) in the
+        rolling (x) and lateral (y) direction; ``inf`` for a flat direction
+        (thesis Eqs. 5.5-5.6).  Missing radii are flat.
+    a, b
+        Semi-axes (m) in the rolling and lateral direction; when given they are
+        used instead of Hertz (then ``p0 = 3F/(2 pi a b)``).
+    hertz
+        ``approximate`` (thesis Eqs. 5.8-5.12, Hamrock-Brewe) or ``exact``
+        (complete elliptic integrals).
+    """
+
+    load: Force = Field(gt=0)
+    r1x: LengthOrInf = Field(default=math.inf, gt=0)
+    r1y: LengthOrInf = Field(default=math.inf, gt=0)
+    r2x: LengthOrInf = Field(default=math.inf, gt=0)
+    r2y: LengthOrInf = Field(default=math.inf, gt=0)
+    a: Length | None = Field(default=None, gt=0)
+    b: Length | None = Field(default=None, gt=0)
+    hertz: Literal["approximate", "exact"] = "approximate"
+
+    @model_validator(mode="after")
+    def _geometry(self) -> Contact:
+        if (self.a is None) != (self.b is None):
+            raise ValueError("give both semi-axes a and b, or neither (then Hertz computes them)")
+        if self.a is None:
+            cx = 1 / self.r1x + 1 / self.r2x
+            cy = 1 / self.r1y + 1 / self.r2y
+            if cx <= 0 or cy <= 0:
+                raise ValueError("need a finite radius in the rolling direction (r1x or r2x) and in "
+                                 "the lateral direction (r1y or r2y), or the semi-axes a and b")
+        return self
+
+    @property
+    def has_radii(self) -> bool:
+        """Whether the reduced radius in the rolling direction is finite (needed by EHL)."""
+        return (1 / self.r1x + 1 / self.r2x) > 0
+
+    @property
+    def rx(self) -> float:
+        """Reduced radius in the rolling direction ``1/rx = 1/r1x + 1/r2x`` (Eq. 5.5), m."""
+        c = 1 / self.r1x + 1 / self.r2x
+        return math.inf if c == 0 else 1 / c
+
+    @property
+    def ry(self) -> float:
+        """Reduced radius in the lateral direction ``1/ry = 1/r1y + 1/r2y`` (Eq. 5.6), m."""
+        c = 1 / self.r1y + 1 / self.r2y
+        return math.inf if c == 0 else 1 / c
+
+
+class Materials(_Section):
+    """``materials:``: Young's moduli (Pa) and Poisson's ratios of both bodies."""
+
+    E1: Pressure = Field(gt=0)
+    nu1: Dimensionless = Field(ge=0, lt=0.5)
+    E2: Pressure = Field(gt=0)
+    nu2: Dimensionless = Field(ge=0, lt=0.5)
+
+
+class Kinematics(_Section):
+    """``kinematics:``: rolling (entrainment) speed ``v = (x1' + x2')/2`` and ambient temperature."""
+
+    speed: Velocity = Field(default=1.0, ge=0)
+    ambient_temperature: Temperature = 20.0
+
+
+class Thermal(_Section):
+    """``thermal:``: flash temperature of thesis 5.2.5 (Eqs. 5.49-5.50), model-notes section 4.
+
+    Attributes
+    ----------
+    conductivity, density, heat_capacity
+        lambda (W/(m K)), rho (kg/m^3), c (J/(kg K)); defaults from Tab. 5.4.
+    partition
+        Fraction of the frictional heat flowing into the body whose temperature
+        is computed: 1 (the thesis) or e.g. 0.5 for equal materials (Ertz and
+        Knothe split by effusivity).
+    slip_velocity
+        ``rigid`` (the thesis: q = tau w) or ``local`` (q = tau w only where the
+        layer slides, zero in the elastic zone).
+    tolerance
+        Convergence of the tau-T iteration, max |Delta T| (K).
+    max_iterations
+        Iteration budget before :class:`~torlab.errors.ConvergenceError`.
+    """
+
+    conductivity: Conductivity = Field(default=50.0, gt=0)
+    density: Density = Field(default=7850.0, gt=0)
+    heat_capacity: HeatCapacity = Field(default=450.0, gt=0)
+    partition: Dimensionless = Field(default=1.0, gt=0, le=1)
+    slip_velocity: Literal["rigid", "local"] = "rigid"
+    tolerance: Annotated[float, _q("temperature")] = Field(default=0.1, gt=0)
+    max_iterations: int = Field(default=200, ge=1, le=100_000)
+
+
+class Boundary(_Section):
+    """``boundary:``: the third-body layer (thesis Eqs. 5.26-5.29; :mod:`torlab.model.layer`)."""
+
+    mu_c1: Dimensionless = Field(ge=0, le=5)
+    mu_c2: Dimensionless = Field(ge=0, le=5)
+    L_mue: Length = Field(default=0.0, ge=0)
+    L_mup: Length = Field(default=0.0, ge=0)
+    mu_c1_T: InvTemperature = 0.0
+    mu_c2_T: InvTemperature = 0.0
+
+
+class Lubricant(_Section):
+    """``lubricant:``: viscosity law, film formula and EHL shear law (thesis 5.2.3).
+
+    Attributes
+    ----------
+    eta0
+        Viscosity at ambient pressure (Pa s).
+    viscosity
+        ``iso`` (constant), ``barus`` (Eq. 5.39) or ``roelands`` (Eq. 5.38).
+    alpha
+        Pressure-viscosity coefficient (1/Pa): Barus, and G in Hamrock-Dowson.
+    Z
+        Roelands index.
+    film
+        ``iso`` (Esfahanian-Hamrock, Eq. 5.31) or ``piezo`` (Hamrock-Dowson,
+        Eq. 5.32); default: ``iso`` for an iso-viscous lubricant, ``piezo``
+        otherwise.
+    shear
+        ``newtonian`` (Eq. 5.37), ``limiting`` (tau <= gamma_L p) or ``eyring``
+        (tau0 asinh(eta w / (h tau0))).
+    gamma_L, tau0
+        Parameters of the limiting and the Eyring shear law.
+    """
+
+    eta0: Viscosity = Field(gt=0)
+    viscosity: Literal["iso", "barus", "roelands"] = "iso"
+    alpha: InvPressure | None = Field(default=None, ge=0)
+    Z: Dimensionless | None = Field(default=None, gt=0)
+    film: Literal["iso", "piezo"] | None = None
+    shear: Literal["newtonian", "limiting", "eyring"] = "newtonian"
+    gamma_L: Dimensionless | None = Field(default=None, gt=0)
+    tau0: Pressure | None = Field(default=None, gt=0)
+
+    @model_validator(mode="after")
+    def _laws(self) -> Lubricant:
+        if self.viscosity == "barus" and self.alpha is None:
+            raise ValueError("viscosity: barus needs alpha (e.g. '15 1/GPa')")
+        if self.viscosity == "roelands" and self.Z is None:
+            raise ValueError("viscosity: roelands needs Z (e.g. 0.6)")
+        if self.film_law == "piezo" and self.alpha is None and self.Z is None:
+            raise ValueError("film: piezo (Hamrock-Dowson) needs alpha or Z for G = alpha E'")
+        if self.shear == "limiting" and self.gamma_L is None:
+            raise ValueError("shear: limiting needs gamma_L (limiting shear stress / pressure, e.g. 0.08)")
+        if self.shear == "eyring" and self.tau0 is None:
+            raise ValueError("shear: eyring needs tau0 (Eyring stress, e.g. '5 MPa')")
+        return self
+
+    @property
+    def film_law(self) -> str:
+        """The film-thickness formula in use (``iso`` or ``piezo``)."""
+        if self.film is not None:
+            return self.film
+        return "iso" if self.viscosity == "iso" else "piezo"
+
+
+class Roughness(_Section):
+    """``roughness:``: Greenwood-Williamson asperities (thesis 5.2.4, Tab. 5.1)."""
+
+    sigma: Length = Field(gt=0)
+    beta: Length = Field(gt=0)
+    density: ArealDensity = Field(gt=0)
+    model: Literal["elastic", "plastic"] = "plastic"
+    hardness: Pressure | None = Field(default=None, gt=0)
+
+    @model_validator(mode="after")
+    def _hardness(self) -> Roughness:
+        if self.model == "plastic" and self.hardness is None:
+            raise ValueError("model: plastic needs hardness (e.g. '6 GPa')")
+        return self
+
+
+class Grid(_Section):
+    """``grid:``: numerical resolution of FASTSIM (defaults meet the 0.1 % accuracy goal).
+
+    Attributes
+    ----------
+    n
+        Gauss nodes across the half contact (strips); symmetry doubles them.
+    m
+        Gauss nodes per panel along a strip.
+    scheme
+        ``gauss`` (torlab's default, see :mod:`torlab.model.fastsim`).
+    temperature_nodes
+        Nodes per strip of the temperature grid.
+    """
+
+    n: int = Field(default=12, ge=2, le=2000)
+    m: int = Field(default=6, ge=2, le=64)
+    scheme: Literal["gauss"] = "gauss"
+    temperature_nodes: int = Field(default=48, ge=8, le=4000)
+
+
+class Scene(_Section):
+    """A whole scene (``spec/scene-contract.md``)."""
+
+    name: str = ""
+    description: str = ""
+    contact: Contact
+    materials: Materials
+    kinematics: Kinematics = Kinematics()
+    thermal: Thermal | None = None
+    boundary: Boundary | None = None
+    lubricant: Lubricant | None = None
+    roughness: Roughness | None = None
+    grid: Grid = Grid()
+    fit: dict[str, Any] | None = Field(default=None, description="provenance written by torlab fit")
+
+    @model_validator(mode="after")
+    def _needs(self) -> Scene:
+        if self.boundary is None and (self.lubricant is None or self.roughness is not None):
+            raise ValueError("needs a 'boundary:' section (the third-body layer) unless it is a "
+                             "smooth lubricated contact")
+        if self.lubricant is not None and not self.contact.has_radii:
+            raise ValueError("a lubricated scene needs the radius in the rolling direction "
+                             "(r1x and/or r2x) for the film thickness")
+        return self
+
+
+# --- loading ---------------------------------------------------------------------------------
+def _merge(base: dict, over: dict, origin: dict, over_origin: dict, prefix: tuple = ()) -> None:
+    for k, v in over.items():
+        kp = (*prefix, k)
+        if isinstance(v, dict) and isinstance(base.get(k), dict):
+            _merge(base[k], v, origin, over_origin, kp)
+        else:
+            base[k] = v
+            for okey in [o for o in list(origin) if o[: len(kp)] == kp]:
+                del origin[okey]
+        for okey, loc in over_origin.items():
+            if okey[: len(kp)] == kp:
+                origin[okey] = loc
+
+
+def scene_from_dict(data: Any, *, origin: dict[tuple, tuple[str | None, int | None]] | None = None,
+                    path: str | None = None) -> Scene:
+    """Validate a scene given as a dict (e.g. built in a notebook).
+
+    ``origin`` maps key paths to ``(file, line)`` for error messages.
+
+    Raises
+    ------
+    ValidationErrors
+        Every problem, each naming file, line and key.
+    """
+    origin = origin or {}
+    if not isinstance(data, dict):
+        raise TorlabInputError("a scene must be a YAML mapping with contact:, materials: ... sections",
+                               path=path)
+    data = {k: ("off" if v is False else v) for k, v in data.items()}
+    if data.get("thermal") in ("off", "none", None):
+        data.pop("thermal", None)
+    try:
+        return Scene.model_validate(data)
+    except ValidationError as ve:
+        problems = []
+        for err in ve.errors():
+            loc = tuple(x for x in err["loc"] if not (isinstance(x, str) and x.startswith("function-")))
+            # pydantic appends the literal/union branch name; drop non-key parts
+            loc = tuple(x for x in loc if x not in ("float", "int", "str", "dict[str,any]"))
+            file, line = _origin_of(loc, origin, path)
+            key = ".".join(str(x) for x in loc) or None
+            raw = _lookup(data, loc)
+            if raw is not _MISSING:
+                err = {**err, "input": raw}
+            problems.append(TorlabInputError(_message(err), path=file, line=line, key=key))
+        problems.sort(key=lambda e: (e.path or "", e.line or 0))
+        raise ValidationErrors(problems) from None
+
+
+_MISSING = object()
+
+
+def _lookup(data: Any, loc: tuple) -> Any:
+    cur = data
+    for k in loc:
+        if isinstance(cur, dict) and k in cur:
+            cur = cur[k]
+        else:
+            return _MISSING
+    return cur
+
+
+def _origin_of(loc: tuple, origin: dict, path: str | None) -> tuple[str | None, int | None]:
+    kp = loc
+    while kp:
+        if kp in origin:
+            return origin[kp]
+        kp = kp[:-1]
+    return origin.get((), (path, None))
+
+
+def _message(err: dict) -> str:
+    t = err.get("type", "")
+    msg = err.get("msg", "")
+    if t == "extra_forbidden":
+        return "unknown key"
+    if t == "missing":
+        return "missing (required)"
+    if t == "literal_error":
+        return f"{err.get('input')!r} is not allowed: {msg.replace('Input should be ', 'use ')}"
+    if t in ("greater_than", "greater_than_equal", "less_than", "less_than_equal"):
+        return f"{err.get('input')!r} is out of range: {msg.replace('Input should be ', 'must be ')}"
+    if msg.startswith("Value error, "):
+        return msg[len("Value error, "):]
+    return msg
+
+
+def load_scene(*paths: str | os.PathLike[str] | Sequence[str]) -> Scene:
+    """Read and validate a scene from one or more YAML files merged in order.
+
+    Parameters
+    ----------
+    *paths
+        Scene file, then optional parameter files (e.g. ``torlab fit`` output)
+        whose keys override the earlier files'.
+
+    Returns
+    -------
+    Scene
+        All quantities in SI units (temperatures in degC).
+
+    Raises
+    ------
+    TorlabInputError / ValidationErrors
+        Unreadable or invalid YAML, unknown or missing keys, wrong units,
+        impossible values: every problem with file, line and key.
+    """
+    from torlab.yamlio import load_yaml
+
+    if len(paths) == 1 and isinstance(paths[0], (list, tuple)):
+        paths = tuple(paths[0])
+    if not paths:
+        raise TorlabInputError("no scene file given")
+    merged: dict = {}
+    origin: dict[tuple, tuple[str | None, int | None]] = {}
+    for p in paths:
+        doc = load_yaml(p)
+        if doc.data is None:
+            raise TorlabInputError("scene file is empty", path=doc.path)
+        if not isinstance(doc.data, dict):
+            raise TorlabInputError("a scene must be a YAML mapping with contact:, materials: ... "
+                                   "sections", path=doc.path, line=doc.lines.line(()))
+        file_origin = {k: (doc.path, ln) for k, ln in doc.lines.lines.items() if k}
+        if not origin:
+            origin[()] = (doc.path, 1)
+        _merge(merged, doc.data, origin, file_origin)
+    return scene_from_dict(merged, origin=origin, path=os.fspath(paths[0]))
