@@ -85,7 +85,9 @@ def classify_trend(creepage: np.ndarray, mu: np.ndarray, *, saturation: float = 
     """Trend of the traction curve after saturation (thesis H4.1, Fig. 2.2).
 
     The saturation point is the smallest positive creepage at which ``|mu|``
-    reaches ``saturation`` times its maximum over the curve.  A straight line is
+    reaches ``saturation`` times its maximum over the curve; if it lies in the
+    second half of the creepage range the curve has not levelled off
+    (``not saturated``).  A straight line is
     fitted to ``|mu|`` from there to the largest creepage; its change over that
     range relative to ``|mu|`` at saturation is the trend: ``negative`` below
     ``-tolerance``, ``positive`` above ``+tolerance``, ``neutral`` between.
@@ -112,7 +114,9 @@ def classify_trend(creepage: np.ndarray, mu: np.ndarray, *, saturation: float = 
     xs, ys = x[k:], y[k:]
     out["saturation_creepage"] = float(x[k])
     out["mu_saturation"] = float(y[k])
-    if len(xs) < 3:
+    if len(xs) < 3 or x[k] > 0.5 * x[-1]:
+        # a curve that reaches 95 % of its maximum only in the second half of the
+        # range has not levelled off (a linear, film-dominated curve reaches it at 95 %)
         out.update(trend="not saturated", slope_per_unit_creepage=None, relative_change=None)
         return out
     slope = float(np.polyfit(xs, ys, 1)[0])
@@ -145,6 +149,11 @@ def predict_traction(scene: Any, creepage: Any, *, trend_tolerance: float = 0.01
 
         return predict_traction_mixed(scene, creepage, trend_tolerance=trend_tolerance)
     xi = np.atleast_1d(np.asarray(creepage, dtype=float))
+    if scene.boundary is None:
+        from torlab.errors import TorlabInputError
+
+        raise TorlabInputError("a dry scene (no lubricant:) needs a boundary: section "
+                               "(mu_c1, mu_c2, L_mue, L_mup)", key="boundary")
     contact = build_contact(scene)
     prob = fastsim_problem(scene, contact)
     res = boundary_traction(prob, xi, fastsim_grid(scene))

@@ -1,0 +1,141 @@
+"""``torlab predict``: traction and Stribeck curves of a scene."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from torlab.cli._common import ForceOpt, OutOpt, command_line, console, require_files
+
+app = typer.Typer(help="Predict traction and Stribeck curves of a scene (Hertz + FASTSIM with "
+                  "the third-body layer, contact temperature, EHL film, asperity load sharing).",
+                  no_args_is_help=True)
+
+ScenesArg = Annotated[list[Path], typer.Argument(
+    help="Scene YAML, then optional parameter files (e.g. 'torlab fit' output) that override "
+    "its keys, in order.")]
+
+
+def register(root: typer.Typer) -> None:
+    """Add the ``predict`` group to the root app."""
+    root.add_typer(app, name="predict")
+
+
+def _print_modelled(modelled: list[str], notes: list[str]) -> None:
+    c = console()
+    c.print("[bold]modelled:[/bold]")
+    for m in modelled:
+        c.print(f"  - {m}")
+    for n in notes:
+        c.print(f"[yellow]note:[/yellow] {n}")
+
+
+@app.command("traction")
+def traction_cmd(
+    scene: ScenesArg,
+    out: OutOpt,
+    creepage: Annotated[str, typer.Option(help="Creepages (= SRR as a fraction): start:stop:count "
+                                          "or a comma list; units allowed ('0 %:5 %:101').")]
+    = "0:0.05:101",
+    force: ForceOpt = False,
+) -> None:
+    """Traction curve mu(creepage) at the scene's speed.
+
+    Writes traction.csv (creepage, mu, and where modelled mu_boundary, mu_ehl,
+    load_share_asperity, film_thickness_m, max_temperature_C), traction.png/.svg
+    (mu against creepage with the layer's limits mu_c1, mu_c2) and summary.json
+    (what was modelled, the trend after saturation, thesis H4.1).
+    """
+    from torlab.cli._common import parse_values
+    from torlab.model.predict import predict_traction
+    from torlab.outputs import OutputDir
+    from torlab.reports.predict import traction_figure
+    from torlab.scene import load_scene
+
+    files = require_files(scene, "scene")
+    sc = load_scene(*files)
+    xi = parse_values(creepage, "dimensionless", "--creepage")
+    dest = OutputDir(out, force=force, inputs=files, command=command_line())
+    with dest:
+        pred = predict_traction(sc, xi)
+        dest.write_csv("traction.csv", pred.table)
+        summary = dict(pred.summary, creepage_range=[float(xi.min()), float(xi.max())],
+                       n_points=int(xi.size))
+        dest.write_json("summary.json", summary)
+        for ext in ("png", "svg"):
+            fig = traction_figure([(sc.name or files[0].stem, pred.table)], boundary=sc.boundary,
+                                  title=f"Traction: {sc.name or files[0].stem}")
+            dest.save_figure(f"traction.{ext}", fig)
+    _print_modelled(pred.modelled, pred.summary.get("notes", []))
+    t = pred.trend
+    c = console()
+    mu = pred.table["mu"].abs()
+    c.print(f"max |mu| = {mu.max():.4f} at creepage {pred.table['creepage'][mu.idxmax()]:.4g}")
+    if t["trend"] == "not saturated":
+        c.print("trend after saturation: not saturated (the curve does not level off in this range)")
+    else:
+        c.print(f"trend after saturation (H4.1): [bold]{t['trend']}[/bold] (from creepage "
+                f"{t['saturation_creepage']:.4g}, change {100 * t['relative_change']:+.2f} %, "
+                f"neutral within ±{100 * t['tolerance']:g} %)")
+    c.print(f"wrote traction.csv, traction.png, traction.svg, summary.json to {out}")
+
+
+@app.command("stribeck")
+def stribeck_cmd(
+    scene: ScenesArg,
+    out: OutOpt,
+    speed: Annotated[str, typer.Option(help="Rolling speeds: start:stop:count (log-spaced when "
+                                       "--log) or a comma list; units allowed.")]
+    = "0.01:2:50",
+    creepage: Annotated[str, typer.Option(help="Creepage (SRR as a fraction, or '5 %').")]
+    = "0.05",
+    log: Annotated[bool, typer.Option("--log/--linear", help="Space start:stop:count "
+                                      "speeds geometrically (default) or linearly.")] = True,
+    force: ForceOpt = False,
+) -> None:
+    """Stribeck curve mu(speed) at one creepage for a lubricated scene.
+
+    Writes stribeck.csv (speed_m_s, mu, film_thickness_m, lambda, load_share_asperity,
+    mu_ehl, mu_boundary, separation_m, regime), stribeck.png/.svg (mu, Lambda and the
+    asperity load share against speed, regimes shaded) and summary.json.
+    """
+    import numpy as np
+
+    from torlab.cli._common import parse_values
+    from torlab.errors import TorlabInputError
+    from torlab.model.mixed import predict_stribeck
+    from torlab.outputs import OutputDir
+    from torlab.reports.predict import stribeck_figure
+    from torlab.scene import load_scene
+
+    files = require_files(scene, "scene")
+    sc = load_scene(*files)
+    if sc.lubricant is None:
+        raise TorlabInputError("a Stribeck curve needs a lubricated scene (lubricant: section)",
+                               path=files[0], key="lubricant")
+    v = parse_values(speed, "velocity", "--speed")
+    if log and ":" in speed and "," not in speed:
+        if v[0] <= 0:
+            raise TorlabInputError("log-spaced speeds must start above 0 (or use --linear)",
+                                   key="--speed")
+        v = np.geomspace(v[0], v[-1], v.size)
+    xi = parse_values(creepage, "dimensionless", "--creepage")
+    if xi.size != 1:
+        raise TorlabInputError("give one creepage", key="--creepage")
+    dest = OutputDir(out, force=force, inputs=files, command=command_line())
+    with dest:
+        pred = predict_stribeck(sc, v, float(xi[0]))
+        dest.write_csv("stribeck.csv", pred.table,
+                       allow_missing=("lambda", "mu_ehl", "mu_boundary", "max_temperature_C"))
+        dest.write_json("summary.json", pred.summary)
+        for ext in ("png", "svg"):
+            fig = stribeck_figure(pred.table, title=f"Stribeck: {sc.name or files[0].stem}",
+                                  creepage=pred.creepage)
+            dest.save_figure(f"stribeck.{ext}", fig)
+    _print_modelled(pred.modelled, pred.summary.get("notes", []))
+    s = pred.summary
+    console().print(f"mu from {s['mu_min']:.4g} to {s['mu_max']:.4g}; regimes: "
+                    + ", ".join(f"{k} ({n} speeds)" for k, n in s["regimes"].items()))
+    console().print(f"wrote stribeck.csv, stribeck.png, stribeck.svg, summary.json to {out}")
