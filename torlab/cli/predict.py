@@ -76,9 +76,10 @@ def traction_cmd(
     if t["trend"] == "not saturated":
         c.print("trend after saturation: not saturated (the curve does not level off in this range)")
     else:
-        c.print(f"trend after saturation (H4.1): [bold]{t['trend']}[/bold] (from creepage "
-                f"{t['saturation_creepage']:.4g}, change {100 * t['relative_change']:+.2f} %, "
-                f"neutral within ±{100 * t['tolerance']:g} %)")
+        c.print(f"trend after saturation (H4.1): [bold]{t['trend']}[/bold] (saturated at "
+                f"creepage {t['saturation_creepage']:.4g}; from {t['trend_from_creepage']:.4g} "
+                f"to the end mu changes {100 * t['relative_change']:+.2f} %, neutral within "
+                f"±{100 * t['tolerance']:g} %)")
     c.print(f"wrote traction.csv, traction.png, traction.svg, summary.json to {out}")
 
 

@@ -87,17 +87,18 @@ def classify_trend(creepage: np.ndarray, mu: np.ndarray, *, saturation: float = 
     The saturation point is the smallest positive creepage at which ``|mu|``
     reaches ``saturation`` times its maximum over the curve; if it lies in the
     second half of the creepage range the curve has not levelled off
-    (``not saturated``).  A straight line is
-    fitted to ``|mu|`` from there to the largest creepage; its change over that
-    range relative to ``|mu|`` at saturation is the trend: ``negative`` below
-    ``-tolerance``, ``positive`` above ``+tolerance``, ``neutral`` between.
+    (``not saturated``).  A straight line is fitted to ``|mu|`` over the second
+    half of the range after saturation (so the knee of the curve does not tilt it);
+    its change over that range relative to ``|mu|`` at its start is the trend:
+    ``negative`` below ``-tolerance``, ``positive`` above ``+tolerance``,
+    ``neutral`` between.
 
     Returns
     -------
     dict
         ``trend`` (``negative``/``neutral``/``positive``/``not saturated``),
-        ``saturation_creepage``, ``mu_saturation``, ``slope_per_unit_creepage``,
-        ``relative_change``, ``tolerance``.
+        ``saturation_creepage``, ``mu_saturation``, ``trend_from_creepage``,
+        ``slope_per_unit_creepage``, ``relative_change``, ``tolerance``.
     """
     x = np.abs(np.asarray(creepage, dtype=float))
     y = np.abs(np.asarray(mu, dtype=float))
@@ -119,6 +120,14 @@ def classify_trend(creepage: np.ndarray, mu: np.ndarray, *, saturation: float = 
         # range has not levelled off (a linear, film-dominated curve reaches it at 95 %)
         out.update(trend="not saturated", slope_per_unit_creepage=None, relative_change=None)
         return out
+    # the trend is read on the second half of the post-saturation range, where the
+    # approach to saturation itself (a tanh-like knee) no longer tilts the line
+    mid = 0.5 * (x[k] + x[-1])
+    tail = x >= mid
+    if tail.sum() < 3:
+        tail = x >= x[k]
+    xs, ys = x[tail], y[tail]
+    out["trend_from_creepage"] = float(xs[0])
     slope = float(np.polyfit(xs, ys, 1)[0])
     change = slope * (xs[-1] - xs[0]) / ys[0]
     trend = "negative" if change < -tolerance else "positive" if change > tolerance else "neutral"

@@ -1,0 +1,308 @@
+"""Scene-level predictions (issues 3 and 4): `torlab predict traction|stribeck`, the
+mixed model's limits, what is modelled, bad scenes, and a hard-case sweep."""
+
+from __future__ import annotations
+
+import itertools
+import json
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from tests.conftest import ROOT, error_lines, sha
+from torlab.errors import NumericalError, TorlabError
+from torlab.model.mixed import predict_stribeck, predict_traction_mixed
+from torlab.model.predict import classify_trend, predict_traction
+from torlab.scene import load_scene, scene_from_dict
+
+SCENES = ROOT / "protocols" / "scenes"
+
+
+def lubricated(**over) -> dict:
+    """Paper A-like rough ball on glass with water; sections overridden by ``over``."""
+    d = {
+        "name": "test",
+        "contact": {"load": "90 N", "r1x": "12.7 mm", "r1y": "12.7 mm", "hertz": "exact"},
+        "materials": {"E1": "210 GPa", "nu1": 0.3, "E2": "82 GPa", "nu2": 0.206},
+        "kinematics": {"speed": "0.5 m/s"},
+        "boundary": {"mu_c1": 0.18, "mu_c2": 0.25, "L_mue": "5 um", "L_mup": "10 um"},
+        "lubricant": {"eta0": "1 mPa*s"},
+        "roughness": {"sigma": "9.56 nm", "beta": "0.373 mm", "density": "21500 mm^-2",
+                      "hardness": "6 GPa"},
+    }
+    for k, v in over.items():
+        if v is None:
+            d.pop(k, None)
+        elif isinstance(v, dict) and isinstance(d.get(k), dict):
+            d[k] = {**d[k], **v}
+        else:
+            d[k] = v
+    return d
+
+
+# ---------------------------------------------------------------------------------------
+# example scenes and the CLI
+# ---------------------------------------------------------------------------------------
+def test_example_scenes_load_and_match_the_thesis():
+    wr = load_scene(SCENES / "wheel_rail_tab54.yaml")
+    from torlab.model.contact import build_contact
+
+    c = build_contact(wr)
+    assert c.patch.p0 == pytest.approx(790e6, rel=0.015)  # Tab. 5.4: 790 MPa
+    for name, p0 in [("mtm_paper_b", 800e6), ("optical_paper_a_rough", 750e6),
+                     ("optical_paper_a_smooth", 750e6)]:
+        c = build_contact(load_scene(SCENES / f"{name}.yaml"))
+        assert c.patch.p0 == pytest.approx(p0, rel=2e-3), name
+
+
+def test_predict_traction_cli_dry(cli, tmp_path):
+    scene = SCENES / "wheel_rail_tab54.yaml"
+    before = sha(scene)
+    r = cli("predict", "traction", scene, "--creepage", "0:0.05:101", "-o", tmp_path / "out")
+    assert r.exit_code == 0, r.output
+    out = tmp_path / "out"
+    t = pd.read_csv(out / "traction.csv")
+    assert list(t.columns[:2]) == ["creepage", "mu"]
+    assert {"mu_boundary", "max_temperature_C"} <= set(t.columns)
+    assert len(t) == 101 and t["mu"].iloc[0] == 0.0
+    assert np.all(np.diff(t["mu"]) > 0) and t["mu"].max() < 0.45
+    s = json.loads((out / "summary.json").read_text())
+    assert s["trend_after_saturation"]["trend"] in ("negative", "neutral", "positive")
+    assert any("EHL film: not modelled" in m for m in s["modelled"])
+    assert (out / "traction.png").stat().st_size > 10_000 and (out / "traction.svg").exists()
+    assert "trend after saturation" in r.output
+    assert sha(scene) == before
+    # never silently over earlier results
+    r2 = cli("predict", "traction", scene, "-o", out)
+    assert r2.exit_code == 2 and "--force" in r2.output
+
+
+def test_predict_traction_params_file_overrides_scene(cli, tmp_path):
+    params = tmp_path / "params.yaml"
+    params.write_text("boundary:\n  mu_c1: 0.1\n  mu_c2: 0.12\n  L_mue: 5 um\n  L_mup: 10 um\n")
+    r = cli("predict", "traction", SCENES / "wheel_rail_tab54.yaml", params,
+            "--creepage", "0.001,0.01,0.1", "-o", tmp_path / "o")
+    assert r.exit_code == 0, r.output
+    t = pd.read_csv(tmp_path / "o" / "traction.csv")
+    assert t["creepage"].tolist() == [0.001, 0.01, 0.1]
+    assert t["mu"].max() <= 0.12 + 1e-9
+
+
+def test_predict_stribeck_cli(cli, tmp_path):
+    r = cli("predict", "stribeck", SCENES / "optical_paper_a_smooth.yaml", "--speed", "0.01:2:20",
+            "--creepage", "5 %", "-o", tmp_path / "s")
+    assert r.exit_code == 0, r.output
+    t = pd.read_csv(tmp_path / "s" / "stribeck.csv")
+    for col in ("speed_m_s", "mu", "film_thickness_m", "lambda", "load_share_asperity"):
+        assert col in t.columns
+    assert t["speed_m_s"].iloc[0] == pytest.approx(0.01) and t["speed_m_s"].iloc[-1] == 2
+    assert np.all(np.diff(t["film_thickness_m"]) > 0)
+    assert np.all(np.diff(t["load_share_asperity"]) < 0)
+    assert (tmp_path / "s" / "stribeck.png").exists()
+
+
+def test_stribeck_of_a_dry_scene_is_a_user_error(cli, tmp_path):
+    r = cli("predict", "stribeck", SCENES / "wheel_rail_tab54.yaml", "-o", tmp_path / "x")
+    assert r.exit_code == 2
+    assert len(error_lines(r)) == 1 and "lubricant" in error_lines(r)[0]
+
+
+@pytest.mark.parametrize("edit, key", [
+    (("  mu_c2: 0.45", "  mu_c2: 0.45\n  mu_c3: 0.5"), "boundary.mu_c3"),
+    (("  load: 20 kN\n", ""), "contact.load"),
+    (("load: 20 kN", "load: 20 km"), "contact.load"),
+    (("load: 20 kN", "load: -20 kN"), "contact.load"),
+    (("E1: 210 GPa", "E1: -210 GPa"), "materials.E1"),
+    (("speed: 10 m/s", "speed: fast"), "kinematics.speed"),
+])
+def test_bad_scene_one_line_naming_file_and_key(cli, tmp_path, edit, key):
+    text = (SCENES / "wheel_rail_tab54.yaml").read_text()
+    assert edit[0] in text
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(text.replace(edit[0], edit[1]))
+    r = cli("predict", "traction", bad, "-o", tmp_path / "o")
+    assert r.exit_code == 2
+    lines = error_lines(r)
+    assert len(lines) == 1, lines
+    assert "bad.yaml" in lines[0] and key in lines[0] and "Traceback" not in r.output
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("section, value, key", [
+    ("lubricant", {"eta0": "-1 mPa*s"}, "lubricant.eta0"),
+    ("lubricant", {"viscosity": "roelands", "Z": 0}, "lubricant.Z"),
+    ("lubricant", {"viscosity": "roelands", "Z": -0.5}, "lubricant.Z"),
+    ("roughness", {"sigma": "0 nm"}, "roughness.sigma"),
+    ("roughness", {"hardness": "6 GPa/s"}, "roughness.hardness"),
+    ("lubricant", {"shear": "limiting"}, "lubricant"),
+])
+def test_bad_lubricant_and_roughness_inputs(cli, tmp_path, section, value, key):
+    import yaml
+
+    f = tmp_path / "s.yaml"
+    f.write_text(yaml.safe_dump(lubricated(**{section: value})))
+    r = cli("predict", "stribeck", f, "-o", tmp_path / "o")
+    assert r.exit_code == 2, r.output
+    lines = error_lines(r)
+    assert len(lines) == 1 and "s.yaml" in lines[0] and key in lines[0], lines
+
+
+def test_bad_creepage_option(cli, tmp_path):
+    r = cli("predict", "traction", SCENES / "wheel_rail_tab54.yaml", "--creepage", "0:0.05",
+            "-o", tmp_path / "o")
+    assert r.exit_code == 2 and "--creepage" in error_lines(r)[0]
+
+
+# ---------------------------------------------------------------------------------------
+# model only what the scene needs
+# ---------------------------------------------------------------------------------------
+def test_full_film_skips_fastsim_and_says_so():
+    sc = scene_from_dict(lubricated(kinematics={"speed": "5 m/s"},
+                                    lubricant={"eta0": "0.5 Pa*s"}))
+    p = predict_traction_mixed(sc, [0.001, 0.01])
+    assert "mu_boundary" not in p.table and (p.table["load_share_asperity"] == 0).all()
+    assert any("boundary friction: not modelled" in m for m in p.modelled)
+    np.testing.assert_allclose(p.table["mu"], p.table["mu_ehl"])
+
+
+def test_smooth_scene_needs_no_boundary_section():
+    sc = scene_from_dict(lubricated(roughness=None, boundary=None))
+    p = predict_stribeck(sc, [0.1, 1.0], 0.02)
+    assert (p.table["load_share_asperity"] == 0).all() and p.table["lambda"].isna().all()
+    assert any("no roughness" in m for m in p.modelled)
+
+
+def test_asperity_load_without_boundary_section_is_a_user_error():
+    with pytest.raises(TorlabError, match="boundary"):
+        predict_traction(scene_from_dict(lubricated(boundary=None)), [0.01])
+
+
+def test_dry_scene_without_boundary_is_a_user_error():
+    d = lubricated(lubricant=None, roughness=None, boundary=None)
+    with pytest.raises(TorlabError, match="boundary"):
+        predict_traction(scene_from_dict(d), [0.01])
+
+
+# ---------------------------------------------------------------------------------------
+# limits of the mixed model (issue 4)
+# ---------------------------------------------------------------------------------------
+def test_speed_zero_all_load_on_asperities_mu_equals_boundary():
+    sc = scene_from_dict(lubricated())
+    p = predict_stribeck(sc, [0.0], 0.02)
+    row = p.table.iloc[0]
+    assert row["load_share_asperity"] == 1.0 and row["regime"] == "boundary"
+    assert row["mu"] == pytest.approx(row["mu_boundary"], rel=1e-12)
+
+
+def test_speed_to_zero_mu_tends_to_boundary_when_asperities_can_carry_the_load():
+    # a rough surface whose asperities alone carry the load above the mean plane (h* > 0)
+    sc = scene_from_dict(lubricated(roughness={"sigma": "0.1 um", "beta": "100 um",
+                                               "density": "20000 mm^-2", "hardness": "6 GPa"},
+                                    lubricant={"eta0": "0.1 Pa*s"}))
+    p = predict_stribeck(sc, [1e-6, 1e-3, 1e-2, 0.1, 1.0], 0.02)
+    assert p.summary["h_star_m"] > 0
+    share = p.table["load_share_asperity"].to_numpy()
+    assert share[0] > 0.9999 and share[-1] < 0.5 and np.all(np.diff(share) <= 0)
+    mu_b = p.table["mu_boundary"].iloc[0]
+    assert p.table["mu"].iloc[0] == pytest.approx(mu_b, rel=2e-3)
+
+
+def test_large_speed_mu_tends_to_film():
+    sc = scene_from_dict(lubricated())
+    p = predict_stribeck(sc, [1.0, 50.0, 100.0], 0.02)
+    assert p.table["load_share_asperity"].iloc[-1] == 0.0
+    assert p.table["regime"].iloc[-1] == "full_film"
+    assert p.table["mu"].iloc[-1] == pytest.approx(p.table["mu_ehl"].iloc[-1], rel=1e-12)
+
+
+def test_smoother_surface_lowers_the_asperity_share():
+    rough = predict_stribeck(load_scene(SCENES / "optical_paper_a_rough.yaml"), [0.1, 0.5], 0.05)
+    smooth = predict_stribeck(load_scene(SCENES / "optical_paper_a_smooth.yaml"), [0.1, 0.5], 0.05)
+    assert np.all(smooth.table["load_share_asperity"] < rough.table["load_share_asperity"])
+
+
+def test_mixed_is_the_load_weighted_mean():
+    sc = scene_from_dict(lubricated())
+    p = predict_traction_mixed(sc, [-0.01, 0.0, 0.004, 0.03])
+    t = p.table
+    s = t["load_share_asperity"]
+    np.testing.assert_allclose(t["mu"], s * t["mu_boundary"] + (1 - s) * t["mu_ehl"], rtol=1e-12)
+    assert t["mu"].iloc[1] == 0.0 and t["mu"].iloc[0] < 0
+
+
+def test_thermal_mixed_scene_reports_temperature():
+    sc = scene_from_dict(lubricated(thermal={"conductivity": 50},
+                                    boundary={"mu_c1_T": -1e-3, "mu_c2_T": -1e-3}))
+    p = predict_traction_mixed(sc, [0.001, 0.02])
+    assert "max_temperature_C" in p.table and (p.table["max_temperature_C"] > 20).all()
+    cold = predict_traction_mixed(scene_from_dict(lubricated()), [0.001, 0.02])
+    assert np.all(p.table["mu"] <= cold.table["mu"] + 1e-12)
+
+
+def test_newtonian_film_with_barus_gets_a_plausibility_note():
+    sc = scene_from_dict(lubricated(lubricant={"eta0": "0.1 Pa*s", "viscosity": "barus",
+                                               "alpha": "25 1/GPa"},
+                                    contact={"load": "200 N"}, kinematics={"speed": "2 m/s"}))
+    try:
+        p = predict_traction_mixed(sc, [0.0, 0.05])
+    except NumericalError as e:  # overflow is a named error
+        assert "limiting" in str(e)
+    else:
+        assert any("not physical" in n for n in p.summary["notes"])
+
+
+# ---------------------------------------------------------------------------------------
+# hard-case sweep (issue 4)
+# ---------------------------------------------------------------------------------------
+SPEEDS = [0.0, 1e-4, 0.01, 1.0, 10.0, 100.0]
+LAWS = [
+    ({"viscosity": "iso"}, {"shear": "newtonian"}),
+    ({"viscosity": "barus", "alpha": "20 1/GPa"}, {"shear": "limiting", "gamma_L": 0.07}),
+    ({"viscosity": "roelands", "Z": 0.6, "alpha": "15 1/GPa"}, {"shear": "eyring",
+                                                                "tau0": "5 MPa"}),
+    ({"viscosity": "barus", "alpha": "20 1/GPa"}, {"shear": "newtonian"}),
+    ({"viscosity": "roelands", "Z": 0.6}, {"shear": "limiting", "gamma_L": 0.07}),
+    ({"viscosity": "iso"}, {"shear": "eyring", "tau0": "5 MPa"}),
+]
+
+
+@pytest.mark.parametrize("visc, shear", LAWS)
+def test_hard_case_sweep(visc, shear):
+    """Speed 0-100 m/s, sigma 1 nm-1 um, load 1 N-100 kN, eta0 1e-4-10 Pa s: finite
+    results everywhere, no warnings, or a named torlab error."""
+    outcomes = {"ok": 0, "named error": 0}
+    for sigma, load, eta0 in itertools.product(["1 nm", "30 nm", "1 um"], ["1 N", "1 kN", "100 kN"],
+                                               [1e-4, 0.01, 10.0]):
+        d = lubricated(lubricant={"eta0": eta0, **visc, **shear},
+                       roughness={"sigma": sigma}, contact={"load": load})
+        sc = scene_from_dict(d)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            try:
+                p = predict_stribeck(sc, SPEEDS, 0.05)
+                t = predict_traction_mixed(sc, [-0.05, 0.0, 1e-4, 0.05])
+            except TorlabError:
+                outcomes["named error"] += 1
+                continue
+        num = p.table.drop(columns=["regime", "lambda", "mu_ehl", "mu_boundary"])
+        assert np.isfinite(num.to_numpy(dtype=float)).all(), (sigma, load, eta0)
+        assert np.isfinite(t.table.to_numpy(dtype=float)).all()
+        assert ((p.table["load_share_asperity"] >= 0) & (p.table["load_share_asperity"] <= 1)).all()
+        outcomes["ok"] += 1
+    assert outcomes["ok"] >= 9  # most of the grid is physical for every law
+
+
+# ---------------------------------------------------------------------------------------
+# trend after saturation (thesis H4.1)
+# ---------------------------------------------------------------------------------------
+def test_classify_trend_on_analytic_curves():
+    x = np.linspace(0, 0.05, 101)
+    base = np.tanh(x / 0.004)
+    assert classify_trend(x, 0.3 * base * (1 - 2 * x))["trend"] == "negative"
+    assert classify_trend(x, 0.3 * base)["trend"] == "neutral"
+    assert classify_trend(x, 0.3 * base * (1 + 2 * x))["trend"] == "positive"
+    assert classify_trend(x, 2 * x)["trend"] == "not saturated"
+    assert classify_trend(-x, -0.3 * base * (1 - 2 * x))["trend"] == "negative"
+
