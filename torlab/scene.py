@@ -278,7 +278,7 @@ class Grid(_Section):
         Nodes per strip of the temperature grid.
     """
 
-    n: int = Field(default=8, ge=2, le=2000)
+    n: int = Field(default=6, ge=2, le=2000)
     m: int = Field(default=4, ge=2, le=64)
     scheme: Literal["gauss"] = "gauss"
     temperature_nodes: int = Field(default=48, ge=8, le=4000)

@@ -1,0 +1,96 @@
+"""``torlab bench``: speed against error of every numerical choice, measured on this machine."""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+import typer
+
+from torlab.cli._common import ForceOpt, OutOpt, command_line, console
+
+
+def register(root: typer.Typer) -> None:
+    """Add the ``bench`` command to the root app."""
+    root.command("bench")(bench_cmd)
+
+
+def bench_cmd(
+    out: OutOpt,
+    quick: Annotated[bool, typer.Option("--quick", help="Reduced set (under a minute; what CI "
+                                        "runs).")] = False,
+    only: Annotated[list[str] | None, typer.Option(
+        "--only", help="Run only this benchmark (repeat, or a comma list): hertz, fastsim, "
+        "temperature, asperity, loadshare, optical, ... (the modules of torlab/bench/).")] = None,
+    force: ForceOpt = False,
+) -> None:
+    """Measure time against error for each numerical choice against its reference.
+
+    Runs every benchmark module of torlab.bench (or those named by --only),
+    prints the tables, and writes OUT/bench.csv, OUT/bench.md (the table with
+    the machine and the command) and OUT/plots/<component>.png (time against
+    error, log-log, default marked). A benchmark that fails becomes a FAILED
+    row; the others still run and the exit code is 1.
+    """
+    from rich.console import Console
+
+    from torlab.bench.runner import run_benchmarks, write_bench_outputs
+    from torlab.outputs import OutputDir
+
+    cmd = command_line()
+    dest = OutputDir(out, force=force, command=cmd)  # refuses an occupied folder before the run
+    err = Console(stderr=True, highlight=False, soft_wrap=True)
+    result = run_benchmarks(quick=quick, only=only, progress=lambda m: err.print(m))
+    try:
+        written = write_bench_outputs(result, dest, cmd)
+    except BaseException:
+        dest.abort()
+        raise
+    dest.commit()
+    _print_tables(result)
+    console().print(f"wrote {', '.join(n for n in written if not n.startswith('plots/'))} and "
+            f"{sum(n.startswith('plots/') for n in written)} plot(s) to {out} "
+            f"({result.wall_time_s:.1f} s)")
+    if result.failed:
+        typer.echo(f"error: benchmark(s) failed: {', '.join(result.failed)} (the FAILED rows "
+                   f"of {out}/bench.md say why)", err=True)
+        raise typer.Exit(1)
+
+
+def _print_tables(result: Any) -> None:
+    """One rich table per component: variant, default, time, error, time / default."""
+    from rich.table import Table
+
+    from torlab.bench.runner import display_rows
+
+    c = console()
+    shown = display_rows(result)
+    comps: list[str] = []
+    for r in result.rows:
+        if r.component not in comps:
+            comps.append(r.component)
+    for comp in comps:
+        idx = [i for i, r in enumerate(result.rows) if r.component == comp]
+        refs = {result.rows[i].reference for i in idx}
+        units = {result.rows[i].unit_of_work for i in idx}
+        caption = []
+        if len(units) == 1:
+            caption.append(f"time per {units.pop()}")
+        if len(refs) == 1 and next(iter(refs)):
+            caption.append(f"error against {refs.pop()}")
+        t = Table(title=comp, caption="; ".join(caption) or None, title_justify="left",
+                  caption_justify="left")
+        t.add_column("variant", overflow="fold")
+        t.add_column("default", justify="center")
+        t.add_column("time", justify="right")
+        t.add_column("error", justify="right")
+        t.add_column("time / default", justify="right")
+        if len({result.rows[i].reference for i in idx}) > 1:
+            t.add_column("reference", overflow="fold")
+        for i in idx:
+            r, d = result.rows[i], shown[i]
+            style = "red" if r.extra.get("status") == "failed" else ("bold" if r.default else None)
+            cells = [d["variant"], d["default"], d["time"], d["error"], d["time / default"]]
+            if len(t.columns) == 6:
+                cells.append(d["reference"])
+            t.add_row(*cells, style=style)
+        c.print(t)
