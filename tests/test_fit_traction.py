@@ -1,0 +1,108 @@
+"""Traction-curve fit of the layer with FASTSIM (issue 6)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import ROOT
+
+from torlab.errors import TorlabInputError
+from torlab.fit.traction import fit_layer_traction, traction_model
+from torlab.model.predict import predict_traction
+from torlab.scene import load_scene, scene_from_dict
+
+SCENE = ROOT / "protocols" / "scenes" / "optical_paper_a_rough.yaml"
+TRUTH = {"mu_c1": 0.16, "mu_c2": 0.26, "L_mue": 6e-6, "L_mup": 12e-6}
+
+
+def _dry_scene():
+    sc = load_scene(SCENE)
+    return sc.model_copy(update={"lubricant": None, "roughness": None})
+
+
+def _curve(seed: int, n: int = 40, noise: float = 0.003):
+    sc = _dry_scene()
+    xi = np.linspace(0.002, 0.08, n)
+    mu = traction_model(sc)(TRUTH, xi)
+    return sc, xi, mu + noise * np.random.default_rng(seed).standard_normal(n)
+
+
+def test_model_is_predicts_model():
+    """The fit's model is exactly what torlab predict traction computes for the scene."""
+    sc, xi, _ = _curve(0)
+    b = sc.boundary.model_copy(update=TRUTH)
+    ref = predict_traction(sc.model_copy(update={"boundary": b}), xi).table["mu"].to_numpy()
+    np.testing.assert_allclose(traction_model(sc)(TRUTH, xi), ref, rtol=0, atol=1e-14)
+
+
+def test_recovery_and_coverage_over_seeds():
+    """Synthetic curves (model at known parameters + white noise): the 95 % intervals cover
+    the truth in at least 25 of 30 seeds for each parameter (binomial: 28.5 expected)."""
+    hits = np.zeros(4)
+    nfev = []
+    n = 30
+    for seed in range(n):
+        sc, xi, mu = _curve(seed)
+        res = fit_layer_traction(sc, xi, mu)
+        hits += [res.ci95[k][0] <= TRUTH[k] <= res.ci95[k][1] for k in TRUTH]
+        nfev.append(res.n_evaluations)
+    assert np.all(hits >= 25), hits
+    assert np.median(nfev) < 150  # a handful of Jacobians, not a brute-force search
+
+
+def test_odd_in_creepage_and_sign_kept():
+    sc, xi, mu = _curve(1)
+    a = fit_layer_traction(sc, xi, mu)
+    b = fit_layer_traction(sc, -xi, -mu)
+    for k in TRUTH:
+        assert b.params[k] == pytest.approx(a.params[k], rel=1e-3)
+
+
+def test_fixed_parameter_is_reported_and_written():
+    sc, xi, mu = _curve(2)
+    res = fit_layer_traction(sc, xi, mu, fixed={"L_mup": 12e-6})
+    assert "L_mup" not in res.names
+    assert res.to_scene_dict()["boundary"]["L_mup"] == 12e-6
+    assert res.ci95["mu_c2"][0] <= TRUTH["mu_c2"] <= res.ci95["mu_c2"][1]
+
+
+def test_params_file_feeds_predict_unchanged(tmp_path):
+    """The written parameter file merged onto the scene reproduces the fitted model curve."""
+    from torlab.yamlio import dump_yaml
+
+    sc, xi, mu = _curve(3)
+    res = fit_layer_traction(sc, xi, mu)
+    p = tmp_path / "params.yaml"
+    p.write_text(dump_yaml(res.to_yaml_dict()))
+    dry = tmp_path / "dry.yaml"
+    raw = load_scene(SCENE).model_dump(exclude_none=True)
+    raw.pop("lubricant"), raw.pop("roughness"), raw.pop("fit", None)
+    dry.write_text(dump_yaml(raw))
+    merged = load_scene(dry, p)
+    pred = predict_traction(merged, xi).table["mu"].to_numpy()
+    np.testing.assert_allclose(pred, res.data["mu_model"].to_numpy(), atol=1e-12)
+    assert merged.fit["kind"] == "layer_traction"
+    scene_from_dict(merged.model_dump())  # still a valid scene
+
+
+def test_sample_dry_traction_plateau():
+    """sample_data/optical/dry_traction_rough.csv follows mu = 0.25 tanh(SRR/0.01) (its
+    truth.yaml): the fitted saturated coefficient is the plateau 0.25."""
+    from torlab.reduce.optical import reduce_optical_log
+
+    pts = reduce_optical_log(ROOT / "sample_data" / "optical" / "dry_traction_rough.csv").points
+    res = fit_layer_traction(_dry_scene(), pts["srr"], pts["traction_coefficient"])
+    assert res.ci95["mu_c2"][0] <= 0.25 <= res.ci95["mu_c2"][1]
+    assert res.params["mu_c2"] == pytest.approx(0.25, abs=0.005)
+
+
+def test_bad_traction_data():
+    sc, xi, mu = _curve(4)
+    with pytest.raises(TorlabInputError, match="too few"):
+        fit_layer_traction(sc, xi[:4], mu[:4])
+    with pytest.raises(TorlabInputError, match="constant"):
+        fit_layer_traction(sc, xi, np.full_like(xi, 0.2))
+    with pytest.raises(TorlabInputError, match="one creepage"):
+        fit_layer_traction(sc, np.full(10, 0.01), np.linspace(0.1, 0.2, 10))
+    with pytest.raises(TorlabInputError, match="fix"):
+        fit_layer_traction(sc, xi, mu, fixed={"nope": 1.0})

@@ -1,0 +1,422 @@
+"""``torlab fit``: identify the model's parameters from reduced measurements (issue 6).
+
+Each command writes ``params.yaml`` (the scene contract's ``boundary:`` /
+``lubricant:`` keys plus a ``fit:`` provenance section, so
+``torlab predict traction SCENE params.yaml`` reads it unchanged),
+``fit_table.csv`` (value, standard error, 95 % interval per parameter),
+``correlation.csv``, ``fit_data.csv`` (data, model, residuals), ``fit.png``
+(data against model and residuals) and ``summary.json``.  A fit that fails
+writes nothing.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from torlab.cli._common import ForceOpt, OutOpt, command_line, console, print_table, require_files
+
+app = typer.Typer(help="Fit the model's parameters (third-body layer, temperature coefficients, "
+                  "viscosity, film) to reduced measurements, with uncertainties.",
+                  no_args_is_help=True)
+
+
+def register(root: typer.Typer) -> None:
+    """Add the ``fit`` group to the root app."""
+    root.add_typer(app, name="fit")
+
+
+# ------------------------------------------------------------------------------------------
+# shared output
+# ------------------------------------------------------------------------------------------
+def write_fit(dest: Any, result: Any, prefix: str = "", title: str | None = None) -> None:
+    """Write one :class:`~torlab.fit.result.FitResult` into an OutputDir (under ``prefix``)."""
+    from torlab.reports.fit import fit_figure
+    from torlab.yamlio import dump_yaml
+
+    pre = f"{prefix}/" if prefix else ""
+    dest.write_text(f"{pre}params.yaml", "# torlab fit output: a parameter file for torlab predict "
+                    "(name it after the scene)\n" + dump_yaml(result.to_yaml_dict()))
+    tab = result.table()
+    dest.write_csv(f"{pre}fit_table.csv", tab, allow_missing=("stderr", "ci95_low", "ci95_high"))
+    corr = result.correlation_table().reset_index(names="parameter")
+    dest.write_csv(f"{pre}correlation.csv", corr, allow_missing=tuple(result.names))
+    dest.write_csv(f"{pre}fit_data.csv", result.data)
+    dest.write_json(f"{pre}summary.json", result.summary())
+    dest.save_figure(f"{pre}fit.png", fit_figure(result, title=title))
+
+
+def print_fit(result: Any, title: str) -> None:
+    """Rich summary: parameters, intervals, residual norm and warnings."""
+    from torlab.fit.result import PARAM_UNITS
+
+    rows = []
+    for _, r in result.table().iterrows():
+        unit = PARAM_UNITS.get(r["parameter"], "")
+        f = 1e6 if unit == "m" and abs(r["value"]) < 1e-2 else 1e9 if unit == "1/Pa" else 1.0
+        u = {1e6: "µm", 1e9: "1/GPa"}.get(f, unit)
+        rows.append({"parameter": r["parameter"], "value": f"{r['value'] * f:.5g}",
+                     "± se": "—" if r["stderr"] != r["stderr"] else f"{r['stderr'] * f:.2g}",
+                     "95 % interval": "—" if r["ci95_low"] != r["ci95_low"] else
+                     f"[{r['ci95_low'] * f:.5g}, {r['ci95_high'] * f:.5g}]",
+                     "unit": u, "status": r["status"]})
+    print_table(rows, title=title)
+    c = console()
+    c.print(f"{result.n_points} points, residual RMS {result.residual_norm:.4g} "
+            f"{result.residual_unit}, {result.n_evaluations} model evaluations")
+    for w in result.warnings:
+        c.print(f"[yellow]warning:[/yellow] {w}")
+
+
+_FILES = ["params.yaml", "fit_table.csv", "correlation.csv", "fit_data.csv", "fit.png",
+          "summary.json"]
+
+
+def _compliance(value: str | None, inputs: list[Path]) -> Any:
+    if value is None:
+        return None
+    from torlab.reduce.hpt import RigCompliance
+    from torlab.units import to_si
+
+    cp = Path(value)
+    if cp.exists():
+        inputs.append(cp)
+        return RigCompliance.from_file(cp)
+    return RigCompliance.linear(to_si(value, "compliance", where="--compliance"))
+
+
+def _hpt_curves(files: list[Path], compliance: Any) -> list[Any]:
+    """Raw HPT logs are reduced; reduced CSVs (``torlab hpt reduce`` output) read as they are."""
+    import pandas as pd
+
+    from torlab.parsers._text import read_text
+    from torlab.parsers.hpt import read_hpt
+    from torlab.reduce.hpt import reduce_hpt
+
+    out = []
+    for f in files:
+        text, _ = read_text(f)
+        head = text.lstrip()[:4000]
+        if head.startswith("# torlab-hpt"):
+            df, meta = read_hpt(f)
+            out.append(reduce_hpt(df, meta, compliance=compliance))
+        elif "shear_stress_Pa" in head.split("\n", 1)[0]:
+            out.append((f, pd.read_csv(f)))
+        else:
+            from torlab.errors import TorlabInputError
+
+            raise TorlabInputError("not a torlab-hpt log nor a reduced HPT CSV (columns "
+                                   "shear_stress_Pa, displacement_raw_m ...)", path=f)
+    return out
+
+
+def _prepare_hpt(items: list[Any], compliance: Any) -> list[Any]:
+    from torlab.fit.layer import hpt_curve
+
+    res = []
+    for it in items:
+        if isinstance(it, tuple):
+            res.append(hpt_curve(it[1], name=it[0].name, compliance=compliance))
+        else:
+            res.append(hpt_curve(it, compliance=compliance if not it.compliance else None))
+    return res
+
+
+# ------------------------------------------------------------------------------------------
+# commands
+# ------------------------------------------------------------------------------------------
+@app.command("hpt")
+def hpt_cmd(
+    inputs: Annotated[list[Path], typer.Argument(help="Raw HPT logs (torlab-hpt) or reduced CSVs "
+                                                 "('torlab hpt reduce' output).")],
+    out: OutOpt,
+    joint: Annotated[bool, typer.Option("--joint", help="One fit of shared parameters to all "
+                                        "curves (repeats of one product and amount).")] = False,
+    compliance: Annotated[str | None, typer.Option(
+        help="Rig compliance (curve file or constant such as '0.012 um/MPa'); default: the one "
+        "the reduction subtracted.")] = None,
+    force: ForceOpt = False,
+) -> None:
+    """Layer parameters mu_c1, mu_c2, L_mue, L_mup from HPT curves (thesis Eqs. 5.24-5.29).
+
+    One fit per curve (a sub-folder per curve when there are several) or, with
+    --joint, one fit to all curves.
+    """
+    from torlab.fit.layer import fit_layer_hpt
+    from torlab.outputs import OutputDir
+
+    files = require_files(inputs, "HPT")
+    extra: list[Path] = []
+    comp = _compliance(compliance, extra)
+    curves = _prepare_hpt(_hpt_curves(files, comp), comp)
+    if joint or len(curves) == 1:
+        results = [fit_layer_hpt(curves, joint=True)]
+    else:
+        results = fit_layer_hpt(curves)
+    dest = OutputDir(out, force=force, inputs=[*files, *extra], command=command_line())
+    with dest:
+        names = []
+        for i, r in enumerate(results):
+            pre = "" if len(results) == 1 else _stem(files[i], names)
+            write_fit(dest, r, pre, title=f"HPT layer fit: {r.meta.get('source', '')}")
+        if len(results) > 1:
+            import pandas as pd
+
+            rows = [{"curve": n, **{k: r.params[k] for k in r.names},
+                     **{f"{k}_stderr": r.stderr[k] for k in r.names},
+                     "residual_rms_Pa": r.residual_norm, "warnings": "; ".join(r.warnings)}
+                    for n, r in zip(names, results, strict=True)]
+            dest.write_csv("fit_summary.csv", pd.DataFrame(rows),
+                           allow_missing=tuple(f"{k}_stderr" for k in results[0].names))
+    for r in results:
+        print_fit(r, f"HPT layer fit: {r.meta.get('source', '')}")
+    console().print(f"wrote {'params.yaml, fit_table.csv, fit.png ...' if len(results) == 1 else 'one folder per curve and fit_summary.csv'} to {out}")
+
+
+def _stem(f: Path, names: list[str]) -> str:
+    s = f.stem
+    while s in names:
+        s += "_"
+    names.append(s)
+    return s
+
+
+@app.command("traction")
+def traction_cmd(
+    scene: Annotated[Path, typer.Argument(help="Scene YAML of the test contact (load, radii, "
+                                          "materials, speed); its boundary: values are the "
+                                          "defaults of fixed parameters.")],
+    data: Annotated[Path, typer.Argument(help="Traction curve: CSV with creepage (or srr) and mu "
+                                         "(or traction_coefficient), or a torlab-optical log.")],
+    out: OutOpt,
+    fix: Annotated[list[str] | None, typer.Option(
+        "--fix", help="Hold a parameter fixed: 'L_mup=20 um' (repeatable).")] = None,
+    dry: Annotated[bool, typer.Option("--dry", help="Dry test: ignore the scene's lubricant: and "
+                                      "roughness: (automatic for a dry_traction optical log).")]
+    = False,
+    force: ForceOpt = False,
+) -> None:
+    """Layer parameters from a measured traction curve mu(SRR), fitted with FASTSIM
+    (the model of 'torlab predict traction', thesis Eqs. 5.14-5.30).
+
+    A lubricated scene is fitted with the mixed model (film + asperities + layer); a dry
+    test (--dry, or a torlab-optical log of test dry_traction) with the dry model.
+    """
+    from torlab.fit.traction import fit_layer_traction
+    from torlab.outputs import OutputDir
+    from torlab.scene import load_scene
+
+    files = require_files([scene, data], "input")
+    sc = load_scene(scene)
+    xi, mu, test = _traction_data(data)
+    if (dry or test == "dry_traction") and (sc.lubricant is not None or sc.roughness is not None):
+        sc = sc.model_copy(update={"lubricant": None, "roughness": None})
+        console().print("dry traction test: the scene's lubricant: and roughness: are ignored "
+                        "(Hertz + FASTSIM + layer)")
+    fixed = _parse_fixed(fix or [])
+    res = fit_layer_traction(sc, xi, mu, fixed=fixed)
+    res.meta["source"] = data.name
+    dest = OutputDir(out, force=force, inputs=files, command=command_line())
+    with dest:
+        write_fit(dest, res, title=f"Traction fit: {data.name}")
+    print_fit(res, f"Traction fit: {data.name}")
+    console().print(f"wrote {', '.join(_FILES)} to {out}")
+
+
+def _parse_fixed(items: list[str]) -> dict[str, float]:
+    from torlab.errors import TorlabInputError
+    from torlab.units import to_si
+
+    kinds = {"mu_c1": "dimensionless", "mu_c2": "dimensionless", "L_mue": "length",
+             "L_mup": "length"}
+    out = {}
+    for it in items:
+        if "=" not in it:
+            raise TorlabInputError(f"{it!r}: use NAME=VALUE, e.g. 'L_mup=20 um'", key="--fix")
+        k, v = (s.strip() for s in it.split("=", 1))
+        if k not in kinds:
+            raise TorlabInputError(f"{k!r} is not a layer parameter ({', '.join(kinds)})",
+                                   key="--fix")
+        out[k] = to_si(v, kinds[k], where="--fix")
+    return out
+
+
+def _traction_data(path: Path) -> tuple[Any, Any, str]:
+    import pandas as pd
+
+    from torlab.errors import TorlabInputError
+    from torlab.parsers._text import read_text
+
+    text, _ = read_text(path)
+    if text.lstrip().startswith("# torlab-optical"):
+        from torlab.reduce.optical import reduce_optical_log
+
+        red = reduce_optical_log(path)
+        pts = red.points
+        return (pts["srr"].to_numpy(dtype=float), pts["traction_coefficient"].to_numpy(dtype=float),
+                red.test)
+    try:
+        df = pd.read_csv(path, comment="#")
+    except (ValueError, pd.errors.ParserError) as e:
+        raise TorlabInputError(f"cannot read the CSV ({e})", path=path) from None
+    xc = next((c for c in ("creepage", "srr") if c in df), None)
+    yc = next((c for c in ("mu", "traction_coefficient") if c in df), None)
+    if xc is None or yc is None:
+        raise TorlabInputError("needs columns creepage (or srr, fractions) and mu (or "
+                               "traction_coefficient)", path=path)
+    try:
+        return df[xc].to_numpy(dtype=float), df[yc].to_numpy(dtype=float), ""
+    except ValueError:
+        raise TorlabInputError(f"columns {xc}, {yc} must be numbers", path=path) from None
+
+
+@app.command("temperature")
+def temperature_cmd(
+    inputs: Annotated[list[Path], typer.Argument(help="HPT logs (or reduced CSVs) of one product "
+                                                 "at three or more temperatures.")],
+    out: OutOpt,
+    compliance: Annotated[str | None, typer.Option(help="Rig compliance (curve file or "
+                                                   "constant).")] = None,
+    reference_temperature: Annotated[str, typer.Option(help="Reference temperature of the "
+                                                       "intercepts.")] = "25 degC",
+    force: ForceOpt = False,
+) -> None:
+    """Temperature coefficients mu_c1_T, mu_c2_T (thesis Eqs. 5.26-5.27) from one layer fit
+    per run: ln mu_ci against T."""
+    from torlab.fit.layer import fit_layer_hpt
+    from torlab.fit.temperature import fit_temperature_coefficients
+    from torlab.outputs import OutputDir
+    from torlab.units import to_si
+
+    files = require_files(inputs, "HPT")
+    extra: list[Path] = []
+    comp = _compliance(compliance, extra)
+    Tref = to_si(reference_temperature, "temperature", where="--reference-temperature")
+    curves = _prepare_hpt(_hpt_curves(files, comp), comp)
+    fits = fit_layer_hpt(curves)
+    res = fit_temperature_coefficients(fits, reference_temperature_C=Tref)
+    dest = OutputDir(out, force=force, inputs=[*files, *extra], command=command_line())
+    with dest:
+        write_fit(dest, res, title="Temperature coefficients of the layer")
+        names: list[str] = []
+        for f, r in zip(files, fits, strict=True):
+            write_fit(dest, r, f"runs/{_stem(f, names)}")
+    print_fit(res, "Temperature coefficients")
+    console().print(f"wrote {', '.join(_FILES)} and runs/ (one layer fit per run) to {out}")
+
+
+@app.command("film")
+def film_cmd(
+    data: Annotated[Path, typer.Argument(help="Film-thickness data: PCS EHD2 export, "
+                                         "torlab-optical log, or CSV with speed_m_s (or "
+                                         "rolling_speed_m_s) and film_thickness_m.")],
+    out: OutOpt,
+    scene: Annotated[Path | None, typer.Option(help="Scene (contact, materials, lubricant eta0 at "
+                                               "the test temperature) for the effective "
+                                               "alpha.")] = None,
+    min_speed: Annotated[str | None, typer.Option(help="Fit only speeds at or above this, e.g. "
+                                                  "'50 mm/s'.")] = None,
+    force: ForceOpt = False,
+) -> None:
+    """Speed exponent of the film (Hamrock-Dowson predicts 0.67, Eq. 5.32) and, with a scene,
+    the effective pressure-viscosity coefficient alpha. An EHD2 file with several film
+    steps gives one fit per step (a sub-folder each)."""
+    from torlab.fit.film import fit_film_thickness
+    from torlab.outputs import OutputDir
+    from torlab.scene import load_scene
+    from torlab.units import to_si
+
+    files = require_files([data] + ([scene] if scene else []), "input")
+    vmin = None if min_speed is None else to_si(min_speed, "velocity", where="--min-speed")
+    sc = load_scene(scene) if scene else None
+    groups = _film_data(data)
+    results = []
+    for label, v, h in groups:
+        r = fit_film_thickness(v, h, scene=sc, min_speed=vmin)
+        r.meta["source"] = f"{data.name}{'' if not label else f' {label}'}"
+        results.append((label, r))
+    dest = OutputDir(out, force=force, inputs=files, command=command_line())
+    with dest:
+        for label, r in results:
+            write_fit(dest, r, label.replace(" ", "_") if len(results) > 1 else "",
+                      title=f"Film thickness: {r.meta['source']}")
+    for _label, r in results:
+        print_fit(r, f"Film fit: {r.meta['source']}")
+    console().print(f"wrote the film fit{'s' if len(results) > 1 else ''} to {out}")
+
+
+def _film_data(path: Path) -> list[tuple[str, Any, Any]]:
+    import pandas as pd
+
+    from torlab.errors import TorlabInputError
+    from torlab.parsers._text import read_text
+
+    text, _ = read_text(path)
+    head = text.lstrip()[:200]
+    if head.startswith("# torlab-optical"):
+        from torlab.reduce.optical import reduce_optical_log
+
+        pts = reduce_optical_log(path).points
+        if "film_thickness_m" not in pts:
+            raise TorlabInputError("the optical log has no film thickness", path=path)
+        pts = pts.dropna(subset=["film_thickness_m"])
+        return [("", pts["rolling_speed_m_s"].to_numpy(), pts["film_thickness_m"].to_numpy())]
+    first = text.lstrip().split("\n", 1)[0]
+    if "speed_m_s" in first and "film_thickness_m" in first:
+        df = pd.read_csv(path)
+        vc = "speed_m_s" if "speed_m_s" in df else "rolling_speed_m_s"
+        return [("", df[vc].to_numpy(dtype=float), df["film_thickness_m"].to_numpy(dtype=float))]
+    from torlab.parsers.pcs import read_pcs
+    from torlab.reduce.optical import reduce_ehd2
+
+    df, meta = read_pcs(path)
+    pts = reduce_ehd2(df, meta).points.dropna(subset=["film_thickness_m"])
+    out = []
+    for step, g in pts.groupby("step"):
+        T = g["lube_temperature_C"].mean() if "lube_temperature_C" in g else float("nan")
+        label = f"step{step}" + ("" if T != T else f"_{T:.0f}C")
+        out.append((label, g["rolling_speed_m_s"].to_numpy(), g["film_thickness_m"].to_numpy()))
+    return out
+
+
+@app.command("visc")
+def visc_cmd(
+    data: Annotated[list[Path], typer.Argument(help="'torlab visc reduce' output CSVs "
+                                               "(*_steps.csv or *_falls.csv: pressure_Pa, "
+                                               "viscosity_Pa_s).")],
+    out: OutOpt,
+    law: Annotated[str, typer.Option(help="barus or roelands.")] = "roelands",
+    force: ForceOpt = False,
+) -> None:
+    """Viscosity law (eta0, alpha or Z; thesis Eqs. 5.38-5.39) from reduced viscometer data,
+    written as the scene's lubricant: keys."""
+    import numpy as np
+    import pandas as pd
+
+    from torlab.errors import TorlabInputError
+    from torlab.fit.result import viscosity_result
+    from torlab.fit.viscosity import fit_viscosity
+    from torlab.outputs import OutputDir
+
+    files = require_files(data, "viscosity")
+    p, eta, T = [], [], []
+    for f in files:
+        df = pd.read_csv(f)
+        if "pressure_Pa" not in df or "viscosity_Pa_s" not in df:
+            raise TorlabInputError("needs columns pressure_Pa and viscosity_Pa_s ('torlab visc "
+                                   "reduce' output)", path=f)
+        p.append(df["pressure_Pa"].to_numpy(dtype=float))
+        eta.append(df["viscosity_Pa_s"].to_numpy(dtype=float))
+        if "temperature_C" in df:
+            T.append(df["temperature_C"].to_numpy(dtype=float))
+    Tm = float(np.mean(np.concatenate(T))) if T else None
+    vf = fit_viscosity(np.concatenate(p), np.concatenate(eta), law, temperature_C=Tm)
+    res = viscosity_result(vf)
+    res.meta["source"] = ", ".join(f.name for f in files)
+    dest = OutputDir(out, force=force, inputs=files, command=command_line())
+    with dest:
+        write_fit(dest, res, title=f"Viscosity fit ({law})")
+    print_fit(res, f"Viscosity fit ({law})")
+    console().print(f"wrote {', '.join(_FILES)} to {out}")

@@ -1,0 +1,361 @@
+"""The result of every ``torlab fit``: parameters, uncertainties, warnings, data vs model.
+
+All fits in :mod:`torlab.fit` return a :class:`FitResult` (the agreed fit API,
+issue 6).  Parameters are in SI units; ``names`` are the scene contract's keys
+where one exists (``mu_c1``, ``mu_c2``, ``L_mue``, ``L_mup``, ``mu_c1_T``,
+``mu_c2_T``, ``eta0``, ``alpha``, ``Z``), so :meth:`FitResult.to_scene_dict`
+is a valid parameter file for ``torlab predict`` (``spec/scene-contract.md``).
+
+Uncertainties come from the linearised least-squares covariance
+``C = s^2 (J^T J)^-1`` (or a heteroscedasticity-and-autocorrelation-consistent
+sandwich where the residuals are correlated, see :func:`hac_covariance`), the
+95 % intervals from Student's t with the residual degrees of freedom.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "PARAM_UNITS",
+    "FitResult",
+    "covariance_from_jacobian",
+    "hac_covariance",
+    "student_t",
+    "viscosity_result",
+]
+
+#: unit of each parameter name (SI) for tables and the scene file
+PARAM_UNITS: dict[str, str] = {
+    "mu_c1": "-",
+    "mu_c2": "-",
+    "L_mue": "m",
+    "L_mup": "m",
+    "mu_c1_T": "1/K",
+    "mu_c2_T": "1/K",
+    "eta0": "Pa*s",
+    "alpha": "1/Pa",
+    "Z": "-",
+    "speed_exponent": "-",
+    "film_prefactor": "m",
+    "rig_compliance": "m/Pa",
+    "mu_c1_Tref": "-",
+    "mu_c2_Tref": "-",
+}
+
+#: keys of the scene contract's ``boundary:`` and ``lubricant:`` sections
+BOUNDARY_KEYS = ("mu_c1", "mu_c2", "L_mue", "L_mup", "mu_c1_T", "mu_c2_T")
+LUBRICANT_KEYS = ("eta0", "alpha", "Z")
+
+
+def student_t(dof: int, confidence: float = 0.95) -> float:
+    """Two-sided Student-t quantile for ``confidence`` with ``dof`` degrees of freedom."""
+    from scipy.stats import t as student
+
+    return float(student.ppf(0.5 + confidence / 2.0, max(int(dof), 1)))
+
+
+def covariance_from_jacobian(jac: np.ndarray, residuals: np.ndarray, n_params: int
+                             ) -> tuple[np.ndarray, float]:
+    """Least-squares covariance ``s^2 (J^T J)^+`` and the residual standard deviation ``s``.
+
+    A (numerically) singular ``J^T J`` gives infinite variances for the
+    directions it cannot resolve (pseudo-inverse with an infinite fill), so an
+    undetermined parameter shows up as such rather than as a small error.
+    """
+    r = np.asarray(residuals, dtype=float)
+    dof = max(r.size - n_params, 1)
+    s2 = float(r @ r) / dof
+    return _scaled_inverse(jac.T @ jac) * s2, math.sqrt(s2)
+
+
+def _scaled_inverse(a: np.ndarray) -> np.ndarray:
+    """Inverse of a symmetric positive semi-definite matrix, ``inf`` on its null space."""
+    d = np.sqrt(np.clip(np.diag(a), 0.0, None))
+    k = a.shape[0]
+    bad = d <= 0
+    d[bad] = 1.0
+    an = a / np.outer(d, d)
+    w, v = np.linalg.eigh(an)
+    tol = max(w.max(initial=0.0), 1.0) * 1e-12
+    ok = w > tol
+    inv = (v[:, ok] / w[ok]) @ v[:, ok].T
+    out = inv / np.outer(d, d)
+    if not ok.all() or bad.any():
+        # the directions of the null space carry unbounded variance
+        null = v[:, ~ok]
+        weight = np.sum(null**2, axis=1) > 1e-6
+        for i in range(k):
+            if weight[i] or bad[i]:
+                out[i, :] = np.inf
+                out[:, i] = np.inf
+    return out
+
+
+def hac_covariance(jac: np.ndarray, residuals: np.ndarray, lags: int) -> np.ndarray:
+    """Newey-West (Bartlett kernel) sandwich covariance of least-squares parameters.
+
+    ``C = (J^T J)^-1 J^T Omega J (J^T J)^-1`` with
+    ``J^T Omega J = sum_l w_l sum_t (g_t g_{t-l}^T + g_{t-l} g_t^T)``, ``g_t = J_t r_t``,
+    ``w_l = 1 - l / (lags + 1)`` (Newey & West 1987, Econometrica 55, 703).
+    It stays consistent when the residuals are correlated along the record (the
+    HPT strength fluctuation) and when their variance changes (relative noise),
+    where ``s^2 (J^T J)^-1`` would be far too optimistic.
+    """
+    g = jac * np.asarray(residuals, dtype=float)[:, None]
+    meat = g.T @ g
+    for lag in range(1, int(lags) + 1):
+        w = 1.0 - lag / (lags + 1.0)
+        gamma = g[lag:].T @ g[:-lag]
+        meat += w * (gamma + gamma.T)
+    bread = _scaled_inverse(jac.T @ jac)
+    if not np.all(np.isfinite(bread)):
+        return bread
+    n, k = jac.shape
+    return bread @ meat @ bread * (n / max(n - k, 1))
+
+
+@dataclass
+class FitResult:
+    """A fitted parameter set (agreed fit API, ``notes/fit-api.md``).
+
+    Attributes
+    ----------
+    kind
+        ``"layer_hpt"``, ``"layer_traction"``, ``"temperature"``, ``"film"`` or
+        ``"viscosity"``.
+    names
+        Parameter names, scene-contract keys where one exists.
+    params, stderr
+        Values and standard errors, SI units.
+    ci95
+        95 % confidence intervals ``(low, high)``.
+    correlation
+        ``(k, k)`` correlation matrix of the estimates (NaN where undetermined).
+    residual_norm
+        RMS of the residuals, in the data's unit (:attr:`residual_unit`).
+    n_points
+        Points used in the fit.
+    warnings
+        What the data do not determine (``"L_mup not determined: ..."``).
+    data
+        DataFrame with the abscissa, ``*_measured``, ``*_model`` and
+        ``residual_*`` columns (units in the names).
+    meta
+        Provenance: product, amount, temperature, source files, method ...
+    fixed
+        Parameters held fixed in the fit (value, SI), reported and written but
+        without uncertainty.
+    residual_unit
+        Unit of :attr:`residual_norm` (``"Pa"``, ``"-"``, ``"m"`` ...).
+    n_evaluations
+        Model evaluations the optimiser used (benchmark figure).
+    dof
+        Residual degrees of freedom of the intervals.
+    x_column, y_column
+        Names of the abscissa and the measured column of :attr:`data` (figure).
+    """
+
+    kind: str
+    names: tuple[str, ...]
+    params: dict[str, float]
+    stderr: dict[str, float]
+    ci95: dict[str, tuple[float, float]]
+    correlation: np.ndarray
+    residual_norm: float
+    n_points: int
+    warnings: list[str]
+    data: Any
+    meta: dict[str, Any] = field(default_factory=dict)
+    fixed: dict[str, float] = field(default_factory=dict)
+    residual_unit: str = "-"
+    n_evaluations: int = 0
+    dof: int = 0
+    x_column: str = ""
+    y_column: str = ""
+
+    # -- construction ---------------------------------------------------------------------
+    @classmethod
+    def from_covariance(cls, kind: str, names: tuple[str, ...], values: np.ndarray,
+                        cov: np.ndarray, *, dof: int, **kw: Any) -> FitResult:
+        """Build a result from estimates and their covariance (Student-t intervals)."""
+        values = np.asarray(values, dtype=float)
+        cov = np.asarray(cov, dtype=float)
+        var = np.diag(cov)
+        se = np.where(np.isfinite(var) & (var >= 0), np.sqrt(np.abs(var)), np.inf)
+        tq = student_t(dof)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            corr = cov / np.outer(se, se)
+        corr[~np.isfinite(corr)] = np.nan
+        np.fill_diagonal(corr, 1.0)
+        params = {n: float(v) for n, v in zip(names, values, strict=True)}
+        stderr = {n: float(s) for n, s in zip(names, se, strict=True)}
+        ci = {n: (float(v - tq * s), float(v + tq * s)) for n, v, s in zip(names, values, se,
+                                                                             strict=True)}
+        return cls(kind=kind, names=tuple(names), params=params, stderr=stderr, ci95=ci,
+                   correlation=corr, dof=int(dof), **kw)
+
+    # -- outputs ----------------------------------------------------------------------------
+    def determined(self, name: str) -> bool:
+        """Whether ``name`` has a finite standard error."""
+        return math.isfinite(self.stderr.get(name, math.inf))
+
+    def to_scene_dict(self) -> dict[str, Any]:
+        """The scene contract's ``boundary:`` / ``lubricant:`` keys of the fitted values.
+
+        Plain SI numbers (the scene reader accepts them); only parameters with a
+        scene key are written, fixed ones included.  Other fitted numbers (speed
+        exponent ...) are in :meth:`table` and the provenance, not here.
+        """
+        allv = {**self.fixed, **self.params}
+        out: dict[str, Any] = {}
+        b = {k: float(allv[k]) for k in BOUNDARY_KEYS if k in allv}
+        if b:
+            out["boundary"] = b
+        lub = {k: float(allv[k]) for k in LUBRICANT_KEYS if k in allv}
+        lub.update(self.meta.get("lubricant_extra", {}))
+        if lub:
+            out["lubricant"] = lub
+        return out
+
+    def provenance(self) -> dict[str, Any]:
+        """The ``fit:`` section of a parameter file (the scene reader keeps it as provenance)."""
+        from torlab import __version__
+
+        prov: dict[str, Any] = {
+            "kind": self.kind,
+            "torlab_version": __version__,
+            "n_points": int(self.n_points),
+            "residual_rms": float(self.residual_norm),
+            "residual_unit": self.residual_unit,
+            "parameters": {
+                n: {"value": self.params[n], "stderr": _finite_or_none(self.stderr[n]),
+                    "ci95": [_finite_or_none(self.ci95[n][0]), _finite_or_none(self.ci95[n][1])],
+                    "unit": PARAM_UNITS.get(n, "")}
+                for n in self.names
+            },
+            "fixed": dict(self.fixed),
+            "warnings": list(self.warnings),
+        }
+        for k, v in self.meta.items():
+            if k != "lubricant_extra" and (v is None or isinstance(v, (str, int, float, bool, list))):
+                prov.setdefault(k, v)
+        return prov
+
+    def to_yaml_dict(self) -> dict[str, Any]:
+        """``params.yaml``: the scene keys plus the ``fit:`` provenance."""
+        return {**self.to_scene_dict(), "fit": self.provenance()}
+
+    def table(self) -> Any:
+        """DataFrame ``parameter, value, stderr, ci95_low, ci95_high, unit`` (+ fixed rows).
+
+        Undetermined standard errors and intervals are empty cells (NaN).
+        """
+        import pandas as pd
+
+        rows = []
+        for n in self.names:
+            se = self.stderr[n]
+            lo, hi = self.ci95[n]
+            rows.append({"parameter": n, "value": self.params[n],
+                         "stderr": se if math.isfinite(se) else float("nan"),
+                         "ci95_low": lo if math.isfinite(lo) else float("nan"),
+                         "ci95_high": hi if math.isfinite(hi) else float("nan"),
+                         "unit": PARAM_UNITS.get(n, ""), "status": self._status(n)})
+        for n, v in self.fixed.items():
+            rows.append({"parameter": n, "value": v, "stderr": float("nan"),
+                         "ci95_low": float("nan"), "ci95_high": float("nan"),
+                         "unit": PARAM_UNITS.get(n, ""), "status": "fixed"})
+        return pd.DataFrame(rows, columns=["parameter", "value", "stderr", "ci95_low",
+                                           "ci95_high", "unit", "status"])
+
+    def _status(self, name: str) -> str:
+        if not self.determined(name):
+            return "not determined"
+        if any(w.startswith((f"{name} poorly", f"{name} not")) for w in self.warnings):
+            return "poorly determined"
+        return "fitted"
+
+    def correlation_table(self) -> Any:
+        """Correlation matrix as a labelled DataFrame."""
+        import pandas as pd
+
+        return pd.DataFrame(self.correlation, index=list(self.names), columns=list(self.names))
+
+    def summary(self) -> dict[str, Any]:
+        """Key numbers for ``summary.json`` (finite numbers or None)."""
+        return {
+            "kind": self.kind,
+            "n_points": int(self.n_points),
+            "dof": int(self.dof),
+            "residual_rms": float(self.residual_norm),
+            "residual_unit": self.residual_unit,
+            "n_evaluations": int(self.n_evaluations),
+            "params": dict(self.params),
+            "stderr": {k: _finite_or_none(v) for k, v in self.stderr.items()},
+            "ci95": {k: [_finite_or_none(a), _finite_or_none(b)] for k, (a, b) in self.ci95.items()},
+            "correlation": [[_finite_or_none(float(x)) for x in row] for row in self.correlation],
+            "fixed": dict(self.fixed),
+            "warnings": list(self.warnings),
+            "meta": {k: v for k, v in self.meta.items() if k != "lubricant_extra"},
+        }
+
+
+def _finite_or_none(x: float) -> float | None:
+    return float(x) if x is not None and math.isfinite(x) else None
+
+
+def viscosity_result(vf: Any) -> FitResult:
+    """A :class:`~torlab.fit.viscosity.ViscosityFit` as a :class:`FitResult` (``kind="viscosity"``).
+
+    Parameters are ``eta0`` and ``alpha`` (Barus) or ``eta0``, ``Z`` and the
+    derived initial slope ``alpha`` (Roelands, fixed: it follows from ``eta0``
+    and ``Z``); intervals are the viscosity fit's own.  ``to_scene_dict``
+    gives the ``lubricant:`` keys including ``viscosity: barus|roelands``.
+    """
+    import pandas as pd
+
+    p = np.asarray(vf.pressures_Pa, dtype=float)
+    eta = np.asarray(vf.viscosity_Pa_s, dtype=float)
+    model = np.asarray(vf.predict(p), dtype=float)
+    data = pd.DataFrame({"pressure_Pa": p, "viscosity_measured_Pa_s": eta,
+                         "viscosity_model_Pa_s": model, "residual_ln_eta": np.log(eta / model)})
+    tq = student_t(max(vf.dof, 1), vf.confidence)
+    lo0, hi0 = vf.eta0_ci
+    se0 = (math.log(hi0) - math.log(lo0)) / (2 * tq) * vf.eta0 if hi0 > lo0 else math.inf
+    if vf.eta0_source != "fitted":
+        se0 = math.inf
+    names: tuple[str, ...]
+    fixed: dict[str, float] = {}
+    if vf.law == "barus":
+        names = ("eta0", "alpha")
+        params = {"eta0": vf.eta0, "alpha": vf.alpha}
+        stderr = {"eta0": se0, "alpha": vf.alpha_se}
+        ci = {"eta0": vf.eta0_ci, "alpha": vf.alpha_ci}
+    else:
+        names = ("eta0", "Z")
+        params = {"eta0": vf.eta0, "Z": vf.Z}
+        stderr = {"eta0": se0, "Z": vf.Z_se}
+        ci = {"eta0": vf.eta0_ci, "Z": vf.Z_ci}
+        fixed = {"alpha": vf.alpha}
+    if vf.eta0_source != "fitted":
+        names = names[1:]
+        fixed["eta0"] = vf.eta0
+        params.pop("eta0")
+        stderr.pop("eta0")
+        ci.pop("eta0")
+    k = len(names)
+    corr = np.full((k, k), np.nan)
+    np.fill_diagonal(corr, 1.0)
+    return FitResult(kind="viscosity", names=names, params=params, stderr=stderr,
+                     ci95={n: (float(a), float(b)) for n, (a, b) in ci.items()}, correlation=corr,
+                     residual_norm=float(vf.s), n_points=int(vf.n), warnings=list(vf.warnings),
+                     data=data, meta={"law": vf.law, "eta0_source": vf.eta0_source,
+                                      "temperature_C": vf.temperature_C,
+                                      "lubricant_extra": {"viscosity": vf.law}},
+                     fixed=fixed, residual_unit="ln(Pa*s)", n_evaluations=0, dof=int(vf.dof),
+                     x_column="pressure_Pa", y_column="viscosity_measured_Pa_s")

@@ -1,0 +1,91 @@
+"""Figures of a fit: data against model, and the residuals (``torlab fit``)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+__all__ = ["fit_figure"]
+
+#: per kind: (x column, x label, x factor, y measured, y model, y label, y factor, residual, log-log)
+_LAYOUT: dict[str, tuple[str, str, float, str, str, str, float, str, bool]] = {
+    "layer_hpt": ("displacement_m", "layer displacement u (µm)", 1e6, "shear_stress_measured_Pa",
+                  "shear_stress_model_Pa", "shear stress τ (MPa)", 1e-6, "residual_Pa", False),
+    "layer_traction": ("creepage", "creepage ξ (= SRR) (%)", 100.0, "mu_measured", "mu_model",
+                       "traction coefficient μ (-)", 1.0, "residual", False),
+    "temperature": ("temperature_C", "temperature T (°C)", 1.0, "mu_c2_measured", "mu_c2_model",
+                    "μc1, μc2 (-)", 1.0, "residual_mu_c2", False),
+    "film": ("speed_m_s", "rolling speed v (m/s)", 1.0, "film_thickness_measured_m",
+             "film_thickness_model_m", "central film thickness h (nm)", 1e9, "residual_m", True),
+    "viscosity": ("pressure_Pa", "pressure p (MPa)", 1e-6, "viscosity_measured_Pa_s",
+                  "viscosity_model_Pa_s", "viscosity η (mPa·s)", 1e3, "residual_ln_eta", False),
+}
+_RES_LABEL = {"layer_hpt": ("residual (MPa)", 1e-6), "layer_traction": ("residual μ (-)", 1.0),
+              "temperature": ("residual μ (-)", 1.0), "film": ("residual (nm)", 1e9),
+              "viscosity": ("residual ln η (-)", 1.0)}
+
+
+def fit_figure(result: Any, title: str | None = None) -> Any:
+    """Data against the fitted model (top) and the residuals (bottom).
+
+    Parameters
+    ----------
+    result
+        A :class:`~torlab.fit.result.FitResult`.
+    title
+        Figure title; default from the result's kind and source.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from torlab.reports.plotting import subplots
+
+    fig, (ax, axr) = subplots(2, 1, sharex=True, figsize=(7.0, 6.0),
+                              gridspec_kw={"height_ratios": [3, 1]})
+    d = result.data
+    xc, xl, xf, ym, ymod, yl, yf, rc, loglog = _LAYOUT[result.kind]
+    groups = [(None, d)] if "curve" not in d or d["curve"].nunique() == 1 else list(d.groupby("curve"))
+    for g, sub in groups:
+        x = sub[xc].to_numpy() * xf
+        order = np.argsort(x, kind="stable")
+        lab = "" if g is None else f" {g}"
+        ax.plot(x, sub[ym].to_numpy() * yf, ".", ms=3, alpha=0.6, label=f"measured{lab}")
+        ax.plot(x[order], sub[ymod].to_numpy()[order] * yf, "-", lw=1.2, label=f"model{lab}")
+        axr.plot(x, sub[rc].to_numpy() * _RES_LABEL[result.kind][1], ".", ms=3)
+    if result.kind == "temperature":
+        x = d[xc].to_numpy()
+        order = np.argsort(x)
+        ax.plot(x, d["mu_c1_measured"], "s", ms=4, label="μc1 measured")
+        ax.plot(x[order], d["mu_c1_model"].to_numpy()[order], "--", label="μc1 model")
+        axr.plot(x, d["residual_mu_c1"], "s", ms=3)
+    if result.kind == "film" and "film_thickness_hamrock_dowson_m" in d:
+        x = d[xc].to_numpy()
+        order = np.argsort(x)
+        ax.plot(x[order], d["film_thickness_hamrock_dowson_m"].to_numpy()[order] * yf, ":",
+                label=f"Hamrock–Dowson, α = {result.params['alpha'] * 1e9:.3g} 1/GPa")
+    if loglog:
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        axr.set_xscale("log")
+    axr.axhline(0.0, color="k", lw=0.6)
+    ax.set_ylabel(yl)
+    axr.set_ylabel(_RES_LABEL[result.kind][0])
+    axr.set_xlabel(xl)
+    ax.legend(loc="best")
+    txt = ", ".join(f"{n} = {_fmt(n, result.params[n])}" for n in result.names[:4])
+    ax.set_title(title or f"{result.kind} fit: {result.meta.get('source', '')}\n{txt}", fontsize=9)
+    return fig
+
+
+def _fmt(name: str, v: float) -> str:
+    if name in ("L_mue", "L_mup"):
+        return f"{v * 1e6:.3g} µm"
+    if name == "alpha":
+        return f"{v * 1e9:.3g} 1/GPa"
+    if name == "film_prefactor":
+        return f"{v * 1e9:.3g} nm"
+    if name == "eta0":
+        return f"{v * 1e3:.3g} mPa·s"
+    return f"{v:.4g}"
