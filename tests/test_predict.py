@@ -306,3 +306,18 @@ def test_classify_trend_on_analytic_curves():
     assert classify_trend(x, 2 * x)["trend"] == "not saturated"
     assert classify_trend(-x, -0.3 * base * (1 - 2 * x))["trend"] == "negative"
 
+
+
+def test_classify_trend_sparse_and_folded_curves():
+    # measured SRR steps of an optical traction test: flat tanh plateau, one point in the tail
+    srr = np.array([0.005, 0.01, 0.02, 0.03, 0.05, 0.1])
+    flat = 0.25 * np.tanh(srr / 0.01)
+    assert classify_trend(srr, flat)["trend"] == "too few points"
+    # +/- SRR of the same flat curve fold onto one point each: neutral, not tilted by the knee
+    x = np.linspace(0.001, 0.1, 40)
+    both = np.r_[-x, x]
+    t = classify_trend(both, 0.25 * np.tanh(both / 0.01))
+    assert t["trend"] == "neutral"
+    assert abs(t["relative_change"]) < 0.01
+    falling = np.r_[-x, x], 0.25 * np.tanh(np.r_[-x, x] / 0.01) * (1 - 2 * np.abs(np.r_[-x, x]))
+    assert classify_trend(*falling)["trend"] == "negative"

@@ -115,7 +115,7 @@ def _root(
     _STATE["debug"] = debug
 
 
-#: command modules, each with ``register(app)``; later issues add theirs here
+#: command modules, each with ``register(app)``
 _COMMAND_MODULES = ("hpt", "synth", "predict", "fit", "run", "bench", "mtm", "optical", "visc")
 
 
@@ -123,13 +123,7 @@ def _register() -> None:
     import importlib
 
     for name in _COMMAND_MODULES:
-        try:
-            mod = importlib.import_module(f"torlab.cli.{name}")
-        except ModuleNotFoundError as e:
-            if e.name != f"torlab.cli.{name}":
-                raise
-            continue
-        mod.register(app)
+        importlib.import_module(f"torlab.cli.{name}").register(app)
 
 
 _register()

@@ -31,7 +31,8 @@ def register(root: typer.Typer) -> None:
 # ------------------------------------------------------------------------------------------
 # shared output
 # ------------------------------------------------------------------------------------------
-def write_fit(dest: Any, result: Any, prefix: str = "", title: str | None = None) -> None:
+def write_fit(dest: Any, result: Any, prefix: str = "", title: str | None = None,
+              model_curve: tuple[Any, Any] | None = None) -> None:
     """Write one :class:`~torlab.fit.result.FitResult` into an OutputDir (under ``prefix``)."""
     from torlab.reports.fit import fit_figure
     from torlab.yamlio import dump_yaml
@@ -45,7 +46,7 @@ def write_fit(dest: Any, result: Any, prefix: str = "", title: str | None = None
     dest.write_csv(f"{pre}correlation.csv", corr, allow_missing=tuple(result.names))
     dest.write_csv(f"{pre}fit_data.csv", result.data)
     dest.write_json(f"{pre}summary.json", result.summary())
-    dest.save_figure(f"{pre}fit.png", fit_figure(result, title=title))
+    dest.save_figure(f"{pre}fit.png", fit_figure(result, title=title, model_curve=model_curve))
 
 
 def print_fit(result: Any, title: str) -> None:
@@ -218,9 +219,15 @@ def traction_cmd(
     fixed = _parse_fixed(fix or [])
     res = fit_layer_traction(sc, xi, mu, fixed=fixed)
     res.meta["source"] = data.name
+    import numpy as np
+
+    from torlab.fit.traction import traction_model
+
+    dense = np.linspace(float(np.min(xi)), float(np.max(xi)), 201)
+    curve = (dense, traction_model(sc)(res.params, dense))
     dest = OutputDir(out, force=force, inputs=files, command=command_line())
     with dest:
-        write_fit(dest, res, title=f"Traction fit: {data.name}")
+        write_fit(dest, res, title=f"Traction fit: {data.name}", model_curve=curve)
     print_fit(res, f"Traction fit: {data.name}")
     console().print(f"wrote {', '.join(_FILES)} to {out}")
 

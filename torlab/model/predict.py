@@ -91,21 +91,23 @@ def classify_trend(creepage: np.ndarray, mu: np.ndarray, *, saturation: float = 
     half of the range after saturation (so the knee of the curve does not tilt it);
     its change over that range relative to ``|mu|`` at its start is the trend:
     ``negative`` below ``-tolerance``, ``positive`` above ``+tolerance``,
-    ``neutral`` between.
+    ``neutral`` between.  Fewer than two points in that second half (a sparse
+    measured curve) give ``too few points`` rather than a line through the knee.
 
     Returns
     -------
     dict
-        ``trend`` (``negative``/``neutral``/``positive``/``not saturated``),
+        ``trend`` (``negative``/``neutral``/``positive``/``not saturated``/
+        ``too few points``),
         ``saturation_creepage``, ``mu_saturation``, ``trend_from_creepage``,
         ``slope_per_unit_creepage``, ``relative_change``, ``tolerance``.
     """
     x = np.abs(np.asarray(creepage, dtype=float))
     y = np.abs(np.asarray(mu, dtype=float))
-    order = np.argsort(x)
-    x, y = x[order], y[order]
     keep = x > 0
-    x, y = x[keep], y[keep]
+    # negative creepages fold onto positive ones: one point per distinct |creepage|
+    x, inv = np.unique(x[keep], return_inverse=True)
+    y = np.bincount(inv, weights=y[keep]) / np.bincount(inv)
     out: dict[str, Any] = {"tolerance": tolerance, "saturation_fraction": saturation}
     if len(x) < 3 or y.max() <= 0:
         out.update(trend="not saturated", saturation_creepage=None, mu_saturation=None,
@@ -124,8 +126,9 @@ def classify_trend(creepage: np.ndarray, mu: np.ndarray, *, saturation: float = 
     # approach to saturation itself (a tanh-like knee) no longer tilts the line
     mid = 0.5 * (x[k] + x[-1])
     tail = x >= mid
-    if tail.sum() < 3:
-        tail = x >= x[k]
+    if tail.sum() < 2:
+        out.update(trend="too few points", slope_per_unit_creepage=None, relative_change=None)
+        return out
     xs, ys = x[tail], y[tail]
     out["trend_from_creepage"] = float(xs[0])
     slope = float(np.polyfit(xs, ys, 1)[0])

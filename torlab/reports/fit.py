@@ -26,7 +26,8 @@ _RES_LABEL = {"layer_hpt": ("residual (MPa)", 1e-6), "layer_traction": ("residua
               "viscosity": ("residual ln η (-)", 1.0)}
 
 
-def fit_figure(result: Any, title: str | None = None) -> Any:
+def fit_figure(result: Any, title: str | None = None,
+               model_curve: tuple[Any, Any] | None = None) -> Any:
     """Data against the fitted model (top) and the residuals (bottom).
 
     Parameters
@@ -35,6 +36,9 @@ def fit_figure(result: Any, title: str | None = None) -> Any:
         A :class:`~torlab.fit.result.FitResult`.
     title
         Figure title; default from the result's kind and source.
+    model_curve
+        ``(x, y)`` of the fitted model on a dense grid (x in the data's SI unit); drawn
+        instead of the model joined at the measured points.
 
     Returns
     -------
@@ -52,7 +56,11 @@ def fit_figure(result: Any, title: str | None = None) -> Any:
         order = np.argsort(x, kind="stable")
         lab = "" if g is None else f" {g}"
         ax.plot(x, sub[ym].to_numpy() * yf, ".", ms=3, alpha=0.6, label=f"measured{lab}")
-        ax.plot(x[order], sub[ymod].to_numpy()[order] * yf, "-", lw=1.2, label=f"model{lab}")
+        if model_curve is None or g is not None:
+            ax.plot(x[order], sub[ymod].to_numpy()[order] * yf, "-", lw=1.2, label=f"model{lab}")
+        else:
+            ax.plot(np.asarray(model_curve[0]) * xf, np.asarray(model_curve[1]) * yf, "-", lw=1.2,
+                    label="model")
         axr.plot(x, sub[rc].to_numpy() * _RES_LABEL[result.kind][1], ".", ms=3)
     if result.kind == "temperature":
         x = d[xc].to_numpy()

@@ -1,0 +1,94 @@
+"""``torlab run``: a test protocol from raw logs to reports."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from torlab.cli._common import ForceOpt, command_line, console
+
+
+def register(root: typer.Typer) -> None:
+    """Add the ``run`` command to the root app."""
+    root.command("run")(run_cmd)
+
+
+def run_cmd(
+    protocol: Annotated[Path, typer.Argument(help="Protocol YAML (docs/protocols.md).")],
+    out: Annotated[Path | None, typer.Option(
+        "-o", "--out", help="Output folder (created; must not hold earlier results unless "
+        "--force).")] = None,
+    force: ForceOpt = False,
+    validate_only: Annotated[bool, typer.Option(
+        "--validate-only", help="Only check the protocol (every problem listed) and exit.")]
+    = False,
+    no_cache: Annotated[bool, typer.Option(
+        "--no-cache", help="Recompute everything (do not reuse OUT/.cache).")] = False,
+) -> None:
+    """Run a test protocol: reduce its raw logs, fit its parameter sets and write its reports.
+
+    Writes to OUT: report.html (self-contained), report.md, summary.json (key numbers,
+    torlab version, SHA-256 of the protocol and every input), one folder per report with
+    PNG + SVG figures and CSV tables, data/ (reduced logs), fits/ (parameter files for
+    'torlab predict').  A re-run with --force reuses the unchanged intermediate results
+    cached in OUT/.cache.
+    """
+    from torlab.errors import TorlabInputError
+    from torlab.protocols.loader import load_protocol
+
+    lp = load_protocol(protocol)
+    c = console()
+    p = lp.protocol
+    if validate_only:
+        n = len(lp.input_files())
+        reports = [k for k in ("amount", "time_test", "traction", "stribeck", "film")
+                   if getattr(p.reports, k) is not None]
+        c.print(f"{protocol}: valid protocol '{p.name}' (version {p.version}): {n} input "
+                f"files, reports: {', '.join(reports)}")
+        return
+    if out is None:
+        raise TorlabInputError("give the output folder with -o OUT (or --validate-only)",
+                               key="--out")
+    from torlab.protocols.runner import run_protocol
+
+    res = run_protocol(lp, out, force=force, command=command_line(), progress=True,
+                       cache=not no_cache)
+    for n in res.notes:
+        c.print(f"[yellow]note[/yellow] {n}")
+    _print_key_numbers(res.summary)
+    c.print(f"cache: {res.cache_hits} reused, {res.cache_misses} computed "
+            f"({res.summary['run']['seconds']:.1f} s)")
+    c.print(f"wrote {', '.join(res.sections)} report(s): {out}/report.html, report.md, "
+            "summary.json")
+
+
+def _print_key_numbers(summary: dict) -> None:
+    from torlab.cli._common import print_table
+
+    rep = summary.get("reports", {})
+    if "amount" in rep:
+        a = rep["amount"]
+        rows = [{"product": k, "status": v["status"],
+                 "crossing": "" if v.get("crossing_amount") is None else
+                 f"{v['crossing_amount']:.3g} {v['amount_unit']}",
+                 "interval": "" if v.get("crossing_amount_low") is None else
+                 f"[{v['crossing_amount_low']:.3g}, {v['crossing_amount_high']:.3g}]",
+                 "mass (mg)": "" if v.get("crossing_mass_mg") is None else
+                 f"{v['crossing_mass_mg']:.3g}"} for k, v in a["products"].items()]
+        print_table(rows, title=f"Amount where f falls below {a['threshold']:g}")
+    if "time_test" in rep:
+        rows = [{"composition": k, "minimum": v["minimum"],
+                 "recovery (s)": v["recovery_time_s"] if v["recovery_time_s"] is not None else "",
+                 "mean after recovery": v["mean_after_recovery"]
+                 if v["mean_after_recovery"] is not None else "",
+                 "in band": v["in_band"]} for k, v in rep["time_test"]["compositions"].items()]
+        print_table(rows, title="Time tests", formats={"minimum": ".4f",
+                                                       "mean after recovery": ".4f",
+                                                       "recovery (s)": ".0f"})
+    if "traction" in rep:
+        rows = [{"curve": k, "kind": v["kind"], "μ max": v["mu_max"], "trend": v["trend"]}
+                for k, v in rep["traction"]["curves"].items()]
+        print_table(rows, title="Traction: trend after saturation (H4.1)",
+                    formats={"μ max": ".4f"})

@@ -1,0 +1,346 @@
+"""Loading a test protocol: YAML with line numbers, schema, cross-checks, every problem at once.
+
+:func:`load_protocol` reads a protocol file (``docs/protocols.md``), validates
+it against :mod:`torlab.protocols.schema` and checks what the schema alone
+cannot (a report whose data section is missing, a parameter set no fit
+produces, a measured file that is not one of the protocol's files, an invalid
+scene).  It raises one :class:`~torlab.errors.ValidationErrors` listing every
+problem, each with file, line and key path, before any work starts.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from torlab.errors import TorlabInputError, ValidationErrors
+
+__all__ = ["LoadedProtocol", "load_protocol", "load_protocol_text"]
+
+
+@dataclass
+class LoadedProtocol:
+    """A validated protocol and where it came from.
+
+    Attributes
+    ----------
+    protocol
+        The validated :class:`~torlab.protocols.schema.Protocol`.
+    path
+        The protocol file (None for text given directly).
+    base
+        Folder relative paths are resolved against (the protocol's folder).
+    scenes
+        Merged scene dictionaries keyed by the tuple of scene files (SI values),
+        validated once here.
+    """
+
+    protocol: Any
+    path: Path | None
+    base: Path
+    scenes: dict[tuple[Path, ...], dict[str, Any]] = field(default_factory=dict)
+
+    def data_files(self, section: str) -> list[Path]:
+        """Files of ``data.<section>`` (in protocol order, no duplicates)."""
+        d = getattr(self.protocol.data, section)
+        if d is None:
+            return []
+        out: list[Path] = []
+        for entry in d.files:
+            out += [p for p in entry.resolved if p not in out]
+        return out
+
+    def labels(self, section: str) -> dict[Path, str]:
+        """Labels given to files of ``data.<section>`` (file -> label)."""
+        d = getattr(self.protocol.data, section)
+        if d is None:
+            return {}
+        return {e.resolved[0]: e.label for e in d.files if e.label}
+
+    def input_files(self) -> list[Path]:
+        """Every file the run reads (protocol, data, references, scenes), no duplicates."""
+        files: list[Path] = [] if self.path is None else [self.path]
+
+        def add(p: Path | None) -> None:
+            if p is not None and p not in files:
+                files.append(p)
+
+        for sec in ("hpt", "mtm", "optical", "visc"):
+            for p in self.data_files(sec):
+                add(p)
+        d = self.protocol.data
+        if d.hpt is not None and d.hpt.compliance_spec and d.hpt.compliance_spec[0] == "file":
+            add(d.hpt.compliance_spec[1])
+        if d.visc is not None:
+            for e in d.visc.reference:
+                for p in e.resolved:
+                    add(p)
+        for scene_files in self.scenes:
+            for p in scene_files:
+                add(p)
+        for f in self.protocol.fits.lubricants:
+            add(f.measured.resolved)
+        return files
+
+
+def load_protocol(path: str | os.PathLike[str]) -> LoadedProtocol:
+    """Read and validate a protocol file.
+
+    Parameters
+    ----------
+    path
+        The protocol YAML; relative paths in it are relative to its folder.
+
+    Returns
+    -------
+    LoadedProtocol
+
+    Raises
+    ------
+    TorlabInputError
+        The file cannot be read or is not YAML.
+    ValidationErrors
+        Every schema and cross-check problem, each with file, line and key path.
+    """
+    from torlab.yamlio import load_yaml
+
+    doc = load_yaml(path)
+    return _validate(doc, Path(path))
+
+
+def load_protocol_text(text: str, base: str | os.PathLike[str] = ".",
+                       name: str = "<protocol>") -> LoadedProtocol:
+    """Validate a protocol given as YAML text (paths relative to ``base``)."""
+    from torlab.yamlio import load_yaml_text
+
+    doc = load_yaml_text(text, name)
+    lp = _validate(doc, None, base=Path(base))
+    return lp
+
+
+def _validate(doc: Any, path: Path | None, base: Path | None = None) -> LoadedProtocol:
+    from pydantic import ValidationError
+
+    from torlab.protocols.schema import PROTOCOL_VERSION, Protocol
+
+    base = base if base is not None else (path.parent if path is not None else Path("."))
+    data = doc.data
+    if data is None:
+        raise TorlabInputError("protocol file is empty", path=doc.path)
+    if not isinstance(data, dict):
+        raise TorlabInputError("a protocol must be a YAML mapping (version:, name:, data:, ...)",
+                               path=doc.path, line=doc.lines.line(()))
+    if "version" not in data:
+        raise TorlabInputError(f"missing 'version: {PROTOCOL_VERSION}' (the protocol schema "
+                               "version)", path=doc.path, line=1, key="version")
+    if data["version"] != PROTOCOL_VERSION or isinstance(data["version"], bool):
+        raise TorlabInputError(
+            f"protocol version {data['version']!r} is not supported by this torlab (it reads "
+            f"version {PROTOCOL_VERSION})", path=doc.path, line=doc.lines.line(("version",)),
+            key="version")
+    try:
+        proto = Protocol.model_validate(data, context={"base": str(base)})
+    except ValidationError as ve:
+        problems = [_problem(doc, err, data) for err in ve.errors()]
+        raise ValidationErrors(_sorted(problems)) from None
+    lp = LoadedProtocol(protocol=proto, path=path, base=base)
+    problems = _cross_check(lp, doc)
+    if problems:
+        raise ValidationErrors(_sorted(problems))
+    return lp
+
+
+def _sorted(problems: list[TorlabInputError]) -> list[TorlabInputError]:
+    return sorted(problems, key=lambda e: (e.path or "", e.line or 0, e.key or ""))
+
+
+_SKIP_LOC = ("float", "int", "str", "bool", "list", "tuple", "dict")
+
+
+def _clean_loc(loc: tuple[Any, ...]) -> tuple[Any, ...]:
+    out = []
+    for x in loc:
+        if isinstance(x, str) and (x.startswith(("function-", "literal[", "tuple[", "list["))
+                                   or x in _SKIP_LOC or "[" in x):
+            continue
+        out.append(x)
+    return tuple(out)
+
+
+def _lookup(data: Any, loc: tuple[Any, ...]) -> Any:
+    cur = data
+    for k in loc:
+        if isinstance(cur, dict) and k in cur:
+            cur = cur[k]
+        elif isinstance(cur, list) and isinstance(k, int) and 0 <= k < len(cur):
+            cur = cur[k]
+        else:
+            return _MISSING
+    return cur
+
+
+_MISSING = object()
+
+
+def _problem(doc: Any, err: dict[str, Any], data: Any) -> TorlabInputError:
+    loc = _clean_loc(tuple(err["loc"]))
+    t = err.get("type", "")
+    msg = err.get("msg", "")
+    raw = _lookup(data, loc)
+    if t == "extra_forbidden":
+        text = "unknown key (see docs/protocols.md for the keys of this section)"
+    elif t == "missing":
+        text = "missing (required)"
+    elif t == "literal_error":
+        text = f"{raw!r} is not allowed: {msg.replace('Input should be ', 'use ')}"
+    elif t in ("greater_than", "greater_than_equal", "less_than", "less_than_equal"):
+        text = f"{raw!r} is out of range: {msg.replace('Input should be ', 'must be ')}"
+    elif t == "string_pattern_mismatch":
+        text = f"{raw!r}: use letters, digits, '_', '.' and '-' only"
+    elif t in ("too_short", "too_long"):
+        text = msg.replace("List should have", "give").replace("Value should have", "give")
+    elif msg.startswith("Value error, "):
+        text = msg[len("Value error, "):]
+    elif t.endswith("_type"):
+        text = f"{raw!r}: {msg.replace('Input should be', 'expected')}" if raw is not _MISSING \
+            else msg
+    else:
+        text = msg
+    key = ".".join(str(x) for x in loc) or None
+    return TorlabInputError(text, path=doc.path, line=doc.lines.line(loc), key=key)
+
+
+def _cross_check(lp: LoadedProtocol, doc: Any) -> list[TorlabInputError]:
+    """Problems the schema cannot see: dependencies between sections, scenes, names."""
+    p = lp.protocol
+    problems: list[TorlabInputError] = []
+
+    def err(keypath: tuple[Any, ...], message: str) -> None:
+        problems.append(doc.error(keypath, message))
+
+    d, f, r = p.data, p.fits, p.reports
+    measured_files = set(lp.data_files("optical")) | set(lp.data_files("mtm"))
+    if f.hpt_layers is not None and d.hpt is None:
+        err(("fits", "hpt_layers"), "fitting HPT layers needs data.hpt")
+    if f.lubricants and d.visc is None:
+        err(("fits", "lubricants"), "fitting lubricants needs data.visc (its calibration)")
+    visc_files = set(lp.data_files("visc"))
+    for i, lf in enumerate(f.lubricants):
+        if lf.measured.resolved not in visc_files:
+            err(("fits", "lubricants", i, "measured"),
+                f"{lf.measured.path} is not one of the files of data.visc")
+    names = [t.name for t in f.traction_layers]
+    for i, t in enumerate(f.traction_layers):
+        if names.index(t.name) != i:
+            err(("fits", "traction_layers", i, "name"), f"name {t.name!r} is used twice")
+        if t.measured.resolved not in measured_files:
+            err(("fits", "traction_layers", i, "measured"),
+                f"{t.measured.path} is not one of the files of data.optical or data.mtm")
+    lnames = [x.name for x in f.lubricants]
+    for i, x in enumerate(f.lubricants):
+        if lnames.index(x.name) != i:
+            err(("fits", "lubricants", i, "name"), f"name {x.name!r} is used twice")
+    if r.amount is not None and d.hpt is None:
+        err(("reports", "amount"), "the amount-dependency report needs data.hpt")
+    if r.time_test is not None and d.mtm is None:
+        err(("reports", "time_test"), "the time-test report needs data.mtm")
+    if all(getattr(r, k) is None for k in ("amount", "time_test", "traction", "stribeck", "film")):
+        err(("reports",), "no report requested (amount, time_test, traction, stribeck or film)")
+
+    def check_params(keypath: tuple[Any, ...], params: list[str]) -> None:
+        for j, ps in enumerate(params):
+            kind, _, name = ps.partition(":")
+            if kind == "hpt" and f.hpt_layers is None:
+                err((*keypath, j), f"{ps!r} needs fits.hpt_layers")
+            elif kind == "traction" and name not in names:
+                err((*keypath, j), f"{ps!r}: no fits.traction_layers entry named {name!r}")
+            elif kind == "lubricant" and name not in lnames:
+                err((*keypath, j), f"{ps!r}: no fits.lubricants entry named {name!r}")
+
+    def check_scene(keypath: tuple[Any, ...], refs: list[Any], *, lubricated: bool = False) -> None:
+        if not refs:
+            return
+        key = tuple(x.resolved for x in refs)
+        if key not in lp.scenes:
+            try:
+                lp.scenes[key] = _scene_dict(key)
+            except ValidationErrors as e:
+                problems.extend(e.problems)
+                lp.scenes[key] = {}
+                return
+            except TorlabInputError as e:
+                problems.append(e)
+                lp.scenes[key] = {}
+                return
+        sd = lp.scenes[key]
+        if lubricated and sd and "lubricant" not in sd:
+            err(keypath, "a Stribeck or film curve needs a lubricated scene (lubricant: section)")
+
+    for i, t in enumerate(f.traction_layers):
+        check_scene(("fits", "traction_layers", i, "scene"), t.scene)
+    for sec in ("traction", "stribeck", "film"):
+        rep = getattr(r, sec)
+        if rep is None:
+            continue
+        for i, c in enumerate(rep.curves):
+            kp = ("reports", sec, "curves", i)
+            check_params((*kp, "params"), c.params)
+            check_scene((*kp, "scene"), c.scene, lubricated=sec != "traction")
+            if c.params and not c.scene:
+                err((*kp, "params"), "parameter sets are applied to a scene: give scene:")
+            if c.measured is not None and c.measured.resolved not in measured_files:
+                err((*kp, "measured"),
+                    f"{c.measured.path} is not one of the files of data.optical or data.mtm")
+            if c.speeds == "measured" and c.measured is None:
+                err((*kp, "speeds"), "speeds: measured needs measured: (the file to take them from)")
+            if c.speeds is not None and sec != "traction":
+                err((*kp, "speeds"), "speeds is a traction-report key (the Stribeck report's "
+                    "speeds are reports.stribeck.speed)")
+            if "{set}" in c.label and "hpt:*" not in c.params:
+                err((*kp, "label"), "'{set}' in a label needs 'hpt:*' in params")
+    if r.stribeck is not None and r.stribeck.creepage is None:
+        for i, c in enumerate(r.stribeck.curves):
+            if c.scene and c.measured is None:
+                err(("reports", "stribeck", "curves", i),
+                    "give reports.stribeck.creepage (a modelled curve without a measured file "
+                    "has no SRR to take)")
+    if r.time_test is not None and r.time_test.initial_drop is not None:
+        idp = r.time_test.initial_drop
+        kp = ("reports", "time_test", "initial_drop")
+        check_params((*kp, "params"), idp.params)
+        check_scene((*kp, "scene"), idp.scene)
+        if "hpt:*" in idp.params:
+            err((*kp, "params"), "hpt:* makes one curve per product; name one product here")
+    return problems
+
+
+def _scene_dict(files: tuple[Path, ...]) -> dict[str, Any]:
+    """Merged scene dictionary of ``files`` (validated by :func:`torlab.scene.load_scene`)."""
+    from torlab.scene import load_scene
+
+    load_scene(*files)  # every problem with file, line and key
+    return merged_scene_data(files)
+
+
+def merged_scene_data(files: tuple[Path, ...] | list[Path]) -> dict[str, Any]:
+    """The raw merged dictionary of scene files (later files override earlier keys)."""
+    from torlab.yamlio import load_yaml
+
+    merged: dict[str, Any] = {}
+    for p in files:
+        deep_merge(merged, load_yaml(p).data or {})
+    return merged
+
+
+def deep_merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
+    """Merge ``over`` into ``base`` key by key (nested mappings merged, copies taken)."""
+    import copy
+
+    for k, v in over.items():
+        if isinstance(v, dict) and isinstance(base.get(k), dict):
+            deep_merge(base[k], v)
+        else:
+            base[k] = copy.deepcopy(v)
+    return base

@@ -1,0 +1,614 @@
+"""The test-protocol schema, version 1 (``docs/protocols.md`` documents every key).
+
+A protocol is a YAML file that describes an experimental campaign: which raw
+files of which instrument (``data:``), which parameters to identify from them
+(``fits:``), and which reports to write (``reports:``).  The models below are
+pydantic v2 models in strict mode with unknown keys forbidden: a misspelt key, a
+quantity in the wrong unit, a missing file or a wrong ``version`` is an error
+naming the file, line and key path, and every such problem is reported at once
+(:func:`torlab.protocols.loader.load_protocol`).
+
+Quantities are plain numbers in SI units or strings with a unit (``"20 um"``,
+``"4 s"``, ``"930 kg/m^3"``, ``"25 degC"``, ``"5 %"``); paths are relative to the
+protocol file and may be glob patterns (``../sample_data/hpt/hpt_*.txt``).
+"""
+
+from __future__ import annotations
+
+import glob
+import os
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    PrivateAttr,
+    ValidationInfo,
+    model_validator,
+)
+
+from torlab.errors import TorlabInputError
+
+__all__ = [
+    "PROTOCOL_VERSION",
+    "AmountReport",
+    "CurveSpec",
+    "Data",
+    "FileEntry",
+    "FilmReport",
+    "Fits",
+    "HptData",
+    "HptLayerFit",
+    "LubricantFit",
+    "MtmData",
+    "OpticalData",
+    "Product",
+    "Protocol",
+    "Reports",
+    "StribeckReport",
+    "TimeTestReport",
+    "TractionLayerFit",
+    "TractionReport",
+    "ViscData",
+]
+
+#: the protocol version this torlab reads
+PROTOCOL_VERSION = 1
+
+
+# --------------------------------------------------------------------------- quantities
+def _q(kind: str):
+    """Before-validator: a user quantity (number = SI, or string with unit) -> SI float."""
+
+    def conv(v: Any) -> Any:
+        from torlab.units import to_si
+
+        if v is None:
+            return v
+        try:
+            return to_si(v, kind)
+        except TorlabInputError as e:
+            raise ValueError(e.message) from None
+
+    return BeforeValidator(conv)
+
+
+Length = Annotated[float, _q("length")]
+Time = Annotated[float, _q("time")]
+Density = Annotated[float, _q("density")]
+Temperature = Annotated[float, _q("temperature")]
+Velocity = Annotated[float, _q("velocity")]
+Viscosity = Annotated[float, _q("viscosity")]
+Fraction = Annotated[float, _q("dimensionless")]
+
+
+def _amount(v: Any) -> Any:
+    """An applied amount: a volume (``4 uL``) or a mass (``4 mg``) -> ``(kind, SI value)``."""
+    from torlab.units import to_si
+
+    if isinstance(v, (int, float)) and not isinstance(v, bool):
+        raise ValueError(f"{v!r}: give the amount with its unit, e.g. '4 uL' or '4 mg'")
+    if not isinstance(v, str):
+        return v
+    for kind in ("volume", "mass"):
+        try:
+            return (kind, to_si(v, kind))
+        except TorlabInputError:
+            continue
+    raise ValueError(f"{v!r} is neither a volume (e.g. '4 uL') nor a mass (e.g. '4 mg')")
+
+
+Amount = Annotated[tuple[Literal["volume", "mass"], float], BeforeValidator(_amount)]
+
+
+def _grid_values(kind: str, *, positive: bool = False):
+    """Before-validator for a grid of values.
+
+    Accepts a list of quantities, ``"start:stop:count"`` (inclusive, linear, like
+    ``numpy.linspace``) or a mapping ``{from, to, points, spacing: linear|log}``.
+    """
+
+    def conv(v: Any) -> Any:
+        import numpy as np
+
+        from torlab.units import to_si
+
+        try:
+            if isinstance(v, str):
+                from torlab.cli._common import parse_values
+
+                vals = [float(x) for x in parse_values(v, kind, "grid")]
+            elif isinstance(v, list):
+                if not v:
+                    raise ValueError("empty list")
+                vals = [to_si(x, kind) for x in v]
+            elif isinstance(v, dict):
+                extra = set(v) - {"from", "to", "points", "spacing"}
+                if extra:
+                    raise ValueError(f"unknown key(s) {', '.join(sorted(map(str, extra)))} (a grid "
+                                     "has from, to, points, spacing)")
+                missing = [k for k in ("from", "to", "points") if k not in v]
+                if missing:
+                    raise ValueError(f"a grid needs {', '.join(missing)}")
+                a, b = to_si(v["from"], kind), to_si(v["to"], kind)
+                n = v["points"]
+                if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= 100_000:
+                    raise ValueError(f"points must be an integer 1-100000, got {n!r}")
+                spacing = v.get("spacing", "linear")
+                if spacing not in ("linear", "log"):
+                    raise ValueError(f"spacing {spacing!r}: use linear or log")
+                if spacing == "log":
+                    if a <= 0 or b <= 0:
+                        raise ValueError("a log-spaced grid needs positive from and to")
+                    vals = [float(x) for x in np.geomspace(a, b, n)]
+                else:
+                    vals = [float(x) for x in np.linspace(a, b, n)]
+            else:
+                raise ValueError("give a list of values, 'start:stop:count' or "
+                                 "{from, to, points, spacing}")
+        except TorlabInputError as e:
+            raise ValueError(e.message) from None
+        if positive and any(x <= 0 for x in vals):
+            raise ValueError("values must be positive")
+        return vals
+
+    return BeforeValidator(conv)
+
+
+# --------------------------------------------------------------------------- base
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", strict=True, frozen=True)
+
+
+def _base(info: ValidationInfo) -> Path:
+    ctx = info.context or {}
+    return Path(ctx.get("base", "."))
+
+
+_GLOB_CHARS = set("*?[")
+
+
+def resolve_paths(pattern: str, base: Path) -> list[Path]:
+    """Files named by ``pattern`` (relative to ``base``; glob characters allowed), sorted.
+
+    Raises
+    ------
+    ValueError
+        No such file, a folder, or a glob that matches nothing.
+    """
+    p = Path(os.path.expanduser(pattern))
+    full = p if p.is_absolute() else base / p
+    if _GLOB_CHARS & set(pattern):
+        hits = sorted(Path(h) for h in glob.glob(str(full)) if Path(h).is_file())
+        if not hits:
+            raise ValueError(f"no file matches {pattern!r} (looked in {full.parent})")
+        return hits
+    if not full.exists():
+        raise ValueError(f"file not found: {pattern} (looked for {full})")
+    if full.is_dir():
+        raise ValueError(f"{pattern} is a folder, expected a file")
+    return [full]
+
+
+def _file_entry(v: Any) -> Any:
+    return {"path": v} if isinstance(v, str) else v
+
+
+class FileEntry(_Model):
+    """One entry of a ``files:`` list: a path or glob, optionally with a label.
+
+    Written either as a plain string (``- ../data/run1.txt``) or as a mapping
+    (``- {path: ../data/run1.txt, label: base oil}``).
+    """
+
+    path: str = Field(min_length=1)
+    label: str = ""
+    _resolved: list[Path] = PrivateAttr(default_factory=list)
+
+    @model_validator(mode="after")
+    def _exists(self, info: ValidationInfo) -> FileEntry:
+        self._resolved = resolve_paths(self.path, _base(info))
+        if self.label and len(self._resolved) > 1:
+            raise ValueError(f"a label names one file, but {self.path!r} matches "
+                             f"{len(self._resolved)}")
+        return self
+
+    @property
+    def resolved(self) -> list[Path]:
+        """The files this entry names (absolute or relative to the working folder)."""
+        return list(self._resolved)
+
+
+File = Annotated[FileEntry, BeforeValidator(_file_entry)]
+
+
+class PathRef(_Model):
+    """A single existing file (scene files, references)."""
+
+    path: str = Field(min_length=1)
+    _resolved: Path | None = PrivateAttr(default=None)
+
+    @model_validator(mode="after")
+    def _exists(self, info: ValidationInfo) -> PathRef:
+        if _GLOB_CHARS & set(self.path):
+            raise ValueError(f"{self.path!r}: give one file here, not a pattern")
+        self._resolved = resolve_paths(self.path, _base(info))[0]
+        return self
+
+    @property
+    def resolved(self) -> Path:
+        """The file."""
+        assert self._resolved is not None
+        return self._resolved
+
+
+Ref = Annotated[PathRef, BeforeValidator(_file_entry)]
+
+
+def _listify(v: Any) -> Any:
+    return [v] if isinstance(v, (str, dict)) else v
+
+
+# --------------------------------------------------------------------------- products
+class Product(_Model):
+    """``products.<name>``: properties of a product named in the logs.
+
+    The name is the log's ``product`` (HPT header), or ``product-condition`` for
+    one condition of it (``WFM-dry``); a plain product name covers every
+    condition.
+    """
+
+    label: str = ""
+    type: str = ""
+    density: Density | None = Field(default=None, gt=0)
+
+
+# --------------------------------------------------------------------------- data
+class HptData(_Model):
+    """``data.hpt``: high-pressure torsion logs (:func:`torlab.reduce.hpt.reduce_hpt`)."""
+
+    files: Annotated[list[File], BeforeValidator(_listify)] = Field(min_length=1)
+    compliance: str | None = None
+    window: Length = Field(default=20e-6, gt=0)
+    source: Literal["auto", "motor", "encoder"] = "auto"
+    _compliance: tuple[str, Any] | None = PrivateAttr(default=None)
+
+    @model_validator(mode="after")
+    def _comp(self, info: ValidationInfo) -> HptData:
+        c = self.compliance
+        if c is None:
+            return self
+        from torlab.units import to_si
+
+        try:
+            self._compliance = ("value", to_si(c, "compliance"))
+            if self._compliance[1] < 0:
+                raise ValueError("the rig compliance must not be negative")
+            return self
+        except TorlabInputError:
+            pass
+        try:
+            self._compliance = ("file", resolve_paths(c, _base(info))[0])
+        except ValueError as e:
+            raise ValueError(f"compliance: neither a compliance like '0.012 um/MPa' nor a "
+                             f"file ({e})") from None
+        return self
+
+    @property
+    def compliance_spec(self) -> tuple[str, Any] | None:
+        """``("file", Path)``, ``("value", m/Pa)`` or None."""
+        return self._compliance
+
+
+class TimeTestOptions(_Model):
+    """``data.mtm.time_test``: options of :func:`torlab.reduce.mtm.time_test_metrics`."""
+
+    threshold: Fraction = Field(default=0.15, ge=0, lt=10)
+    recovery_fraction: Fraction = Field(default=0.9, gt=0, le=1)
+    recovery_level: Fraction | None = None
+    smooth: Time = Field(default=10.0, ge=0)
+    min_drop: Fraction = Field(default=0.05, ge=0)
+    min_rise: Fraction = Field(default=0.03, ge=0)
+    tail: Time = Field(default=120.0, gt=0)
+    duration: Time | None = Field(default=None, gt=0)
+    application_time: Time | None = Field(default=None, ge=0)
+
+    def options(self) -> dict[str, Any]:
+        """Keyword arguments for :func:`~torlab.reduce.mtm.time_test_metrics`."""
+        return {k: v for k, v in self.model_dump().items() if v is not None}
+
+
+class MtmData(_Model):
+    """``data.mtm``: PCS Instruments MTM/ETM/EHD2 exports (:func:`torlab.reduce.mtm.reduce_pcs`)."""
+
+    files: Annotated[list[File], BeforeValidator(_listify)] = Field(min_length=1)
+    instrument: Literal["MTM", "ETM", "EHD2"] | None = None
+    time_test: TimeTestOptions = TimeTestOptions()
+
+
+class OpticalData(_Model):
+    """``data.optical``: optical tribometer logs or EHD2 exports (:mod:`torlab.reduce.optical`)."""
+
+    files: Annotated[list[File], BeforeValidator(_listify)] = Field(min_length=1)
+    window: Time = Field(default=4.0, gt=0)
+    symmetry_tolerance: Fraction = Field(default=0.10, ge=0)
+    symmetry_abs: Fraction = Field(default=0.005, ge=0)
+
+
+class ViscData(_Model):
+    """``data.visc``: falling-body viscometer logs (:mod:`torlab.reduce.viscometer`)."""
+
+    files: Annotated[list[File], BeforeValidator(_listify)] = Field(min_length=1)
+    reference: Annotated[list[File], BeforeValidator(_listify)] = []
+    calibration_constant: str | None = None
+    tol: Fraction = Field(default=0.02, gt=0, lt=1)
+    density_model: Literal["constant", "dowson-higginson"] | None = None
+    eta0: Viscosity | None = Field(default=None, gt=0)
+    fit_eta0: bool = False
+    confidence: Fraction = Field(default=0.95, gt=0, lt=1)
+
+    @model_validator(mode="after")
+    def _cal(self) -> ViscData:
+        if self.reference and self.calibration_constant is not None:
+            raise ValueError("give either reference or calibration_constant, not both")
+        if self.calibration_constant is not None:
+            from torlab.parsers.viscometer import parse_calibration_constant
+
+            try:
+                parse_calibration_constant(self.calibration_constant)
+            except TorlabInputError as e:
+                raise ValueError(f"calibration_constant: {e.message}") from None
+        return self
+
+
+class Data(_Model):
+    """``data:``: the raw files, one section per instrument."""
+
+    hpt: HptData | None = None
+    mtm: MtmData | None = None
+    optical: OpticalData | None = None
+    visc: ViscData | None = None
+
+
+# --------------------------------------------------------------------------- fits
+class HptLayerFit(_Model):
+    """``fits.hpt_layers``: the third-body layer of every product from its HPT curves.
+
+    Runs at one of ``amounts`` (a product without an applied amount, such as the
+    dry reference, always qualifies) and at ``temperature`` are fitted
+    (:func:`torlab.fit.layer.fit_layer_hpt`); with ``temperature_coefficients``
+    the runs of the same amount at other temperatures give ``mu_c1_T``,
+    ``mu_c2_T`` (:func:`torlab.fit.temperature.fit_temperature_coefficients`).
+    The results are parameter sets named ``hpt:<product>``.
+    """
+
+    amounts: Annotated[list[Amount], BeforeValidator(_listify)] = Field(min_length=1)
+    temperature: Temperature = 25.0
+    temperature_tolerance: Annotated[float, _q("temperature")] = Field(default=2.0, gt=0)
+    joint: bool = False
+    temperature_coefficients: bool = True
+    products: list[str] = []
+
+
+class TractionLayerFit(_Model):
+    """``fits.traction_layers[]``: a layer fitted to a measured traction curve.
+
+    ``measured`` names one of the optical or MTM files; ``scene`` the contact
+    (its ``boundary:`` is the initial guess).  The result is the parameter set
+    ``traction:<name>``.
+    """
+
+    name: str = Field(min_length=1, pattern=r"^[A-Za-z0-9_.\-]+$")
+    measured: Ref
+    scene: Annotated[list[Ref], BeforeValidator(_listify)] = Field(min_length=1)
+
+
+class LubricantFit(_Model):
+    """``fits.lubricants[]``: a viscosity law from a viscometer log (``lubricant:<name>``)."""
+
+    name: str = Field(min_length=1, pattern=r"^[A-Za-z0-9_.\-]+$")
+    measured: Ref
+    law: Literal["barus", "roelands"] = "roelands"
+
+
+class Fits(_Model):
+    """``fits:``: parameter identification; every result is a named parameter set."""
+
+    hpt_layers: HptLayerFit | None = None
+    traction_layers: list[TractionLayerFit] = []
+    lubricants: list[LubricantFit] = []
+
+
+# --------------------------------------------------------------------------- reports
+Creepages = Annotated[list[float], _grid_values("dimensionless")]
+Speeds = Annotated[list[float], _grid_values("velocity", positive=True)]
+
+
+def _speeds_or_measured(v: Any) -> Any:
+    if v is None or v == "measured":
+        return v
+    return _grid_values("velocity", positive=True).func(v)
+
+
+SpeedsOrMeasured = Annotated[Any, BeforeValidator(_speeds_or_measured)]
+
+
+def _check_params(v: list[str]) -> list[str]:
+    for p in v:
+        kind, _, name = p.partition(":")
+        if kind not in ("hpt", "traction", "lubricant") or not name:
+            raise ValueError(f"{p!r}: write hpt:<product>, hpt:*, traction:<name> or "
+                             "lubricant:<name>")
+    if sum(p == "hpt:*" for p in v) > 1:
+        raise ValueError("hpt:* may appear once")
+    return v
+
+
+ParamSets = Annotated[list[str], AfterValidator(_check_params)]
+
+
+def _pair(v: Any) -> Any:
+    if isinstance(v, list):
+        if len(v) != 2:
+            raise ValueError(f"give two values [low, high], got {len(v)}")
+        return tuple(v)
+    return v
+
+
+Band = Annotated[tuple[Fraction, Fraction], BeforeValidator(_pair)]
+
+
+class CurveSpec(_Model):
+    """One modelled (and/or measured) curve of a traction, Stribeck or film report.
+
+    Attributes
+    ----------
+    label
+        Legend and file-name label; ``{set}`` is replaced by the parameter-set
+        name when ``params`` expands ``hpt:*``.
+    scene
+        Scene file(s), later files overriding earlier ones (``torlab predict``).
+    params
+        Fitted parameter sets applied on top of the scene, in order:
+        ``hpt:<product>``, ``hpt:*`` (one curve per product), ``traction:<name>``,
+        ``lubricant:<name>``.
+    speeds
+        Traction: rolling speeds (each a curve), overriding the scene's; or
+        ``measured`` for the speeds of the measured file.
+    measured
+        One of the protocol's optical or MTM files, drawn as points.
+    """
+
+    label: str = Field(min_length=1)
+    scene: Annotated[list[Ref], BeforeValidator(_listify)] = []
+    params: ParamSets = []
+    speeds: SpeedsOrMeasured = None
+    measured: Ref | None = None
+
+    @model_validator(mode="after")
+    def _something(self) -> CurveSpec:
+        if not self.scene and self.measured is None:
+            raise ValueError("a curve needs a scene (to model) or a measured file (or both)")
+        return self
+
+
+class TractionReport(_Model):
+    """``reports.traction``: mu against creepage, modelled and/or measured; trend (H4.1)."""
+
+    creepage: Creepages = Field(default_factory=lambda: [i * 0.001 for i in range(51)])
+    trend_tolerance: Fraction = Field(default=0.01, gt=0)
+    band: Band | None = None
+    curves: list[CurveSpec] = Field(min_length=1)
+
+
+class StribeckReport(_Model):
+    """``reports.stribeck``: mu against rolling speed and Lambda, regimes, asperity load share."""
+
+    speed: Speeds = Field(default_factory=lambda: [0.01 * (300.0 ** (i / 39)) for i in range(40)])
+    creepage: Fraction | None = None
+    curves: list[CurveSpec] = Field(min_length=1)
+
+
+class FilmReport(_Model):
+    """``reports.film``: film thickness against rolling speed, speed exponent, model."""
+
+    min_speed: Velocity = Field(default=0.0, ge=0)
+    curves: list[CurveSpec] = Field(min_length=1)
+
+
+class AmountReport(_Model):
+    """``reports.amount``: friction against applied amount per product (Paper C).
+
+    Attributes
+    ----------
+    temperature
+        Runs at this temperature (within ``temperature_tolerance``) form the
+        series; default 25 degC.
+    band
+        Optimal friction band (default 0.15-0.25, thesis chapter 6).
+    threshold
+        Low-friction threshold whose crossing amount is reported (default 0.15).
+    basis
+        x axis of the cross-product comparison: ``mass`` (mg, volumes times the
+        product density) or ``amount`` (as applied).
+    curve
+        ``logistic``: a four-parameter logistic curve in log amount, fitted per
+        product, gives the crossing and its interval; ``interpolation``:
+        log-linear interpolation between the bracketing runs (no interval).
+    confidence
+        Level of the crossing intervals.
+    products
+        Products to include (default: every product with an applied amount).
+    """
+
+    temperature: Temperature = 25.0
+    temperature_tolerance: Annotated[float, _q("temperature")] = Field(default=2.0, gt=0)
+    band: Band = (0.15, 0.25)
+    threshold: Fraction = Field(default=0.15, gt=0)
+    basis: Literal["mass", "amount"] = "mass"
+    curve: Literal["logistic", "interpolation"] = "logistic"
+    confidence: Fraction = Field(default=0.95, gt=0, lt=1)
+    products: list[str] = []
+
+    @model_validator(mode="after")
+    def _band(self) -> AmountReport:
+        if not self.band[0] < self.band[1]:
+            raise ValueError(f"band: the lower limit {self.band[0]:g} must be below the upper "
+                             f"{self.band[1]:g}")
+        return self
+
+
+class InitialDrop(_Model):
+    """``reports.time_test.initial_drop``: the modelled coefficient at the test's SRR.
+
+    ``creepage`` defaults to the median SRR of each timed step after the
+    application.
+    """
+
+    scene: Annotated[list[Ref], BeforeValidator(_listify)] = Field(min_length=1)
+    params: ParamSets = []
+    creepage: Fraction | None = None
+
+
+class TimeTestReport(_Model):
+    """``reports.time_test``: time tests after application (Paper B, thesis Fig. 5.9)."""
+
+    band: Band = (0.15, 0.25)
+    initial_drop: InitialDrop | None = None
+
+
+class Reports(_Model):
+    """``reports:``: the analyses to write (each needs its data; see docs/protocols.md)."""
+
+    amount: AmountReport | None = None
+    time_test: TimeTestReport | None = None
+    traction: TractionReport | None = None
+    stribeck: StribeckReport | None = None
+    film: FilmReport | None = None
+
+
+# --------------------------------------------------------------------------- protocol
+class Protocol(_Model):
+    """A whole protocol (``version: 1``)."""
+
+    version: Literal[1]
+    name: str = Field(min_length=1, pattern=r"^[A-Za-z0-9_.\-]+$")
+    title: str = ""
+    description: str = ""
+    products: dict[str, Product] = {}
+    data: Data
+    fits: Fits = Fits()
+    reports: Reports = Reports()
+
+    @model_validator(mode="after")
+    def _anything(self) -> Protocol:
+        d = self.data
+        if all(getattr(d, k) is None for k in ("hpt", "mtm", "optical", "visc")) and not (
+                self.reports.traction or self.reports.stribeck or self.reports.film):
+            raise ValueError("nothing to do: give data (hpt, mtm, optical, visc) or a model-only "
+                             "report (traction, stribeck, film)")
+        return self

@@ -1,0 +1,421 @@
+"""Amount-dependency report (Paper C): friction against applied amount per product.
+
+For every product the HPT runs at one temperature form a series of the friction
+``f`` (mean over the window before the maximum displacement, thesis Fig. 5.10)
+against the applied amount (µl for liquids, mg for solids).  The report gives
+
+* ``f`` against the amount as applied and against the applied *mass* (volume x
+  product density), so liquid and solid products compare on one axis;
+* the optimal band (0.15-0.25 by default, thesis chapter 6) and the
+  low-friction threshold (0.15 by default);
+* the amount at which each product's friction falls below the threshold, with
+  a confidence interval.
+
+Crossing estimate (``curve: logistic``, the default): per product a
+four-parameter logistic in log amount,
+``f(x) = f_low + (f_high - f_low) / (1 + exp(k (x - c)))``, ``x = ln amount``,
+fitted by least squares (``scipy.optimize.least_squares``).  Its crossing is
+``ln A* = c + ln((f_high - f_low)/(thr - f_low) - 1) / k``.  The residual
+variance is pooled over the products (the run-to-run scatter of the test
+method; a five-amount series alone leaves one degree of freedom), and the
+interval is the delta method on ``ln A*`` with Student's t on the pooled
+degrees of freedom, so it is asymmetric in ``A*``.  A crossing is reported only
+where the measured series brackets the threshold (no extrapolation).
+``curve: interpolation`` interpolates ``f`` linearly in ``ln amount`` between
+the two runs bracketing the threshold (no interval).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from torlab.reports.html import Figure, Section, Table
+from torlab.reports.plotting import subplots
+
+__all__ = ["CrossingFit", "amount_section", "amount_series", "fit_crossings", "logistic"]
+
+UL = 1e-9  # m^3 per µl
+MG = 1e-6  # kg per mg
+
+
+def logistic(x: np.ndarray, f_low: float, f_high: float, k: float, c: float) -> np.ndarray:
+    """Four-parameter logistic in ``x = ln amount`` (decreasing for ``k > 0``)."""
+    from scipy.special import expit
+
+    return f_low + (f_high - f_low) * expit(-k * (np.asarray(x, dtype=float) - c))
+
+
+def amount_series(results: list[Any], products: dict[str, Any], *, temperature: float,
+                  temperature_tolerance: float, only: list[str] | None = None) -> Any:
+    """The amount series: one row per HPT run with an applied amount at ``temperature``.
+
+    Parameters
+    ----------
+    results
+        :class:`torlab.reduce.hpt.HptResult` of every run.
+    products
+        The protocol's ``products:`` (name -> :class:`~torlab.protocols.schema.Product`);
+        a ``product-condition`` key wins over the plain product name.
+    temperature, temperature_tolerance
+        Runs within ``temperature ± tolerance`` (degC) are used; runs without a
+        logged temperature are used too.
+    only
+        Products (labels) to keep; default all.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``product`` (with condition), ``file``, ``applied_amount`` (in its unit),
+        ``applied_amount_unit``, ``amount_kind`` (volume/mass), ``density_kg_m3``,
+        ``mass_mg``, ``f``, ``f_sd``, ``temperature_C``, ``product_type``,
+        ``product_label`` (``products.<name>.label``, else the product).
+    """
+    import pandas as pd
+
+    rows = []
+    for r in results:
+        m = r.meta
+        if m.applied_amount is None:
+            continue
+        T = m.temperature
+        if T is not None and abs(T - temperature) > temperature_tolerance:
+            continue
+        label = m.product + (f"-{m.condition}" if m.condition else "")
+        if only and label not in only and m.product not in only:
+            continue
+        cfg = products.get(label) or products.get(m.product)
+        dens = cfg.density if cfg is not None and cfg.density is not None else m.product_density
+        if m.applied_amount_kind == "mass":
+            mass_mg = m.applied_amount / MG
+        elif dens is not None:
+            mass_mg = m.applied_amount * dens / MG
+        else:
+            mass_mg = float("nan")
+        rows.append({
+            "product": label, "file": r.meta.source.rsplit("/", 1)[-1],
+            "applied_amount": float(m.applied_amount_value),
+            "applied_amount_unit": m.applied_amount_unit, "amount_kind": m.applied_amount_kind,
+            "density_kg_m3": float(dens) if dens is not None else float("nan"),
+            "mass_mg": float(mass_mg), "f": float(r.f_window), "f_sd": float(r.f_window_std),
+            "temperature_C": float(T) if T is not None else float("nan"),
+            "product_type": (cfg.type if cfg is not None and cfg.type else m.product_type) or "",
+            "product_label": (cfg.label if cfg is not None and cfg.label else label),
+        })
+    df = pd.DataFrame(rows)
+    if len(df):
+        df = df.sort_values(["product", "applied_amount"], kind="stable").reset_index(drop=True)
+    return df
+
+
+@dataclass
+class CrossingFit:
+    """One product's amount-dependency fit and threshold crossing."""
+
+    product: str
+    unit: str
+    n: int
+    method: str
+    params: dict[str, float] = field(default_factory=dict)
+    cov: Any = None
+    crossing: float = float("nan")
+    crossing_low: float = float("nan")
+    crossing_high: float = float("nan")
+    status: str = ""
+    band_low_amount: float = float("nan")
+    band_high_amount: float = float("nan")
+    notes: list[str] = field(default_factory=list)
+
+
+def _ln_crossing(p: dict[str, float], level: float) -> float:
+    fl, fh, k, c = p["f_low"], p["f_high"], p["k"], p["c"]
+    q = (fh - fl) / (level - fl) - 1.0
+    return c + math.log(q) / k
+
+
+def _ln_crossing_grad(p: dict[str, float], level: float) -> np.ndarray:
+    fl, fh, k = p["f_low"], p["f_high"], p["k"]
+    q = (fh - fl) / (level - fl) - 1.0
+    d_fh = 1.0 / (k * q * (level - fl))
+    d_fl = (fh - level) / (k * q * (level - fl) ** 2)
+    d_k = -math.log(q) / k**2
+    return np.array([d_fl, d_fh, d_k, 1.0])
+
+
+def _interp_crossing(x: np.ndarray, f: np.ndarray, level: float) -> float:
+    """ln amount where ``f`` first falls below ``level`` (linear in ln amount), NaN if never."""
+    for i in range(len(x) - 1):
+        if f[i] >= level > f[i + 1]:
+            return float(x[i] + (level - f[i]) * (x[i + 1] - x[i]) / (f[i + 1] - f[i]))
+    return float("nan")
+
+
+def fit_crossings(series: Any, *, threshold: float, band: tuple[float, float],
+                  curve: str = "logistic", confidence: float = 0.95) -> list[CrossingFit]:
+    """Threshold crossing per product (see the module docstring).
+
+    A product whose series does not cross the threshold gets no logistic fit
+    (``method = "none"``); a logistic fit that does not converge or ends at a
+    bound of ``k`` or ``c`` falls back to interpolation, and says so in its notes.
+    """
+    from scipy.optimize import least_squares
+
+    fits: list[CrossingFit] = []
+    jacs: dict[str, Any] = {}
+    ss, dof = 0.0, 0
+    for prod, g in series.groupby("product", sort=False):
+        g = g.sort_values("applied_amount")
+        a = g["applied_amount"].to_numpy(dtype=float)
+        f = g["f"].to_numpy(dtype=float)
+        x = np.log(a)
+        unit = str(g["applied_amount_unit"].iloc[0])
+        cf = CrossingFit(product=str(prod), unit=unit, n=len(a), method=curve)
+        if f.max() < threshold:
+            cf.status = "below threshold at every amount"
+        elif f[-1] >= threshold and f.min() >= threshold:
+            cf.status = "above threshold at every amount"
+        else:
+            cf.status = "crosses"
+        lin = _interp_crossing(x, f, threshold)
+        if curve == "logistic" and cf.status != "crosses":
+            cf.method = "none"
+        elif curve == "logistic" and len(a) >= 5 and np.ptp(x) > 0:
+            x0 = [float(f.min()), float(f.max()), 2.0, float(np.mean(x))]
+            lo = [0.0, 0.0, 0.05, float(x.min()) - 3.0]
+            hi = [2.0, 2.0, 30.0, float(x.max()) + 3.0]
+            x0 = np.clip(x0, np.array(lo) + 1e-9, np.array(hi) - 1e-9)
+            sol = least_squares(lambda p, x=x, f=f: logistic(x, *p) - f, x0, bounds=(lo, hi),
+                                x_scale=[0.1, 0.1, 1.0, 1.0], xtol=1e-12, ftol=1e-12,
+                                gtol=1e-12, max_nfev=5000)
+            if not sol.success:
+                cf.notes.append(f"{prod}: the logistic fit did not converge ({sol.message}); "
+                                "crossing by interpolation")
+                cf.method = "interpolation"
+                fits.append(_finish(cf, x, f, a, lin, threshold, band))
+                continue
+            cf.params = dict(zip(("f_low", "f_high", "k", "c"), map(float, sol.x), strict=True))
+            at_bound = [n for n, v, lb, ub in zip(cf.params, sol.x, lo, hi, strict=True)
+                        if n != "f_low" and n != "f_high" and (abs(v - lb) < 1e-6 or abs(v - ub) < 1e-6)]
+            if at_bound:
+                cf.notes.append(f"{prod}: logistic parameter(s) {', '.join(at_bound)} at their "
+                                "bound: the series does not determine the curve; crossing by "
+                                "interpolation")
+                cf.method = "interpolation"
+            else:
+                jacs[cf.product] = sol.jac
+                ss += float(sol.fun @ sol.fun)
+                dof += len(a) - 4
+        elif curve == "logistic":
+            cf.notes.append(f"{prod}: fewer than 5 amounts, crossing by interpolation")
+            cf.method = "interpolation"
+        fits.append(_finish(cf, x, f, a, lin, threshold, band))
+    _intervals(fits, jacs, ss, dof, threshold, confidence)
+    return fits
+
+
+def _finish(cf: CrossingFit, x: np.ndarray, f: np.ndarray, a: np.ndarray, lin: float,
+            threshold: float, band: tuple[float, float]) -> CrossingFit:
+    """Crossing and band amounts of one product from its fit (or interpolation)."""
+    p = cf.params
+    if cf.status == "crosses" and cf.method == "logistic":
+        if p["f_low"] < threshold < p["f_high"]:
+            cf.crossing = math.exp(_ln_crossing(p, threshold))
+        if not (a.min() <= cf.crossing <= a.max()):
+            cf.notes.append(f"{cf.product}: the logistic crossing lies outside the tested "
+                            "amounts; crossing by interpolation")
+            cf.method = "interpolation"
+    if cf.status == "crosses" and cf.method == "interpolation":
+        cf.crossing = math.exp(lin) if math.isfinite(lin) else float("nan")
+    for level, attr in ((band[1], "band_low_amount"), (band[0], "band_high_amount")):
+        if cf.method == "logistic":
+            if p["f_low"] < level < p["f_high"]:
+                v = math.exp(_ln_crossing(p, level))
+                if a.min() <= v <= a.max():
+                    setattr(cf, attr, v)
+        else:
+            v = _interp_crossing(x, f, level)
+            if math.isfinite(v):
+                setattr(cf, attr, math.exp(v))
+    return cf
+
+
+def _intervals(fits: list[CrossingFit], jacs: dict[str, Any], ss: float, dof: int,
+               threshold: float, confidence: float) -> None:
+    """Pooled residual variance -> delta-method intervals on ln A*."""
+    from scipy.stats import t as student
+
+    if dof >= 1:
+        s2 = ss / dof
+        tq = float(student.ppf(0.5 + confidence / 2, dof))
+        for cf in fits:
+            if cf.product not in jacs:
+                continue
+            J = jacs[cf.product]
+            try:
+                cov = np.linalg.inv(J.T @ J) * s2
+            except np.linalg.LinAlgError:
+                cf.notes.append(f"{cf.product}: singular fit, no interval")
+                continue
+            cf.cov = cov
+            if cf.status == "crosses" and cf.method == "logistic" and math.isfinite(cf.crossing):
+                gr = _ln_crossing_grad(cf.params, threshold)
+                se = math.sqrt(max(float(gr @ cov @ gr), 0.0))
+                lc = math.log(cf.crossing)
+                cf.crossing_low, cf.crossing_high = math.exp(lc - tq * se), math.exp(lc + tq * se)
+    elif any(cf.method == "logistic" for cf in fits):
+        for cf in fits:
+            cf.notes.append(f"{cf.product}: no residual degrees of freedom, no interval")
+
+
+def _mass_factor(series: Any, product: str) -> float:
+    """mg per unit of the product's applied amount (NaN without a density)."""
+    g = series[series["product"] == product]
+    r = g.iloc[0]
+    if r["amount_kind"] == "mass":
+        return 1.0 if r["applied_amount_unit"] == "mg" else float(g["mass_mg"].iloc[0] /
+                                                                  g["applied_amount"].iloc[0])
+    return float(r["mass_mg"] / r["applied_amount"]) if math.isfinite(r["mass_mg"]) else float("nan")
+
+
+def amount_section(series: Any, cfg: Any) -> Section:
+    """The amount-dependency report (figures, tables, key numbers) of an amount series.
+
+    Parameters
+    ----------
+    series
+        From :func:`amount_series`.
+    cfg
+        The protocol's ``reports.amount`` (:class:`~torlab.protocols.schema.AmountReport`).
+    """
+    import pandas as pd
+
+    from torlab.errors import TorlabInputError
+
+    if series is None or len(series) == 0:
+        raise TorlabInputError(
+            f"reports.amount: no HPT run with an applied amount at {cfg.temperature:g} ± "
+            f"{cfg.temperature_tolerance:g} °C", key="reports.amount")
+    band, thr = tuple(cfg.band), cfg.threshold
+    fits = fit_crossings(series, threshold=thr, band=band, curve=cfg.curve,
+                         confidence=cfg.confidence)
+    rows, key = [], {}
+    notes: list[str] = []
+    for cf in fits:
+        mf = _mass_factor(series, cf.product)
+        ptype = str(series.loc[series["product"] == cf.product, "product_type"].iloc[0])
+        row = {
+            "product": cf.product, "product_type": ptype, "n_amounts": cf.n,
+            "amount_unit": cf.unit, "status": cf.status, "method": cf.method,
+            "crossing_amount": cf.crossing, "crossing_amount_low": cf.crossing_low,
+            "crossing_amount_high": cf.crossing_high,
+            "crossing_mass_mg": cf.crossing * mf, "crossing_mass_low_mg": cf.crossing_low * mf,
+            "crossing_mass_high_mg": cf.crossing_high * mf,
+            "band_amount_from": cf.band_low_amount, "band_amount_to": cf.band_high_amount,
+            "mg_per_unit": mf,
+        }
+        for n in ("f_low", "f_high", "k", "c"):
+            row[f"logistic_{n}"] = cf.params.get(n, float("nan"))
+        rows.append(row)
+        notes += cf.notes
+        key[cf.product] = {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+                           for k, v in row.items() if k != "product"}
+    table = pd.DataFrame(rows)
+    num_optional = tuple(c for c in table.columns if c not in ("product", "n_amounts"))
+    lev = f"{100 * cfg.confidence:g} %"
+    paragraphs = [
+        f"HPT friction f (mean over the window before the maximum displacement, thesis "
+        f"Fig. 5.10) against the applied amount at {cfg.temperature:g} °C, per product. "
+        f"Optimal band {band[0]:g}–{band[1]:g}; low-friction threshold {thr:g}.",
+        ("Crossing of the threshold: four-parameter logistic in log amount per product, "
+         f"residual variance pooled over the products, {lev} delta-method interval on the "
+         "log crossing amount (Student t on the pooled degrees of freedom). Reported only "
+         "where the measured series brackets the threshold.")
+        if cfg.curve == "logistic" else
+        "Crossing of the threshold: linear interpolation in log amount between the "
+        "bracketing runs (no interval).",
+        "Mass basis: volumes times the product density (protocol products: or the log's "
+        "product_density); solids as applied.",
+    ]
+    for r in rows:
+        if r["status"] != "crosses" or not math.isfinite(r["crossing_amount"]):
+            paragraphs.append(f"{r['product']}: {r['status']} (no crossing reported).")
+            continue
+        iv = "" if not math.isfinite(r["crossing_amount_low"]) else \
+            f" [{r['crossing_amount_low']:.3g}, {r['crossing_amount_high']:.3g}]"
+        ms = "" if not math.isfinite(r["crossing_mass_mg"]) else f" = {r['crossing_mass_mg']:.3g} mg"
+        paragraphs.append(f"{r['product']}: f falls below {thr:g} at {r['crossing_amount']:.3g}"
+                          f"{iv} {r['amount_unit']}{ms} ({r['method']}).")
+    figs = [Figure("amount_applied", _figure(series, fits, cfg, mass=False),
+                   "Friction f against the applied amount (µl for liquids, mg for solids) with "
+                   "the fitted curves, the optimal band and the threshold crossings"),]
+    missing = sorted(set(series.loc[series["mass_mg"].isna(), "product"]))
+    if cfg.basis == "mass" and series["mass_mg"].notna().any():
+        figs.append(Figure("amount_mass", _figure(series, fits, cfg, mass=True),
+                           "Mass-based comparison across product types: f against applied mass"))
+        if missing:
+            notes.append(f"no density for {', '.join(missing)}: left out of the mass comparison "
+                         "(give products.<name>.density)")
+    elif cfg.basis == "mass":
+        notes.append("no product density known: no mass-based comparison")
+    show = {"product": ("product", ""), "status": ("status", ""),
+            "crossing": ("crossing_amount", ".3g"), f"{lev} low": ("crossing_amount_low", ".3g"),
+            f"{lev} high": ("crossing_amount_high", ".3g"), "unit": ("amount_unit", ""),
+            "crossing (mg)": ("crossing_mass_mg", ".3g"),
+            "in band from": ("band_amount_from", ".3g"), "in band to": ("band_amount_to", ".3g")}
+    series_show = {"product": ("product", ""), "amount": ("applied_amount", "g"),
+                   "unit": ("applied_amount_unit", ""), "mass (mg)": ("mass_mg", ".3g"),
+                   "f": ("f", ".4f"), "sd": ("f_sd", ".4f"), "file": ("file", "")}
+    summary = {
+        "temperature_C": cfg.temperature, "band": list(band), "threshold": thr,
+        "curve": cfg.curve, "confidence": cfg.confidence, "n_runs": len(series),
+        "products": key,
+        "f_by_run": {f"{r.product} {r.applied_amount:g} {r.applied_amount_unit}": float(r.f)
+                     for r in series.itertuples()},
+    }
+    return Section(
+        key="amount", title="Amount dependency (Paper C)", paragraphs=paragraphs, figures=figs,
+        tables=[Table("crossings", table, "Threshold crossing per product", show,
+                      allow_missing=num_optional),
+                Table("series", series, "Amount series (one HPT run per row)", series_show,
+                      allow_missing=("temperature_C", "density_kg_m3", "mass_mg"))],
+        summary=summary, notes=notes)
+
+
+def _figure(series: Any, fits: list[CrossingFit], cfg: Any, *, mass: bool) -> Any:
+    fig, ax = subplots(figsize=(8.0, 5.0))
+    band, thr = cfg.band, cfg.threshold
+    ax.axhspan(band[0], band[1], color="#d9ead3", alpha=0.7, lw=0,
+               label=f"optimal band {band[0]:g}–{band[1]:g}")
+    ax.axhline(thr, color="C3", ls="--", lw=1.0, label=f"low-friction threshold {thr:g}")
+    for i, cf in enumerate(fits):
+        g = series[series["product"] == cf.product].sort_values("applied_amount")
+        mf = _mass_factor(series, cf.product) if mass else 1.0
+        if not math.isfinite(mf):
+            continue
+        a = g["applied_amount"].to_numpy(dtype=float)
+        color = f"C{i % 10}"
+        unit = "" if mass else f" ({cf.unit})"
+        ax.errorbar(a * mf, g["f"], yerr=g["f_sd"], fmt="o", ms=5, color=color, capsize=2,
+                    label=f"{cf.product}{unit}")
+        if cf.params and cf.method == "logistic":
+            xs = np.geomspace(a.min(), a.max(), 100)
+            ax.plot(xs * mf, logistic(np.log(xs), **cf.params), color=color, lw=1.2)
+        else:
+            ax.plot(a * mf, g["f"], color=color, lw=0.8, alpha=0.6)
+        if math.isfinite(cf.crossing):
+            lo = cf.crossing - cf.crossing_low if math.isfinite(cf.crossing_low) else 0.0
+            hi = cf.crossing_high - cf.crossing if math.isfinite(cf.crossing_high) else 0.0
+            ax.errorbar([cf.crossing * mf], [thr], xerr=[[lo * mf], [hi * mf]], fmt="D", ms=6,
+                        color=color, mfc="white", capsize=3)
+    ax.set_xscale("log")
+    ax.set_xlabel("applied mass (mg)" if mass else "applied amount (µl for liquids, mg for solids)")
+    ax.set_ylabel("friction coefficient f (–)")
+    ax.set_ylim(bottom=0)
+    ax.legend(loc="upper right", fontsize=7)
+    ax.set_title(("Mass-based comparison" if mass else "Friction against applied amount")
+                 + f" at {cfg.temperature:g} °C (diamonds: threshold crossing"
+                 + (f", {100 * cfg.confidence:g} % interval)" if cfg.curve == "logistic" else ")"))
+    return fig

@@ -1,0 +1,191 @@
+"""Report assembly: sections -> figures (PNG + SVG), CSV tables, ``report.html``, ``report.md``.
+
+Every protocol report (:mod:`torlab.reports.amount`, :mod:`~torlab.reports.timetest`,
+:mod:`~torlab.reports.traction`, :mod:`~torlab.reports.stribeck`) returns a
+:class:`Section`.  :func:`write_sections` writes each section's figures (PNG
+and SVG) and tables (CSV) into its own sub-folder, then one self-contained
+``report.html`` (figures embedded as base64 PNG, tables inline, no external
+file or script) and a ``report.md`` that links the files.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+__all__ = ["Figure", "Section", "Table", "render_html", "render_markdown", "write_sections"]
+
+
+@dataclass
+class Figure:
+    """A figure of a section: file stem, matplotlib figure, caption."""
+
+    name: str
+    fig: Any
+    caption: str
+
+
+@dataclass
+class Table:
+    """A table of a section: CSV name (without ``.csv``), DataFrame, caption.
+
+    ``show`` columns (display name -> (column, format)) are what the HTML and
+    Markdown show; the CSV holds every column.  ``allow_missing`` names columns
+    where an empty cell means "does not exist" (e.g. no crossing).  Long tables
+    (``inline=False``) are only linked from the report.
+    """
+
+    name: str
+    df: Any
+    caption: str
+    show: dict[str, tuple[str, str]] | None = None
+    allow_missing: tuple[str, ...] = ()
+    inline: bool = True
+
+
+@dataclass
+class Section:
+    """One report: text, figures, tables and key numbers for ``summary.json``."""
+
+    key: str
+    title: str
+    paragraphs: list[str] = field(default_factory=list)
+    figures: list[Figure] = field(default_factory=list)
+    tables: list[Table] = field(default_factory=list)
+    summary: dict[str, Any] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+    files: list[str] = field(default_factory=list)
+    images: dict[str, bytes] = field(default_factory=dict)
+
+
+def write_sections(dest: Any, sections: list[Section]) -> None:
+    """Write every section's figures (``<key>/<name>.png|.svg``) and tables (``.csv``).
+
+    The PNG bytes are kept on the section (:attr:`Section.images`) for the HTML.
+    Figures are closed after saving.
+    """
+    import matplotlib.pyplot as plt
+
+    for s in sections:
+        for f in s.figures:
+            svg = dest.path(f"{s.key}/{f.name}.svg")
+            f.fig.savefig(svg, bbox_inches="tight")
+            png = dest.path(f"{s.key}/{f.name}.png")
+            f.fig.savefig(png, dpi=130, bbox_inches="tight")
+            plt.close(f.fig)
+            s.images[f.name] = png.read_bytes()
+            s.files += [f"{s.key}/{f.name}.png", f"{s.key}/{f.name}.svg"]
+        for t in s.tables:
+            dest.write_csv(f"{s.key}/{t.name}.csv", t.df, allow_missing=t.allow_missing)
+            s.files.append(f"{s.key}/{t.name}.csv")
+
+
+def _fmt(v: Any, fmt: str) -> str:
+    if v is None:
+        return ""
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            return ""
+        return format(v, fmt) if fmt else f"{v:.4g}"
+    if isinstance(v, (int,)) and fmt and not isinstance(v, bool):
+        return format(v, fmt)
+    return str(v)
+
+
+def _rows(t: Table) -> tuple[list[str], list[list[str]]]:
+    df = t.df
+    show = t.show or {c: (c, "") for c in df.columns}
+    heads = list(show)
+    rows = []
+    for _, r in df.iterrows():
+        rows.append([_fmt(r.get(col), fmt) for col, fmt in show.values()])
+    return heads, rows
+
+
+_CSS = """
+body{font-family:system-ui,-apple-system,Segoe UI,Helvetica,Arial,sans-serif;max-width:1100px;
+margin:2em auto;padding:0 1em;color:#222;line-height:1.45}
+h1{border-bottom:2px solid #444}h2{border-bottom:1px solid #bbb;margin-top:2em}
+table{border-collapse:collapse;margin:.6em 0 1.2em;font-size:.88em}
+th,td{border:1px solid #ccc;padding:.25em .5em;text-align:right}th{background:#f0f0f0}
+td:first-child,th:first-child{text-align:left}
+figure{margin:1em 0}figure img{max-width:100%}figcaption{font-size:.9em;color:#444}
+.note{color:#8a5a00}.prov{font-size:.8em;color:#555}code{background:#f4f4f4;padding:0 .2em}
+"""
+
+
+def render_html(title: str, intro: list[str], sections: list[Section],
+                provenance: dict[str, Any]) -> str:
+    """A self-contained HTML page (inline CSS, figures as base64 PNG)."""
+    e = html.escape
+    out = ["<!DOCTYPE html>", "<html lang='en'><head><meta charset='utf-8'>",
+           f"<title>{e(title)}</title><style>{_CSS}</style></head><body>", f"<h1>{e(title)}</h1>"]
+    out += [f"<p>{e(p)}</p>" for p in intro]
+    if sections:
+        out.append("<ul>" + "".join(f"<li><a href='#{e(s.key)}'>{e(s.title)}</a></li>"
+                                    for s in sections) + "</ul>")
+    for s in sections:
+        out.append(f"<h2 id='{e(s.key)}'>{e(s.title)}</h2>")
+        out += [f"<p>{e(p)}</p>" for p in s.paragraphs]
+        for n in s.notes:
+            out.append(f"<p class='note'>note: {e(n)}</p>")
+        for t in s.tables:
+            out.append(f"<p><b>{e(t.caption)}</b> (<code>{e(s.key)}/{e(t.name)}.csv</code>)</p>")
+            if not t.inline:
+                continue
+            heads, rows = _rows(t)
+            out.append("<table><tr>" + "".join(f"<th>{e(h)}</th>" for h in heads) + "</tr>")
+            out += ["<tr>" + "".join(f"<td>{e(c)}</td>" for c in r) + "</tr>" for r in rows]
+            out.append("</table>")
+        for f in s.figures:
+            data = s.images.get(f.name)
+            if data is None:
+                continue
+            b64 = base64.b64encode(data).decode("ascii")
+            out.append(f"<figure><img alt='{e(f.caption)}' src='data:image/png;base64,{b64}'>"
+                       f"<figcaption>{e(f.caption)} (<code>{e(s.key)}/{e(f.name)}.svg</code>)"
+                       "</figcaption></figure>")
+    out.append("<h2 id='provenance'>Provenance</h2><div class='prov'><table>")
+    for k in ("torlab_version", "protocol_file", "protocol_sha256", "command"):
+        if k in provenance:
+            out.append(f"<tr><th>{e(k)}</th><td>{e(str(provenance[k]))}</td></tr>")
+    out.append("</table><table><tr><th>input file</th><th>SHA-256</th></tr>")
+    for name, h in provenance.get("inputs", {}).items():
+        out.append(f"<tr><td>{e(name)}</td><td>{e(h)}</td></tr>")
+    out.append("</table></div></body></html>")
+    return "\n".join(out) + "\n"
+
+
+def render_markdown(title: str, intro: list[str], sections: list[Section],
+                    provenance: dict[str, Any]) -> str:
+    """``report.md``: the same content, figures and tables linked as files."""
+    out = [f"# {title}", ""]
+    for p in intro:
+        out += [p, ""]
+    for s in sections:
+        out += [f"## {s.title}", ""]
+        for p in s.paragraphs:
+            out += [p, ""]
+        for n in s.notes:
+            out += [f"> note: {n}", ""]
+        for t in s.tables:
+            out += [f"**{t.caption}** ([{s.key}/{t.name}.csv]({s.key}/{t.name}.csv))", ""]
+            if not t.inline:
+                continue
+            heads, rows = _rows(t)
+            out.append("| " + " | ".join(heads) + " |")
+            out.append("|" + "|".join("---" for _ in heads) + "|")
+            out += ["| " + " | ".join(c.replace("|", "\\|") for c in r) + " |" for r in rows]
+            out.append("")
+        for f in s.figures:
+            out += [f"![{f.caption}]({s.key}/{f.name}.png)", "",
+                    f"*{f.caption}* ([SVG]({s.key}/{f.name}.svg))", ""]
+    out += ["## Provenance", "", f"- torlab {provenance.get('torlab_version', '')}",
+            f"- protocol `{provenance.get('protocol_file', '')}` (SHA-256 "
+            f"`{provenance.get('protocol_sha256', '')}`)", ""]
+    out += ["| input file | SHA-256 |", "|---|---|"]
+    out += [f"| {k} | `{v}` |" for k, v in provenance.get("inputs", {}).items()]
+    return "\n".join(out) + "\n"

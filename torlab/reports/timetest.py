@@ -1,0 +1,157 @@
+"""Time-test report (Paper B): the metrics table and the curves per composition.
+
+Each timed MTM step is evaluated by :func:`torlab.reduce.mtm.time_test_metrics`
+(thesis 5.3.2, Fig. 5.9: application moment, minimum, time to recover, mean
+after recovery, time below the low-adhesion threshold).  The report puts every
+composition's curve on one time axis (time since the application), marks the
+optimal band and the threshold, and -- when the protocol asks for it -- the
+modelled coefficient of the freshly lubricated contact at the test's SRR
+(``initial_drop``: a scene with the fitted lubricant and layer,
+:func:`torlab.model.predict.predict_traction`), next to the measured minimum.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from torlab.reports.html import Figure, Section, Table
+from torlab.reports.plotting import subplots
+
+__all__ = ["time_test_section"]
+
+
+def time_test_section(reductions: list[tuple[str, Any]], cfg: Any,
+                      model: dict[str, Any] | None = None) -> Section:
+    """The time-test report.
+
+    Parameters
+    ----------
+    reductions
+        ``(label, PcsReduction)`` per MTM file, with time tests computed.
+    cfg
+        The protocol's ``reports.time_test``.
+    model
+        Initial-drop model: ``{"mu": {label: mu}, "creepage": {label: xi},
+        "scene": name, "params": [...]}`` or None.
+    """
+    import pandas as pd
+
+    from torlab.errors import TorlabInputError
+    from torlab.reports.mtm import time_test_figure
+
+    rows = []
+    figs: list[Figure] = []
+    band = tuple(cfg.band)
+    for label, red in reductions:
+        for t in red.time_tests:
+            row = {"composition": label, "file": red.label, "step": t.step,
+                   "application_time_s": t.application_time_s,
+                   "application_source": t.application_source,
+                   "pre_application_mean": t.pre_application_mean, "minimum": t.minimum,
+                   "minimum_after_application_s": t.minimum_time_s - t.application_time_s,
+                   "recovered": "yes" if t.recovered else "no",
+                   "recovery_time_s": t.recovery_time_s,
+                   "mean_after_recovery": t.mean_after_recovery,
+                   "sd_after_recovery": t.sd_after_recovery, "plateau": t.plateau,
+                   "time_below_threshold_s": t.time_below_threshold_s, "threshold": t.threshold,
+                   "in_band": "" if not t.recovered else
+                   ("yes" if band[0] <= t.mean_after_recovery <= band[1] else "no"),
+                   "notes": "; ".join(t.notes)}
+            if model is not None:
+                row["model_initial_mu"] = model["mu"].get(label, float("nan"))
+                row["model_creepage"] = model["creepage"].get(label, float("nan"))
+            rows.append(row)
+        if red.time_tests:
+            figs.append(Figure(f"time_test_{_safe(label)}", time_test_figure(red, red.time_tests),
+                               f"{label}: coefficient against step time with the time-test "
+                               "figures marked (thesis Fig. 5.9)"))
+    if not rows:
+        raise TorlabInputError("reports.time_test: no timed step with a traction coefficient in "
+                               "the MTM files", key="reports.time_test")
+    table = pd.DataFrame(rows)
+    figs.insert(0, Figure("time_tests", _overlay(reductions, cfg, model),
+                          "Coefficient against time since the application, every composition; "
+                          "optimal band shaded, low-adhesion threshold dotted"
+                          + ("; dashed: modelled coefficient of the lubricated contact "
+                             "(initial drop)" if model else "")))
+    show = {"composition": ("composition", ""), "application (s)": ("application_time_s", ".0f"),
+            "minimum": ("minimum", ".4f"), "recovery (s)": ("recovery_time_s", ".0f"),
+            "mean after recovery": ("mean_after_recovery", ".4f"),
+            "sd": ("sd_after_recovery", ".4f"),
+            f"time μ<{rows[0]['threshold']:g} (s)": ("time_below_threshold_s", ".0f"),
+            "in band": ("in_band", "")}
+    if model is not None:
+        show["model μ (initial drop)"] = ("model_initial_mu", ".4f")
+    paragraphs = [
+        "Time tests after application (thesis 5.3.2, Fig. 5.9): the application moment, the "
+        "minimum of the running-median coefficient, the time to recover (90 % of the way from "
+        "the minimum back to the plateau unless the protocol sets a level), the mean after "
+        "recovery (the figure Paper B reports) and the time below the low-adhesion threshold.",
+        f"Optimal band {band[0]:g}–{band[1]:g}.",
+    ]
+    if model is not None:
+        paragraphs.append(
+            f"Initial drop: coefficient of the lubricated contact modelled on scene "
+            f"'{model['scene']}' with {', '.join(model['params']) or 'its own parameters'} at "
+            "each test's SRR (mixed lubrication, Eq. 5.47), to compare with the measured "
+            "minimum.")
+    summary = {"band": list(band), "compositions": {}}
+    for r in rows:
+        k = r["composition"] if sum(x["composition"] == r["composition"] for x in rows) == 1 \
+            else f"{r['composition']} step {r['step']}"
+        summary["compositions"][k] = {
+            c: (None if isinstance(r[c], float) and not math.isfinite(r[c]) else r[c])
+            for c in ("application_time_s", "minimum", "recovered", "recovery_time_s",
+                      "mean_after_recovery", "sd_after_recovery", "plateau",
+                      "time_below_threshold_s", "in_band", "model_initial_mu")
+            if c in r}
+    optional = tuple(c for c in table.columns if c not in ("composition", "file", "step"))
+    return Section(key="time_test", title="Time tests after application (Paper B)",
+                   paragraphs=paragraphs, figures=figs,
+                   tables=[Table("time_tests", table, "Time-test metrics per composition", show,
+                                 allow_missing=optional)],
+                   summary=summary)
+
+
+def _safe(s: str) -> str:
+    return "".join(c if c.isalnum() or c in "-_." else "_" for c in s)
+
+
+def _overlay(reductions: list[tuple[str, Any]], cfg: Any, model: dict[str, Any] | None) -> Any:
+    fig, ax = subplots(figsize=(8.5, 5.0))
+    band = cfg.band
+    ax.axhspan(band[0], band[1], color="#d9ead3", alpha=0.6, lw=0,
+               label=f"optimal band {band[0]:g}–{band[1]:g}")
+    thr = None
+    i = 0
+    for label, red in reductions:
+        if "timed" not in red.curves:
+            continue
+        d = red.curves["timed"]
+        by_step = {t.step: t for t in red.time_tests}
+        for st in dict.fromkeys(d["step"].tolist()):
+            r = by_step.get(st)
+            if r is None:
+                continue
+            sel = d["step"].to_numpy() == st
+            t = d.loc[sel, "step_time_s"].to_numpy() - r.application_time_s
+            color = f"C{i % 10}"
+            ax.plot(t, d.loc[sel, "traction_coefficient"].to_numpy(), lw=0.8, color=color,
+                    label=label)
+            ax.plot([r.minimum_time_s - r.application_time_s], [r.minimum], "o", color=color,
+                    ms=4)
+            if model is not None and math.isfinite(model["mu"].get(label, np.nan)):
+                ax.axhline(model["mu"][label], color=color, ls="--", lw=0.9,
+                           label="model: lubricated contact" if i == 0 else None)
+            thr = r.threshold
+            i += 1
+    if thr is not None:
+        ax.axhline(thr, color="k", ls=":", lw=0.8, label=f"threshold {thr:g}")
+    ax.set_xlabel("time since application (s)")
+    ax.set_ylabel("traction coefficient μ (–)")
+    ax.legend(loc="upper right", fontsize=7)
+    ax.set_title("Time tests after application (dots: minimum)")
+    return fig
