@@ -170,5 +170,8 @@ def _figure(curves: list[TractionCurve], cfg: Any) -> Any:
     ax.set_ylabel("traction coefficient |μ| (-)")
     ax.set_ylim(bottom=0)
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7)
-    ax.set_title("Traction curves: modelled (lines) and measured (circles)")
+    kinds = {c.kind for c in curves}
+    parts = [p for k, p in (("model", "modelled (lines)"), ("measured", "measured (circles)"))
+             if k in kinds]
+    ax.set_title("Traction curves: " + " and ".join(parts))
     return fig
