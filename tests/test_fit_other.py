@@ -166,3 +166,60 @@ def test_cli_fit_film_ehd2(cli, tmp_path):
     r = cli("fit", "film", REAL_PCS / "demo_3.txt", "--min-speed", "50 mm/s", "-o", tmp_path / "f")
     assert r.exit_code == 0, r.output
     assert len(list((tmp_path / "f").glob("step*/params.yaml"))) == 2
+
+
+OPT = ROOT / "sample_data" / "optical"
+VISC = ROOT / "sample_data" / "visc"
+
+
+def test_cli_fit_traction_dry_feeds_predict(cli, tmp_path):
+    # the dry optical log's generating law is mu = 0.25 tanh(SRR / 0.01) (truth.yaml): the
+    # fitted layer, fed to predict, must reproduce that plateau and the slope through zero
+    scene = ROOT / "protocols" / "scenes" / "optical_paper_a_dry.yaml"
+    out = tmp_path / "fit"
+    r = cli("fit", "traction", scene, OPT / "dry_traction_rough.csv", "-o", out)
+    assert r.exit_code == 0, r.output
+    for f in ("params.yaml", "fit_table.csv", "fit.png", "summary.json"):
+        assert (out / f).exists(), f
+    pr = cli("predict", "traction", scene, out / "params.yaml", "--creepage", "0.002,0.1",
+             "-o", tmp_path / "pred")
+    assert pr.exit_code == 0, pr.output
+    import pandas as pd
+
+    mu = pd.read_csv(tmp_path / "pred" / "traction.csv")["mu"].to_numpy()
+    assert mu[1] == pytest.approx(0.25, abs=0.006)
+    assert mu[0] == pytest.approx(0.25 * np.tanh(0.2), abs=0.015)
+
+
+def test_cli_fit_visc_from_reduced_output(cli, tmp_path):
+    red = tmp_path / "red"
+    r = cli("visc", "reduce", VISC / "visc_ester_25C.txt", "--reference",
+            VISC / "visc_reference_25C.txt", "-o", red)
+    assert r.exit_code == 0, r.output
+    steps = next(red.glob("visc_ester_25C*_steps.csv"))
+    out = tmp_path / "fit"
+    r = cli("fit", "visc", steps, "--law", "roelands", "-o", out)
+    assert r.exit_code == 0, r.output
+    import pandas as pd
+
+    tab = pd.read_csv(out / "fit_table.csv").set_index("parameter")
+    lo, hi = tab.loc["Z", "ci95_low"], tab.loc["Z", "ci95_high"]
+    assert lo <= 0.42 <= hi  # sample_data/visc/truth.yaml: Z = 0.42
+
+
+def test_cli_fit_temperature_runs_and_reports_uncertainty(cli, tmp_path):
+    logs = [HPT / f"hpt_OFM1_4uL_{t}C.txt" for t in (25, 50, 80)]
+    out = tmp_path / "fit"
+    r = cli("fit", "temperature", *logs, "--compliance", HPT / "rig_compliance.csv", "-o", out)
+    assert r.exit_code == 0, r.output
+    import pandas as pd
+
+    tab = pd.read_csv(out / "fit_table.csv").set_index("parameter")
+    assert {"mu_c1_T", "mu_c2_T"} <= set(tab.index)
+    assert np.all(np.isfinite(tab.loc[["mu_c1_T", "mu_c2_T"], "stderr"]))
+    assert (tab.loc[["mu_c1_T", "mu_c2_T"], "stderr"] > 0).all()
+    # truth (sample_data/hpt/truth.yaml, OFM1): mu_c1_T = -4e-4, mu_c2_T = -3e-4 1/K; three
+    # temperatures with this run-to-run scatter cannot resolve them, and the fit must say so
+    for name, truth in (("mu_c1_T", -4e-4), ("mu_c2_T", -3e-4)):
+        assert tab.loc[name, "ci95_low"] <= truth <= tab.loc[name, "ci95_high"]
+    assert "poorly determined" in r.output
