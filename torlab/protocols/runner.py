@@ -483,12 +483,15 @@ class _Run:
                                   "params": {k: v for k, v in s.items()
                                              if isinstance(v, (int, float))},
                                   "warnings": list(ft.warnings)}
-        for k, v in s.items():
-            if isinstance(v, float) and k not in ("confidence",):
-                self.fit_rows.append({"set": name, "kind": "viscosity", "parameter": k,
-                                      "value": v, "stderr": float("nan"),
-                                      "ci95_low": float("nan"), "ci95_high": float("nan"),
-                                      "unit": "", "status": "fitted"})
+        from torlab.fit.result import viscosity_result
+
+        cols = ("parameter", "value", "stderr", "ci95_low", "ci95_high", "unit", "status")
+        for _, r in viscosity_result(ft).table().iterrows():
+            row = {"set": name, "kind": "viscosity", **{c: r[c] for c in cols}}
+            for c in ("stderr", "ci95_low", "ci95_high"):  # fixed eta0: no interval
+                if not np.isfinite(row[c]):
+                    row[c] = float("nan")
+            self.fit_rows.append(row)
         from torlab.yamlio import dump_yaml
 
         self.dest.write_text(f"fits/lubricant_{lf.name}.yaml",
