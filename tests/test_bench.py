@@ -59,7 +59,7 @@ def test_cli_quick_only_hertz_writes_well_formed_outputs(cli, tmp_path):
     assert 0.01 < approx["error"] < 0.05
     assert exact["error"] < 1e-12
     md = (out / "bench.md").read_text(encoding="utf-8")
-    assert "- command: `torlab " in md
+    assert "- command: `torlab bench --quick --only hertz -o " in md
     assert "CPU:" in md and "numpy" in md and "Python" in md
     header = "| component | variant | default | time | error | time / default |"
     assert header in md

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import json
 import math
 
 import numpy as np
@@ -279,7 +280,10 @@ def test_cli_reduce_writes_results_and_refuses_overwrite(tmp_path, cli):
         red = pd.read_csv(out / f"{p.stem}_reduced.csv")
         assert {"shear_stress_Pa", "friction", "displacement_m", "normal_stress_Pa"} <= set(red.columns)
         assert np.isfinite(red.select_dtypes("number").to_numpy()).all()
-    assert (out / MANIFEST).exists()
+    manifest = json.loads((out / MANIFEST).read_text(encoding="utf-8"))
+    # the manifest records the command as invoked (not the test runner's own argv)
+    assert manifest["command"].startswith("torlab hpt reduce ")
+    assert manifest["command"].endswith(f"--compliance {raw / 'gen' / 'rig_compliance.csv'}")
     # raw files untouched
     assert all(sha(p) == h for p, h in hashes.items())
     # a second run refuses to overwrite ...

@@ -23,7 +23,7 @@ from torlab.errors import TorlabError, ValidationErrors
 
 __all__ = ["app", "main"]
 
-_STATE = {"debug": False}
+_STATE: dict[str, Any] = {"debug": False, "argv": None}
 
 
 def _err(line: str) -> None:
@@ -39,6 +39,7 @@ class _TorlabGroup(TyperGroup):
         argv = list(sys.argv[1:] if args is None else args)
         debug = "--debug" in argv
         _STATE["debug"] = debug
+        _STATE["argv"] = argv
         try:
             rv = super().main(argv, prog_name or "torlab", complete_var,
                               standalone_mode=False, **extra)

@@ -36,8 +36,18 @@ def console() -> Any:
 
 
 def command_line() -> str:
-    """The command line as typed (for manifests and reports)."""
-    return " ".join(shlex.quote(a) for a in ["torlab", *sys.argv[1:]])
+    """The command line as typed (for manifests and reports).
+
+    Uses the arguments the root command was invoked with (set by
+    ``torlab.cli``), so it is right under ``CliRunner`` or from a notebook,
+    not only from a shell; falls back to ``sys.argv``.
+    """
+    from torlab.cli import _STATE
+
+    argv = _STATE.get("argv")
+    if argv is None:
+        argv = sys.argv[1:]
+    return " ".join(shlex.quote(str(a)) for a in ["torlab", *argv])
 
 
 def require_files(paths: Sequence[Path], what: str = "input") -> list[Path]:
