@@ -69,7 +69,8 @@ def test_sample_run_recovers_truth_within_intervals(file):
 
 
 def test_interval_coverage_over_200_seeds():
-    """95 % intervals cover the truth about 95 % of the time (binomial band 88-99 % for 200)."""
+    """95 % intervals cover the truth about 95 % of the time (binomial 3-sigma band 90-99.6 %
+    for 200 seeds)."""
     p = LayerParams(0.135, 0.223, 8e-6, 19e-6)
     truth = {"mu_c1": 0.135, "mu_c2": 0.223, "L_mue": 8e-6, "L_mup": 19e-6}
     hits = np.zeros(4)
@@ -78,8 +79,53 @@ def test_interval_coverage_over_200_seeds():
         res = fit_layer_hpt(_run(p, seed))
         hits += [res.ci95[k][0] <= truth[k] <= res.ci95[k][1] for k in NAMES]
     cover = hits / n
-    assert np.all(cover >= 0.88), dict(zip(NAMES, cover, strict=True))
-    assert np.all(cover <= 0.99), dict(zip(NAMES, cover, strict=True))
+    assert np.all(cover >= 0.90), dict(zip(NAMES, cover, strict=True))
+    assert np.all(cover <= 0.996), dict(zip(NAMES, cover, strict=True))
+
+
+def test_low_friction_layer_coverage_with_absolute_force_noise():
+    """A low-friction layer: the arm transducer's absolute noise dominates the short elastic
+    branch, so a purely relative noise model would make the L_mue interval too narrow."""
+    vals = (0.05, 0.08, 12e-6, 10e-6)
+    p = LayerParams(*vals)
+    truth = dict(zip(NAMES, vals, strict=True))
+    hits = np.zeros(4)
+    n = 100
+    for seed in range(1000, 1000 + n):
+        res = fit_layer_hpt(_run(p, seed))
+        hits += [res.ci95[k][0] <= truth[k] <= res.ci95[k][1] for k in NAMES]
+    cover = hits / n
+    assert np.all(cover >= 0.88), dict(zip(NAMES, cover, strict=True))  # binomial 3 sigma, 100
+
+
+def test_whittle_noise_estimate_recovers_a_known_process():
+    """White + AR(1) with known parameters: the Whittle estimates lie within 4 of their own
+    asymptotic standard errors of the truth, and a white record gets a white model."""
+    from torlab.fit._noise import NoiseModel, estimate_noise, parameter_dof
+
+    rng = np.random.default_rng(5)
+    n, vw, vc, rho = 20000, 2e-5, 6e-5, 0.95
+    c = np.empty(n)
+    c[0] = rng.standard_normal()
+    e = rng.standard_normal(n) * np.sqrt(1 - rho**2)
+    for i in range(1, n):
+        c[i] = rho * c[i - 1] + e[i]
+    scale = np.full(n, 3.0)
+    r = scale * (np.sqrt(vw) * rng.standard_normal(n) + np.sqrt(vc) * c)
+    nm = estimate_noise(r, scale)
+    truth = np.array([np.log(vw), np.log(vc), np.log(rho / (1 - rho))])
+    se = np.sqrt(np.diag(nm.theta_cov))
+    assert np.all(np.abs(nm.theta - truth) < 4 * se), (nm.theta, truth, se)
+    assert np.all(se < 0.1)  # and the record determines them
+    white = estimate_noise(0.01 * rng.standard_normal(5000), np.ones(5000))
+    assert white.correlated_var < 0.01 * white.white_var
+    assert white.white_var + white.correlated_var == pytest.approx(1e-4, rel=0.05)
+    assert white.effective_points(5000) > 4900
+    # white noise: the variance of a mean has n - k degrees of freedom
+    jac = np.ones((5000, 1))
+    wm = NoiseModel(1e-4, 0.0, 0.0, kind="relative white", n_used=5000)
+    assert parameter_dof(jac, [(slice(0, 5000), np.ones(5000), wm)])[0] == pytest.approx(
+        4999, rel=1e-6)
 
 
 def test_joint_fit_of_repeats():

@@ -52,7 +52,7 @@ def run(quick: bool = False) -> list[BenchRow]:
         nfev.append(res.n_evaluations)
         errs.append(max(abs(res.params[k] / truth[k] - 1) for k in names))
         zs.append(max(abs(res.params[k] - truth[k]) / res.stderr[k] for k in names))
-    rows.append(BenchRow("layer fit from HPT", "least squares + AR(1) noise covariance",
+    rows.append(BenchRow("layer fit from HPT", "least squares + white/AR(1) noise (Whittle)",
                          float(np.median(times)), float(np.median(errs)),
                          "synthetic truth (torlab.synth.hpt)", True, "820-point HPT curve",
                          extra={"model_evaluations": float(np.median(nfev)),

@@ -10,44 +10,82 @@ residuals and propagate it exactly:
 
 ``r_t = scale_t (w_t + c_t)``, ``w`` white with variance ``v_w``, ``c`` a
 stationary AR(1) (sampled Ornstein-Uhlenbeck) with variance ``v_c`` and lag-1
-correlation ``rho``; ``scale_t`` is the model's stress (relative noise).  Its
-parameters come from the semivariogram ``g_k = mean((z_{t+k} - z_t)^2)/2 =
-v_w + v_c (1 - rho^k)`` of the relative residuals ``z = r/scale`` on the
-high-stress part of the record, which, unlike the autocovariance, is not biased
-by the fitted level.  The parameter covariance of the least-squares estimate is
-the sandwich ``B J^T Sigma J B`` with ``B = (J^T J)^-1`` and the effective
-number of independent points ``n / (1 + 2 v_c/(v_w + v_c) rho/(1 - rho))``
-gives the degrees of freedom of the Student-t interval.
+correlation ``rho``; ``scale_t`` is the model's stress (relative noise).  A
+force transducer also has an absolute noise floor ``a`` that dominates at low
+stress (the standstill before the motion, the elastic branch of a
+low-friction layer): the white variance of row ``t`` is
+``a^2 + max(v_w - a^2/S^2, 0) scale_t^2`` with ``S`` the median scale of the
+high-stress part, so it is ``a^2`` at zero stress and ``v_w scale^2`` where
+``v_w`` was measured; ``a^2`` is the mean square residual of the rows below
+5 % of the largest stress.  The AR(1) parameters are
+parameters are the Whittle maximum-likelihood estimate from the periodogram
+``I_j`` of the relative residuals ``z = r/scale`` on the high-stress part of
+the record: minimise ``sum_j ln f_j + I_j / f_j`` with the spectral density
+``f(w) = v_w + v_c (1 - rho^2) / (1 - 2 rho cos w + rho^2)`` (Whittle 1953;
+Brockwell & Davis, *Time Series: Theory and Methods*, 2nd ed., section 10.8).
+Its asymptotic covariance is ``(sum_j g_j g_j^T)^-1`` with ``g_j`` the gradient
+of ``ln f_j``, because ``I_j / f_j`` is nearly exponential with unit variance.
+
+The parameter covariance of the least-squares estimate is the sandwich
+``B J^T Sigma J B`` with ``B = (J^T J)^-1``, scaled by ``n_eff / (n_eff - k)``
+for the ``k`` fitted parameters (the correlated analogue of dividing the
+residual sum of squares by ``n - k``).  A short record determines its own
+noise level only roughly (an HPT plateau spans some 20 correlation times), so
+each parameter's Student-t interval gets its own Satterthwaite degrees of
+freedom ``nu = 2 / var(ln sigma_j^2)``, with ``var(ln sigma_j^2)`` propagated
+from the covariance of the noise-model estimate; ``nu`` never exceeds
+``n_eff - k``.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from torlab.fit.result import _scaled_inverse
 
-__all__ = ["NoiseModel", "estimate_noise", "sandwich_covariance"]
+__all__ = ["NoiseModel", "estimate_noise", "parameter_dof", "sandwich_covariance"]
 
 #: fewest points of the stationary part for a correlated-noise model
 MIN_POINTS_CORRELATED = 40
+#: fewest low-stress rows for an absolute noise floor
+MIN_POINTS_FLOOR = 5
+#: chi-square(2) 99 % quantile: the AR(1) part must beat white noise by this much
+LR_CRITICAL = 9.21
+#: largest lag-1 correlation of the AR(1) part
+RHO_MAX = 0.9995
 
 
 @dataclass(frozen=True)
 class NoiseModel:
-    """Relative white + AR(1) residual noise (see module docstring)."""
+    """Relative white + AR(1) residual noise (see module docstring).
+
+    ``theta_cov`` is the covariance of the estimate of
+    ``(ln v_w, ln v_c, logit rho)`` (empty when the model is white noise; then
+    ``n_used`` points determine ``v_w``).
+    """
 
     white_var: float
     correlated_var: float
     rho: float
     kind: str = "relative white + AR(1)"
+    n_used: int = 0
+    floor_var: float = 0.0
+    floor_ref: float = 1.0
+    theta_cov: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)), repr=False,
+                                  compare=False)
 
     @property
     def relative_sd(self) -> float:
         """Total relative standard deviation of the residuals."""
         return math.sqrt(self.white_var + self.correlated_var)
+
+    @property
+    def correlated(self) -> bool:
+        """Whether the model has an AR(1) part."""
+        return self.correlated_var > 0 and self.rho > 0
 
     def effective_points(self, n: int) -> float:
         """Independent-equivalent number of points of a record of ``n``."""
@@ -57,15 +95,45 @@ class NoiseModel:
         infl = 1.0 + 2.0 * self.correlated_var / tot * self.rho / (1.0 - self.rho)
         return n / infl
 
+    def with_theta(self, theta: np.ndarray) -> NoiseModel:
+        """The model at ``(ln v_w, ln v_c, logit rho)`` (for derivatives)."""
+        lvw, lvc, a = (float(v) for v in theta)
+        return replace(self, white_var=math.exp(lvw), correlated_var=math.exp(lvc),
+                       rho=1.0 / (1.0 + math.exp(-a)))
+
+    def white_row_var(self, scale: np.ndarray) -> np.ndarray:
+        """White variance of each row (absolute floor + relative part)."""
+        rel = max(self.white_var - self.floor_var / self.floor_ref**2, 0.0)
+        return self.floor_var + rel * np.asarray(scale, dtype=float) ** 2
+
+    @property
+    def theta(self) -> np.ndarray:
+        """``(ln v_w, ln v_c, logit rho)`` of a correlated model."""
+        return np.array([math.log(self.white_var), math.log(self.correlated_var),
+                         math.log(self.rho / (1.0 - self.rho))])
+
     def as_dict(self) -> dict[str, float | str]:
         """For the provenance."""
         return {"noise_model": self.kind, "noise_white_relative_sd": math.sqrt(self.white_var),
+                "noise_floor_sd": math.sqrt(self.floor_var),
                 "noise_correlated_relative_sd": math.sqrt(self.correlated_var),
                 "noise_lag1_correlation": self.rho}
 
 
-def estimate_noise(residuals: np.ndarray, scale: np.ndarray, kmax: int = 60) -> NoiseModel:
-    """Fit :class:`NoiseModel` to the residuals by their semivariogram.
+def _log_spectrum(theta: np.ndarray, cosw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``ln f_j`` and its gradient (3, m) in ``(ln v_w, ln v_c, logit rho)``."""
+    vw, vc = math.exp(theta[0]), math.exp(theta[1])
+    rho = 1.0 / (1.0 + math.exp(-theta[2]))
+    d = 1.0 - 2.0 * rho * cosw + rho * rho
+    q = (1.0 - rho * rho) / d
+    dq = (-2.0 * rho * d - (1.0 - rho * rho) * (2.0 * rho - 2.0 * cosw)) / (d * d)
+    f = vw + vc * q
+    grad = np.stack([np.full_like(f, vw), vc * q, vc * dq * rho * (1.0 - rho)]) / f
+    return np.log(f), grad
+
+
+def estimate_noise(residuals: np.ndarray, scale: np.ndarray) -> NoiseModel:
+    """Whittle estimate of :class:`NoiseModel` from the residuals (module docstring).
 
     Parameters
     ----------
@@ -73,69 +141,139 @@ def estimate_noise(residuals: np.ndarray, scale: np.ndarray, kmax: int = 60) -> 
         Residuals in record order.
     scale
         Positive scale of each residual (the model's stress).
-    kmax
-        Largest lag of the semivariogram (at most a quarter of the record): 60
-        samples reach the plateau of a fluctuation correlated over ~20 samples (the
-        HPT at 2 Hz, 10 s) yet stay few enough not to see the fitted trend.
 
     Notes
     -----
-    With fewer than :data:`MIN_POINTS_CORRELATED` points at high stress the
-    model is white noise with the relative variance of all residuals.
+    With fewer than :data:`MIN_POINTS_CORRELATED` points at high stress, or
+    when the AR(1) part is negligible, the model is white noise with the
+    relative variance of the residuals.
     """
-    from scipy.optimize import least_squares
+    from scipy.optimize import minimize
 
     r = np.asarray(residuals, dtype=float)
     s = np.asarray(scale, dtype=float)
     sel = s >= 0.5 * np.max(s)
     z = r[sel] / s[sel]
     n = z.size
+    low = s <= 0.05 * np.max(s)
+    floor = float(np.mean(r[low] ** 2)) if np.count_nonzero(low) >= MIN_POINTS_FLOOR else 0.0
+    ref = float(np.median(s[sel]))
     if n < MIN_POINTS_CORRELATED:
         zz = r / s
-        return NoiseModel(float(np.mean(zz * zz)), 0.0, 0.0, kind="relative white")
-    K = max(4, min(kmax, n // 4))
-    k = np.arange(1, K + 1)
-    g = np.array([np.mean((z[kk:] - z[:-kk]) ** 2) / 2.0 for kk in k])
-    gm = float(np.mean(g))
-    if gm <= 0:
-        return NoiseModel(0.0, 0.0, 0.0, kind="none (exact fit)")
+        return NoiseModel(float(np.mean(zz * zz)), 0.0, 0.0, kind="relative white", n_used=r.size)
+    tot = float(np.mean(z * z))
+    if tot <= 0:
+        return NoiseModel(0.0, 0.0, 0.0, kind="none (exact fit)", n_used=n)
+    zc = z - z.mean()
+    m = (n - 1) // 2  # Fourier frequencies strictly between 0 and pi
+    per = (np.abs(np.fft.rfft(zc)[1:m + 1]) ** 2) / n
+    cosw = np.cos(2.0 * np.pi * np.arange(1, m + 1) / n)
 
-    def res(p: np.ndarray) -> np.ndarray:
-        vw, vc, rho = p
-        return (vw + vc * (1.0 - rho**k) - g) / gm
+    def whittle(theta: np.ndarray) -> tuple[float, np.ndarray]:
+        lf, g = _log_spectrum(theta, cosw)
+        u = per * np.exp(-lf)
+        return float(np.sum(lf + u)), g @ (1.0 - u)
 
-    x0 = np.array([0.5 * g[0], max(g[-1] - 0.5 * g[0], 1e-3 * gm), 0.9])
-    sol = least_squares(res, x0, bounds=([0.0, 0.0, 0.0], [np.inf, np.inf, 0.9995]),
-                        x_scale=np.array([gm, gm, 0.1]))
-    vw, vc, rho = (float(v) for v in sol.x)
-    if vc <= 1e-6 * (vw + vc) or rho <= 1e-3:
-        return NoiseModel(float(np.mean(z * z)), 0.0, 0.0, kind="relative white")
-    return NoiseModel(vw, vc, rho)
+    a_max = math.log(RHO_MAX / (1.0 - RHO_MAX))
+    lo, hi = math.log(tot) - 30.0, math.log(tot) + 5.0
+    bounds = [(lo, hi), (lo, hi), (-10.0, a_max)]
+    best = None
+    for rho0 in (0.5, 0.95):  # the likelihood can have a local minimum in rho
+        x0 = np.array([math.log(0.3 * tot), math.log(0.7 * tot), math.log(rho0 / (1.0 - rho0))])
+        sol = minimize(whittle, x0, jac=True, method="L-BFGS-B", bounds=bounds)
+        if best is None or sol.fun < best.fun:
+            best = sol
+    theta = np.asarray(best.x, dtype=float)
+    vw, vc = math.exp(theta[0]), math.exp(theta[1])
+    rho = 1.0 / (1.0 + math.exp(-theta[2]))
+    # keep the AR(1) part only where it explains the spectrum: likelihood-ratio test
+    # against white noise (2 extra parameters, 1 % level; a tiny near-unit-root
+    # component fitted to the periodogram's scatter would otherwise cut n_eff)
+    white_nll = float(np.sum(np.log(tot) + per / tot))
+    if 2.0 * (white_nll - float(best.fun)) < LR_CRITICAL or rho <= 1e-3:
+        return NoiseModel(tot, 0.0, 0.0, kind="relative white", n_used=n, floor_var=floor,
+                          floor_ref=ref)
+    # Whittle information: sum_j grad(ln f_j) grad(ln f_j)^T
+    grads = _log_spectrum(theta, cosw)[1]
+    info = grads @ grads.T
+    cov = np.linalg.pinv(info)
+    return NoiseModel(vw, vc, rho, n_used=n, theta_cov=cov, floor_var=floor, floor_ref=ref)
+
+
+def _meat(J: np.ndarray, scale: np.ndarray, nm: NoiseModel) -> np.ndarray:
+    """``J^T Sigma J`` of one block."""
+    sj = J * scale[:, None]
+    meat = (J * nm.white_row_var(scale)[:, None]).T @ J
+    if nm.correlated:
+        # AR(1) covariance applied by a forward and a backward recursion (O(n k))
+        from scipy.signal import lfilter
+
+        fwd = lfilter([1.0], [1.0, -nm.rho], sj, axis=0)
+        bwd = lfilter([1.0], [1.0, -nm.rho], sj[::-1], axis=0)[::-1]
+        # sum_{s,t} rho^|s-t| a_s a_t^T = sum_t a_t (fwd_t + bwd_t - a_t)^T
+        meat = meat + nm.correlated_var * (sj.T @ (fwd + bwd - sj))
+    return meat
+
+
+def _effective_points(blocks: list[tuple[slice, np.ndarray, NoiseModel]]) -> float:
+    return float(sum(nm.effective_points(rows.stop - rows.start) for rows, _, nm in blocks))
 
 
 def sandwich_covariance(jac: np.ndarray, blocks: list[tuple[slice, np.ndarray, NoiseModel]]
                         ) -> np.ndarray:
-    """``B J^T Sigma J B`` with ``Sigma`` block diagonal, one :class:`NoiseModel` per block.
+    """``n_eff/(n_eff - k) B J^T Sigma J B`` with ``Sigma`` block diagonal, one
+    :class:`NoiseModel` per block.
 
     ``blocks`` lists ``(rows, scale, model)``; rows of different blocks (curves)
     are independent.
     """
-    meat = np.zeros((jac.shape[1], jac.shape[1]))
-    for rows, scale, nm in blocks:
-        J = jac[rows]
-        sj = J * scale[:, None]
-        meat += nm.white_var * (sj.T @ sj)
-        if nm.correlated_var > 0 and nm.rho > 0:
-            # AR(1) covariance applied by a forward and a backward recursion (O(n k))
-            from scipy.signal import lfilter
-
-            a = sj
-            fwd = lfilter([1.0], [1.0, -nm.rho], a, axis=0)
-            bwd = lfilter([1.0], [1.0, -nm.rho], a[::-1], axis=0)[::-1]
-            # sum_{s,t} rho^|s-t| a_s a_t^T = sum_t a_t (fwd_t + bwd_t - a_t)^T
-            meat += nm.correlated_var * (a.T @ (fwd + bwd - a))
+    k = jac.shape[1]
+    meat = sum((_meat(jac[rows], scale, nm) for rows, scale, nm in blocks),
+               np.zeros((k, k)))
     bread = _scaled_inverse(jac.T @ jac)
     if not np.all(np.isfinite(bread)):
         return bread
-    out = bread @ meat @ bread
+    neff = _effective_points(blocks)
+    out = bread @ meat @ bread * (neff / max(neff - k, 1.0))
     return 0.5 * (out + out.T)
+
+
+def parameter_dof(jac: np.ndarray, blocks: list[tuple[slice, np.ndarray, NoiseModel]]
+                  ) -> np.ndarray:
+    """Satterthwaite degrees of freedom of each parameter's variance (module docstring).
+
+    ``nu_j = 2 / var(ln sigma_j^2)``: for a white-noise block the variance of
+    ``ln v_w`` is ``2/n``; for an AR(1) block the Whittle covariance of the
+    noise parameters is propagated through ``ln sigma_j^2`` by central
+    differences.  Capped at ``n_eff - k`` and floored at 1.
+    """
+    k = jac.shape[1]
+    neff = _effective_points(blocks)
+    cap = max(neff - k, 1.0)
+    bread = _scaled_inverse(jac.T @ jac)
+    if not np.all(np.isfinite(bread)):
+        return np.full(k, cap)
+    meats = [_meat(jac[rows], scale, nm) for rows, scale, nm in blocks]
+    total = sum(meats, np.zeros((k, k)))
+    var0 = np.diag(bread @ total @ bread)
+    var_log = np.zeros(k)
+    h = 1e-4
+    for b, (rows, scale, nm) in enumerate(blocks):
+        if nm.correlated and nm.theta_cov.shape == (3, 3):
+            grad = np.empty((3, k))
+            for i in range(3):
+                e = np.zeros(3)
+                e[i] = h
+                vp = np.diag(bread @ (total - meats[b] + _meat(jac[rows], scale, nm.with_theta(
+                    nm.theta + e))) @ bread)
+                vm = np.diag(bread @ (total - meats[b] + _meat(jac[rows], scale, nm.with_theta(
+                    nm.theta - e))) @ bread)
+                grad[i] = (np.log(vp) - np.log(vm)) / (2 * h)
+            var_log += np.einsum("ik,ij,jk->k", grad, nm.theta_cov, grad)
+        else:
+            # white block: var(ln v_w) = 2/n, d ln var_j / d ln v_w = share of the block
+            share = np.diag(bread @ meats[b] @ bread) / np.where(var0 > 0, var0, 1.0)
+            var_log += share**2 * 2.0 / max(nm.n_used or (rows.stop - rows.start), 1)
+    with np.errstate(divide="ignore"):
+        nu = np.where(var_log > 0, 2.0 / var_log, cap)
+    return np.clip(nu, 1.0, cap)

@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from torlab.errors import FitError, TorlabInputError
-from torlab.fit._noise import NoiseModel, estimate_noise, sandwich_covariance
+from torlab.fit._noise import NoiseModel, estimate_noise, parameter_dof, sandwich_covariance
 from torlab.fit.result import FitResult
 
 __all__ = ["LAYER_NAMES", "HptCurve", "fit_layer_hpt", "hpt_curve", "tau_of_raw_displacement"]
@@ -357,14 +357,17 @@ def _fit(cs: list[HptCurve]) -> FitResult:
     n = off
     k = len(LAYER_NAMES)
     dof = max(math.floor(neff) - k, 2)
+    pdof = np.maximum(parameter_dof(J, blocks), 2.0)
     all_r = np.concatenate(rows)
     first = cs[0].meta
     meta: dict[str, Any] = {
         "method": "least squares (trf, bounds) on tau(u_raw), layer law + rig compliance; "
-                  "covariance from a residual noise model (relative white + AR(1))",
+                  "covariance from a residual noise model (absolute floor + relative white + AR(1), "
+                  "Whittle), Satterthwaite degrees of freedom per parameter",
         "curves": [str(c.meta.get("source", "")) for c in cs],
         "normal_stress_Pa": float(np.mean([c.sigma for c in cs])),
         "effective_points": float(neff),
+        "interval_dof": {nm_: round(float(d), 1) for nm_, d in zip(LAYER_NAMES, pdof, strict=True)},
         **{k2: first.get(k2) for k2 in ("product", "condition", "applied_amount",
                                         "applied_amount_unit", "temperature_C", "compliance")
            if k2 in first},
@@ -373,7 +376,7 @@ def _fit(cs: list[HptCurve]) -> FitResult:
     if len(cs) == 1:
         meta.update(noise_models[0].as_dict())
     result = FitResult.from_covariance(
-        "layer_hpt", LAYER_NAMES, p, cov, dof=dof,
+        "layer_hpt", LAYER_NAMES, p, cov, dof=dof, param_dof=pdof,
         residual_norm=float(np.sqrt(np.mean(all_r**2))), n_points=n, warnings=[],
         data=pd.concat(data_frames, ignore_index=True), meta=meta, residual_unit="Pa",
         n_evaluations=int(sol.nfev), x_column="displacement_m",

@@ -52,11 +52,14 @@ BOUNDARY_KEYS = ("mu_c1", "mu_c2", "L_mue", "L_mup", "mu_c1_T", "mu_c2_T")
 LUBRICANT_KEYS = ("eta0", "alpha", "Z")
 
 
-def student_t(dof: int, confidence: float = 0.95) -> float:
-    """Two-sided Student-t quantile for ``confidence`` with ``dof`` degrees of freedom."""
+def student_t(dof: float, confidence: float = 0.95) -> float:
+    """Two-sided Student-t quantile for ``confidence`` with ``dof`` degrees of freedom.
+
+    ``dof`` may be fractional (Satterthwaite degrees of freedom); below 1 it is 1.
+    """
     from scipy.stats import t as student
 
-    return float(student.ppf(0.5 + confidence / 2.0, max(int(dof), 1)))
+    return float(student.ppf(0.5 + confidence / 2.0, max(float(dof), 1.0)))
 
 
 def covariance_from_jacobian(jac: np.ndarray, residuals: np.ndarray, n_params: int
@@ -155,7 +158,9 @@ class FitResult:
     n_evaluations
         Model evaluations the optimiser used (benchmark figure).
     dof
-        Residual degrees of freedom of the intervals.
+        Residual degrees of freedom (of the intervals, unless a fit gives each
+        parameter its own: the HPT layer fit lists them in
+        ``meta["interval_dof"]``).
     x_column, y_column
         Names of the abscissa and the measured column of :attr:`data` (figure).
     """
@@ -181,21 +186,29 @@ class FitResult:
     # -- construction ---------------------------------------------------------------------
     @classmethod
     def from_covariance(cls, kind: str, names: tuple[str, ...], values: np.ndarray,
-                        cov: np.ndarray, *, dof: int, **kw: Any) -> FitResult:
-        """Build a result from estimates and their covariance (Student-t intervals)."""
+                        cov: np.ndarray, *, dof: int, param_dof: Any = None,
+                        **kw: Any) -> FitResult:
+        """Build a result from estimates and their covariance (Student-t intervals).
+
+        ``param_dof`` (one value per parameter, optional) gives each interval
+        its own degrees of freedom (Satterthwaite); ``dof`` otherwise.
+        """
         values = np.asarray(values, dtype=float)
         cov = np.asarray(cov, dtype=float)
         var = np.diag(cov)
         se = np.where(np.isfinite(var) & (var >= 0), np.sqrt(np.abs(var)), np.inf)
-        tq = student_t(dof)
+        if param_dof is None:
+            tq = np.full(values.size, student_t(dof))
+        else:
+            tq = np.array([student_t(d) for d in np.asarray(param_dof, dtype=float)])
         with np.errstate(invalid="ignore", divide="ignore"):
             corr = cov / np.outer(se, se)
         corr[~np.isfinite(corr)] = np.nan
         np.fill_diagonal(corr, 1.0)
         params = {n: float(v) for n, v in zip(names, values, strict=True)}
         stderr = {n: float(s) for n, s in zip(names, se, strict=True)}
-        ci = {n: (float(v - tq * s), float(v + tq * s)) for n, v, s in zip(names, values, se,
-                                                                             strict=True)}
+        ci = {n: (float(v - q * s), float(v + q * s))
+              for n, v, s, q in zip(names, values, se, tq, strict=True)}
         return cls(kind=kind, names=tuple(names), params=params, stderr=stderr, ci95=ci,
                    correlation=corr, dof=int(dof), **kw)
 
