@@ -106,3 +106,22 @@ def test_bad_traction_data():
         fit_layer_traction(sc, np.full(10, 0.01), np.linspace(0.1, 0.2, 10))
     with pytest.raises(TorlabInputError, match="fix"):
         fit_layer_traction(sc, xi, mu, fixed={"nope": 1.0})
+
+
+def test_lubricated_scene_fits_the_boundary_layer_through_the_mixed_model():
+    """Rough ball in water at 0.05 m/s: about half of the load is on asperities, so the measured
+    plateau is about half of mu_c2. The fit goes through the mixed model and recovers the
+    layer's own parameters (one draw: each within 4 standard errors of the truth)."""
+    sc = load_scene(SCENE)
+    sc = sc.model_copy(update={"kinematics": sc.kinematics.model_copy(update={"speed": 0.05})})
+    xi = np.linspace(0.002, 0.08, 30)
+    share = predict_traction(sc, xi).table["load_share_asperity"].to_numpy()
+    assert np.all((share > 0.3) & (share < 0.8))  # a genuinely mixed contact
+    f = traction_model(sc)
+    mu = f(TRUTH, xi) + 0.0015 * np.random.default_rng(21).standard_normal(xi.size)
+    assert np.max(mu) < 0.7 * TRUTH["mu_c2"]  # the plateau is not mu_c2
+    res = fit_layer_traction(sc, xi, mu)
+    for k, v in TRUTH.items():
+        assert abs(res.params[k] - v) < 4 * res.stderr[k], (k, res.params[k], v, res.stderr[k])
+    assert res.params["mu_c2"] == pytest.approx(TRUTH["mu_c2"], rel=0.05)
+    assert res.n_evaluations < 150
