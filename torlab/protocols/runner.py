@@ -572,8 +572,8 @@ class _Run:
         if cfg.initial_drop is not None:
             idp = cfg.initial_drop
             ((_, sc, sd),) = self.scenes_for(idp.scene, idp.params)
-            model = {"mu": {}, "creepage": {}, "scene": sc.name or idp.scene[0].path,
-                     "params": list(idp.params)}
+            model = {"mu": {}, "creepage": {}, "load_share": {}, "modelled": [],
+                     "scene": sc.name or idp.scene[0].path, "params": list(idp.params)}
             for label, _f, red in self.prog.track(self.mtm, "time tests: initial-drop model"):
                 d = red.curves.get("timed")
                 if d is None or not red.time_tests:
@@ -592,14 +592,20 @@ class _Run:
                     else sc.kinematics.speed
                 sdv = dict(sd, kinematics={**sd.get("kinematics", {}), "speed": v})
 
-                def compute(sdv: dict = sdv, xi: float = xi) -> float:
+                def compute(sdv: dict = sdv, xi: float = xi) -> dict[str, Any]:
                     from torlab.scene import scene_from_dict
 
                     pred = predict_traction(scene_from_dict(sdv), np.array([xi]))
-                    return float(abs(pred.table["mu"].iloc[0]))
+                    row = pred.table.iloc[0]
+                    return {"mu": float(abs(row["mu"])),
+                            "load_share": float(row.get("load_share_asperity", 1.0)),
+                            "modelled": list(pred.modelled)}
 
-                model["mu"][label] = self.cache.get_or_compute("initial_drop", compute,
-                                                               scene=sdv, creepage=xi)
+                res = self.cache.get_or_compute("initial_drop_v2", compute, scene=sdv,
+                                                creepage=xi)
+                model["mu"][label] = res["mu"]
+                model["load_share"][label] = res["load_share"]
+                model["modelled"] = res["modelled"]
                 model["creepage"][label] = xi
         return time_test_section([(lab, red) for lab, _f, red in self.mtm], cfg, model)
 
