@@ -125,3 +125,17 @@ def test_lubricated_scene_fits_the_boundary_layer_through_the_mixed_model():
         assert abs(res.params[k] - v) < 4 * res.stderr[k], (k, res.params[k], v, res.stderr[k])
     assert res.params["mu_c2"] == pytest.approx(TRUTH["mu_c2"], rel=0.05)
     assert res.n_evaluations < 150
+
+
+def test_softening_fit_is_flagged_and_a_hardening_one_is_not():
+    """A curve from a softening layer (mu_c1 > mu_c2) gets the softening warning; the
+    hardening truth of the other tests does not."""
+    soft = {"mu_c1": 0.30, "mu_c2": 0.22, "L_mue": 6e-6, "L_mup": 8e-6}
+    sc = _dry_scene()
+    xi = np.linspace(0.002, 0.08, 40)
+    mu = traction_model(sc)(soft, xi) + 0.002 * np.random.default_rng(8).standard_normal(40)
+    res = fit_layer_traction(sc, xi, mu)
+    assert any(w.startswith("softening layer fitted") for w in res.warnings), res.warnings
+    sc, xi, mu = _curve(5)
+    res = fit_layer_traction(sc, xi, mu)
+    assert not any(w.startswith("softening") for w in res.warnings), res.warnings

@@ -224,6 +224,17 @@ def _warnings(res: FitResult, xi: np.ndarray) -> list[str]:
             w.append(f"{n} not determined by this curve (fix it with a value from an HPT fit)")
         elif v != 0 and se > 0.5 * abs(v):
             w.append(f"{n} poorly determined (standard error {se / abs(v):.0%}); consider fixing it")
+    if "mu_c1" in res.names and "mu_c2" in res.names:
+        d = res.params["mu_c1"] - res.params["mu_c2"]
+        i, j = res.names.index("mu_c1"), res.names.index("mu_c2")
+        c = res.correlation[i, j] if np.isfinite(res.correlation[i, j]) else 0.0
+        s1, s2 = res.stderr["mu_c1"], res.stderr["mu_c2"]
+        sd = math.sqrt(max(s1 * s1 + s2 * s2 - 2 * c * s1 * s2, 0.0))
+        if math.isfinite(sd) and d > 2 * sd:
+            w.append(f"softening layer fitted: mu_c1 = {res.params['mu_c1']:.3g} > mu_c2 = "
+                     f"{res.params['mu_c2']:.3g} (the layer's strength falls after its elastic "
+                     "limit). If the measured curve has no peak above its plateau, the model's "
+                     "transition is sharper than the data's: fix mu_c1 or L_mup from an HPT fit")
     k = len(res.names)
     corr = res.correlation
     for i in range(k):
