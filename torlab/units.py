@@ -114,7 +114,7 @@ def parse_unit_factor(unit: str, kind: str, *, where: str = "", path: Any = None
         return float(q.to(si.replace("^", "**")).magnitude), 0.0
     except _WrongDim as e:
         raise TorlabInputError(
-            f"unit {unit!r} is not a {kind.replace('_', ' ')} (expected something like "
+            f"unit {unit!r} is not {_article(kind)} {kind.replace('_', ' ')} (expected something like "
             f"{_example(kind)}; got {e.dim})", path=path, line=line, key=where or None) from None
     except Exception as e:  # pint raises several unrelated classes for unknown units
         raise TorlabInputError(f"unknown unit {unit!r} ({type(e).__name__})", path=path, line=line,
@@ -215,3 +215,8 @@ def _kind_of(unit: str) -> str:
         if (dim == "" and q.dimensionless) or (dim and q.dimensionality == ureg.get_dimensionality(dim)):
             return kind
     raise ValueError(f"no kind for unit {unit!r}")
+
+
+def _article(kind: str) -> str:
+    """``a`` or ``an`` before a kind's name (all kinds are plain English words)."""
+    return "an" if kind[:1] in "aeiou" else "a"

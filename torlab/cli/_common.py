@@ -57,7 +57,7 @@ def require_files(paths: Sequence[Path], what: str = "input") -> list[Path]:
         if not p.exists():
             raise TorlabInputError(f"{what} file not found", path=p)
         if p.is_dir():
-            raise TorlabInputError(f"is a folder, expected an {what} file", path=p)
+            raise TorlabInputError(f"is a folder; give the {what} file(s) in it", path=p)
         out.append(p)
     if not out:
         raise TorlabInputError(f"no {what} files given")

@@ -267,7 +267,8 @@ def _traction_data(path: Path) -> tuple[Any, Any, str]:
     try:
         df = pd.read_csv(path, comment="#")
     except (ValueError, pd.errors.ParserError) as e:
-        raise TorlabInputError(f"cannot read the CSV ({e})", path=path) from None
+        msg = " ".join(str(e).split())
+        raise TorlabInputError(f"not a readable CSV of a traction curve ({msg})", path=path) from None
     xc = next((c for c in ("creepage", "srr") if c in df), None)
     yc = next((c for c in ("mu", "traction_coefficient") if c in df), None)
     if xc is None or yc is None:
