@@ -268,7 +268,9 @@ def parameter_dof(jac: np.ndarray, blocks: list[tuple[slice, np.ndarray, NoiseMo
                     nm.theta + e))) @ bread)
                 vm = np.diag(bread @ (total - meats[b] + _meat(jac[rows], scale, nm.with_theta(
                     nm.theta - e))) @ bread)
-                grad[i] = (np.log(vp) - np.log(vm)) / (2 * h)
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    grad[i] = (np.log(vp) - np.log(vm)) / (2 * h)
+            grad[~np.isfinite(grad)] = 0.0  # a parameter without variance: no dof information
             var_log += np.einsum("ik,ij,jk->k", grad, nm.theta_cov, grad)
         else:
             # white block: var(ln v_w) = 2/n, d ln var_j / d ln v_w = share of the block
