@@ -13,10 +13,23 @@ from torlab.bench import BenchRow
 __all__ = ["run"]
 
 
-def _timed(fn):
-    t0 = time.perf_counter()
-    out = fn()
-    return out, time.perf_counter() - t0
+NAMES = ("mu_c1", "mu_c2", "L_mue", "L_mup")
+
+
+def _fit_stats(fits, truth: dict[str, float]) -> dict[str, list[float]]:
+    """Time, model evaluations, largest relative error and largest |z| of each fit.
+
+    ``fits`` yields zero-argument callables, one fit each (timed one by one).
+    """
+    out: dict[str, list[float]] = {"time": [], "nfev": [], "err": [], "z": []}
+    for fit in fits:
+        t0 = time.perf_counter()
+        res = fit()
+        out["time"].append(time.perf_counter() - t0)
+        out["nfev"].append(res.n_evaluations)
+        out["err"].append(max(abs(res.params[k] / truth[k] - 1) for k in NAMES))
+        out["z"].append(max(abs(res.params[k] - truth[k]) / res.stderr[k] for k in NAMES))
+    return out
 
 
 def run(quick: bool = False) -> list[BenchRow]:
@@ -35,28 +48,27 @@ def run(quick: bool = False) -> list[BenchRow]:
     from torlab.synth.hpt import HptRig, HptRunSpec, rig_compliance_u, simulate_hpt, write_hpt_log
 
     rows: list[BenchRow] = []
-    names = ("mu_c1", "mu_c2", "L_mue", "L_mup")
     # --- HPT ---------------------------------------------------------------------------------
     rig = HptRig()
     tg = np.linspace(0, 1e9, 2001)
     comp = RigCompliance(tg, rig_compliance_u(tg, rig), "true")
     truth = {"mu_c1": 0.135, "mu_c2": 0.223, "L_mue": 8e-6, "L_mup": 19e-6}
     p = LayerParams(truth["mu_c1"], truth["mu_c2"], truth["L_mue"], truth["L_mup"])
-    times, errs, zs, nfev = [], [], [], []
-    for seed in range(3 if quick else 10):
-        spec = HptRunSpec("b", "OFM1", 4, 25.0, p, seed=seed)
-        df, meta = read_hpt(io.StringIO(write_hpt_log(spec, simulate_hpt(spec, rig), rig)), name="b")
-        red = reduce_hpt(df, meta, compliance=comp)
-        res, t = _timed(lambda red=red: fit_layer_hpt(red))
-        times.append(t)
-        nfev.append(res.n_evaluations)
-        errs.append(max(abs(res.params[k] / truth[k] - 1) for k in names))
-        zs.append(max(abs(res.params[k] - truth[k]) / res.stderr[k] for k in names))
+
+    def hpt_fits():
+        for seed in range(3 if quick else 10):
+            spec = HptRunSpec("b", "OFM1", 4, 25.0, p, seed=seed)
+            df, meta = read_hpt(io.StringIO(write_hpt_log(spec, simulate_hpt(spec, rig), rig)),
+                                name="b")
+            red = reduce_hpt(df, meta, compliance=comp)
+            yield lambda red=red: fit_layer_hpt(red)
+
+    st = _fit_stats(hpt_fits(), truth)
     rows.append(BenchRow("layer fit from HPT", "least squares + white/AR(1) noise (Whittle)",
-                         float(np.median(times)), float(np.median(errs)),
+                         float(np.median(st["time"])), float(np.median(st["err"])),
                          "synthetic truth (torlab.synth.hpt)", True, "820-point HPT curve",
-                         extra={"model_evaluations": float(np.median(nfev)),
-                                "max_z": float(np.max(zs))}))
+                         extra={"model_evaluations": float(np.median(st["nfev"])),
+                                "max_z": float(np.max(st["z"]))}))
     # --- traction ----------------------------------------------------------------------------
     from pathlib import Path
 
@@ -66,17 +78,13 @@ def run(quick: bool = False) -> list[BenchRow]:
     tt = {"mu_c1": 0.16, "mu_c2": 0.26, "L_mue": 6e-6, "L_mup": 12e-6}
     xi = np.linspace(0.002, 0.08, 40)
     mu0 = traction_model(sc)(tt, xi)
-    times, errs, zs, nfev = [], [], [], []
-    for seed in range(2 if quick else 8):
-        y = mu0 + 0.003 * np.random.default_rng(seed).standard_normal(xi.size)
-        res, t = _timed(lambda y=y: fit_layer_traction(sc, xi, y))
-        times.append(t)
-        nfev.append(res.n_evaluations)
-        errs.append(max(abs(res.params[k] / tt[k] - 1) for k in names))
-        zs.append(max(abs(res.params[k] - tt[k]) / res.stderr[k] for k in names))
+    curves = [mu0 + 0.003 * np.random.default_rng(seed).standard_normal(xi.size)
+              for seed in range(2 if quick else 8)]
+    st = _fit_stats((lambda y=y: fit_layer_traction(sc, xi, y) for y in curves), tt)
     rows.append(BenchRow("layer fit from traction", "FASTSIM + trf least squares",
-                         float(np.median(times)), float(np.median(errs)),
+                         float(np.median(st["time"])), float(np.median(st["err"])),
                          "synthetic truth (model + 0.003 noise)", True, "40-point traction curve",
-                         extra={"model_evaluations": float(np.median(nfev)),
-                                "time_max_s": float(np.max(times)), "max_z": float(np.max(zs))}))
+                         extra={"model_evaluations": float(np.median(st["nfev"])),
+                                "time_max_s": float(np.max(st["time"])),
+                                "max_z": float(np.max(st["z"]))}))
     return rows
