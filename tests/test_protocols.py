@@ -193,6 +193,45 @@ reports:
     assert ("reports.stribeck.curves.0.params.1", _line_of(text, "params:")) in msgs
 
 
+def test_fit_names_used_twice(tmp_path, cli):
+    """Two fits of one kind under one name: each repeat is listed (key, line), exit 2."""
+    text = f"""\
+version: 1
+name: dup
+data:
+  optical:
+    files: [{ROOT}/sample_data/optical/dry_traction_rough.csv,
+            {ROOT}/sample_data/optical/film_thickness_smooth.csv]
+  visc:
+    files: [{ROOT}/sample_data/visc/visc_ester_25C.txt]
+    reference: [{ROOT}/sample_data/visc/visc_reference_25C.txt]
+fits:
+  traction_layers:
+    - {{name: dry, measured: {ROOT}/sample_data/optical/dry_traction_rough.csv,
+       scene: {PROTOCOLS}/scenes/optical_paper_a_dry.yaml}}
+    - {{name: dry, measured: {ROOT}/sample_data/optical/dry_traction_rough.csv,
+       scene: {PROTOCOLS}/scenes/optical_paper_a_dry.yaml}}
+  lubricants:
+    - {{name: ester, measured: {ROOT}/sample_data/visc/visc_ester_25C.txt, law: roelands}}
+    - {{name: ester, measured: {ROOT}/sample_data/visc/visc_ester_25C.txt, law: barus}}
+reports:
+  film:
+    curves:
+      - {{label: smooth, scene: {PROTOCOLS}/scenes/optical_paper_a_smooth.yaml,
+         measured: {ROOT}/sample_data/optical/film_thickness_smooth.csv}}
+"""
+    p = tmp_path / "dup.yaml"
+    p.write_text(text)
+    r = cli("run", p, "-o", tmp_path / "out")
+    assert r.exit_code == 2, r.output
+    lines = error_lines(r)
+    twice = [ln for ln in lines if "is used twice" in ln]
+    assert len(twice) == 2, lines
+    assert any("fits.traction_layers.1.name" in ln for ln in twice)
+    assert any("fits.lubricants.1.name" in ln for ln in twice)
+    assert not (tmp_path / "out").exists()
+
+
 def test_version_and_duplicates(tmp_path):
     from torlab.errors import TorlabInputError, ValidationErrors
     from torlab.protocols.loader import load_protocol

@@ -231,17 +231,17 @@ def _cross_check(lp: LoadedProtocol, doc: Any) -> list[TorlabInputError]:
         if lf.measured.resolved not in visc_files:
             err(("fits", "lubricants", i, "measured"),
                 f"{lf.measured.path} is not one of the files of data.visc")
-    names = [t.name for t in f.traction_layers]
     for i, t in enumerate(f.traction_layers):
-        if names.index(t.name) != i:
-            err(("fits", "traction_layers", i, "name"), f"name {t.name!r} is used twice")
         if t.measured.resolved not in measured_files:
             err(("fits", "traction_layers", i, "measured"),
                 f"{t.measured.path} is not one of the files of data.optical or data.mtm")
+    names = [t.name for t in f.traction_layers]
     lnames = [x.name for x in f.lubricants]
-    for i, x in enumerate(f.lubricants):
-        if lnames.index(x.name) != i:
-            err(("fits", "lubricants", i, "name"), f"name {x.name!r} is used twice")
+    for section, items, used in (("traction_layers", f.traction_layers, names),
+                                 ("lubricants", f.lubricants, lnames)):
+        for i, x in enumerate(items):
+            if used.index(x.name) != i:
+                err(("fits", section, i, "name"), f"name {x.name!r} is used twice")
     if r.amount is not None and d.hpt is None:
         err(("reports", "amount"), "the amount-dependency report needs data.hpt")
     if r.time_test is not None and d.mtm is None:
