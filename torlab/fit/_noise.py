@@ -46,7 +46,8 @@ import numpy as np
 
 from torlab.fit.result import _scaled_inverse
 
-__all__ = ["NoiseModel", "estimate_noise", "parameter_dof", "sandwich_covariance"]
+__all__ = ["NoiseModel", "effective_points", "estimate_noise", "parameter_dof",
+           "sandwich_covariance"]
 
 #: fewest points of the stationary part for a correlated-noise model
 MIN_POINTS_CORRELATED = 40
@@ -215,7 +216,8 @@ def _meat(J: np.ndarray, scale: np.ndarray, nm: NoiseModel) -> np.ndarray:
     return meat
 
 
-def _effective_points(blocks: list[tuple[slice, np.ndarray, NoiseModel]]) -> float:
+def effective_points(blocks: list[tuple[slice, np.ndarray, NoiseModel]]) -> float:
+    """Independent-equivalent number of points of all blocks together."""
     return float(sum(nm.effective_points(rows.stop - rows.start) for rows, _, nm in blocks))
 
 
@@ -233,7 +235,7 @@ def sandwich_covariance(jac: np.ndarray, blocks: list[tuple[slice, np.ndarray, N
     bread = _scaled_inverse(jac.T @ jac)
     if not np.all(np.isfinite(bread)):
         return bread
-    neff = _effective_points(blocks)
+    neff = effective_points(blocks)
     out = bread @ meat @ bread * (neff / max(neff - k, 1.0))
     return 0.5 * (out + out.T)
 
@@ -248,7 +250,7 @@ def parameter_dof(jac: np.ndarray, blocks: list[tuple[slice, np.ndarray, NoiseMo
     differences.  Capped at ``n_eff - k`` and floored at 1.
     """
     k = jac.shape[1]
-    neff = _effective_points(blocks)
+    neff = effective_points(blocks)
     cap = max(neff - k, 1.0)
     bread = _scaled_inverse(jac.T @ jac)
     if not np.all(np.isfinite(bread)):

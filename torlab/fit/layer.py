@@ -39,7 +39,13 @@ from typing import Any
 import numpy as np
 
 from torlab.errors import FitError, TorlabInputError
-from torlab.fit._noise import NoiseModel, estimate_noise, parameter_dof, sandwich_covariance
+from torlab.fit._noise import (
+    NoiseModel,
+    effective_points,
+    estimate_noise,
+    parameter_dof,
+    sandwich_covariance,
+)
 from torlab.fit.result import FitResult
 
 __all__ = ["LAYER_NAMES", "HptCurve", "fit_layer_hpt", "hpt_curve", "tau_of_raw_displacement"]
@@ -333,7 +339,6 @@ def _fit(cs: list[HptCurve]) -> FitResult:
     J = sol.jac * scale_tau / _SCALE[None, :]   # d tau / d p (SI) per row
     rows, blocks, off = [], [], 0
     data_frames = []
-    neff = 0.0
     noise_models: list[NoiseModel] = []
     for i, c in enumerate(cs):
         tau_m = model(x, c)
@@ -344,7 +349,6 @@ def _fit(cs: list[HptCurve]) -> FitResult:
         sl = slice(off, off + r.size)
         blocks.append((sl, sc, nm))
         off += r.size
-        neff += nm.effective_points(r.size)
         ul = c.u_raw - (c.compliance(c.tau) - c.compliance(np.zeros(1))[0]
                         if c.compliance is not None else 0.0)
         d = {"curve": i, "displacement_raw_m": c.u_raw, "displacement_m": ul,
@@ -354,6 +358,7 @@ def _fit(cs: list[HptCurve]) -> FitResult:
         data_frames.append(pd.DataFrame(d))
         rows.append(r)
     cov = sandwich_covariance(J, blocks)
+    neff = effective_points(blocks)
     n = off
     k = len(LAYER_NAMES)
     dof = max(math.floor(neff) - k, 2)
