@@ -572,7 +572,7 @@ class _Run:
         if cfg.initial_drop is not None:
             idp = cfg.initial_drop
             ((_, sc, sd),) = self.scenes_for(idp.scene, idp.params)
-            model = {"mu": {}, "creepage": {}, "load_share": {}, "modelled": [],
+            model = {"mu": {}, "creepage": {}, "load_share": {}, "modelled": {},
                      "scene": sc.name or idp.scene[0].path, "params": list(idp.params)}
             for label, _f, red in self.prog.track(self.mtm, "time tests: initial-drop model"):
                 d = red.curves.get("timed")
@@ -605,7 +605,7 @@ class _Run:
                                                 creepage=xi)
                 model["mu"][label] = res["mu"]
                 model["load_share"][label] = res["load_share"]
-                model["modelled"] = res["modelled"]
+                model["modelled"][label] = res["modelled"]
                 model["creepage"][label] = xi
         return time_test_section([(lab, red) for lab, _f, red in self.mtm], cfg, model)
 

@@ -161,8 +161,10 @@ def _overlay(reductions: list[tuple[str, Any]], cfg: Any, model: dict[str, Any] 
 def _initial_drop_comparison(rows: list[dict[str, Any]], model: dict[str, Any]) -> list[str]:
     """What the initial-drop model included, and how far it is from the measured minima."""
     out = []
-    parts = [m for m in model.get("modelled", [])
-             if m.split(":")[0] in ("EHL film", "boundary friction", "regimes")]
+    # each test's speed is its own scene: list every distinct part once, in order
+    parts = list(dict.fromkeys(
+        m for per_test in model.get("modelled", {}).values() for m in per_test
+        if m.split(":")[0] in ("EHL film", "boundary friction", "regimes")))
     if parts:
         out.append("Modelled: " + "; ".join(parts) + ".")
     ratios = [r["minimum"] / r["model_initial_mu"] for r in rows
