@@ -1311,13 +1311,16 @@ def creep_forces_reference(problem: CreepProblem, creepage: float, lateral: floa
 # naive first-order FASTSIM (uniform grid), the benchmark's baseline
 # -------------------------------------------------------------------------------------------
 def naive_creep_forces(problem: CreepProblem, creepage: Any, lateral: Any = 0.0, spin: Any = 0.0,
-                       *, mx: int = 50, my: int = 50) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                       *, mx: int = 50, my: int = 50, scale: float = 1.0
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """FASTSIM with the layer on a uniform ``mx x my`` grid (first order), isothermal.
 
     Kalker's discrete scheme as CONTACT runs it (element centres, implicit Euler
     from the leading edge: ``tau_i = tau_(i-1) + Delta tau_el``, clipped to the
     limit), with the layer's flexibility and the Voce limit of this module at the
     element centres.  Vectorised over rows and creepages, marched along ``x``.
+    ``scale`` enlarges the grid's box beyond the ellipse as CONTACT's potential contact
+    does (elements count where their centre is inside the ellipse).
     Returns ``(Fx, Fy, Mz)`` in the broadcast shape of the creepages.
     """
     prob = problem
@@ -1331,9 +1334,9 @@ def naive_creep_forces(problem: CreepProblem, creepage: Any, lateral: Any = 0.0,
     L3 = prob.L3 if prob.L3 is not None else L1
     LK = kalker_weighted_flexibility(prob, xi, eta, phi)
     a, b = prob.a, prob.b
-    dx, dy = 2 * a / mx, 2 * b / my
-    yc = -b + dy * (np.arange(my) + 0.5)
-    xc = a - dx * (np.arange(mx) + 0.5)  # leading edge first
+    dx, dy = 2 * scale * a / mx, 2 * scale * b / my
+    yc = -scale * b + dy * (np.arange(my) + 0.5)
+    xc = scale * a - dx * (np.arange(mx) + 0.5)  # leading edge first
     parab = prob.traction_bound == "parabolic"
     pk = (4.0 / 3.0) * prob.p0 if parab else prob.p0
     y = yc[None, :]
