@@ -107,6 +107,7 @@ __all__ = [
     "CreepGrid",
     "CreepProblem",
     "CreepResult",
+    "canonical_creepages",
     "creep_forces",
     "creep_forces_reference",
     "creep_problem",
@@ -962,8 +963,28 @@ class _Solver:
 _MAX_EXPONENT = 30.0
 
 
+def canonical_creepages(xi: np.ndarray, eta: np.ndarray, phi: np.ndarray
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The distinct creepage triples up to the model's symmetries.
+
+    ``(-xi, eta, phi)`` reverses ``Fx``; the mirror ``y -> -y``, ``(xi, -eta, -phi)``,
+    reverses ``Fy`` and ``Mz``.  Returns ``(unique, inverse, sx, sy)``: ``unique`` (k, 3)
+    has ``xi >= 0``, ``eta >= 0`` (``phi >= 0`` where ``eta = 0``), and
+    ``Fx = sx * Fx_unique[inverse]``, ``Fy = sy * Fy_unique[inverse]``, ``Mz = sy * ...``.
+    """
+    sx = np.where(xi < 0, -1.0, 1.0)
+    sy = np.where((eta < 0) | ((eta == 0) & (phi < 0)), -1.0, 1.0)
+    canon = np.stack([np.abs(xi), sy * eta, sy * phi], axis=1)
+    # values equal to 1e-12 of their column's range count as one (an axis such as
+    # linspace(-1, 1, 21) is symmetric only to round-off); the first of them is solved
+    scale = np.max(np.abs(canon), axis=0)
+    key = np.round(canon / np.where(scale > 0, scale * 1e-12, 1.0))
+    _, first, inv = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    return canon[first], inv.ravel(), sx, sy
+
+
 def creep_forces(problem: CreepProblem, creepage: Any, lateral: Any = 0.0, spin: Any = 0.0,
-                 grid: CreepGrid | None = None) -> CreepResult:
+                 grid: CreepGrid | None = None, *, symmetry: bool = True) -> CreepResult:
     """Creep forces ``Fx, Fy, Mz`` for creepages ``xi``, ``eta`` and spin ``phi`` (1/m).
 
     Parameters
@@ -975,6 +996,10 @@ def creep_forces(problem: CreepProblem, creepage: Any, lateral: Any = 0.0, spin:
         against each other (vectorised: a whole table is one call).
     grid
         Resolution (default :class:`CreepGrid`).
+    symmetry
+        Solve each creepage triple once up to the model's symmetries
+        (:func:`canonical_creepages`; exact, the strips are mirrored); False solves every
+        triple as given (tests of the symmetries).
 
     Returns
     -------
@@ -1020,19 +1045,32 @@ def creep_forces(problem: CreepProblem, creepage: Any, lateral: Any = 0.0, spin:
     loop = "off" if prob.thermal is None else "single pass"
     nz = (xi != 0) | (eta != 0) | (phi != 0)
     if nz.any():
-        solver = _Solver(prob, grid, xi[nz], eta[nz], phi[nz])
+        # symmetries of the model (exact on the mirrored strips): (-xi, eta, phi) reverses Fx;
+        # the mirror y -> -y, (xi, -eta, -phi), reverses Fy and Mz.  Each triple is mapped to
+        # one with xi >= 0, eta >= 0 (and phi >= 0 where eta = 0) and each distinct one is
+        # solved once: a table symmetric about zero costs a quarter.
+        if symmetry:
+            uniq, inv, sx, sy = canonical_creepages(xi[nz], eta[nz], phi[nz])
+        else:
+            uniq = np.stack([xi[nz], eta[nz], phi[nz]], axis=1)
+            inv, sx, sy = np.arange(uniq.shape[0]), np.ones(uniq.shape[0]), np.ones(uniq.shape[0])
+        solver = _Solver(prob, grid, uniq[:, 0].copy(), uniq[:, 1].copy(), uniq[:, 2].copy())
         dT_grid = None
         if prob.thermal is not None:
             dT_grid, it, loop, tm = _temperature(solver, prob, grid)
-            iters[nz] = it
-            tmax[nz] = tm
+            iters[nz] = it[inv]
+            tmax[nz] = tm[inv]
             if prob.layer.mu_c1_T == 0 and prob.layer.mu_c2_T == 0:
                 dT_grid = None
         sol = solver.solve(dT_grid)
-        Fx[nz], Fy[nz], Mz[nz], stick[nz] = sol.Fx, sol.Fy, sol.Mz, sol.stick
+        Fx[nz] = sx * sol.Fx[inv]
+        Fy[nz] = sy * sol.Fy[inv]
+        Mz[nz] = sy * sol.Mz[inv]
+        stick[nz] = sol.stick[inv]
     for name, arr in (("Fx", Fx), ("Fy", Fy), ("Mz", Mz)):
         if not np.all(np.isfinite(arr)):
             raise NumericalError(f"creep forces: non-finite {name}; please report this scene")
+
     def r(arr: np.ndarray) -> np.ndarray:
         return arr.reshape(shape)
 
