@@ -20,10 +20,12 @@ _LAYOUT: dict[str, tuple[str, str, float, str, str, str, float, str, bool]] = {
              "film_thickness_model_m", "central film thickness h (nm)", 1e9, "residual_m", True),
     "viscosity": ("pressure_Pa", "pressure p (MPa)", 1e-6, "viscosity_measured_Pa_s",
                   "viscosity_model_Pa_s", "viscosity η (mPa·s)", 1e3, "residual_ln_eta", False),
+    "polach": ("creepage", "creepage ξ (%)", 100.0, "mu_torlab", "mu_polach",
+               "F/N: torlab (points), Polach (lines)", 1.0, "residual", False),
 }
 _RES_LABEL = {"layer_hpt": ("residual (MPa)", 1e-6), "layer_traction": ("residual μ (-)", 1.0),
               "temperature": ("residual μ (-)", 1.0), "film": ("residual (nm)", 1e9),
-              "viscosity": ("residual ln η (-)", 1.0)}
+              "viscosity": ("residual ln η (-)", 1.0), "polach": ("Polach - torlab (-)", 1.0)}
 
 
 def fit_figure(result: Any, title: str | None = None,
