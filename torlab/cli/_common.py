@@ -15,6 +15,7 @@ from torlab.errors import TorlabInputError
 __all__ = [
     "ForceOpt",
     "OutOpt",
+    "XlsxOpt",
     "command_line",
     "console",
     "parse_values",
@@ -26,6 +27,9 @@ OutOpt = Annotated[Path, typer.Option("-o", "--out", help="Output folder (create
                                       "hold earlier results unless --force).")]
 ForceOpt = Annotated[bool, typer.Option("--force", help="Replace torlab's earlier results in "
                                         "the output folder.")]
+XlsxOpt = Annotated[bool, typer.Option("--xlsx", help="Also write tables.xlsx: every table as a "
+                                       "sheet of one Excel workbook (needs openpyxl: pip install "
+                                       "'torlab[xlsx]').")]
 
 
 def console() -> Any:

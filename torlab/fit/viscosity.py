@@ -115,7 +115,7 @@ class ViscosityFit:
             d["Z"] = float(f"{self.Z:.6g}")
         return d
 
-    def summary(self) -> dict[str, Any]:
+    def row(self) -> dict[str, Any]:
         """One flat row (SI units) for ``fit.csv``."""
         lo, hi = self.confidence_label()
         return {

@@ -88,6 +88,7 @@ __all__ = [
     "read_etm",
     "read_mtm",
     "read_pcs",
+    "step_geometry",
     "step_table",
 ]
 
@@ -238,6 +239,11 @@ class PcsStep:
         File lines of the ``Step`` line and of the step's last non-blank line.
     header_line
         File line of the column header, ``None`` for steps without a table.
+    plot_x, plot_y
+        The step's plot columns as its own header names them: PCS writes the
+        x column and the y columns of the step's plot first (``SRR (%)``,
+        ``Traction Coeff (-)``) before the full data block; these are their
+        torlab names (``srr``, ``traction_coefficient``).
     notes
         Free-text lines of the step.
     """
@@ -255,6 +261,8 @@ class PcsStep:
     first_line: int = 0
     last_line: int = 0
     header_line: int | None = None
+    plot_x: str = ""
+    plot_y: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
 
     @property
@@ -354,16 +362,23 @@ class PcsMetadata:
 
 
 def normalise_step_type(raw: str) -> str:
-    """Normalised step type of a PCS spelling (``BOD_TIMED``, ``BodTimed`` -> ``timed``).
+    """Normalised step type of a PCS spelling (``BOD_TIMED``, ``BodTimed``, ``POD_TIMED`` -> ``timed``).
 
     Letters are upper-cased, everything else removed, and a leading ``BOD``
-    (ball on disc) dropped; :data:`STEP_TYPES` maps the rest.  Unknown types
-    give ``"other"``.
+    (ball on disc) or ``POD`` (pin on disc) dropped; :data:`STEP_TYPES` maps
+    the rest.  Unknown types give ``"other"``.
     """
     key = re.sub(r"[^A-Z]", "", raw.upper())
-    if key.startswith("BOD") and key != "BOD":
+    if key.startswith(("BOD", "POD")) and len(key) > 3:
         key = key[3:]
     return STEP_TYPES.get(key, "other")
+
+
+def step_geometry(raw: str) -> str:
+    """Contact geometry a step type names: ``"ball on disc"`` (``BOD_...``), ``"pin on disc"``
+    (``POD_...``), or ``""`` (not said)."""
+    key = re.sub(r"[^A-Z]", "", raw.upper())
+    return {"BOD": "ball on disc", "POD": "pin on disc"}.get(key[:3], "") if len(key) > 3 else ""
 
 
 def _ranges(nums: list[int]) -> str:
@@ -882,6 +897,13 @@ def _group_frame(hblocks: list[_Block], meta: PcsMetadata, path: str) -> Any:
     cells = first.header_cells or []
     ncol = len(cells)
     cols = _resolve_header(cells, path, first.step.header_line or 0, meta)
+    plot = []  # the plot block: the header's cells up to the first empty one
+    for c in cols:
+        if not c.cell:
+            break
+        plot.append(c.name)
+    for b in hblocks:
+        b.step.plot_x, b.step.plot_y = (plot[0], plot[1:]) if plot else ("", [])
     num_idx = [c.index for c in cols if not c.text]
     text_idx = [c.index for c in cols if c.text]
     data: list[str] = []
