@@ -145,17 +145,14 @@ def hpt_cmd(
     One fit per curve (a sub-folder per curve when there are several) or, with
     --joint, one fit to all curves.
     """
-    from torlab.fit.layer import fit_layer_hpt
+    from torlab.fit.layer import fit_layer_hpt, fit_layers_hpt
     from torlab.outputs import OutputDir
 
     files = require_files(inputs, "HPT")
     extra: list[Path] = []
     comp = _compliance(compliance, extra)
     curves = _prepare_hpt(_hpt_curves(files, comp), comp)
-    if joint or len(curves) == 1:
-        results = [fit_layer_hpt(curves, joint=True)]
-    else:
-        results = fit_layer_hpt(curves)
+    results = [fit_layer_hpt(curves)] if joint or len(curves) == 1 else fit_layers_hpt(curves)
     dest = OutputDir(out, force=force, inputs=[*files, *extra], command=command_line())
     with dest:
         names = []
@@ -293,7 +290,7 @@ def temperature_cmd(
 ) -> None:
     """Temperature coefficients mu_c1_T, mu_c2_T (thesis Eqs. 5.26-5.27) from one layer fit
     per run: ln mu_ci against T."""
-    from torlab.fit.layer import fit_layer_hpt
+    from torlab.fit.layer import fit_layers_hpt
     from torlab.fit.temperature import fit_temperature_coefficients
     from torlab.outputs import OutputDir
     from torlab.units import to_si
@@ -303,7 +300,7 @@ def temperature_cmd(
     comp = _compliance(compliance, extra)
     Tref = to_si(reference_temperature, "temperature", where="--reference-temperature")
     curves = _prepare_hpt(_hpt_curves(files, comp), comp)
-    fits = fit_layer_hpt(curves)
+    fits = fit_layers_hpt(curves)
     res = fit_temperature_coefficients(fits, reference_temperature_C=Tref)
     dest = OutputDir(out, force=force, inputs=[*files, *extra], command=command_line())
     with dest:

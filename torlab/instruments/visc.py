@@ -52,7 +52,9 @@ def read(path: Path, **_: Any) -> tuple[Any, Any]:
 
 
 def laws(spec: str) -> list[str]:
-    """The laws of a comma list (``"barus,roelands"``)."""
+    """The laws of a comma list (``"barus,roelands"``; ``""`` or ``"none"``: no fit)."""
+    if str(spec).strip().lower() in ("", "none"):
+        return []
     out = [x.strip().lower() for x in str(spec).split(",") if x.strip()]
     if not out or any(x not in ("barus", "roelands") for x in out):
         raise TorlabInputError(f"{spec!r}: choose barus, roelands or both", key="--law")
@@ -109,8 +111,7 @@ def reduce(path: Path, **opts: Any) -> Reduction:
     if fits:
         fdf = pd.DataFrame([ft.row() for ft in fits])
         tables["fit"], optional["fit"] = fdf, fit_optional(fdf.columns)
-        files = {f"lubricant_{ft.law}.yaml": dump_yaml({"lubricant": ft.to_scene_dict()})
-                 for ft in fits}
+        files = {f"lubricant_{ft.law}.yaml": dump_yaml(ft.to_scene_dict()) for ft in fits}
     res.fits = fits  # the figures and the summary row use them
     key = _summary_row(path, meta, res, fits, T, opts)
     return Reduction(NAME, str(path), tables, key, notes + [
