@@ -100,7 +100,7 @@ def mixed_contact(scene: Any) -> MixedContact:
     from torlab.model.asperity import Roughness
     from torlab.model.contact import build_contact
     from torlab.model.ehl import FilmThickness, Lubricant
-    from torlab.model.predict import fastsim_grid, fastsim_problem
+    from torlab.model.prediction import fastsim_grid, fastsim_problem
 
     if scene.lubricant is None:
         raise TorlabInputError("the scene has no lubricant: section", key="lubricant")
@@ -169,7 +169,7 @@ def _ehl_notes(mu_e: np.ndarray, lub: Any) -> list[str]:
 
 
 def _modelled(mc: MixedContact, regimes: set[str], boundary_done: bool, loop: str) -> list[str]:
-    from torlab.model.predict import _temperature_note
+    from torlab.model.prediction import _temperature_note
 
     c = mc.contact
     lub = mc.lubricant
@@ -227,7 +227,7 @@ def predict_traction_mixed(scene: Any, creepage: Any, *, trend_tolerance: float 
 
     from torlab.model.ehl import mu_ehl
     from torlab.model.loadshare import solve_load_sharing
-    from torlab.model.predict import TractionPrediction, _summary, classify_trend
+    from torlab.model.prediction import TractionPrediction, _summary, classify_trend
 
     xi = np.atleast_1d(np.asarray(creepage, dtype=float))
     if not np.all(np.isfinite(xi)):
