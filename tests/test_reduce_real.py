@@ -11,7 +11,6 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
-
 from conftest import DATA, REAL_PCS, error_lines, real_pcs_file, sha
 
 pytestmark = pytest.mark.realdata
