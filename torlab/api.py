@@ -231,9 +231,8 @@ def fit_traction(scene: Any, data: Any, *, fix: dict[str, Any] | None = None,
     """
     import numpy as np
 
-    from torlab.fit.traction import fit_layer_traction
+    from torlab.fit.traction import fit_layer_traction, layer_values
     from torlab.instruments.reduction import Reduction
-    from torlab.units import to_si
 
     sc = _scene(scene)
     if dry:
@@ -247,18 +246,8 @@ def fit_traction(scene: Any, data: Any, *, fix: dict[str, Any] | None = None,
         xi, mu = np.concatenate([c.x for c in cs]), np.concatenate([c.y for c in cs])
     else:
         xi, mu = data
-    kinds = {"mu_c1": "dimensionless", "mu_c2": "dimensionless", "L_mue": "length",
-             "L_mup": "length"}
-    fixed = {}
-    for k, v in (fix or {}).items():
-        if k not in kinds:
-            from torlab._suggest import did_you_mean
-
-            raise TorlabInputError(f"{k!r} is not a layer parameter ({', '.join(kinds)})"
-                                   f"{did_you_mean(k, kinds)}", key="fix")
-        fixed[k] = to_si(v, kinds[k], where=f"fix.{k}")
     return fit_layer_traction(sc, np.asarray(xi, dtype=float), np.asarray(mu, dtype=float),
-                              fixed=fixed)
+                              fixed=layer_values(fix or {}))
 
 
 def fit_viscosity(data: Any, law: str = "roelands", **options: Any) -> Any:

@@ -203,20 +203,15 @@ def traction_cmd(
 
 def _parse_fixed(items: list[str]) -> dict[str, float]:
     from torlab.errors import TorlabInputError
-    from torlab.units import to_si
+    from torlab.fit.traction import layer_values
 
-    kinds = {"mu_c1": "dimensionless", "mu_c2": "dimensionless", "L_mue": "length",
-             "L_mup": "length"}
-    out = {}
+    pairs = {}
     for it in items:
         if "=" not in it:
             raise TorlabInputError(f"{it!r}: use NAME=VALUE, e.g. 'L_mup=20 um'", key="--fix")
         k, v = (s.strip() for s in it.split("=", 1))
-        if k not in kinds:
-            raise TorlabInputError(f"{k!r} is not a layer parameter ({', '.join(kinds)})",
-                                   key="--fix")
-        out[k] = to_si(v, kinds[k], where="--fix")
-    return out
+        pairs[k] = v
+    return layer_values(pairs, where="--fix")
 
 
 @app.command("temperature")

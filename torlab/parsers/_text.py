@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 import io
+import math
 import os
 import re
 from collections.abc import Callable, Sequence
@@ -26,10 +27,28 @@ from torlab.errors import TorlabInputError
 _NUMBER_FIELD = re.compile(r"[+-]?(?:(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|inf(?:inity)?|nan)",
                            re.IGNORECASE)
 
-__all__ = ["LogMetadata", "PathOrBuffer", "detect_delimiter", "parse_log_columns",
-           "parse_numeric_rows", "read_log_header", "read_text", "split_unit"]
+__all__ = ["LogMetadata", "PathOrBuffer", "detect_delimiter", "header_key", "number_field", "parse_log_columns",
+           "parse_numeric_rows", "read_log_header", "read_text", "sign_value", "split_unit"]
 
 PathOrBuffer = str | os.PathLike[str] | IO[str] | IO[bytes]
+
+
+def number_field(f: str, *, path: Any, line: int, column: str, shown: str | None = None
+                 ) -> float:
+    """One field of a data row as a finite number; the error names the file, line and column.
+
+    Only plain decimal numbers are taken (``float()`` alone would accept ``'1_0'``
+    or surrounding control characters); ``nan`` and ``inf`` are refused.
+    """
+    shown = f if shown is None else shown
+    if not _NUMBER_FIELD.fullmatch(f):
+        raise TorlabInputError(f"{shown!r} is not a number", path=path, line=line,
+                               key=f"column {column!r}")
+    v = float(f)
+    if not math.isfinite(v):
+        raise TorlabInputError(f"{shown!r} is not a finite number", path=path, line=line,
+                               key=f"column {column!r}")
+    return v
 
 
 def read_text(src: PathOrBuffer, *, name: str | None = None) -> tuple[str, str]:
@@ -190,14 +209,8 @@ def _scan_for_error(lines: Sequence[str], first_line_no: int, columns: Sequence[
                 if ae:
                     continue
                 raise TorlabInputError("empty value", path=path, line=ln, key=f"column {columns[j]!r}")
-            g = f.replace(decimal, ".") if decimal != "." else f
-            if not _NUMBER_FIELD.fullmatch(g):  # float() would accept '1_0' or control characters
-                raise TorlabInputError(f"{f!r} is not a number", path=path, line=ln,
-                                       key=f"column {columns[j]!r}")
-            v = float(g)
-            if not np.isfinite(v):
-                raise TorlabInputError(f"{f!r} is not a finite number", path=path, line=ln,
-                                       key=f"column {columns[j]!r}")
+            number_field(f.replace(decimal, ".") if decimal != "." else f, path=path,
+                         line=ln, column=columns[j], shown=f)  # raises on the bad field
 
 
 def as_path_str(p: Any) -> str:
@@ -239,6 +252,38 @@ class LogMetadata:
     def to_dict(self) -> dict[str, Any]:
         """Plain dict (for JSON/YAML)."""
         return asdict(self)
+
+
+def header_key(meta: LogMetadata, key: str, value: str, keys: dict[str, str], path: str,
+               line: int | None, source: str = "header") -> str | None:
+    """The kind of a header key (``keys[key]``), its line recorded; ``None`` for the user's
+    own ``x_`` keys (kept in ``meta.extra``).
+
+    Raises
+    ------
+    TorlabInputError
+        An unknown key, with a suggestion.
+    """
+    from torlab._suggest import did_you_mean
+
+    if key.startswith(("x_", "x-")):
+        meta.extra[key] = value
+        return None
+    kind = keys.get(key)
+    if kind is None:
+        raise TorlabInputError(f"unknown {source} key {key!r}{did_you_mean(key, keys)} (known: "
+                               f"{', '.join(keys)}; prefix your own keys with x_)", path=path,
+                               line=line)
+    meta.lines[key] = line or 0
+    return kind
+
+
+def sign_value(value: str, key: str, path: str, line: int | None) -> float:
+    """A header sign: ``1``, ``+1`` or ``-1``."""
+    if value not in ("1", "+1", "-1"):
+        raise TorlabInputError(f"{key} must be 1 or -1, got {value!r}", path=path, line=line,
+                               key=key)
+    return float(value)
 
 
 def read_log_header(lines: list[str], fmt_id: str, fmt_version: int, display: str,

@@ -43,6 +43,7 @@ from torlab.parsers._text import (
     LogMetadata,
     PathOrBuffer,
     detect_delimiter,
+    header_key,
     parse_numeric_rows,
     read_log_header,
     read_text,
@@ -148,15 +149,9 @@ def _set_meta(meta: HptMetadata, key: str, value: str, *, path: str, line: int |
 
     key = key.strip()
     value = value.strip()
-    if key.startswith(("x_", "x-")):
-        meta.extra[key] = value
-        return
-    kind = METADATA_KEYS.get(key)
+    kind = header_key(meta, key, value, METADATA_KEYS, path, line, source)
     if kind is None:
-        known = ", ".join(METADATA_KEYS)
-        raise TorlabInputError(f"unknown {source} key {key!r} (known: {known}; prefix your own "
-                               "keys with x_)", path=path, line=line)
-    meta.lines[key] = line or 0
+        return
     if kind == "text":
         setattr(meta, key, value)
         return

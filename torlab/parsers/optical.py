@@ -44,9 +44,11 @@ from torlab.parsers._text import (
     _NUMBER_FIELD,
     LogMetadata,
     PathOrBuffer,
+    header_key,
     parse_log_columns,
     read_log_header,
     read_text,
+    sign_value,
 )
 
 __all__ = [
@@ -154,14 +156,9 @@ def _set_meta(meta: OpticalMetadata, key: str, value: str, path: str, line: int)
     from torlab.units import to_si
 
     key, value = key.strip(), value.strip()
-    if key.startswith(("x_", "x-")):
-        meta.extra[key] = value
-        return
-    kind = METADATA_KEYS.get(key)
+    kind = header_key(meta, key, value, METADATA_KEYS, path, line)
     if kind is None:
-        raise TorlabInputError(f"unknown header key {key!r} (known: {', '.join(METADATA_KEYS)}; "
-                               "prefix your own keys with x_)", path=path, line=line)
-    meta.lines[key] = line
+        return
     if kind == "text":
         if key == "test":
             v = value.lower().replace(" ", "_").replace("-", "_")
@@ -172,10 +169,7 @@ def _set_meta(meta: OpticalMetadata, key: str, value: str, path: str, line: int)
         setattr(meta, key, value)
         return
     if kind == "sign":
-        if value not in ("1", "+1", "-1"):
-            raise TorlabInputError(f"friction_sign must be 1 or -1, got {value!r}", path=path,
-                                   line=line, key=key)
-        meta.friction_sign = float(value)
+        meta.friction_sign = sign_value(value, key, path, line)
         return
     setattr(meta, key, to_si(value, kind, where=key, path=path, line=line))
 

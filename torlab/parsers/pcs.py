@@ -74,7 +74,7 @@ from typing import Any
 import numpy as np
 
 from torlab.errors import TorlabInputError
-from torlab.parsers._text import PathOrBuffer, read_text, split_unit
+from torlab.parsers._text import PathOrBuffer, number_field, read_text, split_unit
 
 __all__ = [
     "INSTRUMENTS",
@@ -205,7 +205,6 @@ _HEATING = re.compile(r"Controlling temperature to\s*(?P<T>[+-]?\d+(?:\.\d*)?)\s
                       re.IGNORECASE)
 _NUMERIC_START = re.compile(r"^\s*[+-]?(?:\d|\.\d)")
 _NOT_NUMBER_CHARS = re.compile(r"[^0-9eE+\-.\t\n ]")
-_FLOAT = re.compile(r"^[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?$")
 
 
 @dataclass
@@ -1026,17 +1025,8 @@ def _scan_rows(data: list[str], line_nos: np.ndarray, ncol: int, use: list[int],
             f = fields[j].strip(" ")
             if not f:
                 continue
-            label = cells[j].strip() or f"column {j + 1}"
-            if not _FLOAT.match(f):
-                what = "a finite number" if f.lower().lstrip("+-") in ("nan", "inf", "infinity") \
-                    else "a number"
-                raise TorlabInputError(f"{f!r} is not {what}", path=path, line=ln,
-                                       key=f"column {label!r}")
-            v = float(f)
-            if not math.isfinite(v):
-                raise TorlabInputError(f"{f!r} is not a finite number", path=path, line=ln,
-                                       key=f"column {label!r}")
-            out[i, k] = v
+            out[i, k] = number_field(f, path=path, line=ln,
+                                     column=cells[j].strip() or f"column {j + 1}")
     return out
 
 

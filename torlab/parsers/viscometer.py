@@ -39,10 +39,12 @@ from torlab.errors import TorlabInputError
 from torlab.parsers._text import (
     LogMetadata,
     PathOrBuffer,
+    header_key,
     parse_log_columns,
     parse_numeric_rows,
     read_log_header,
     read_text,
+    sign_value,
 )
 
 __all__ = ["COLUMNS", "DENSITY_MODELS", "FORMAT_ID", "METADATA_KEYS", "ViscometerMetadata",
@@ -159,14 +161,9 @@ def _set_meta(meta: ViscometerMetadata, key: str, value: str, path: str, line: i
     from torlab.units import to_si
 
     key, value = key.strip(), value.strip()
-    if key.startswith(("x_", "x-")):
-        meta.extra[key] = value
-        return
-    kind = METADATA_KEYS.get(key)
+    kind = header_key(meta, key, value, METADATA_KEYS, path, line)
     if kind is None:
-        raise TorlabInputError(f"unknown header key {key!r} (known: {', '.join(METADATA_KEYS)}; "
-                               "prefix your own keys with x_)", path=path, line=line)
-    meta.lines[key] = line
+        return
     if kind == "text":
         if key == "density_model":
             v = value.lower().replace("_", "-").replace(" ", "-")
@@ -177,10 +174,7 @@ def _set_meta(meta: ViscometerMetadata, key: str, value: str, path: str, line: i
         setattr(meta, key, value)
         return
     if kind == "sign":
-        if value not in ("1", "+1", "-1"):
-            raise TorlabInputError(f"position_sign must be 1 or -1, got {value!r}", path=path,
-                                   line=line, key=key)
-        meta.position_sign = float(value)
+        meta.position_sign = sign_value(value, key, path, line)
         return
     if kind == "calibration":
         meta.calibration_constant = parse_calibration_constant(value, path=path, line=line)
