@@ -1,4 +1,4 @@
-"""HPT layer fit (issue 6): recovery of the synthetic truth, interval coverage, warnings, bad data."""
+"""HPT layer fit: recovery of the synthetic truth, interval coverage, warnings, bad data."""
 
 from __future__ import annotations
 

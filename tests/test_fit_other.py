@@ -1,4 +1,4 @@
-"""Film, temperature-coefficient and viscosity fits, and the torlab fit commands (issue 6)."""
+"""Film, temperature-coefficient and viscosity fits, and the torlab fit commands."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Test protocols (issue 7): validation, the shipped protocols, reports, provenance, re-runs.
+"""Test protocols: validation, the shipped protocols, reports, provenance, re-runs.
 
 Each shipped protocol runs once per session (module-scoped fixtures).  Its
 ``summary.json`` is compared with ``tests/expected/<name>.json`` within the

@@ -1,7 +1,7 @@
 """``torlab reduce`` on every real PCS export, with detection, against numbers read off the files.
 
 The files are the MIT-licensed PCS exports beside the repository
-(``../shared/real-data/pcs``; skipped where absent).  Every expected number
+(found by ``conftest.real_pcs_file``; skipped where absent).  Every expected number
 below was read from the files by hand (awk over the columns named), not
 produced by torlab.
 """

@@ -1,8 +1,8 @@
 """Third-body layer parameters from HPT curves: ``mu_c1, mu_c2, L_mue, L_mup``.
 
 The model is the layer law of :mod:`torlab.model.layer` at the run's normal
-stress ``sigma`` (thesis Eqs. 5.24, 5.26-5.29; ``spec/model-notes.md``
-sections 3 and 8): elastic ``tau = u sigma / L_mue`` up to
+stress ``sigma`` (thesis Eqs. 5.24, 5.26-5.29, as
+``docs/model/thesis-reading.md`` reads them): elastic ``tau = u sigma / L_mue`` up to
 ``tau_c1 = mu_c1 sigma``, then Voce towards ``tau_c2 = mu_c2 sigma`` with the
 length ``L_mup``.  The rig's own compliance ``u_rig(tau)`` is part of the
 model, as in the measurement: the angle measures

@@ -398,8 +398,10 @@ def application_marked(step: Any, meta: PcsMetadata) -> bool:
     the step description or the profile description (``"... after
     application"``) are the mark.
     """
+    import re
+
     text = f"{step.description} {meta.profile}".lower()
-    return "applic" in text
+    return re.search(r"\bappli(?:cation|ed)\b", text) is not None
 
 
 def step_label(step: Any, sub: Any) -> str:
