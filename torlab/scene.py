@@ -387,7 +387,9 @@ def _message(err: dict) -> str:
     t = err.get("type", "")
     msg = err.get("msg", "")
     if t == "extra_forbidden":
-        return "unknown key"
+        from torlab._suggest import key_suggestion
+
+        return "unknown key" + key_suggestion(Scene, tuple(err.get("loc", ())))
     if t == "missing":
         return "missing (required)"
     if t == "literal_error":
