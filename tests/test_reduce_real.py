@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 from conftest import DATA, REAL_PCS, error_lines, real_pcs_file, sha
 
-pytestmark = pytest.mark.realdata
+
 
 
 @pytest.fixture(scope="module")
@@ -33,6 +33,7 @@ def reduced(tmp_path_factory):
     return out, r.output
 
 
+@pytest.mark.realdata
 def test_folder_detects_each_file_and_leaves_out_the_licence(reduced):
     out, text = reduced
     for name, first in (("demo_3.txt", "EHD261 Test Data File"),
@@ -46,6 +47,7 @@ def test_folder_detects_each_file_and_leaves_out_the_licence(reduced):
     assert (out / "tables.xlsx").stat().st_size > 10_000
 
 
+@pytest.mark.realdata
 def test_mtm_demo5_plain_timed_run(reduced):
     out, text = reduced
     st = pd.read_csv(out / "demo_5_steps.csv").iloc[0]
@@ -67,6 +69,7 @@ def test_mtm_demo5_plain_timed_run(reduced):
     assert "no application marked" in text
 
 
+@pytest.mark.realdata
 def test_ehd2_demo3_film_steps_labelled_by_temperature(reduced):
     out, _ = reduced
     st = pd.read_csv(out / "demo_3_steps.csv")
@@ -83,6 +86,7 @@ def test_ehd2_demo3_film_steps_labelled_by_temperature(reduced):
     assert (out / "demo_3_film.png").stat().st_size > 10_000
 
 
+@pytest.mark.realdata
 def test_etm_traction_steps_from_their_own_header(reduced):
     out, _ = reduced
     st = pd.read_csv(out / "ETM_slim_mapper_steps.csv")
@@ -99,6 +103,7 @@ def test_etm_traction_steps_from_their_own_header(reduced):
     assert not (out / "ETM_slim_mapper_mapper.csv").exists()
 
 
+@pytest.mark.realdata
 def test_after_application_when_asked(tmp_path, cli):
     f = real_pcs_file("demo_5.txt")
     r = cli("reduce", f, "-o", tmp_path / "o", "--after-application")
@@ -108,6 +113,7 @@ def test_after_application_when_asked(tmp_path, cli):
     assert np.isfinite(tt["minimum"].iloc[0])
 
 
+@pytest.mark.realdata
 def test_as_overrides_detection_and_bad_instrument_is_one_line(tmp_path, cli):
     f = real_pcs_file("demo_3.txt")
     r = cli("reduce", f, "--as", "optical", "-o", tmp_path / "o")
@@ -119,6 +125,7 @@ def test_as_overrides_detection_and_bad_instrument_is_one_line(tmp_path, cli):
     assert "did you mean 'mtm'" in error_lines(r)[0]
 
 
+@pytest.mark.realdata
 def test_glob_pattern_expanded_by_torlab(tmp_path, cli):
     real_pcs_file("demo_5.txt")
     r = cli("reduce", str(REAL_PCS / "demo_*.txt"), "-o", tmp_path / "o")
@@ -145,3 +152,54 @@ def test_pin_on_disc_and_unknown_step_kinds_reduced(raw, kind, geometry, tmp_pat
     assert (curve["step"] == 3).sum() == 5
     if kind != "timed":
         assert "not one torlab knows" in " ".join(r.output.split())
+
+
+# --- an EHD2 traction file through the protocol path (it used to be refused there) -------------
+def _ehd2_traction(path):
+    """A hand-made EHD2 export: one FILM step at 100 mm/s with SRR -5 ... +5 %, and
+    mu = 0.05 tanh(SRR / 2 %) in 'Traction Force 1' at 20 N."""
+    import math
+
+    lines = (DATA / "pcs" / "ehd2_quirks.txt").read_bytes().decode("cp1252").split("\r\n")
+    i = next(k for k, s in enumerate(lines) if s.startswith("20.2\t24.4"))
+    tmpl = lines[i].split("\t")
+    rows = []
+    for k, srr in enumerate((-5.0, -2.0, -1.0, 1.0, 2.0, 5.0)):
+        f = list(tmpl)
+        ub, ud = 100.0 * (1 + srr / 200), 100.0 * (1 - srr / 200)
+        f[0], f[8], f[13], f[15], f[17] = "100.0", str(10 + 8 * k), f"{ub:.2f}", f"{ud:.2f}", \
+            "100.00"
+        f[18], f[19] = f"{ub - ud:.2f}", f"{srr:.3f}"
+        f[21] = f"{20.0 * 0.05 * math.tanh(srr / 2.0):.4f}"
+        rows.append("\t".join(f))
+    j = i
+    while lines[j].strip():
+        j += 1
+    lines[i:j] = rows
+    path.write_bytes("\r\n".join(lines).encode("cp1252"))
+    return path
+
+
+def test_protocol_takes_an_ehd2_traction_file_folded(tmp_path):
+    from torlab.protocols.runner import run_protocol
+
+    f = _ehd2_traction(tmp_path / "ehd2_traction.txt")
+    p = tmp_path / "p.yaml"
+    p.write_text(f"""\
+version: 1
+name: ehd2_traction
+data:
+  optical:
+    files: [{f}]
+reports:
+  traction:
+    curves:
+      - label: EHD2 traction
+        measured: {f}
+""")
+    res = run_protocol(p, tmp_path / "out")
+    assert res.summary["data"]["optical"]["ehd2_traction.txt"]["test"] == "traction"
+    assert res.summary["data"]["optical"]["ehd2_traction.txt"]["symmetric"] == "yes"
+    curve = next(iter(res.summary["reports"]["traction"]["curves"].values()))
+    # folded: |SRR| 1, 2, 5 % with mu = 0.05 tanh(SRR / 2 %) (the file's own numbers)
+    assert curve["mu_max"] == pytest.approx(0.05 * np.tanh(2.5), abs=1e-4)
