@@ -14,8 +14,6 @@ import pytest
 from conftest import DATA, REAL_PCS, error_lines, real_pcs_file, sha
 
 
-
-
 @pytest.fixture(scope="module")
 def reduced(tmp_path_factory):
     """``torlab reduce FOLDER`` of the real files (the folder as given, no --as)."""

@@ -36,10 +36,11 @@ def _extra_inputs(opts: dict[str, Any]) -> list[Path]:
 
 def reduce_command(inputs: list[Path], out: Path, *, instrument: str | None, force: bool,
                    options: dict[str, Any], xlsx: bool = False, what: str = "input",
-                   filter_folders: bool = True) -> list[Any]:
+                   filter_folders: bool = True, flags: bool = True) -> list[Any]:
     """Expand the inputs, reduce them through the registry, write and print the results.
 
-    Option errors are reported with their command-line spelling (``--window``).
+    Option errors are reported with their command-line spelling: ``--window``
+    (``flags``), or ``--option window`` (``torlab reduce``).
     """
     from torlab.instruments import (
         expand_inputs,
@@ -56,7 +57,8 @@ def reduce_command(inputs: list[Path], out: Path, *, instrument: str | None, for
         files, notes = expand_inputs(inputs, what, keep)
         reds, prepared = reduce_batch(files, instrument, **options)
     except TorlabInputError as e:
-        flag = _flag(e.key)
+        flag = _flag(e.key) if flags else (None if e.key is None or e.key.startswith("-")
+                                           else f"--option {e.key}")
         if flag is None or e.path is not None:
             raise
         raise TorlabInputError(e.message, key=flag) from None

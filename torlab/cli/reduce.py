@@ -52,7 +52,8 @@ def reduce_cmd(
         opts[k.replace("-", "_")] = v
     if after_application:
         opts["after_application"] = True
-    reduce_command(inputs, out, instrument=as_, force=force, xlsx=xlsx, options=opts)
+    reduce_command(inputs, out, instrument=as_, force=force, xlsx=xlsx, options=opts,
+                   what="instrument", flags=False)
 
 
 def _list() -> None:
@@ -64,6 +65,6 @@ def _list() -> None:
         alias = f" (also: {', '.join(inst.aliases)})" if inst.aliases else ""
         c.print(f"[bold]{inst.name}[/bold]{alias}: {inst.title} — {inst.files}")
         for k, o in inst.options.items():
-            d = "" if o.default is None else f" [default {o.default}]"
+            d = "" if o.default is None else f" \\[default {o.default}]"
             c.print(f"    {k}: {o.help}{d}")
     raise typer.Exit(0)

@@ -222,11 +222,11 @@ def _convert(o: Option, v: Any, name: str) -> Any:
         x = to_si(v, o.kind, where=name)
     else:  # pragma: no cover - a registry mistake
         raise ValueError(f"option {name}: unknown kind {o.kind!r}")
-    _check(o.check, x, name)
+    _check(o.check, x, name, v)
     return x
 
 
-def _check(check: str, x: float, name: str) -> None:
+def _check(check: str, x: float, name: str, given: Any) -> None:
     import math
 
     bad = {
@@ -236,9 +236,9 @@ def _check(check: str, x: float, name: str) -> None:
         "open_fraction": (lambda v: 0 < v < 1, "must be in (0, 1)"),
     }.get(check)
     if not math.isfinite(x):
-        raise TorlabInputError(f"{x} is not a finite number", key=name)
+        raise TorlabInputError(f"{given!r} is not a finite number", key=name)
     if bad is not None and not bad[0](x):
-        raise TorlabInputError(f"{x:g} {bad[1]}", key=name)
+        raise TorlabInputError(f"{given!r} {bad[1]}", key=name)
 
 
 def expand_inputs(items: Iterable[str | os.PathLike[str]], what: str = "input",
