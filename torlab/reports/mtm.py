@@ -41,8 +41,8 @@ def curve_figure(red: Any, kind: str) -> Any:
     steps' own header: traction steps against SRR (%), Stribeck steps against
     rolling speed (log axis), timed steps against step time, film steps (EHD2)
     film thickness (nm) and coefficient against rolling speed (log axes).
-    Steps are coloured in file order (viridis) and labelled (film steps by
-    temperature); many steps are drawn thin with a colour bar.
+    Steps are labelled (film steps by temperature) and coloured in file order;
+    more than ten are drawn thin in viridis with a colour bar.
     """
     import matplotlib
 
@@ -65,7 +65,7 @@ def curve_figure(red: Any, kind: str) -> Any:
     for i, st in enumerate(steps):
         sel = step_arr == st
         x = d.loc[sel, xcol].to_numpy() * xs
-        color = cmap(i / max(1, n - 1)) if n > 1 else "C0"
+        color = f"C{i}" if n <= 10 else cmap(i / max(1, n - 1))
         label = (str(labels[sel][0]) if labels is not None else f"step {st}") if n <= 12 else None
         marker = "o" if sel.sum() < 60 else None
         ax.plot(x, d.loc[sel, ycol].to_numpy() * ys, "-", lw=lw, color=color, label=label,
