@@ -91,3 +91,61 @@ def test_api_reference_builds_without_warnings(tmp_path):
     page = (tmp_path / "torlab" / "api.html").read_text(encoding="utf-8")
     for name in ("fit_hpt", "reduce_files", "predict_traction", "run_protocol"):
         assert f'id="{name}"' in page, name
+
+
+TOY = '''
+from pathlib import Path
+from torlab.instruments import Option
+from torlab.instruments.reduction import Reduction
+
+NAME = "toy"
+OPTIONS = {"scale": Option("length", 1e-3, "A length.", check="positive")}
+
+
+def detect(head):
+    return "toy log" if head.startswith("# toy") else ""
+
+
+def read(path, **_):
+    import pandas as pd
+    return pd.read_csv(path, comment="#"), {"source": str(path)}
+
+
+def reduce(path, **opts):
+    df, meta = read(path)
+    df = df.assign(x_m=df["x"] * opts["scale"])
+    return Reduction(NAME, str(path), {"scaled": df}, {"n": len(df)}, meta=meta)
+
+
+def figures(red):
+    return {}
+
+
+def collect(reds, options):
+    import pandas as pd
+    return {"summary": pd.DataFrame([r.key_numbers for r in reds])}, {}, {}
+
+
+def display(reds):
+    return [("toy", [r.key_numbers for r in reds], {})]
+'''
+
+
+def test_a_new_instrument_is_one_module_and_one_registry_entry(tmp_path, monkeypatch, cli):
+    """DEVELOPERS.md's claim: a module and a registry entry, and torlab reduce detects it."""
+    import pandas as pd
+
+    from torlab import instruments
+
+    (tmp_path / "toy_instrument.py").write_text(TOY)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    entry = instruments.Instrument("toy", "toy rig", "toy_instrument", "toy logs")
+    monkeypatch.setitem(instruments.REGISTRY, "toy", entry)
+    f = tmp_path / "run1.csv"
+    f.write_text("# toy log\nx\n1\n2\n")
+    r = cli("reduce", f, "-O", "scale=2 mm", "-o", tmp_path / "o")
+    assert r.exit_code == 0, r.output
+    assert "run1.csv: read as toy (toy log)" in r.output
+    out = pd.read_csv(tmp_path / "o" / "run1_scaled.csv")
+    assert out["x_m"].tolist() == pytest.approx([0.002, 0.004])
+    assert pd.read_csv(tmp_path / "o" / "summary.csv")["n"].tolist() == [2]
