@@ -50,5 +50,4 @@ def reduce_cmd(
     opts = {"window": window, "test": test, "symmetry_tolerance": symmetry_tolerance,
             "symmetry_abs": symmetry_abs}
     reduce_command(logs, out, instrument="optical", force=force, xlsx=xlsx, what="optical log",
-                   options={k: v for k, v in opts.items() if v is not None},
-                   filter_folders=False)
+                   options={k: v for k, v in opts.items() if v is not None})

@@ -295,15 +295,19 @@ def expand_inputs(items: Iterable[str | os.PathLike[str]], what: str = "input",
     return out, notes
 
 
+#: instruments whose reduction also reads another's files (the optical reduction reads EHD2)
+ALSO_READS = {"optical": ("pcs",)}
+
+
 def is_instrument(name: str | None) -> Any:
-    """A ``keep`` filter for :func:`expand_inputs`: files detected as instrument ``name``
-    (any instrument when ``None``)."""
+    """A ``keep`` filter for :func:`expand_inputs`: files the instrument ``name`` reads
+    (detected as it, or as one it also reads; any instrument when ``None``)."""
     def keep(p: Path) -> bool:
         try:
             found = detect(p)[0].name
         except TorlabInputError:
             return False
-        return name is None or found == name
+        return name is None or found == name or found in ALSO_READS.get(name, ())
 
     return keep
 
