@@ -9,8 +9,9 @@ import typer
 
 from torlab.cli._common import ForceOpt, OutOpt, XlsxOpt
 
-app = typer.Typer(help="PCS Instruments MTM/ETM (and EHD2) exports: traction, Stribeck and timed "
-                  "steps; time tests after application (Paper B).", no_args_is_help=True)
+app = typer.Typer(help="PCS Instruments MTM/ETM (and EHD2) exports: every step kind (traction, "
+                  "Stribeck, timed, film, mapper ...); time tests after application (Paper B).",
+                  no_args_is_help=True)
 
 
 def register(root: typer.Typer) -> None:

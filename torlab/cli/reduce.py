@@ -35,11 +35,13 @@ def reduce_cmd(
     force: ForceOpt = False,
     xlsx: XlsxOpt = False,
 ) -> None:
-    """Reduce instrument files of any kind: each file's instrument is detected from its first
-    lines (or given with --as) and said; each is reduced as its own command would
-    ('torlab hpt reduce', 'mtm reduce', 'optical reduce', 'visc reduce') and written to OUT:
-    '<name>_<table>.csv', figures, and per instrument 'summary.csv' (prefixed with the
-    instrument when several are mixed); with --xlsx every table in 'tables.xlsx'.
+    """Reduce files of any instrument; the instrument is detected from each file and said.
+
+    Each file (folders and patterns expanded) is read as the instrument its first lines
+    show (or --as), reduced as its own command would ('torlab hpt reduce', 'mtm reduce',
+    'optical reduce', 'visc reduce') and written to OUT: '<name>_<table>.csv', figures, and
+    per instrument 'summary.csv' (prefixed with the instrument when several are mixed);
+    with --xlsx every table in 'tables.xlsx'.
     """
     from torlab.cli._reduce import reduce_command
     from torlab.errors import TorlabInputError
