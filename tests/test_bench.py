@@ -173,7 +173,7 @@ def test_time_at_error_on_a_first_order_family():
 # --- the baseline: the thesis's recurrence on a uniform grid -----------------------------------
 def test_naive_baseline_converges_at_first_order_to_kalker_linear_theory():
     # classic FASTSIM (no layer), creepage far below sliding: Fx = G a b C11 xi exactly in
-    # the continuous model (Kalker's linear theory, model-notes section 3)
+    # the continuous model (Kalker's linear theory, docs/model/kalker.md)
     p = scene_problem(layer=False)
     G, nu = combined_G_nu(210e9, 0.28, 210e9, 0.28)
     xi = 1e-6

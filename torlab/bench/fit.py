@@ -1,5 +1,5 @@
 """Fit speed and accuracy (``torlab bench``): time per fit, error against the synthetic truth,
-model evaluations (issue 6)."""
+model evaluations."""
 
 from __future__ import annotations
 

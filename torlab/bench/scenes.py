@@ -6,7 +6,7 @@ MTM of Paper B, the optical tribometer of Paper A) and for a *full mixed scene*
 boundary + EHL + asperities + temperature, every part modelled):
 
 * ``traction 101 points``: :func:`torlab.model.predict.predict_traction` on
-  creepages 0 ... 0.05 (the issue's targets: <= 20 ms for the boundary curve,
+  creepages 0 ... 0.05 (the targets: <= 20 ms for the boundary curve,
   <= 150 ms for the full mixed scene);
 * ``stribeck 50 speeds``: :func:`torlab.model.mixed.predict_stribeck` on
   0.01 ... 2 m/s at 5 % creepage (lubricated scenes);

@@ -1,4 +1,4 @@
-"""FASTSIM with the third-body layer (thesis 5.2.2, Eqs. 5.14-5.30; model-notes section 3).
+"""FASTSIM with the third-body layer (thesis 5.2.2, Eqs. 5.14-5.30; docs/model/thesis-reading.md).
 
 The model
 ---------
@@ -56,7 +56,7 @@ uniform and 1 clamp panel) is within 2.2e-5 (the target is 0.1 %) of the grid-fr
 adaptive quadrature of the continuous strip solution) over the accuracy test
 set; ``torlab bench`` prints the speed-against-error table.
 
-Temperature (thesis 5.2.5, model-notes section 4)
+Temperature (thesis 5.2.5, docs/model/thesis-reading.md)
 -------------------------------------------------
 With a ``thermal:`` section, the flash temperature of each strip is
 ``T(X) = T_A + (partition / sqrt(pi lambda rho c v)) integral_0^X q(X') / sqrt(X - X') dX'``

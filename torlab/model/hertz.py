@@ -5,7 +5,7 @@ Two solutions are offered:
 * :func:`hertz_approximate`: the thesis's Hamrock-Brewe approximations
   ``k = 1.0339 (rx/ry)^0.636`` (Eq. 5.8), ``theta = 1.0003 + 0.5968 ry/rx``
   (Eq. 5.9), ``a = (3 k^2 theta F R / (pi E*))^(1/3)`` (Eq. 5.11),
-  ``b = (3 theta F R / (pi k E*))^(1/3)`` (Eq. 5.12).  As model-notes section 1
+  ``b = (3 theta F R / (pi k E*))^(1/3)`` (Eq. 5.12).  As docs/model/thesis-reading.md
   says, they hold for ``rx >= ry`` (then ``a >= b``); for ``rx < ry`` the roles
   are swapped rather than extrapolated.
 * :func:`hertz_exact`: the exact solution with complete elliptic integrals

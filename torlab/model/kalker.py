@@ -1,14 +1,14 @@
 """Kalker's creepage coefficient C11 and the FASTSIM flexibility (thesis Eq. 5.17).
 
 The table is Kalker's (1967 thesis; 1990 book Table E.3) as carried by the
-open-source CONTACT program (routine ``linrol``), reproduced in
-``spec/kalker-c11.md``.  Interpolation follows CONTACT so results compare with
+open-source CONTACT program (routine ``linrol``); ``docs/model/kalker.md``
+explains it.  Interpolation follows CONTACT so results compare with
 it: linear in ``g`` between rows; in ``nu`` a quadratic through nu = 0, 0.25,
 0.5 applied to ``1/C``.  Below ``g = 0.1`` (an extreme contact) the asymptotes
 are used and :func:`C11` reports it: the table is never extrapolated.
 
 With two different materials (steel ball on glass) Kalker's combined constants
-are used (model-notes section 3): ``2/G = 1/G1 + 1/G2``,
+are used (``docs/model/thesis-reading.md``): ``2/G = 1/G1 + 1/G2``,
 ``nu = (G/2) (nu1/G1 + nu2/G2)``, ``Gi = Ei / (2 (1 + nu_i))``.
 """
 
@@ -73,7 +73,7 @@ def C11(a_over_b: float, nu: float, *, warn: bool = True) -> float:
     Returns
     -------
     float
-        C11 (dimensionless).  Checks (kalker-c11.md): nu = 0.28 gives 3.7335
+        C11 (dimensionless).  Checks (``docs/model/kalker.md``): nu = 0.28 gives 3.7335
         (a/b = 0.5), 4.2262 (1), 5.2037 (2).
     """
     if not (a_over_b > 0 and math.isfinite(a_over_b)):

@@ -5,7 +5,7 @@ The pieces (each in its own module) are put together here:
 1. Hertz contact (:mod:`torlab.model.contact`);
 2. central film thickness ``hc`` (Eq. 5.31 or 5.32, :class:`torlab.model.ehl.FilmThickness`);
 3. Greenwood-Williamson asperity pressure (Eq. 5.41/5.42, :mod:`torlab.model.asperity`);
-4. the bracketed load-sharing solve ``hc(F - F_BL(h)) = h`` (model-notes section 7,
+4. the bracketed load-sharing solve ``hc(F - F_BL(h)) = h`` (docs/model/thesis-reading.md,
    :func:`torlab.model.loadshare.solve_load_sharing`), which does not depend on the
    creepage, so a traction curve needs it once;
 5. ``mu_EHL`` of the film (Eq. 5.37/5.40 with the scene's shear law,
@@ -24,7 +24,7 @@ Model only what the scene needs (and say so in ``modelled``):
   without a ``thermal:`` section no temperature is computed.
 
 A Newtonian film under a Barus or Roelands viscosity can give an absurd traction
-coefficient at high pressure and slip (thesis 5.2.3; the issue's reason for the
+coefficient at high pressure and slip (thesis 5.2.3; the reason for the
 ``limiting`` and ``eyring`` laws).  Above ``mu_EHL = 0.5`` the prediction says so
 in its notes and recommends ``shear: limiting``; a traction that overflows raises
 :class:`torlab.model.ehl.NonPhysicalTractionError`.
@@ -100,7 +100,7 @@ def mixed_contact(scene: Any) -> MixedContact:
     from torlab.model.asperity import Roughness
     from torlab.model.contact import build_contact
     from torlab.model.ehl import FilmThickness, Lubricant
-    from torlab.model.predict import fastsim_grid, fastsim_problem
+    from torlab.model.prediction import fastsim_grid, fastsim_problem
 
     if scene.lubricant is None:
         raise TorlabInputError("the scene has no lubricant: section", key="lubricant")
@@ -169,7 +169,7 @@ def _ehl_notes(mu_e: np.ndarray, lub: Any) -> list[str]:
 
 
 def _modelled(mc: MixedContact, regimes: set[str], boundary_done: bool, loop: str) -> list[str]:
-    from torlab.model.predict import _temperature_note
+    from torlab.model.prediction import _temperature_note
 
     c = mc.contact
     lub = mc.lubricant
@@ -181,7 +181,7 @@ def _modelled(mc: MixedContact, regimes: set[str], boundary_done: bool, loop: st
         out.append("asperity load sharing: not modelled (no roughness: section, smooth surfaces)")
     else:
         out.append(f"asperity load sharing: Greenwood-Williamson, {mc.asperity.model} asperities "
-                   "(bracketed solve, model-notes section 7)")
+                   "(bracketed solve, docs/model/thesis-reading.md)")
     if boundary_done:
         out.append("boundary friction: FASTSIM with the third-body layer where the asperities "
                    "carry load")
@@ -227,7 +227,7 @@ def predict_traction_mixed(scene: Any, creepage: Any, *, trend_tolerance: float 
 
     from torlab.model.ehl import mu_ehl
     from torlab.model.loadshare import solve_load_sharing
-    from torlab.model.predict import TractionPrediction, _summary, classify_trend
+    from torlab.model.prediction import TractionPrediction, _summary, classify_trend
 
     xi = np.atleast_1d(np.asarray(creepage, dtype=float))
     if not np.all(np.isfinite(xi)):
