@@ -39,9 +39,11 @@ continuous strip solution:
   analytic well around the interval), and so has the elastic force
   ``integral_0^X_y tau dX = xi (a(y)^2/L1) [G(sin theta_y) - e(theta_y) cos theta_y]``
   with ``G(s) = s^2/2 - r s + r^2 ln(1 + s/r)``;
-* the yield angle ``theta_y`` is the root of ``xi E = tau_c1``, found to
-  round-off by a bracketed (Chandrupatla) iteration that is vectorised over
-  all strips and creepages (``scipy.optimize.elementwise.find_root``);
+* the yield angle ``theta_y`` is the first root of ``xi E = tau_c1``, bracketed
+  by a table (of the monotone ``e/sin theta``; with temperature, of the residual on
+  the temperature nodes) and found to round-off by a safeguarded Newton iteration
+  vectorised over all strips and creepages, which stops on a *relative* step
+  (:func:`_bracketed_newton`);
 * the plastic part is integrated by Gauss-Legendre panels that start at the
   yield point and at the end of the clamped zone (where ``u = tau_c1 L``, a
   closed form without temperature) and are graded geometrically with the
@@ -70,6 +72,9 @@ creepage (the relaxation halves whenever the residual stops shrinking) until
 :class:`~torlab.errors.ConvergenceError`.  When the temperature coefficients
 are zero, or the first pass shows a heating that changes the limits by less
 than 1e-6, no loop is run and the temperature is reported from one pass.
+The points of a call (creepages; with ``speed=``, one speed per point, as in a
+Stribeck curve) iterate together in one array, and each leaves the iteration
+when it has converged: its result does not depend on the other points.
 """
 
 from __future__ import annotations
