@@ -282,3 +282,33 @@ def test_regression_guard_full_mixed_scene():
     np.testing.assert_allclose(mu, [0.006381073716888548, 0.024615909009184977,
                                     0.039138438683792916, 0.04514403543225885],
                                rtol=0, atol=1e-9)
+
+
+# ---------------------------------------------------------------------------------------
+# BLAS/OpenMP threads of the fits
+# ---------------------------------------------------------------------------------------
+def test_fits_run_with_one_blas_thread_and_give_the_pools_back():
+    import scipy.linalg  # noqa: F401  (both BLAS builds loaded)
+    from threadpoolctl import threadpool_info
+
+    from torlab.fit.film import fit_film_thickness
+    from torlab.fit.layer import fit_layer_hpt
+    from torlab.fit.temperature import fit_temperature_coefficients
+    from torlab.fit.traction import fit_layer_traction
+    from torlab.fit.viscosity import fit_barus, fit_roelands
+    from torlab.threads import small_problem
+
+    def pools():
+        return {i["filepath"]: i["num_threads"] for i in threadpool_info()}
+
+    @small_problem
+    def probe():
+        return pools()
+
+    before = pools()
+    inside = probe()
+    assert inside and all(n == 1 for n in inside.values())
+    assert pools() == before
+    for fit in (fit_layer_hpt, fit_layer_traction, fit_film_thickness, fit_barus, fit_roelands,
+                fit_temperature_coefficients):
+        assert hasattr(fit, "__wrapped__"), fit.__name__  # decorated with small_problem
