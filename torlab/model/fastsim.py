@@ -626,9 +626,9 @@ def boundary_traction(prob: FastsimProblem, creepage: Any, grid: FastsimGrid | N
         used by the mixed model to weight the boundary heat flux and add the
         film's (see :mod:`torlab.model.mixed`); ``None`` for a dry contact.  It is
         called once, with arrays that broadcast to (points, strips, temperature
-        nodes): the points are every element of ``creepage`` (as ``|creepage|``),
-        in order, so per-point data (speed, film, load share) can be indexed by
-        the first axis.
+        nodes): the points are every element of ``creepage`` (as ``|creepage|``,
+        flattened, in order), so per-point data (speed, film, load share) can be
+        indexed by the first axis.
 
     Returns
     -------
@@ -641,16 +641,14 @@ def boundary_traction(prob: FastsimProblem, creepage: Any, grid: FastsimGrid | N
     """
     grid = grid or FastsimGrid()
     xi_in = np.atleast_1d(np.asarray(creepage, dtype=float))
-    if xi_in.ndim != 1:
-        xi_in = xi_in.ravel()
     if not np.all(np.isfinite(xi_in)):
         raise ValueError("creepage must be finite")
     v = np.broadcast_to(np.asarray(prob.speed if speed is None else speed, dtype=float),
-                        xi_in.shape)
+                        xi_in.shape).ravel()
     if not np.all(np.isfinite(v)) or np.any(v < 0):
         raise ValueError("speed must be finite and >= 0")
-    sign = np.sign(xi_in)
-    mag = np.abs(xi_in)
+    sign = np.sign(xi_in).ravel()  # points in order; the outputs take the input's shape
+    mag = np.abs(xi_in).ravel()
     nz = mag > 0
     mu = np.zeros_like(mag)
     stick = np.ones_like(mag)
@@ -684,8 +682,11 @@ def boundary_traction(prob: FastsimProblem, creepage: Any, grid: FastsimGrid | N
     _check_finite("traction coefficient", mu)
     if tmax is not None:
         _check_finite("flash temperature", tmax)
-    return BoundaryResult(creepage=xi_in, mu=sign * mu, adhesion_fraction=stick,
-                          max_temperature_C=tmax, temperature_iterations=iters,
+    shape = xi_in.shape
+    return BoundaryResult(creepage=xi_in, mu=(sign * mu).reshape(shape),
+                          adhesion_fraction=stick.reshape(shape),
+                          max_temperature_C=None if tmax is None else tmax.reshape(shape),
+                          temperature_iterations=None if iters is None else iters.reshape(shape),
                           temperature_loop=loop, yield_iterations=stats["yield_iterations"],
                           notes=notes)
 
