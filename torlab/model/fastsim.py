@@ -503,7 +503,7 @@ def _bracketed_newton(fdf: Any, lo: np.ndarray, hi: np.ndarray, th: np.ndarray,
     ConvergenceError
         Not converged within ``_YIELD_MAX_ITER`` iterations.
     """
-    rel = np.full(th.shape, np.inf)
+    step = np.full(th.shape, np.inf)
     for it in range(1, _YIELD_MAX_ITER + 1):
         f, df = fdf(th)
         neg = f < 0
@@ -517,8 +517,8 @@ def _bracketed_newton(fdf: Any, lo: np.ndarray, hi: np.ndarray, th: np.ndarray,
         th = new
         if np.all(step <= _YIELD_RTOL * np.abs(th)):
             return th, it
-        with np.errstate(divide="ignore", invalid="ignore"):
-            rel = step / np.abs(th)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = step / np.abs(th)
     raise ConvergenceError(
         f"{what}: the safeguarded Newton iteration did not converge in {_YIELD_MAX_ITER} "
         f"steps (largest relative step {float(np.nanmax(rel)):.3g}); please report this scene",
