@@ -4,10 +4,10 @@ torlab's linear algebra is small: Jacobians of a few hundred rows by a handful o
 parameters, normal matrices of 4 x 4, L-BFGS-B on three parameters.  A
 multi-threaded BLAS gains nothing on problems of that size, and on a busy
 machine its threads wait for each other and for the cores: on the shared 2-core
-machine of ``docs/performance.md`` the HPT layer fit took several times longer
-with OpenBLAS's default of one thread per core than with one thread while
-another process kept a core busy (``torlab bench --only fit`` measures the ratio
-in one run).  The fits therefore run with one BLAS/OpenMP thread
+machine of ``docs/performance.md``, with another process keeping one core busy,
+the HPT layer fit took 4.6 times longer with OpenBLAS's default of one thread
+per core than with one thread (``torlab bench --only fit`` measures the ratio in
+one run).  The fits therefore run with one BLAS/OpenMP thread
 (:func:`small_problem`); parallel work belongs to independent tasks, one
 process each.
 
