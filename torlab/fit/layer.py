@@ -47,6 +47,7 @@ from torlab.fit._noise import (
     sandwich_covariance,
 )
 from torlab.fit.result import FitResult
+from torlab.threads import small_problem
 
 __all__ = ["LAYER_NAMES", "HptCurve", "fit_layer_hpt", "fit_layers_hpt", "hpt_curve",
            "tau_of_raw_displacement"]
@@ -256,6 +257,7 @@ def _initial_guess(c: HptCurve) -> np.ndarray:
     return np.clip(x, _LOWER * 1.01, _UPPER * 0.99)
 
 
+@small_problem  # one BLAS thread: small matrices (torlab.threads)
 def fit_layer_hpt(curves: Any, *, sigma: float | None = None, compliance: Any = None,
                   joint: bool = True) -> FitResult:
     """Fit ``mu_c1, mu_c2, L_mue, L_mup`` to HPT curves (thesis Eqs. 5.24, 5.26-5.29).

@@ -35,6 +35,7 @@ import numpy as np
 
 from torlab.errors import FitError, TorlabInputError
 from torlab.fit.result import FitResult, covariance_from_jacobian
+from torlab.threads import small_problem
 
 __all__ = ["fit_layer_traction", "layer_values", "traction_model"]
 
@@ -141,6 +142,7 @@ def _start(model: Any, scene: Any, xi: np.ndarray, y: np.ndarray) -> dict[str, f
     return {"mu_c1": mu1, "mu_c2": mu2, "L_mue": lme, "L_mup": max(lme, 1e-6)}
 
 
+@small_problem  # one BLAS thread: small matrices (torlab.threads)
 def fit_layer_traction(scene: Any, creepage: Any, mu: Any, *, fixed: dict[str, float] | None = None,
                        x0: dict[str, float] | None = None, max_nfev: int = 200) -> FitResult:
     """Fit the layer parameters to a traction curve with FASTSIM (thesis Eqs. 5.14-5.30).

@@ -32,6 +32,7 @@ import numpy as np
 from torlab.errors import FitError, TorlabInputError
 from torlab.fit.result import FitResult, student_t
 from torlab.model.viscosity import log_eta_barus, log_eta_roelands, roelands_alpha0
+from torlab.threads import small_problem
 
 __all__ = ["ViscosityFit", "fit_barus", "fit_optional", "fit_roelands", "fit_viscosity"]
 
@@ -237,6 +238,7 @@ def _t(confidence: float, dof: int) -> float:
     return float(student_t.ppf(0.5 + confidence / 2, dof))
 
 
+@small_problem  # one BLAS thread: small matrices (torlab.threads)
 def fit_barus(p: Any, eta: Any, *, confidence: float = 0.95,
               temperature_C: float | None = None) -> ViscosityFit:
     """Barus fit ``ln eta = ln eta0 + alpha p`` (Eq. 5.39) by ordinary least squares.
@@ -295,6 +297,7 @@ def fit_barus(p: Any, eta: Any, *, confidence: float = 0.95,
         temperature_C=temperature_C, warnings=warnings)
 
 
+@small_problem  # one BLAS thread: small matrices (torlab.threads)
 def fit_roelands(p: Any, eta: Any, *, eta0: float | None = None, fit_eta0: bool | None = None,
                  confidence: float = 0.95, temperature_C: float | None = None) -> ViscosityFit:
     """Roelands fit (Eq. 5.38) of ``Z`` (and ``eta0``) by nonlinear least squares in ``ln eta``.

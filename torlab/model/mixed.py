@@ -33,7 +33,7 @@ in its notes and recommends ``shear: limiting``; a traction that overflows raise
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -132,32 +132,44 @@ def _need_boundary(mc: MixedContact, share: np.ndarray, where: str) -> None:
             key="boundary")
 
 
-def _heat_of_film(mc: MixedContact, v: float, h: float, share: float):
+def _heat_of_film(mc: MixedContact, v: Any, h: Any, share: Any):
     """``extra_heat_flux`` for FASTSIM: boundary heat weighted by the asperity share plus
-    the film's ``(1 - share) tau_EHL w`` at each temperature node (Eq. 5.48)."""
+    the film's ``(1 - share) tau_EHL w`` at each temperature node (Eq. 5.48).
+
+    ``v``, ``h`` and ``share`` are scalars (one speed) or arrays with one entry per
+    point of the FASTSIM call (a Stribeck curve: one point per speed).
+    """
     from torlab.model.ehl import tau_ehl
 
     p0 = mc.contact.patch.p0
+    v, h, share = (np.asarray(x, dtype=float).reshape(-1, 1, 1) for x in (v, h, share))
     film_share = 1.0 - share
+    film = (film_share > 0.0) & (h > 0.0)
 
     def flux(X_over_a: np.ndarray, cphi: np.ndarray, xi: np.ndarray):
-        if film_share <= 0.0 or h <= 0.0:
+        if not film.any():
             return share, 0.0
         s_theta = np.sqrt(np.clip(X_over_a * (2.0 - X_over_a), 0.0, None))
         p = p0 * cphi * s_theta
         w = xi * v
-        return share, film_share * tau_ehl(p, w, h, mc.lubricant) * w
+        tau = tau_ehl(p, w, np.where(film, h, 1.0), mc.lubricant)  # h = 1 m: placeholder
+        return share, np.where(film, film_share * tau * w, 0.0)
 
     return flux
 
 
-def _boundary(mc: MixedContact, creepage: np.ndarray, v: float, h: float, share: float):
-    """FASTSIM at speed ``v`` for the asperity part (with the film's heat when thermal)."""
+def _boundary(mc: MixedContact, creepage: np.ndarray, v: Any, h: Any, share: Any):
+    """FASTSIM for the asperity part (with the film's heat when thermal).
+
+    ``v``, ``h``, ``share``: one speed (scalars) for a traction curve, or one per
+    creepage (arrays) for a Stribeck curve with temperature.
+    """
     from torlab.model.fastsim import boundary_traction
 
-    prob = mc.problem if mc.problem.speed == v else replace(mc.problem, speed=v)
-    extra = _heat_of_film(mc, v, h, share) if prob.thermal is not None else None
-    return boundary_traction(prob, creepage, mc.grid, extra_heat_flux=extra)
+    if mc.problem.thermal is None:
+        return boundary_traction(mc.problem, creepage, mc.grid)
+    return boundary_traction(mc.problem, creepage, mc.grid, speed=v,
+                             extra_heat_flux=_heat_of_film(mc, v, h, share))
 
 
 def _ehl_notes(mu_e: np.ndarray, lub: Any) -> list[str]:
@@ -281,8 +293,9 @@ def predict_stribeck(scene: Any, speed: Any, creepage: float) -> StribeckPredict
 
     The load sharing is solved for all speeds at once (vectorised bracketed root);
     FASTSIM runs once for the creepage when the scene has no ``thermal:`` section
-    (``mu_BL`` does not depend on speed then), else once per speed where the
-    asperities carry load.
+    (``mu_BL`` does not depend on speed then), else once for all the speeds where the
+    asperities carry load, one point per speed (each with its own contact-temperature
+    iteration, vectorised across speeds).
 
     Parameters
     ----------
@@ -329,11 +342,12 @@ def predict_stribeck(scene: Any, speed: Any, creepage: float) -> StribeckPredict
             mu_b[need] = bl.mu[0]
             loop = bl.temperature_loop
         else:
-            for i in np.flatnonzero(need):
-                bl = _boundary(mc, np.array([xi]), float(v[i]), float(h[i]), float(share[i]))
-                mu_b[i] = bl.mu[0]
-                tmax[i] = bl.max_temperature_C[0]
-                loop = bl.temperature_loop if loop != "iterated" else loop
+            # one point per speed, all speeds in one call (each has its own tau-T loop)
+            i = np.flatnonzero(need)
+            bl = _boundary(mc, np.full(i.size, xi), v[i], h[i], share[i])
+            mu_b[i] = bl.mu
+            tmax[i] = bl.max_temperature_C
+            loop = bl.temperature_loop
     mu = np.where(has_film, (1.0 - share) * np.nan_to_num(mu_e), 0.0) + \
         np.where(need, share * np.nan_to_num(mu_b), 0.0)
     lam = np.asarray(ls.lam, dtype=float)
