@@ -266,7 +266,11 @@ def read_time_test(path: str | Path, *, step: int | None = None,
             try:
                 amount = parse_amount(txt.replace("\t", " "), where="Applied amount")
             except TorlabInputError as e:
-                raise TorlabInputError(e.message, path=str(path), line=st.first_line,
+                lines = path.read_text(encoding="utf-8", errors="replace").splitlines()
+                ln = next((i + 1 for i in range(max(st.first_line - 1, 0), len(lines))
+                           if lines[i].lower().lstrip().startswith("applied amount")),
+                          st.first_line)
+                raise TorlabInputError(e.message, path=str(path), line=ln,
                                        key="Applied amount") from None
             amount = (amount, txt.strip())
         if track_radius is None:
