@@ -660,8 +660,14 @@ def _fit_one(sp: _Spec, preps: list[_Prepared], transfer: float, energy: str) ->
     x0, lo, hi = _start(sp, preps, transfer, resid)
     x0 = np.clip(x0, lo + 1e-9, hi - 1e-9)
     try:
-        sol = least_squares(resid, x0, bounds=(lo, hi), method="trf", x_scale=1.0,
-                            diff_step=1e-7, xtol=1e-9, ftol=1e-10, gtol=1e-10, max_nfev=500)
+        # Levenberg-Marquardt (MINPACK) from the grid's best point; the search bounds lie
+        # far outside (+-25 in the log parameters) and are enforced afterwards
+        sol = least_squares(resid, x0, method="lm", x_scale=1.0, diff_step=1e-7, xtol=1e-9,
+                            ftol=1e-10, gtol=1e-10, max_nfev=500)
+        if np.any(sol.x < lo) or np.any(sol.x > hi):
+            sol = least_squares(resid, np.clip(sol.x, lo + 1e-9, hi - 1e-9), bounds=(lo, hi),
+                                method="trf", x_scale=1.0, diff_step=1e-7, xtol=1e-9,
+                                ftol=1e-10, gtol=1e-10, max_nfev=500)
     except (ValueError, np.linalg.LinAlgError) as e:
         raise FitError(f"removal fit ({sp.law}) failed: {e}") from None
     if sol.status <= 0:
