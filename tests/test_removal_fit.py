@@ -95,9 +95,14 @@ def test_zero_order_law_is_chosen_for_zero_order_data(layer, scene):
 
 
 @pytest.mark.slow
-def test_coverage_and_law_choice_over_200_seeds(layer, scene):
+def test_coverage_and_law_choice_over_200_seeds(scene):
     """95 % intervals cover the true rate in >= 90 % of 200 virtual campaigns per law, and the
-    criterion picks the true law in >= 90 % (a wrong pick counts as not covered)."""
+    criterion picks the true law in >= 90 % (a wrong pick counts as not covered).
+
+    The layer is the generating one, given with negligible standard errors: this checks the
+    intervals' data part (the record's noise and the measured conditions); the layer's part
+    is checked by its linear response (next test)."""
+    layer = true_layer(rel_se=1e-5)
     n = 200
     report = {}
     for law in (FIRST, ZERO):
@@ -114,6 +119,34 @@ def test_coverage_and_law_choice_over_200_seeds(layer, scene):
         assert r["coverage"] >= 0.90, (name, report)
         assert r["coverage"] <= 0.995, (name, report)  # not vacuous either
         assert r["law_picked"] >= 0.90, (name, report)
+
+
+def test_layer_uncertainty_enters_the_rate_through_its_linear_response(layer, scene):
+    """The same data fitted with the nominal layer and with a layer one standard error off
+    at one tested amount: the rate moves by what the fit's layer sensitivity G says (the
+    linear response the layer's part of the interval is built from)."""
+    from torlab.model.amount import AmountLayer
+
+    j = 2  # the third tested amount (node j + 1; node 0 is the dry anchor)
+    sd = np.sqrt(np.diag(layer.covs[j]))
+    shifted = AmountLayer(layer.amounts, layer.params.copy(), layer.covs, layer.dry_params,
+                          layer.dry_cov, layer.dry_amount)
+    shifted.params[j, :2] += sd[:2]  # mu_c1 and mu_c2 one standard error higher
+    shifted.__post_init__()
+    data = _tests(FIRST, 2, layer, noise_sd=0.0, ou_sd=0.0)
+    base = fit_removal(data, layer, scene, laws=("first_order",))
+    moved = fit_removal(data, shifted, scene, laws=("first_order",))
+    G = np.asarray(base.meta["fit_space"]["layer_sensitivity"])
+    dp = np.zeros((layer.nodes.size, 4))
+    dp[j + 1, :2] = sd[:2]
+    predicted = float((G @ dp.ravel())[0])
+    observed = math.log(moved.params["k1"] / base.params["k1"])
+    assert abs(observed) > 1e-3  # a measurable shift
+    assert observed == pytest.approx(predicted, rel=0.15)
+    parts = base.meta["uncertainty_parts"]
+    assert parts["layer"][0] > 0 and parts["data"][0] > 0
+    total = math.log(base.ci95["k1"][1] / base.params["k1"])
+    assert total > 1.9 * math.hypot(parts["layer"][0], parts["data"][0])
 
 
 def test_energy_based_rate_transfers_between_loads_and_speeds(layer):

@@ -346,6 +346,7 @@ class _Prepared:
     xg: np.ndarray            # fixed ln m grid from the dry anchor to the table top
     mug: np.ndarray           # the coefficient on it
     I0: dict[int, np.ndarray]  # per law order: integral of (m if order 0 else 1) / (c_rev mu) dx
+    table: Any                # the friction table (with layer derivatives)
     notes: list[str]
     n_evaluations: int
 
@@ -354,12 +355,13 @@ _TABLES: dict[tuple, Any] = {}
 
 
 def _table(sc: Any, layer: Any, creepage: float, top: float, per_interval: int) -> Any:
-    """:func:`~torlab.model.removal.mu_table`, cached per layer, contact, creepage and range."""
+    """:func:`~torlab.model.removal.mu_table` with its layer derivatives, cached per layer,
+    contact, creepage and range."""
     key = (id(layer), sc.model_dump_json(), creepage, float(f"{top:.6g}"), per_interval)
     hit = _TABLES.get(key)
     if hit is not None and hit[0] is layer:
         return hit[1]
-    tab = mu_table(sc, layer, creepage, m_top=top, per_interval=per_interval)
+    tab = mu_table(sc, layer, creepage, m_top=top, per_interval=per_interval, gradient=True)
     if len(_TABLES) >= 32:
         _TABLES.pop(next(iter(_TABLES)))
     _TABLES[key] = (layer, tab)
@@ -452,7 +454,7 @@ def _prepare(tt: TimeTest, scene: Any, layer: Any, *, skip: Any, duration: float
           1: _cumulative_integral(1.0 / (c_rev * mug), float(xg[1] - xg[0]))}
     return _Prepared(test=tt, t_rel=t, mu=mu, E=E, N=N, window=win, m_applied=m_app,
                      transfer_max=tr_max, i0=i0, N_win=(t[i0:] - t[i0]) / t_rev,
-                     c_rev=c_rev, xg=xg, mug=mug, I0=I0,
+                     c_rev=c_rev, xg=xg, mug=mug, I0=I0, table=table,
                      K_rel_var=float(np.var(load * xi * speed) / np.mean(load * xi * speed) ** 2),
                      curve=curve, x_dry=float(table.x[0]), mu_dry=float(table.mu_dry[0]),
                      m_max=table.m_max, area=area, creepage=s, load=F, speed=v, skip=skip_s,
@@ -533,6 +535,69 @@ def _model(theta: np.ndarray, sp: _Spec, preps: list[_Prepared], transfer: float
         mu = np.where(m <= math.exp(p.x_dry), p.mu_dry, p.curve(x))
         out.append((m, mu, E))
     return out
+
+
+def _with_mu_nodes(p: _Prepared, mu_nodes: np.ndarray) -> _Prepared:
+    """A copy of a prepared test whose friction table has the node values ``mu_nodes``."""
+    from dataclasses import replace as dc_replace
+
+    from torlab.model.removal import _cumulative_integral
+
+    curve = p.table.curve(mu_nodes=mu_nodes)
+    mug = np.asarray(curve(p.xg), dtype=float)
+    mug[0] = float(mu_nodes[0])
+    h = float(p.xg[1] - p.xg[0])
+    I0 = {0: _cumulative_integral(np.exp(p.xg) / (p.c_rev * mug), h),
+          1: _cumulative_integral(1.0 / (p.c_rev * mug), h)}
+    return dc_replace(p, curve=curve, mug=mug, I0=I0, mu_dry=float(mu_nodes[0]))
+
+
+def _layer_sensitivity(theta: np.ndarray, J: np.ndarray, sp: _Spec, preps: list[_Prepared],
+                       transfer: float, energy: str, layer: Any) -> tuple[np.ndarray, np.ndarray]:
+    """``G = d theta / d p_nodes`` (n_theta x 4 n_nodes) and the layer's node covariance.
+
+    Each node parameter of the layer (dry anchor and tested amounts) is
+    perturbed in turn; the friction tables follow by their derivatives (the
+    boundary model linearised at the table nodes, the perturbed parameters
+    interpolated like the layer), and ``G = -B J^T J_L`` with ``J_L`` the
+    residuals' response and ``B = (J^T J)^-1``.
+    """
+    from torlab.fit.result import _scaled_inverse
+
+    allp = np.vstack([layer.dry_params, layer.params])
+    covs = np.concatenate([layer.dry_cov[None], layer.covs])
+    n_nodes = allp.shape[0]
+
+    def resid(pp: list[_Prepared]) -> np.ndarray:
+        mods = _model(theta, sp, pp, transfer, energy, fast=True)
+        return np.concatenate([(mu_m - p.mu)[p.window] for p, (_, mu_m, _) in
+                               zip(pp, mods, strict=True)])
+
+    r0 = resid(preps)
+    JL = np.zeros((r0.size, 4 * n_nodes))
+    cols = []
+    for j in range(n_nodes):
+        for q in range(4):
+            sd = math.sqrt(max(covs[j, q, q], 0.0))
+            cols.append((j, q, sd))
+    for c, (j, q, sd) in enumerate(cols):
+        if sd <= 0:
+            continue
+        h = sd
+        nodes = allp.copy()[None]
+        nodes[0, j, q] += h
+        pert = []
+        for p in preps:
+            tab = p.table
+            dp = layer.draw_params(np.exp(tab.x), nodes)[:, 0, :] - tab.params
+            mu_n = tab.mu[:, 0] + np.einsum("xp,xp->x", tab.grad[:, 0, :], dp)
+            pert.append(_with_mu_nodes(p, mu_n))
+        JL[:, c] = (resid(pert) - r0) / h
+    B = _scaled_inverse(J.T @ J)
+    G = -B @ J.T @ JL
+    from scipy.linalg import block_diag
+
+    return G, block_diag(*covs)
 
 
 def _fast_window(p: _Prepared, order: int, k: float, scale: float, m_s: float) -> np.ndarray:
@@ -856,7 +921,11 @@ def fit_removal(tests: TimeTest | Sequence[TimeTest], layer: Any, scene: Any, *,
     chosen = law if law else min(rows, key=lambda r: r["aicc"])["law"]
     f = fits[cands.index(chosen)]
     sp = f["spec"]
-    theta, cov_t = f["theta"], f["cov"]
+    theta = f["theta"]
+    G, cov_L = _layer_sensitivity(theta, f["jac"], sp, preps, 1.0 if fit_tr else float(transfer),
+                                  energy, layer)
+    cov_layer = G @ cov_L @ G.T
+    cov_t = f["cov"] + cov_layer
     vals = np.exp(theta)
     D = np.diag(vals)
     cov = D @ cov_t @ D
@@ -885,7 +954,14 @@ def fit_removal(tests: TimeTest | Sequence[TimeTest], layer: Any, scene: Any, *,
         "criterion": "AICc on the effective number of independent points",
         "law_selection": rows,
         "fit_space": {"names": list(sp.names), "values": [float(v) for v in theta],
-                      "covariance": [[float(v) for v in row] for row in cov_t]},
+                      "covariance": [[float(v) for v in row] for row in cov_t],
+                      "covariance_without_layer": [[float(v) for v in row] for row in f["cov"]],
+                      "layer_sensitivity": [[float(v) for v in row] for row in G],
+                      "layer_nodes_mg_m2": [float(v) / MG_M2 for v in layer.nodes]},
+        "uncertainty_parts": {
+            "data": [math.sqrt(max(v, 0.0)) for v in np.diag(f["cov"] - f["cov_nuisance"])],
+            "measured_conditions": [math.sqrt(max(v, 0.0)) for v in np.diag(f["cov_nuisance"])],
+            "layer": [math.sqrt(max(v, 0.0)) for v in np.diag(cov_layer)]},
         "interval_dof": {nm: round(float(d), 1) for nm, d in zip(sp.names, pdof, strict=True)},
         "effective_points": float(f["neff"]),
         "transfer": "fitted" if fit_tr else float(transfer),

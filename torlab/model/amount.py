@@ -296,7 +296,8 @@ class AmountLayer:
                   density: float | None = None, amounts: Sequence[Any] | None = None,
                   dry_amount: Any = None, above: str = "error",
                   temperature_coefficients: tuple[float, float] = (0.0, 0.0),
-                  temperature_tolerance: float = 5.0) -> AmountLayer:
+                  temperature_tolerance: float = 5.0, repeatability: float = 0.0
+                  ) -> AmountLayer:
         """The layer of a product from its per-amount HPT fits and the dry fit.
 
         Parameters
@@ -324,6 +325,11 @@ class AmountLayer:
             ``(mu_c1_T, mu_c2_T)`` for every layer (1/K).
         temperature_tolerance
             Largest spread (K) of the fits' test temperatures.
+        repeatability
+            Relative run-to-run scatter of the layer parameters between repeated
+            HPT runs (e.g. 0.03), added in quadrature to every fit's own standard
+            errors.  A single run's fit errors do not contain it; give it where
+            repeats have shown it (default 0: the fits' errors alone).
 
         Raises
         ------
@@ -364,6 +370,14 @@ class AmountLayer:
                                    "temperature")
         pd_, cd, nt = _fit_cov(dry)
         notes += nt
+        if not (math.isfinite(repeatability) and repeatability >= 0):
+            raise TorlabInputError(f"repeatability must be a non-negative fraction, got "
+                                   f"{repeatability}", key="repeatability")
+        if repeatability > 0:
+            cs = [c + np.diag((repeatability * p) ** 2) for c, p in zip(cs, ps, strict=True)]
+            cd = cd + np.diag((repeatability * pd_) ** 2)
+            notes.append(f"run-to-run scatter {100 * repeatability:g} % added to every fit's "
+                         "standard errors")
         m_arr = np.array(ms)
         if np.any(m_arr <= 0):
             raise TorlabInputError("an applied amount of zero is the dry fit: give it as dry=, not "

@@ -78,7 +78,8 @@ def propagate_draws(samples: Any, *, confidence: float = 0.95, axis: int = -1
     return lo, hi
 
 
-def removal_draws(removal: Any, n: int, rng: np.random.Generator) -> dict[str, Any]:
+def removal_draws(removal: Any, n: int, rng: np.random.Generator, *, layer: Any = None,
+                  node_draws: np.ndarray | None = None) -> dict[str, Any]:
     """Draws of a removal law's parameters.
 
     Parameters
@@ -86,24 +87,33 @@ def removal_draws(removal: Any, n: int, rng: np.random.Generator) -> dict[str, A
     removal
         A :class:`~torlab.model.removal.RemovalLaw` (no uncertainty: ``n``
         copies) or the :class:`~torlab.fit.result.FitResult` of
-        :func:`torlab.fit.removal.fit_removal` (normal in its log parameters with
-        the fitted covariance, ``meta["fit_space"]``).
+        :func:`torlab.fit.removal.fit_removal` (normal in its log parameters,
+        ``meta["fit_space"]``).
     n
         Number of draws (0: the estimate only).
+    layer, node_draws
+        The layer the prediction draws (:meth:`~torlab.model.amount.AmountLayer.draw_nodes`).
+        When it is the layer the removal was fitted with, each draw of the rates
+        follows its layer draw through the fit's sensitivity to the layer
+        (``theta = theta_hat + G (p_draw - p) + eps``, ``eps`` from the
+        covariance without the layer part), so the two stay correlated as in the
+        fit; otherwise the rates are drawn from their full covariance,
+        independently of the layer.
 
     Returns
     -------
     dict
         ``order``, ``law`` (name), ``k``, ``spread`` and ``transfer`` (None when
         not fitted) as arrays of length ``max(n, 1)``; ``estimate`` the same
-        for the estimate.
+        for the estimate; ``correlated_with_layer``.
     """
     if isinstance(removal, RemovalLaw):
         est = {"k": removal.k, "spread": removal.spread, "transfer": None}
         rep = max(n, 1)
         return {"order": removal.order, "law": removal.name,
                 "k": np.full(rep, removal.k), "spread": np.full(rep, removal.spread),
-                "transfer": None, "estimate": est, "uncertain": False}
+                "transfer": None, "estimate": est, "uncertain": False,
+                "correlated_with_layer": False}
     meta = getattr(removal, "meta", None) or {}
     fs = meta.get("fit_space")
     if getattr(removal, "kind", "") != "removal" or not fs:
@@ -115,10 +125,22 @@ def removal_draws(removal: Any, n: int, rng: np.random.Generator) -> dict[str, A
     order = int(meta["order"])
     est_phys = {nm: math.exp(v) for nm, v in zip(names, theta, strict=True)}
     kname = f"k{order}"
+    linked = False
     if n > 0:
+        shift = np.zeros((n, theta.size))
+        G = np.asarray(fs.get("layer_sensitivity", []), dtype=float)
+        if layer is not None and node_draws is not None and G.size and \
+                len(fs.get("layer_nodes_mg_m2", [])) == layer.nodes.size and np.allclose(
+                    np.asarray(fs["layer_nodes_mg_m2"]) * MG_M2, layer.nodes, rtol=1e-9) and \
+                G.shape == (theta.size, 4 * layer.nodes.size):
+            allp = np.vstack([layer.dry_params, layer.params])
+            dp = (node_draws - allp[None]).reshape(n, -1)
+            shift = dp @ G.T
+            cov = np.asarray(fs["covariance_without_layer"], dtype=float)
+            linked = True
         w, v = np.linalg.eigh(0.5 * (cov + cov.T))
         L = v * np.sqrt(np.clip(w, 0.0, None))
-        th = theta + rng.standard_normal((n, theta.size)) @ L.T
+        th = theta + shift + rng.standard_normal((n, theta.size)) @ L.T
     else:
         th = theta[None]
     phys = {nm: np.exp(th[:, i]) for i, nm in enumerate(names)}
@@ -131,7 +153,7 @@ def removal_draws(removal: Any, n: int, rng: np.random.Generator) -> dict[str, A
             "estimate": {"k": est_phys[kname],
                          "spread": est_phys.get("spread", float(fixed.get("spread", 0.0))),
                          "transfer": est_phys.get("transfer")},
-            "uncertain": True}
+            "uncertain": True, "correlated_with_layer": linked}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -253,7 +275,8 @@ def predict_retention(scene: Any, layer: Any, removal: Any, amount: Any, *, cree
     bnd = band_of(contact, track_radius)
     F = float(contact.patch.F)
     c = F * abs(creepage) / bnd.width
-    rd = removal_draws(removal, n_draws, rng)
+    node_draws = layer.draw_nodes(n_draws, rng) if n_draws > 0 else None
+    rd = removal_draws(removal, n_draws, rng, layer=layer, node_draws=node_draws)
     est = rd["estimate"]
     tr = transfer if transfer is not None else (est["transfer"] if est["transfer"] is not None
                                                 else _fixed_transfer(removal))
@@ -286,8 +309,7 @@ def predict_retention(scene: Any, layer: Any, removal: Any, amount: Any, *, cree
         Nc, mc = central.crossing(lev)
         crossings[key] = {"level": lev, "passes": _num(Nc[0]), "amount_mg_m2": _num(mc[0] / MG_M2),
                           "low95": None, "high95": None}
-    if n_draws > 0:
-        node_draws = layer.draw_nodes(n_draws, rng)
+    if node_draws is not None:
         mu_nodes = table.draw_nodes(layer, node_draws)[:, 0, :]  # (n_x, D)
         dsol = passes_solution(table.curve(mu_nodes=mu_nodes), mu_nodes[0], table.x[0], m0_d,
                                rd["order"], rd["k"], rd["spread"], c)
@@ -338,8 +360,11 @@ def predict_retention(scene: Any, layer: Any, removal: Any, amount: Any, *, cree
         **crossings,
         "confidence": confidence,
         "n_draws": int(n_draws),
-        "uncertainty": ("parameter draws: removal law (normal in its log parameters) and layer "
-                        "(each tested amount's fit; boundary model linearised at the nodes)")
+        "uncertainty": ("parameter draws: layer (each tested amount's fit; boundary model "
+                        "linearised at the nodes) and removal law (normal in its log parameters"
+                        + (", following each layer draw through the fit's sensitivity to the "
+                           "layer)" if rd["correlated_with_layer"] else ", independent of the "
+                           "layer draws)"))
         if n_draws > 0 else "none",
         "modelled": modelled,
         "layer_notes": list(layer.notes),
@@ -468,7 +493,8 @@ def simulate_sweep(scene: Any, layer: Any, removal: Any, amount: Any, *,
                                "(track_radius=) at the scene's speed, or pass_interval=",
                                key="pass_interval")
     F = float(contact.patch.F)
-    rd = removal_draws(removal, n_draws, rng)
+    node_draws = layer.draw_nodes(n_draws, rng) if n_draws > 0 else None
+    rd = removal_draws(removal, n_draws, rng, layer=layer, node_draws=node_draws)
     est = rd["estimate"]
     tr = transfer if transfer is not None else (est["transfer"] if est["transfer"] is not None
                                                 else _fixed_transfer(removal))
@@ -481,8 +507,7 @@ def simulate_sweep(scene: Any, layer: Any, removal: Any, amount: Any, *,
     D = max(n_draws, 1) if n_draws > 0 else 0
     tabs = [table.mu[:, :, None]]
     ks, ss, m0s = [np.array([est["k"]])], [np.array([est["spread"]])], [np.array([m0])]
-    if n_draws > 0:
-        node_draws = layer.draw_nodes(n_draws, rng)
+    if node_draws is not None:
         tabs.append(table.draw_nodes(layer, node_draws))
         ks.append(rd["k"])
         ss.append(rd["spread"])
