@@ -218,6 +218,27 @@ def test_fit_from_pcs_files_and_timed_csv_matches_the_arrays(layer, scene, tmp_p
     assert ks[1] == pytest.approx(ks[0], rel=0.01) and ks[2] == pytest.approx(ks[0], rel=0.01)
 
 
+def test_shipped_sample_time_tests_recover_their_truth(scene):
+    """The files in sample_data/retention (written by the generator) against truth.yaml."""
+    from conftest import ROOT
+
+    from torlab.yamlio import load_yaml
+
+    d = ROOT / "sample_data" / "retention"
+    if not (d / "truth.yaml").exists():
+        pytest.skip("sample data absent")
+    truth = load_yaml(d / "truth.yaml").data
+    lay = true_layer()
+    tests = [read_time_test(d / r["file"], density=r["design"]["density_kg_m3"])
+             for r in truth["runs"]]
+    res = fit_removal(tests, lay, scene)
+    assert res.meta["law"] == truth["law"]["name"]
+    lo, hi = res.ci95["k1"]
+    assert lo < truth["law"]["k1"] < hi
+    for t, r in zip(res.meta["tests"], truth["runs"], strict=True):
+        assert t["initial_amount_mg_m2"] == pytest.approx(r["initial_amount_mg_m2"], rel=2e-3)
+
+
 # --- bad input -----------------------------------------------------------------------------------
 def _one_line(e) -> str:
     s = str(e.value)

@@ -443,29 +443,32 @@ class PassesSolution:
         """``(m, mu, E)`` at the requested passes -> each ``(n_passes, D)``."""
         Nq = np.atleast_1d(np.asarray(passes, dtype=float))
         D = self.n_draws
-        m = np.empty((Nq.size, D))
-        mu = np.empty((Nq.size, D))
-        E = np.empty((Nq.size, D))
+        m = np.empty((D, Nq.size))  # one contiguous row per draw, transposed at the end
+        mu = np.empty((D, Nq.size))
+        E = np.empty((D, Nq.size))
         for d in range(D):
             xs, mus, Ns, Es = self.curves[d]
             if not math.isfinite(self.N_dry[d]):  # no removal: constant
-                m[:, d] = self.m0[d]
-                mu[:, d] = mus[0]
-                E[:, d] = Nq * self.c * mus[0]
+                m[d] = self.m0[d]
+                mu[d] = mus[0]
+                E[d] = Nq * self.c * mus[0]
                 continue
-            above = Nq <= self.N_dry[d]
-            if above.any():
-                xq = np.interp(Nq[above], Ns, xs)
-                m[above, d] = np.exp(xq)
-                mu[above, d] = np.interp(Nq[above], Ns, mus)
-                E[above, d] = np.interp(Nq[above], Ns, Es)
-            b = ~above
-            if b.any():
-                dN = Nq[b] - self.N_dry[d]
-                m[b, d] = self._dry_amount(d, dN)
-                mu[b, d] = self.mu_dry[d]
-                E[b, d] = self.E_dry[d] + self.e_dry[d] * dN
-        return m, mu, E
+            nd = self.N_dry[d]
+            k = int(np.searchsorted(Nq, nd, side="right")) if np.all(np.diff(Nq) >= 0) else None
+            if k is not None:  # sorted passes: the two regimes are two slices
+                a, b = slice(0, k), slice(k, None)
+            else:
+                a = Nq <= nd
+                b = ~a
+            m[d, a] = np.exp(np.interp(Nq[a], Ns, xs))
+            mu[d, a] = np.interp(Nq[a], Ns, mus)
+            E[d, a] = np.interp(Nq[a], Ns, Es)
+            dN = Nq[b] - nd
+            if dN.size:
+                m[d, b] = self._dry_amount(d, dN)
+                mu[d, b] = self.mu_dry[d]
+                E[d, b] = self.E_dry[d] + self.e_dry[d] * dN
+        return m.T, mu.T, E.T
 
     def _dry_amount(self, d: int, dN: np.ndarray) -> np.ndarray:
         """Closed forms below the dry anchor (constant friction)."""
