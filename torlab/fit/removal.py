@@ -230,6 +230,7 @@ def read_time_test(path: str | Path, *, step: int | None = None,
 
     path = Path(path)
     label = path.name
+    amount_text: str | None = None
     text_start = path.read_bytes()[:200].decode("utf-8", "replace") if path.exists() else ""
     if not path.exists():
         raise TorlabInputError("file not found", path=str(path))
@@ -272,7 +273,7 @@ def read_time_test(path: str | Path, *, step: int | None = None,
                           st.first_line)
                 raise TorlabInputError(e.message, path=str(path), line=ln,
                                        key="Applied amount") from None
-            amount = (amount, txt.strip())
+            amount_text = txt.strip()
         if track_radius is None:
             track_radius = st.metadata.get("disc_track_radius_m", meta.disc_track_radius_m)
             if track_radius is None:
@@ -307,13 +308,10 @@ def read_time_test(path: str | Path, *, step: int | None = None,
         if track_radius is None:
             raise TorlabInputError("a time-test CSV carries no disc track radius: give "
                                    "track_radius=", path=str(path), key="track_radius")
-    text = amount[1] if isinstance(amount, tuple) and isinstance(amount[1], str) and \
-        isinstance(amount[0], tuple) else None
-    amt = amount[0] if text is not None else amount
-    res = time_test(t, mu, amount=amt, application_time=application_time, density=density,
+    res = time_test(t, mu, amount=amount, application_time=application_time, density=density,
                     track_radius=float(track_radius), label=label, min_drop=min_drop, **args)
-    if text is not None:
-        res.amount_text = text
+    if amount_text is not None:
+        res.amount_text = amount_text
     return res
 
 
@@ -959,6 +957,7 @@ def fit_removal(tests: TimeTest | Sequence[TimeTest], layer: Any, scene: Any, *,
                       "layer_sensitivity": [[float(v) for v in row] for row in G],
                       "layer_nodes_mg_m2": [float(v) / MG_M2 for v in layer.nodes]},
         "uncertainty_parts": {
+            "quantity": "standard error of ln(parameter), per part",
             "data": [math.sqrt(max(v, 0.0)) for v in np.diag(f["cov"] - f["cov_nuisance"])],
             "measured_conditions": [math.sqrt(max(v, 0.0)) for v in np.diag(f["cov_nuisance"])],
             "layer": [math.sqrt(max(v, 0.0)) for v in np.diag(cov_layer)]},

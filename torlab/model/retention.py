@@ -285,7 +285,10 @@ def predict_retention(scene: Any, layer: Any, removal: Any, amount: Any, *, cree
     m0_d = np.full(max(n_draws, 1), m0)
     if transfer is None and rd["transfer"] is not None:
         m0_d = m0 / tr * rd["transfer"]
-        m0_d = np.minimum(m0_d, layer.m_max) if layer.above == "error" else m0_d
+        if layer.above == "error" and np.any(m0_d > layer.m_max):
+            notes.append(f"{100 * np.mean(m0_d > layer.m_max):.0f} % of the transfer draws put "
+                         "more product into the band than the largest tested amount; held at it")
+            m0_d = np.minimum(m0_d, layer.m_max)
     table = mu_table(sc, layer, creepage, m_top=max(m0, float(np.max(m0_d))),
                      per_interval=per_interval, gradient=n_draws > 0, extra=[m0])
     curve = table.curve(0)
