@@ -9,6 +9,7 @@ import itertools
 import math
 import sys
 import types
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -173,7 +174,7 @@ def test_time_at_error_on_a_first_order_family():
 # --- the baseline: the thesis's recurrence on a uniform grid -----------------------------------
 def test_naive_baseline_converges_at_first_order_to_kalker_linear_theory():
     # classic FASTSIM (no layer), creepage far below sliding: Fx = G a b C11 xi exactly in
-    # the continuous model (Kalker's linear theory, model-notes section 3)
+    # the continuous model (Kalker's linear theory, docs/model/kalker.md)
     p = scene_problem(layer=False)
     G, nu = combined_G_nu(210e9, 0.28, 210e9, 0.28)
     xi = 1e-6
@@ -255,3 +256,35 @@ def test_temperature_quick_rows():
     off = rows["temperature ignored (isothermal limits)"]
     # with mu_T = -0.002 1/K and a flash temperature of ~200 K the limits drop by tens of per cent
     assert off.error > 0.05 > 100 * default[0].error
+
+
+def test_cli_benchmark_cases_are_runnable_and_their_library_calls_compile():
+    """Every measured command's inputs exist, its library equivalent is valid Python, and
+    the quick set is --help plus one prediction."""
+    from torlab.bench import cli as bench_cli
+
+    full = bench_cli.cases(quick=False)
+    assert full[0].argv == ["--help"] and full[0].library is None
+    for c in full:
+        for a in c.argv:
+            if a.endswith((".yaml", ".txt", ".csv")):
+                assert Path(a).exists(), (c.name, a)
+        if c.library is not None:
+            compile(c.library, c.name, "exec")
+    assert [c.name for c in bench_cli.cases(quick=True)] == [c.name for c in full[:2]]
+
+
+def test_cli_benchmark_library_call_does_the_commands_work(cli, tmp_path):
+    """The library script of 'predict traction' writes the same table as the command."""
+    from torlab.bench import cli as bench_cli
+
+    case = bench_cli.cases(quick=True)[1]
+    out = tmp_path / "cmd"
+    res = cli(*[a.replace("{out}", str(out)) for a in case.argv])
+    assert res.exit_code == 0, res.output
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    exec(compile(case.library, case.name, "exec"), {"OUT": str(lib)})
+    a = pd.read_csv(out / "traction.csv")
+    b = pd.read_csv(lib / "traction.csv")
+    pd.testing.assert_frame_equal(a, b, check_exact=False, rtol=1e-8)  # OutputDir rounds

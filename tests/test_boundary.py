@@ -1,4 +1,4 @@
-"""Boundary model (issue 3): Hertz, Kalker C11, FASTSIM with the layer, temperature.
+"""Boundary model: Hertz, Kalker C11, FASTSIM with the layer, temperature.
 
 References are independent of the code under test: Johnson's closed relations with
 elliptic integrals computed here by quadrature, Kalker's table, Kalker's linear
@@ -161,7 +161,7 @@ def test_odd_in_creepage_and_zero_at_zero():
     assert np.all(np.diff(mu) > 0)
 
 
-# the test set of the issue: a/b 0.2..5, creepage 1e-5..0.5, with and without the layer.
+# the accuracy test set: a/b 0.2..5, creepage 1e-5..0.5, with and without the layer.
 # The reference is slow (~1 s per point), so CI checks a spread-out sample of it;
 # `torlab bench` runs the whole set.
 REF_CASES = [
@@ -231,7 +231,7 @@ def test_non_finite_creepage_is_refused():
 # ---------------------------------------------------------------------------------------
 def test_flash_temperature_converges_to_the_notes_anchor():
     """q = sqrt(1 - (x/a)^2) on a strip: peak 1.23462 at 0.6522 a behind the centre,
-    1.06385 at the trailing edge (model-notes section 4; units q0 sqrt(a/v)/sqrt(lambda rho c),
+    1.06385 at the trailing edge (docs/model/thesis-reading.md; units q0 sqrt(a/v)/sqrt(lambda rho c),
     partition 1, formula T = (1/sqrt(pi lambda rho c v)) int q/sqrt(X - X') dX')."""
     theta, K = flash_temperature_matrix(2000)
     X = 1 - np.cos(theta)

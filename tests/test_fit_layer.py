@@ -1,4 +1,4 @@
-"""HPT layer fit (issue 6): recovery of the synthetic truth, interval coverage, warnings, bad data."""
+"""HPT layer fit: recovery of the synthetic truth, interval coverage, warnings, bad data."""
 
 from __future__ import annotations
 
@@ -9,7 +9,8 @@ import pytest
 from conftest import ROOT
 
 from torlab.errors import FitError, TorlabInputError
-from torlab.fit.layer import fit_layer_hpt, tau_of_raw_displacement
+from torlab.fit.layer import fit_layer_hpt, fit_layers_hpt, tau_of_raw_displacement
+from torlab.fit.result import FitResult
 from torlab.model.layer import LayerParams, hpt_tau
 from torlab.parsers.hpt import read_hpt
 from torlab.reduce.hpt import RigCompliance, reduce_hpt
@@ -140,8 +141,10 @@ def test_joint_fit_of_repeats():
         assert abs(joint.params[k] - truth[k]) < 4 * joint.stderr[k], k
     assert joint.stderr["mu_c2"] < single.stderr["mu_c2"]  # three curves determine it better
     assert joint.n_points > 2 * single.n_points
-    per = fit_layer_hpt(runs)
+    per = fit_layers_hpt(runs)  # one fit per curve; fit_layer_hpt always returns one FitResult
     assert isinstance(per, list) and len(per) == 3
+    assert all(isinstance(r, FitResult) for r in per)
+    assert per[0].params == pytest.approx(single.params)
 
 
 def test_without_compliance_warns_that_L_mue_includes_the_rig():

@@ -1,4 +1,4 @@
-"""Film, temperature-coefficient and viscosity fits, and the torlab fit commands (issue 6)."""
+"""Film, temperature-coefficient and viscosity fits, and the torlab fit commands."""
 
 from __future__ import annotations
 
@@ -165,7 +165,9 @@ def test_cli_failed_fit_writes_nothing(cli, tmp_path):
 def test_cli_fit_film_ehd2(cli, tmp_path):
     r = cli("fit", "film", REAL_PCS / "demo_3.txt", "--min-speed", "50 mm/s", "-o", tmp_path / "f")
     assert r.exit_code == 0, r.output
-    assert len(list((tmp_path / "f").glob("step*/params.yaml"))) == 2
+    # one fit per film step, named by the step's temperature (README: 40.2 °C and 100.7 °C)
+    assert sorted(p.parent.name for p in (tmp_path / "f").glob("*/params.yaml")) == \
+        ["100.7C", "40.2C"]
 
 
 OPT = ROOT / "sample_data" / "optical"

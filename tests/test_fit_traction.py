@@ -1,4 +1,4 @@
-"""Traction-curve fit of the layer with FASTSIM (issue 6)."""
+"""Traction-curve fit of the layer with FASTSIM."""
 
 from __future__ import annotations
 

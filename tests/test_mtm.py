@@ -177,6 +177,14 @@ def test_cli_mtm_reduce_writes_results_and_refuses_overwrite(tmp_path, cli):
     out = tmp_path / "out"
     r = cli("mtm", "reduce", *files, MTM, "-o", out, "--duration", "20 min")
     assert r.exit_code == 0, r.output
+    # the synthetic files mark the application ("Time test after application"); the quirk
+    # file's timed step does not, so it is a plain timed run unless asked for
+    tt = pd.read_csv(out / "time_tests.csv")
+    assert len(tt) == 5 and MTM.name not in set(tt["file"])
+    assert "no application marked" in r.output
+    r = cli("mtm", "reduce", *files, MTM, "-o", out, "--duration", "20 min", "--force",
+            "--after-application")
+    assert r.exit_code == 0, r.output
     tt = pd.read_csv(out / "time_tests.csv")
     assert len(tt) == 6 and tt["recovered"].sum() == 4
     assert (tt.loc[tt["file"] != MTM.name, "application_time_s"] == 60).all()

@@ -344,7 +344,7 @@ def test_cli_optical_reduce_end_to_end(tmp_path, cli):
     r = cli("optical", "reduce", log, "-o", out)
     assert r.exit_code == 2 and "--force" in error_lines(r)[0]
     r = cli("optical", "reduce", log, "-o", out, "--force", "--test", "wear")
-    assert r.exit_code == 2 and "unknown test type" in error_lines(r)[0]
+    assert r.exit_code == 2 and "not a known test" in error_lines(r)[0]
     r = cli("optical", "reduce", log, "-o", out, "--force", "--window", "-1 s")
     assert r.exit_code == 2 and len(error_lines(r)) == 1
 

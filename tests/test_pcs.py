@@ -195,7 +195,7 @@ def test_empty_and_missing_files(tmp_path):
         read_pcs(tmp_path / "nope.txt")
 
 
-# --- real exports (skipped where ../shared is absent) -------------------------------------------
+# --- real exports (skipped where the real files are absent) -------------------------------------------
 @pytest.mark.realdata
 def test_real_mtm_demo5():
     df, meta = read_pcs(real_pcs_file("demo_5.txt"))

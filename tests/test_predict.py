@@ -186,7 +186,7 @@ def test_dry_scene_without_boundary_is_a_user_error():
 
 
 # ---------------------------------------------------------------------------------------
-# limits of the mixed model (issue 4)
+# limits of the mixed model
 # ---------------------------------------------------------------------------------------
 def test_speed_zero_all_load_on_asperities_mu_equals_boundary():
     sc = scene_from_dict(lubricated())
@@ -254,7 +254,7 @@ def test_newtonian_film_with_barus_gets_a_plausibility_note():
 
 
 # ---------------------------------------------------------------------------------------
-# hard-case sweep (issue 4)
+# hard-case sweep
 # ---------------------------------------------------------------------------------------
 SPEEDS = [0.0, 1e-4, 0.01, 1.0, 10.0, 100.0]
 LAWS = [

@@ -1,4 +1,4 @@
-"""Test protocols (issue 7): validation, the shipped protocols, reports, provenance, re-runs.
+"""Test protocols: validation, the shipped protocols, reports, provenance, re-runs.
 
 Each shipped protocol runs once per session (module-scoped fixtures).  Its
 ``summary.json`` is compared with ``tests/expected/<name>.json`` within the
@@ -551,14 +551,3 @@ reports:
     assert sha(ehd) in res.summary["inputs"].values()
     film = res.summary["fits"]["film:EHD2 demo"]["params"]
     assert 0.3 < film["speed_exponent"] < 1.0   # EHL films grow with speed, roughly U^0.67
-
-
-def test_missing_fit_module_is_a_clear_error(monkeypatch):
-    import sys
-
-    from torlab.errors import FitError
-    from torlab.protocols.runner import _fit_module
-
-    monkeypatch.setitem(sys.modules, "torlab.fit.traction", None)
-    with pytest.raises(FitError, match=r"no torlab\.fit\.traction"):
-        _fit_module("traction")

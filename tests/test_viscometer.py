@@ -10,6 +10,7 @@ import pytest
 from conftest import ROOT, error_lines, sha
 
 from torlab.errors import TorlabInputError
+from torlab.fit.result import FitResult
 from torlab.fit.viscosity import fit_barus, fit_roelands
 from torlab.parsers.viscometer import parse_calibration_constant, read_viscometer
 from torlab.reduce.viscometer import (
@@ -173,13 +174,14 @@ def test_scene_dict_round_trips_through_units():
 
     p = np.array([0.1, 100, 200, 300]) * 1e6
     f = fit_roelands(p, _roelands_closed_form(p, 0.065, 0.42), fit_eta0=True)
-    d = f.to_scene_dict()
+    assert isinstance(f, FitResult) and f.kind == "viscosity"  # one result type for every fit
+    d = f.to_scene_dict()["lubricant"]
     assert d["viscosity"] == "roelands" and set(d) == {"eta0", "viscosity", "alpha", "Z"}
     assert to_si(d["eta0"], "viscosity") == pytest.approx(0.065, rel=1e-5)
     assert to_si(d["alpha"], "inverse_pressure") == pytest.approx(f.alpha, rel=1e-5)
     assert d["Z"] == pytest.approx(0.42, rel=1e-5)
     b = fit_barus(p, 0.05 * np.exp(1.5e-8 * p)).to_scene_dict()
-    assert b == {"eta0": "50 mPa*s", "viscosity": "barus", "alpha": "15 1/GPa"}
+    assert b == {"lubricant": {"eta0": "50 mPa*s", "viscosity": "barus", "alpha": "15 1/GPa"}}
 
 
 # --- the synthetic Paper B campaign against its truth --------------------------------------------

@@ -1,6 +1,6 @@
 """Scene files: the contact, materials, kinematics and product parameters of a prediction.
 
-The keys are a contract with users and external checks (``spec/scene-contract.md``);
+The keys are a contract with users and external checks (``docs/model/scene-contract.md``);
 ``docs/scenes.md`` documents every key.  A scene is one YAML file or several
 merged in order (a base scene plus a parameter file written by ``torlab fit``):
 later files override earlier ones key by key.
@@ -153,7 +153,7 @@ class Kinematics(_Section):
 
 
 class Thermal(_Section):
-    """``thermal:``: flash temperature of thesis 5.2.5 (Eqs. 5.49-5.50), model-notes section 4.
+    """``thermal:``: flash temperature of thesis 5.2.5 (Eqs. 5.49-5.50), docs/model/thesis-reading.md.
 
     Attributes
     ----------
@@ -285,7 +285,7 @@ class Grid(_Section):
 
 
 class Scene(_Section):
-    """A whole scene (``spec/scene-contract.md``)."""
+    """A whole scene (``docs/model/scene-contract.md``)."""
 
     name: str = ""
     description: str = ""
@@ -387,7 +387,9 @@ def _message(err: dict) -> str:
     t = err.get("type", "")
     msg = err.get("msg", "")
     if t == "extra_forbidden":
-        return "unknown key"
+        from torlab._suggest import key_suggestion
+
+        return "unknown key" + key_suggestion(Scene, tuple(err.get("loc", ())))
     if t == "missing":
         return "missing (required)"
     if t == "literal_error":

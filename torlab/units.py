@@ -41,6 +41,7 @@ KINDS: dict[str, tuple[str, str]] = {
     "viscosity": ("[pressure]*[time]", "Pa*s"),
     "density": ("[mass]/[length]**3", "kg/m^3"),
     "areal_density": ("1/[length]**2", "1/m^2"),
+    "mass_per_area": ("[mass]/[length]**2", "kg/m^2"),
     "compliance": ("[length]/[pressure]", "m/Pa"),
     "temperature": ("[temperature]", "degC"),
     "inverse_temperature": ("1/[temperature]", "1/K"),
@@ -135,7 +136,7 @@ def _example(kind: str) -> str:
         "inverse_temperature": "'-0.002 1/K'", "density": "'7850 kg/m^3'",
         "conductivity": "'50 W/(m*K)'", "heat_capacity": "'450 J/(kg*K)'",
         "torque": "'10 N*m'", "angle": "'0.5 deg'", "time": "'4 s'", "volume": "'8 uL'",
-        "mass": "'2 mg'", "compliance": "'0.02 um/MPa'", "dimensionless": "a plain number",
+        "mass": "'2 mg'", "mass_per_area": "'200 mg/m^2'", "compliance": "'0.02 um/MPa'", "dimensionless": "a plain number",
     }
     return examples.get(kind, f"a value in {KINDS[kind][1]}")
 

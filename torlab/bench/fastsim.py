@@ -1,7 +1,7 @@
 """Benchmark of the boundary model: FASTSIM with the third-body layer, speed against error.
 
 Scene: the wheel-rail contact of thesis Tab. 5.4 (a = 3.7 mm, b = 3.3 mm,
-F = 20 kN, steel E = 210 GPa, nu = 0.28) with the layer of issue 3
+F = 20 kN, steel E = 210 GPa, nu = 0.28) with a third-body layer
 (mu_c1 = 0.30, mu_c2 = 0.45, L_mue = 10 um, L_mup = 20 um), no temperature.
 
 Unit of work: a 101-point traction curve, creepage 0 ... 0.05.  Error of a
@@ -17,7 +17,7 @@ Measured side by side in one run:
   panel ``m``, panel counts written ``graded+uniform+clamp``), the default
   marked;
 * ``baseline`` -- :func:`naive_fastsim`, the thesis's own recurrence
-  (Eqs. 5.22-5.25, model-notes section 3) marched on a uniform grid of ``n``
+  (Eqs. 5.22-5.25, docs/model/thesis-reading.md) marched on a uniform grid of ``n``
   strips and ``m`` points per strip, vectorised with numpy over strips,
   points and creepages.  Two families: square cells ``n = m`` (what the thesis's
   grid suggests) and, conservatively, the grids on the baseline's own
@@ -28,7 +28,7 @@ Measured side by side in one run:
   the displacement taken at the cell midpoints (where the pressure is), a
   one-line improvement of the recurrence, for comparison.
 
-The default row's ``extra`` holds the ratios the issue asks for: a
+The default row's ``extra`` holds the ratios that matter: a
 family's time at equal error (its speed/error front interpolated on log-log
 axes, :func:`time_at_error`) over the default's time, at 0.1 % (the accuracy
 target, which the default beats by far) and at the default's own error where
@@ -73,7 +73,7 @@ __all__ = [
     "time_at_error",
 ]
 
-#: the wheel-rail scene of thesis Tab. 5.4 with the layer of issue 3 (no thermal: isothermal)
+#: the wheel-rail scene of thesis Tab. 5.4 with a third-body layer (no thermal: isothermal)
 TAB54_SCENE: dict[str, Any] = {
     "name": "wheel-rail Tab. 5.4 (isothermal)",
     "contact": {"load": "20 kN", "a": "3.7 mm", "b": "3.3 mm", "r1x": "350 mm"},
@@ -107,7 +107,7 @@ def scene_problem(a_over_b: float | None = None, layer: bool = True,
         Semi-axis ratio; ``a b`` and the load stay those of Tab. 5.4 (so p0 does).
         None: Tab. 5.4's a = 3.7 mm, b = 3.3 mm.
     layer
-        With the issue-3 layer, or classic FASTSIM (``L_mue = L_mup = 0``,
+        With the third-body layer, or classic FASTSIM (``L_mue = L_mup = 0``,
         ``mu_c1 = mu_c2 = 0.3``).
     boundary
         Overrides of the ``boundary:`` section.
@@ -146,7 +146,7 @@ def naive_fastsim(prob: FastsimProblem, creepage: Any, n: int, m: int, *,
     ``y_j``, half-length ``a(y_j)``); each strip into ``m`` cells of length
     ``dx = 2a(y_j)/m``, the pressure (Eq. 5.13) and ``L = L1 + L_mue/p``
     (Eqs. 5.17, 5.18, 5.28) at the cell midpoints (never where ``p = 0``,
-    model-notes section 3).  From the leading edge, per cell ``i``::
+    docs/model/thesis-reading.md).  From the leading edge, per cell ``i``::
 
         u_i   = u_{i-1} + xi dx                              (Eq. 5.25)
         tau_i = tau_{i-1} + xi dx / L_i     while elastic     (Eqs. 5.22-5.23)

@@ -1,9 +1,12 @@
 """Fit speed and accuracy (``torlab bench``): time per fit, error against the synthetic truth,
-model evaluations (issue 6)."""
+model evaluations."""
 
 from __future__ import annotations
 
 import io
+import os
+import subprocess
+import sys
 import time
 
 import numpy as np
@@ -32,6 +35,63 @@ def _fit_stats(fits, truth: dict[str, float]) -> dict[str, list[float]]:
     return out
 
 
+def _hpt_under_load(curves: list, quick: bool) -> list[BenchRow]:
+    """The HPT fit with one BLAS thread (torlab's default, :mod:`torlab.threads`) and with
+    OpenBLAS's own thread count, while another process keeps one core busy.
+
+    The two run interleaved, fit by fit, in one run; the busy process is a Python spin
+    loop started here and stopped at the end.  On one usable core the comparison is
+    meaningless (no pool to fight over) and the rows say so.
+    """
+    import scipy.linalg  # noqa: F401  (both BLAS builds loaded before counting threads)
+    from threadpoolctl import threadpool_info
+
+    from torlab.fit.layer import fit_layer_hpt
+
+    capped = fit_layer_hpt
+    uncapped = fit_layer_hpt.__wrapped__
+    blas = [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        cores = os.cpu_count() or 1
+    rounds = 2 if quick else 5
+    times: dict[str, list[float]] = {"capped": [], "uncapped": []}
+    params: dict[str, list] = {"capped": [], "uncapped": []}
+    busy = subprocess.Popen([sys.executable, "-c", "while True: pass"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        time.sleep(0.2)  # let the spinner take its core
+        for _ in range(rounds):
+            for red in curves:
+                for name, fit in (("uncapped", uncapped), ("capped", capped)):
+                    t0 = time.perf_counter()
+                    res = fit(red)
+                    times[name].append(time.perf_counter() - t0)
+                    params[name].append(np.array([res.params[k] for k in NAMES]))
+    finally:
+        busy.kill()
+        busy.wait()
+    t_cap = float(np.median(times["capped"]))
+    t_unc = float(np.median(times["uncapped"]))
+    diff = max(float(np.max(np.abs(a / b - 1))) for a, b in zip(params["capped"],
+                                                                params["uncapped"], strict=True))
+    note = "" if cores > 1 else "one usable core: nothing to fight over, ratio not meaningful"
+    unit = "820-point HPT curve, another process spinning on one core"
+    common = {"usable_cores": cores, "blas_pools_threads_default": ",".join(map(str, blas)),
+              "fits_timed": len(times["capped"]), **({"note": note} if note else {})}
+    return [
+        BenchRow("layer fit from HPT under load", "one BLAS/OpenMP thread (torlab.threads)",
+                 t_cap, diff, "the same fit without the thread cap (largest relative "
+                 "parameter difference)", True, unit,
+                 extra={**common, "time_p90_s": float(np.percentile(times["capped"], 90)),
+                        "uncapped_over_capped": t_unc / t_cap}),
+        BenchRow("layer fit from HPT under load", "OpenBLAS default threads (no cap, baseline)",
+                 t_unc, None, "", False, unit,
+                 extra={**common, "time_p90_s": float(np.percentile(times["uncapped"], 90))}),
+    ]
+
+
 def run(quick: bool = False) -> list[BenchRow]:
     """HPT layer fit (one 820-point curve) and FASTSIM traction fit (40-point curve).
 
@@ -55,20 +115,20 @@ def run(quick: bool = False) -> list[BenchRow]:
     truth = {"mu_c1": 0.135, "mu_c2": 0.223, "L_mue": 8e-6, "L_mup": 19e-6}
     p = LayerParams(truth["mu_c1"], truth["mu_c2"], truth["L_mue"], truth["L_mup"])
 
-    def hpt_fits():
-        for seed in range(3 if quick else 10):
-            spec = HptRunSpec("b", "OFM1", 4, 25.0, p, seed=seed)
-            df, meta = read_hpt(io.StringIO(write_hpt_log(spec, simulate_hpt(spec, rig), rig)),
-                                name="b")
-            red = reduce_hpt(df, meta, compliance=comp)
-            yield lambda red=red: fit_layer_hpt(red)
+    curves = []
+    for seed in range(3 if quick else 10):
+        spec = HptRunSpec("b", "OFM1", 4, 25.0, p, seed=seed)
+        df, meta = read_hpt(io.StringIO(write_hpt_log(spec, simulate_hpt(spec, rig), rig)),
+                            name="b")
+        curves.append(reduce_hpt(df, meta, compliance=comp))
 
-    st = _fit_stats(hpt_fits(), truth)
+    st = _fit_stats((lambda red=red: fit_layer_hpt(red) for red in curves), truth)
     rows.append(BenchRow("layer fit from HPT", "least squares + white/AR(1) noise (Whittle)",
                          float(np.median(st["time"])), float(np.median(st["err"])),
                          "synthetic truth (torlab.synth.hpt)", True, "820-point HPT curve",
                          extra={"model_evaluations": float(np.median(st["nfev"])),
                                 "max_z": float(np.max(st["z"]))}))
+    rows += _hpt_under_load(curves[:4], quick)
     # --- traction ----------------------------------------------------------------------------
     from pathlib import Path
 

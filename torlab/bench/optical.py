@@ -1,6 +1,6 @@
 """Benchmark: reducing a long optical tribometer log against a bare ``pandas.read_csv``.
 
-The goal of issue 5: reducing a 30-minute 1 kHz log (1.8 M rows) takes at most
+The goal: reducing a 30-minute 1 kHz log (1.8 M rows) takes at most
 1.5x a bare ``pandas.read_csv`` of the same file, with bounded memory.  This
 benchmark writes such a log with the virtual rig (:mod:`torlab.synth.optical`;
 Stribeck-like conditions of 8 s, film frames at 25 Hz) to a temporary folder

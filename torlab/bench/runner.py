@@ -54,7 +54,8 @@ __all__ = [
 #: modules of torlab.bench that are not benchmarks
 _NOT_BENCHMARKS = {"runner"}
 #: the order benchmarks run and appear in (others follow alphabetically)
-_ORDER = ("hertz", "fastsim", "temperature", "asperity", "loadshare", "scenes", "fit", "optical")
+_ORDER = ("hertz", "fastsim", "temperature", "asperity", "loadshare", "scenes", "fit", "optical",
+          "cli")
 
 
 @dataclass

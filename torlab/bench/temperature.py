@@ -1,4 +1,4 @@
-"""Benchmark of the contact-temperature iteration (thesis 5.2.5, Eqs. 5.49-5.50; model-notes section 4).
+"""Benchmark of the contact-temperature iteration (thesis 5.2.5, Eqs. 5.49-5.50; docs/model/thesis-reading.md).
 
 Scene: the wheel-rail contact of Tab. 5.4 (:data:`torlab.bench.fastsim.TAB54_SCENE`,
 10 m/s) with the Tab. 5.4 thermal data (lambda = 50 W/(m K), rho = 7850 kg/m^3,

@@ -117,7 +117,8 @@ def _root(
 
 
 #: command modules, each with ``register(app)``
-_COMMAND_MODULES = ("hpt", "synth", "predict", "fit", "run", "bench", "mtm", "optical", "visc")
+_COMMAND_MODULES = ("reduce", "hpt", "synth", "predict", "fit", "run", "bench", "mtm", "optical",
+                    "visc")
 
 
 def _register() -> None:

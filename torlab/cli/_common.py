@@ -10,11 +10,12 @@ from typing import Annotated, Any
 
 import typer
 
-from torlab.errors import TorlabInputError
+from torlab.grids import parse_values
 
 __all__ = [
     "ForceOpt",
     "OutOpt",
+    "XlsxOpt",
     "command_line",
     "console",
     "parse_values",
@@ -26,6 +27,9 @@ OutOpt = Annotated[Path, typer.Option("-o", "--out", help="Output folder (create
                                       "hold earlier results unless --force).")]
 ForceOpt = Annotated[bool, typer.Option("--force", help="Replace torlab's earlier results in "
                                         "the output folder.")]
+XlsxOpt = Annotated[bool, typer.Option("--xlsx", help="Also write tables.xlsx: every table as a "
+                                       "sheet of one Excel workbook (needs openpyxl: pip install "
+                                       "'torlab[xlsx]').")]
 
 
 def console() -> Any:
@@ -50,57 +54,18 @@ def command_line() -> str:
     return " ".join(shlex.quote(str(a)) for a in ["torlab", *argv])
 
 
-def require_files(paths: Sequence[Path], what: str = "input") -> list[Path]:
-    """Check that every path is an existing file; one clear error otherwise."""
-    out = []
-    for p in paths:
-        if not p.exists():
-            raise TorlabInputError(f"{what} file not found", path=p)
-        if p.is_dir():
-            raise TorlabInputError(f"is a folder; give the {what} file(s) in it", path=p)
-        out.append(p)
-    if not out:
-        raise TorlabInputError(f"no {what} files given")
-    return out
+def require_files(paths: Sequence[Path], what: str = "input", keep: Any = None) -> list[Path]:
+    """The files named: files as they are, folders and patterns (``logs/*.txt``) expanded
+    by torlab (:func:`torlab.instruments.expand_inputs`, ``keep`` filtering what a folder
+    or pattern gives); one clear error for a missing file or no file at all."""
+    from torlab.instruments import expand_inputs
 
-
-def parse_values(spec: str, kind: str, option: str) -> Any:
-    """Parse ``start:stop:num`` (inclusive, like ``numpy.linspace``) or a comma list.
-
-    Plain numbers are SI; each value may carry its own unit
-    (``"10 mm/s:2 m/s:50"``, ``"0.1 %,1 %"``).  ``kind`` is a
-    :data:`torlab.units.KINDS` key.
-
-    Returns
-    -------
-    numpy.ndarray
-        The values in SI units.
-    """
-    import numpy as np
-
-    from torlab.units import to_si
-
-    s = spec.strip()
-    if not s:
-        raise TorlabInputError("empty value list", key=option)
-    if ":" in s and "," not in s:
-        parts = s.split(":")
-        if len(parts) != 3:
-            raise TorlabInputError(f"{spec!r}: write start:stop:count, e.g. 0:0.05:101", key=option)
-        start = to_si(parts[0], kind, where=option)
-        stop = to_si(parts[1], kind, where=option)
-        try:
-            num = int(parts[2])
-        except ValueError:
-            raise TorlabInputError(f"{spec!r}: the count {parts[2]!r} is not an integer",
-                                   key=option) from None
-        if num < 1 or num > 100_000:
-            raise TorlabInputError(f"{spec!r}: count must be between 1 and 100000", key=option)
-        return np.linspace(start, stop, num)
-    vals = [to_si(v, kind, where=option) for v in s.split(",") if v.strip()]
-    if not vals:
-        raise TorlabInputError(f"{spec!r}: no values", key=option)
-    return np.asarray(vals, dtype=float)
+    files, notes = expand_inputs(paths, what, keep)
+    if notes:
+        c = console()
+        for n in notes:
+            c.print(f"[yellow]note[/yellow] {n}")
+    return files
 
 
 def print_table(rows: Sequence[dict[str, Any]], title: str = "", formats: dict[str, str] | None = None) -> None:

@@ -1,4 +1,4 @@
-"""``torlab fit``: identify the model's parameters from reduced measurements (issue 6).
+"""``torlab fit``: identify the model's parameters from reduced measurements.
 
 Each command writes ``params.yaml`` (the scene contract's ``boundary:`` /
 ``lubricant:`` keys plus a ``fit:`` provenance section, so
@@ -17,6 +17,7 @@ from typing import Annotated, Any
 import typer
 
 from torlab.cli._common import ForceOpt, OutOpt, command_line, console, print_table, require_files
+from torlab.instruments.measured import film_data, hpt_items, is_hpt_input, traction_data
 
 app = typer.Typer(help="Fit the model's parameters (third-body layer, temperature coefficients, "
                   "viscosity, film) to reduced measurements, with uncertainties.",
@@ -76,41 +77,12 @@ _FILES = ["params.yaml", "fit_table.csv", "correlation.csv", "fit_data.csv", "fi
 
 
 def _compliance(value: str | None, inputs: list[Path]) -> Any:
-    if value is None:
-        return None
     from torlab.reduce.hpt import RigCompliance
-    from torlab.units import to_si
 
-    cp = Path(value)
-    if cp.exists():
-        inputs.append(cp)
-        return RigCompliance.from_file(cp)
-    return RigCompliance.linear(to_si(value, "compliance", where="--compliance"))
-
-
-def _hpt_curves(files: list[Path], compliance: Any) -> list[Any]:
-    """Raw HPT logs are reduced; reduced CSVs (``torlab hpt reduce`` output) read as they are."""
-    import pandas as pd
-
-    from torlab.parsers._text import read_text
-    from torlab.parsers.hpt import read_hpt
-    from torlab.reduce.hpt import reduce_hpt
-
-    out = []
-    for f in files:
-        text, _ = read_text(f)
-        head = text.lstrip()[:4000]
-        if head.startswith("# torlab-hpt"):
-            df, meta = read_hpt(f)
-            out.append(reduce_hpt(df, meta, compliance=compliance))
-        elif "shear_stress_Pa" in head.split("\n", 1)[0]:
-            out.append((f, pd.read_csv(f)))
-        else:
-            from torlab.errors import TorlabInputError
-
-            raise TorlabInputError("not a torlab-hpt log nor a reduced HPT CSV (columns "
-                                   "shear_stress_Pa, displacement_raw_m ...)", path=f)
-    return out
+    comp = RigCompliance.from_spec(value, where="--compliance")
+    if comp is not None and comp.path is not None:
+        inputs.append(comp.path)
+    return comp
 
 
 def _prepare_hpt(items: list[Any], compliance: Any) -> list[Any]:
@@ -145,17 +117,14 @@ def hpt_cmd(
     One fit per curve (a sub-folder per curve when there are several) or, with
     --joint, one fit to all curves.
     """
-    from torlab.fit.layer import fit_layer_hpt
+    from torlab.fit.layer import fit_layer_hpt, fit_layers_hpt
     from torlab.outputs import OutputDir
 
-    files = require_files(inputs, "HPT")
+    files = require_files(inputs, "HPT", keep=is_hpt_input)
     extra: list[Path] = []
     comp = _compliance(compliance, extra)
-    curves = _prepare_hpt(_hpt_curves(files, comp), comp)
-    if joint or len(curves) == 1:
-        results = [fit_layer_hpt(curves, joint=True)]
-    else:
-        results = fit_layer_hpt(curves)
+    curves = _prepare_hpt(hpt_items(files, comp), comp)
+    results = [fit_layer_hpt(curves)] if joint or len(curves) == 1 else fit_layers_hpt(curves)
     dest = OutputDir(out, force=force, inputs=[*files, *extra], command=command_line())
     with dest:
         names = []
@@ -211,7 +180,7 @@ def traction_cmd(
 
     files = require_files([scene, data], "input")
     sc = load_scene(scene)
-    xi, mu, test = _traction_data(data)
+    xi, mu, test = traction_data(data)
     if (dry or test == "dry_traction") and (sc.lubricant is not None or sc.roughness is not None):
         sc = sc.model_copy(update={"lubricant": None, "roughness": None})
         console().print("dry traction test: the scene's lubricant: and roughness: are ignored "
@@ -234,50 +203,15 @@ def traction_cmd(
 
 def _parse_fixed(items: list[str]) -> dict[str, float]:
     from torlab.errors import TorlabInputError
-    from torlab.units import to_si
+    from torlab.fit.traction import layer_values
 
-    kinds = {"mu_c1": "dimensionless", "mu_c2": "dimensionless", "L_mue": "length",
-             "L_mup": "length"}
-    out = {}
+    pairs = {}
     for it in items:
         if "=" not in it:
             raise TorlabInputError(f"{it!r}: use NAME=VALUE, e.g. 'L_mup=20 um'", key="--fix")
         k, v = (s.strip() for s in it.split("=", 1))
-        if k not in kinds:
-            raise TorlabInputError(f"{k!r} is not a layer parameter ({', '.join(kinds)})",
-                                   key="--fix")
-        out[k] = to_si(v, kinds[k], where="--fix")
-    return out
-
-
-def _traction_data(path: Path) -> tuple[Any, Any, str]:
-    import pandas as pd
-
-    from torlab.errors import TorlabInputError
-    from torlab.parsers._text import read_text
-
-    text, _ = read_text(path)
-    if text.lstrip().startswith("# torlab-optical"):
-        from torlab.reduce.optical import reduce_optical_log
-
-        red = reduce_optical_log(path)
-        pts = red.points
-        return (pts["srr"].to_numpy(dtype=float), pts["traction_coefficient"].to_numpy(dtype=float),
-                red.test)
-    try:
-        df = pd.read_csv(path, comment="#")
-    except (ValueError, pd.errors.ParserError) as e:
-        msg = " ".join(str(e).split())
-        raise TorlabInputError(f"not a readable CSV of a traction curve ({msg})", path=path) from None
-    xc = next((c for c in ("creepage", "srr") if c in df), None)
-    yc = next((c for c in ("mu", "traction_coefficient") if c in df), None)
-    if xc is None or yc is None:
-        raise TorlabInputError("needs columns creepage (or srr, fractions) and mu (or "
-                               "traction_coefficient)", path=path)
-    try:
-        return df[xc].to_numpy(dtype=float), df[yc].to_numpy(dtype=float), ""
-    except ValueError:
-        raise TorlabInputError(f"columns {xc}, {yc} must be numbers", path=path) from None
+        pairs[k] = v
+    return layer_values(pairs, where="--fix")
 
 
 @app.command("temperature")
@@ -293,17 +227,17 @@ def temperature_cmd(
 ) -> None:
     """Temperature coefficients mu_c1_T, mu_c2_T (thesis Eqs. 5.26-5.27) from one layer fit
     per run: ln mu_ci against T."""
-    from torlab.fit.layer import fit_layer_hpt
+    from torlab.fit.layer import fit_layers_hpt
     from torlab.fit.temperature import fit_temperature_coefficients
     from torlab.outputs import OutputDir
     from torlab.units import to_si
 
-    files = require_files(inputs, "HPT")
+    files = require_files(inputs, "HPT", keep=is_hpt_input)
     extra: list[Path] = []
     comp = _compliance(compliance, extra)
     Tref = to_si(reference_temperature, "temperature", where="--reference-temperature")
-    curves = _prepare_hpt(_hpt_curves(files, comp), comp)
-    fits = fit_layer_hpt(curves)
+    curves = _prepare_hpt(hpt_items(files, comp), comp)
+    fits = fit_layers_hpt(curves)
     res = fit_temperature_coefficients(fits, reference_temperature_C=Tref)
     dest = OutputDir(out, force=force, inputs=[*files, *extra], command=command_line())
     with dest:
@@ -339,7 +273,7 @@ def film_cmd(
     files = require_files([data] + ([scene] if scene else []), "input")
     vmin = None if min_speed is None else to_si(min_speed, "velocity", where="--min-speed")
     sc = load_scene(scene) if scene else None
-    groups = _film_data(data)
+    groups = film_data(data)
     results = []
     for label, v, h in groups:
         r = fit_film_thickness(v, h, scene=sc, min_speed=vmin)
@@ -348,45 +282,12 @@ def film_cmd(
     dest = OutputDir(out, force=force, inputs=files, command=command_line())
     with dest:
         for label, r in results:
-            write_fit(dest, r, label.replace(" ", "_") if len(results) > 1 else "",
+            write_fit(dest, r, label.replace(" °C", "C").replace(" ", "_")
+                      if len(results) > 1 else "",
                       title=f"Film thickness: {r.meta['source']}")
     for _label, r in results:
         print_fit(r, f"Film fit: {r.meta['source']}")
     console().print(f"wrote the film fit{'s' if len(results) > 1 else ''} to {out}")
-
-
-def _film_data(path: Path) -> list[tuple[str, Any, Any]]:
-    import pandas as pd
-
-    from torlab.errors import TorlabInputError
-    from torlab.parsers._text import read_text
-
-    text, _ = read_text(path)
-    head = text.lstrip()[:200]
-    if head.startswith("# torlab-optical"):
-        from torlab.reduce.optical import reduce_optical_log
-
-        pts = reduce_optical_log(path).points
-        if "film_thickness_m" not in pts:
-            raise TorlabInputError("the optical log has no film thickness", path=path)
-        pts = pts.dropna(subset=["film_thickness_m"])
-        return [("", pts["rolling_speed_m_s"].to_numpy(), pts["film_thickness_m"].to_numpy())]
-    first = text.lstrip().split("\n", 1)[0]
-    if "speed_m_s" in first and "film_thickness_m" in first:
-        df = pd.read_csv(path)
-        vc = "speed_m_s" if "speed_m_s" in df else "rolling_speed_m_s"
-        return [("", df[vc].to_numpy(dtype=float), df["film_thickness_m"].to_numpy(dtype=float))]
-    from torlab.parsers.pcs import read_pcs
-    from torlab.reduce.optical import reduce_ehd2
-
-    df, meta = read_pcs(path)
-    pts = reduce_ehd2(df, meta).points.dropna(subset=["film_thickness_m"])
-    out = []
-    for step, g in pts.groupby("step"):
-        T = g["lube_temperature_C"].mean() if "lube_temperature_C" in g else float("nan")
-        label = f"step{step}" + ("" if T != T else f"_{T:.0f}C")
-        out.append((label, g["rolling_speed_m_s"].to_numpy(), g["film_thickness_m"].to_numpy()))
-    return out
 
 
 @app.command("visc")

@@ -17,6 +17,15 @@ def register(root: typer.Typer) -> None:
     root.add_typer(app, name="synth")
 
 
+def _write(out: object, force: bool, seed: int, writer: object, what: str) -> None:
+    """Run a ``write_*_sample_data(dest, seed=)`` into a new output folder and say so."""
+    from torlab.outputs import OutputDir
+
+    with OutputDir(out, force=force, command=command_line()) as dest:
+        names = writer(dest, seed=seed)  # type: ignore[operator]
+    console().print(f"wrote {len(names)} {what} to {out}")
+
+
 @app.command("hpt")
 def synth_hpt(
     out: OutOpt,
@@ -25,12 +34,10 @@ def synth_hpt(
 ) -> None:
     """Virtual Paper C campaign: HPT logs of OFM1, OFM2, WFM (wet/dry), SFM at 1-16 uL (mg),
     raised-temperature runs, a dry reference, the rig compliance curve and truth.yaml."""
-    from torlab.outputs import OutputDir
     from torlab.synth.hpt import write_hpt_sample_data
 
-    with OutputDir(out, force=force, command=command_line()) as dest:
-        names = write_hpt_sample_data(dest, seed=seed)
-    console().print(f"wrote {len(names)} synthetic HPT logs, rig_compliance.csv and truth.yaml to {out}")
+    _write(out, force, seed, write_hpt_sample_data,
+           "synthetic HPT logs, rig_compliance.csv and truth.yaml")
 
 
 @app.command("mtm")
@@ -42,12 +49,9 @@ def synth_mtm(
     """Virtual Paper B MTM time tests after application: PCS 'MTM311 Test Data File' exports
     (BOD_TIMED, 1 Hz, 20 min after the application) of compositions of thesis Tab. 5.3 and two
     amounts of TOR A, with truth.yaml (application time, minimum, recovery time, plateau)."""
-    from torlab.outputs import OutputDir
     from torlab.synth.mtm import write_mtm_sample_data
 
-    with OutputDir(out, force=force, command=command_line()) as dest:
-        names = write_mtm_sample_data(dest, seed=seed)
-    console().print(f"wrote {len(names)} synthetic MTM exports and truth.yaml to {out}")
+    _write(out, force, seed, write_mtm_sample_data, "synthetic MTM exports and truth.yaml")
 
 
 @app.command("visc")
@@ -58,12 +62,10 @@ def synth_visc(
 ) -> None:
     """Virtual Paper B viscometer campaign: a reference-liquid calibration log and the ester oil
     at 0.1-300 MPa in 50 MPa steps at 25 °C (Roelands law), with truth.yaml."""
-    from torlab.outputs import OutputDir
     from torlab.synth.viscometer import write_viscometer_sample_data
 
-    with OutputDir(out, force=force, command=command_line()) as dest:
-        names = write_viscometer_sample_data(dest, seed=seed)
-    console().print(f"wrote {len(names)} synthetic viscometer logs and truth.yaml to {out}")
+    _write(out, force, seed, write_viscometer_sample_data,
+           "synthetic viscometer logs and truth.yaml")
 
 
 @app.command("optical")

@@ -24,6 +24,7 @@ import numpy as np
 
 from torlab.errors import TorlabInputError
 from torlab.fit.result import FitResult, student_t
+from torlab.threads import small_problem
 
 __all__ = ["HD_SPEED_EXPONENT", "fit_film_thickness"]
 
@@ -32,6 +33,7 @@ HD_SPEED_EXPONENT = 0.67
 HD_G_EXPONENT = 0.53
 
 
+@small_problem  # one BLAS thread: small matrices (torlab.threads)
 def fit_film_thickness(speed_m_s: Any, h_m: Any, *, scene: Any = None,
                        min_speed: float | None = None) -> FitResult:
     """Fit the film's speed exponent and (with a scene) the effective alpha.

@@ -1,8 +1,8 @@
 """Third-body layer parameters from HPT curves: ``mu_c1, mu_c2, L_mue, L_mup``.
 
 The model is the layer law of :mod:`torlab.model.layer` at the run's normal
-stress ``sigma`` (thesis Eqs. 5.24, 5.26-5.29; ``spec/model-notes.md``
-sections 3 and 8): elastic ``tau = u sigma / L_mue`` up to
+stress ``sigma`` (thesis Eqs. 5.24, 5.26-5.29, as
+``docs/model/thesis-reading.md`` reads them): elastic ``tau = u sigma / L_mue`` up to
 ``tau_c1 = mu_c1 sigma``, then Voce towards ``tau_c2 = mu_c2 sigma`` with the
 length ``L_mup``.  The rig's own compliance ``u_rig(tau)`` is part of the
 model, as in the measurement: the angle measures
@@ -47,8 +47,10 @@ from torlab.fit._noise import (
     sandwich_covariance,
 )
 from torlab.fit.result import FitResult
+from torlab.threads import small_problem
 
-__all__ = ["LAYER_NAMES", "HptCurve", "fit_layer_hpt", "hpt_curve", "tau_of_raw_displacement"]
+__all__ = ["LAYER_NAMES", "HptCurve", "fit_layer_hpt", "fit_layers_hpt", "hpt_curve",
+           "tau_of_raw_displacement"]
 
 LAYER_NAMES = ("mu_c1", "mu_c2", "L_mue", "L_mup")
 #: internal parameter scaling: mu as is, lengths in um
@@ -255,9 +257,15 @@ def _initial_guess(c: HptCurve) -> np.ndarray:
     return np.clip(x, _LOWER * 1.01, _UPPER * 0.99)
 
 
-def fit_layer_hpt(curves: Any, *, sigma: float | None = None, joint: bool = False,
-                  compliance: Any = None) -> FitResult | list[FitResult]:
+@small_problem  # one BLAS thread: small matrices (torlab.threads)
+def fit_layer_hpt(curves: Any, *, sigma: float | None = None, compliance: Any = None,
+                  joint: bool = True) -> FitResult:
     """Fit ``mu_c1, mu_c2, L_mue, L_mup`` to HPT curves (thesis Eqs. 5.24, 5.26-5.29).
+
+    One curve gives its fit; several curves (repeats of one product and
+    amount) are fitted jointly: the four parameters shared, each curve with
+    its own normal stress and compliance.  One fit per curve is
+    :func:`fit_layers_hpt`.
 
     Parameters
     ----------
@@ -267,17 +275,16 @@ def fit_layer_hpt(curves: Any, *, sigma: float | None = None, joint: bool = Fals
         ``displacement_m``, ``normal_stress_Pa``).
     sigma
         Normal stress (Pa); default: each curve's mean measured normal stress.
-    joint
-        One fit of the shared parameters to all curves (e.g. repeats of one
-        product and amount), instead of one fit per curve.
     compliance
         Rig compliance ``u_rig(tau)`` (a :class:`~torlab.reduce.hpt.RigCompliance`);
         default: the one the reduction subtracted, if any.
+    joint
+        Must be true (kept for callers that say so); one fit per curve is
+        :func:`fit_layers_hpt`.
 
     Returns
     -------
-    list of FitResult (``joint=False``) or one FitResult (``joint=True``). A
-    single curve given without a list returns a single FitResult.
+    FitResult
 
     Raises
     ------
@@ -287,15 +294,22 @@ def fit_layer_hpt(curves: Any, *, sigma: float | None = None, joint: bool = Fals
         The optimiser does not converge, or the curve never leaves the elastic
         branch (``mu_c1``, ``mu_c2``, ``L_mup`` undetermined).
     """
-    single = not isinstance(curves, (list, tuple))
-    items = [curves] if single else list(curves)
+    if not joint:
+        raise TypeError("fit_layer_hpt fits the curves together; use fit_layers_hpt for one fit "
+                        "per curve")
+    items = list(curves) if isinstance(curves, (list, tuple)) else [curves]
     if not items:
         raise TorlabInputError("no HPT curve given")
-    prepared = [hpt_curve(c, sigma=sigma, compliance=compliance) for c in items]
-    if joint:
-        return _fit(prepared)
-    res = [_fit([c]) for c in prepared]
-    return res[0] if single else res
+    return _fit([hpt_curve(c, sigma=sigma, compliance=compliance) for c in items])
+
+
+def fit_layers_hpt(curves: Any, *, sigma: float | None = None, compliance: Any = None
+                   ) -> list[FitResult]:
+    """One :func:`fit_layer_hpt` per curve (e.g. one run per temperature), in order."""
+    items = list(curves) if isinstance(curves, (list, tuple)) else [curves]
+    if not items:
+        raise TorlabInputError("no HPT curve given")
+    return [fit_layer_hpt(c, sigma=sigma, compliance=compliance) for c in items]
 
 
 def _fit(cs: list[HptCurve]) -> FitResult:

@@ -1,10 +1,12 @@
 """The result of every ``torlab fit``: parameters, uncertainties, warnings, data vs model.
 
-All fits in :mod:`torlab.fit` return a :class:`FitResult` (the agreed fit API,
-issue 6).  Parameters are in SI units; ``names`` are the scene contract's keys
+Every fit in torlab returns a :class:`FitResult` (one type for every fit:
+parameters, standard errors, 95 % intervals, covariance-based correlations,
+warnings, the data against the model; :meth:`FitResult.report`,
+:meth:`FitResult.plot`, :meth:`FitResult.to_params`).  Parameters are in SI units; ``names`` are the scene contract's keys
 where one exists (``mu_c1``, ``mu_c2``, ``L_mue``, ``L_mup``, ``mu_c1_T``,
 ``mu_c2_T``, ``eta0``, ``alpha``, ``Z``), so :meth:`FitResult.to_scene_dict`
-is a valid parameter file for ``torlab predict`` (``spec/scene-contract.md``).
+is a valid parameter file for ``torlab predict`` (the scene keys of ``docs/scenes.md``).
 
 Uncertainties come from the linearised least-squares covariance
 ``C = s^2 (J^T J)^-1`` (or a heteroscedasticity-and-autocorrelation-consistent
@@ -130,7 +132,7 @@ def hac_covariance(jac: np.ndarray, residuals: np.ndarray, lags: int) -> np.ndar
 
 @dataclass
 class FitResult:
-    """A fitted parameter set (agreed fit API, ``notes/fit-api.md``).
+    """A fitted parameter set: what every fit in torlab returns.
 
     Attributes
     ----------
@@ -269,6 +271,53 @@ class FitResult:
         """``params.yaml``: the scene keys plus the ``fit:`` provenance."""
         return {**self.to_scene_dict(), "fit": self.provenance()}
 
+    def to_params(self, path: str | Any | None = None) -> dict[str, Any]:
+        """The parameter file ``torlab predict`` reads: the scene keys of the fitted values
+        (``boundary:``, ``lubricant:``) and the ``fit:`` provenance.
+
+        With ``path`` it is also written there as YAML (refused if the file
+        exists: results are never overwritten silently).
+        """
+        d = self.to_yaml_dict()
+        if path is not None:
+            from pathlib import Path
+
+            from torlab.errors import TorlabInputError
+            from torlab.outputs import atomic_write_text
+            from torlab.yamlio import dump_yaml
+
+            p = Path(path)
+            if p.exists():
+                raise TorlabInputError("exists; choose a new file for the parameters", path=p)
+            atomic_write_text(p, dump_yaml(d))
+        return d
+
+    def report(self) -> str:
+        """The fit as Markdown: parameters with standard errors, 95 % intervals and status,
+        fixed values, points, residual RMS, and the warnings."""
+        lines = [f"**{self.kind} fit** ({self.meta.get('source', '') or 'data'}): "
+                 f"{self.n_points} points, residual RMS {self.residual_norm:.4g} "
+                 f"{self.residual_unit}", "",
+                 "| parameter | value | std. error | 95 % interval | unit | status |",
+                 "|---|---|---|---|---|---|"]
+        for r in self.table().itertuples():
+            se = "—" if r.stderr != r.stderr else f"{r.stderr:.3g}"
+            ci = "—" if r.ci95_low != r.ci95_low else f"[{r.ci95_low:.5g}, {r.ci95_high:.5g}]"
+            lines.append(f"| {r.parameter} | {r.value:.5g} | {se} | {ci} | {r.unit} | "
+                         f"{r.status} |")
+        lines += [""] + [f"- warning: {w}" for w in self.warnings]
+        return "\n".join(lines).rstrip() + "\n"
+
+    def _repr_markdown_(self) -> str:
+        return self.report()
+
+    def plot(self, *, title: str | None = None, model_curve: tuple[Any, Any] | None = None) -> Any:
+        """Data against the fitted model and the residuals (a matplotlib figure,
+        :func:`torlab.reports.fit.fit_figure`)."""
+        from torlab.reports.fit import fit_figure
+
+        return fit_figure(self, title=title, model_curve=model_curve)
+
     def table(self) -> Any:
         """DataFrame ``parameter, value, stderr, ci95_low, ci95_high, unit`` (+ fixed rows).
 
@@ -329,52 +378,6 @@ def _finite_or_none(x: float) -> float | None:
 
 
 def viscosity_result(vf: Any) -> FitResult:
-    """A :class:`~torlab.fit.viscosity.ViscosityFit` as a :class:`FitResult` (``kind="viscosity"``).
-
-    Parameters are ``eta0`` and ``alpha`` (Barus) or ``eta0``, ``Z`` and the
-    derived initial slope ``alpha`` (Roelands, fixed: it follows from ``eta0``
-    and ``Z``); intervals are the viscosity fit's own.  ``to_scene_dict``
-    gives the ``lubricant:`` keys including ``viscosity: barus|roelands``.
-    """
-    import pandas as pd
-
-    p = np.asarray(vf.pressures_Pa, dtype=float)
-    eta = np.asarray(vf.viscosity_Pa_s, dtype=float)
-    model = np.asarray(vf.predict(p), dtype=float)
-    data = pd.DataFrame({"pressure_Pa": p, "viscosity_measured_Pa_s": eta,
-                         "viscosity_model_Pa_s": model, "residual_ln_eta": np.log(eta / model)})
-    tq = student_t(max(vf.dof, 1), vf.confidence)
-    lo0, hi0 = vf.eta0_ci
-    se0 = (math.log(hi0) - math.log(lo0)) / (2 * tq) * vf.eta0 if hi0 > lo0 else math.inf
-    if vf.eta0_source != "fitted":
-        se0 = math.inf
-    names: tuple[str, ...]
-    fixed: dict[str, float] = {}
-    if vf.law == "barus":
-        names = ("eta0", "alpha")
-        params = {"eta0": vf.eta0, "alpha": vf.alpha}
-        stderr = {"eta0": se0, "alpha": vf.alpha_se}
-        ci = {"eta0": vf.eta0_ci, "alpha": vf.alpha_ci}
-    else:
-        names = ("eta0", "Z")
-        params = {"eta0": vf.eta0, "Z": vf.Z}
-        stderr = {"eta0": se0, "Z": vf.Z_se}
-        ci = {"eta0": vf.eta0_ci, "Z": vf.Z_ci}
-        fixed = {"alpha": vf.alpha}
-    if vf.eta0_source != "fitted":
-        names = names[1:]
-        fixed["eta0"] = vf.eta0
-        params.pop("eta0")
-        stderr.pop("eta0")
-        ci.pop("eta0")
-    k = len(names)
-    corr = np.full((k, k), np.nan)
-    np.fill_diagonal(corr, 1.0)
-    return FitResult(kind="viscosity", names=names, params=params, stderr=stderr,
-                     ci95={n: (float(a), float(b)) for n, (a, b) in ci.items()}, correlation=corr,
-                     residual_norm=float(vf.s), n_points=int(vf.n), warnings=list(vf.warnings),
-                     data=data, meta={"law": vf.law, "eta0_source": vf.eta0_source,
-                                      "temperature_C": vf.temperature_C,
-                                      "lubricant_extra": {"viscosity": vf.law}},
-                     fixed=fixed, residual_unit="ln(Pa*s)", n_evaluations=0, dof=int(vf.dof),
-                     x_column="pressure_Pa", y_column="viscosity_measured_Pa_s")
+    """The viscosity fit itself: :class:`~torlab.fit.viscosity.ViscosityFit` is a
+    :class:`FitResult` (kept for callers of the earlier converter)."""
+    return vf

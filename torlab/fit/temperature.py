@@ -22,12 +22,14 @@ import numpy as np
 
 from torlab.errors import TorlabInputError
 from torlab.fit.result import FitResult, student_t
+from torlab.threads import small_problem
 
 __all__ = ["fit_temperature_coefficients"]
 
 ZERO_CELSIUS_K = 273.15
 
 
+@small_problem  # one BLAS thread: small matrices (torlab.threads)
 def fit_temperature_coefficients(fits_or_curves: Any, temperatures_K: Any = None, *,
                                  reference_temperature_C: float = 25.0) -> FitResult:
     """Fit ``mu_c1_T`` and ``mu_c2_T`` (1/K) from layer fits at several temperatures.

@@ -35,12 +35,33 @@ import numpy as np
 
 from torlab.errors import FitError, TorlabInputError
 from torlab.fit.result import FitResult, covariance_from_jacobian
+from torlab.threads import small_problem
 
-__all__ = ["fit_layer_traction", "traction_model"]
+__all__ = ["fit_layer_traction", "layer_values", "traction_model"]
 
 NAMES = ("mu_c1", "mu_c2", "L_mue", "L_mup")
 _SCALE = {"mu_c1": 1.0, "mu_c2": 1.0, "L_mue": 1e-6, "L_mup": 1e-6}
 _BOUNDS = {"mu_c1": (1e-4, 3.0), "mu_c2": (1e-4, 3.0), "L_mue": (1e-4, 1e3), "L_mup": (1e-3, 1e4)}
+
+
+#: quantity kind of each layer parameter
+LAYER_KINDS = {"mu_c1": "dimensionless", "mu_c2": "dimensionless", "L_mue": "length",
+               "L_mup": "length"}
+
+
+def layer_values(values: dict[str, Any], where: str = "fix") -> dict[str, float]:
+    """Layer parameters given by a user (``{"L_mup": "20 um"}``) in SI; unknown names are
+    errors with a suggestion."""
+    from torlab._suggest import did_you_mean
+    from torlab.units import to_si
+
+    out = {}
+    for k, v in values.items():
+        if k not in LAYER_KINDS:
+            raise TorlabInputError(f"{k!r} is not a layer parameter ({', '.join(LAYER_KINDS)})"
+                                   f"{did_you_mean(k, LAYER_KINDS)}", key=where)
+        out[k] = to_si(v, LAYER_KINDS[k], where=where)
+    return out
 
 
 def traction_model(scene: Any) -> Any:
@@ -121,6 +142,7 @@ def _start(model: Any, scene: Any, xi: np.ndarray, y: np.ndarray) -> dict[str, f
     return {"mu_c1": mu1, "mu_c2": mu2, "L_mue": lme, "L_mup": max(lme, 1e-6)}
 
 
+@small_problem  # one BLAS thread: small matrices (torlab.threads)
 def fit_layer_traction(scene: Any, creepage: Any, mu: Any, *, fixed: dict[str, float] | None = None,
                        x0: dict[str, float] | None = None, max_nfev: int = 200) -> FitResult:
     """Fit the layer parameters to a traction curve with FASTSIM (thesis Eqs. 5.14-5.30).

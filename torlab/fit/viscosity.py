@@ -30,7 +30,9 @@ from typing import Any
 import numpy as np
 
 from torlab.errors import FitError, TorlabInputError
+from torlab.fit.result import FitResult, student_t
 from torlab.model.viscosity import log_eta_barus, log_eta_roelands, roelands_alpha0
+from torlab.threads import small_problem
 
 __all__ = ["ViscosityFit", "fit_barus", "fit_optional", "fit_roelands", "fit_viscosity"]
 
@@ -41,9 +43,20 @@ ATMOSPHERIC_MAX = 1e6
 ONE_PRESSURE = 1e6
 
 
+_NAN = float("nan")
+
+
 @dataclass
-class ViscosityFit:
-    """A fitted pressure-viscosity law.
+class ViscosityFit(FitResult):
+    """A fitted pressure-viscosity law: a :class:`~torlab.fit.result.FitResult` with the
+    law's own figures.
+
+    The :class:`FitResult` side has ``kind="viscosity"``, parameters ``eta0``
+    and ``alpha`` (Barus) or ``eta0`` and ``Z`` (Roelands; the equivalent
+    ``alpha*`` as a fixed, derived value), 95 % intervals, the data against the
+    law and the residuals in ``ln eta``; ``eta0`` given or taken from the
+    atmospheric points is fixed (no interval).  The attributes below keep the
+    fit's own view at its ``confidence`` level.
 
     Attributes
     ----------
@@ -59,7 +72,7 @@ class ViscosityFit:
     Z, Z_se, Z_ci
         Roelands pressure-viscosity index (Roelands only).
     confidence
-        Level of the intervals (0.95).
+        Level of these intervals (default 0.95).
     n, dof
         Points and residual degrees of freedom.
     rss, s
@@ -68,30 +81,73 @@ class ViscosityFit:
         The data and the residuals ``ln eta - ln eta_fit``.
     temperature_C
         Mean temperature of the data, if known.
-    warnings
-        What the data cannot determine well.
     """
 
-    law: str
-    eta0: float
-    eta0_ci: tuple[float, float]
-    eta0_source: str
-    alpha: float
-    alpha_se: float
-    alpha_ci: tuple[float, float]
-    Z: float = float("nan")
-    Z_se: float = float("nan")
-    Z_ci: tuple[float, float] = (float("nan"), float("nan"))
+    law: str = "barus"
+    eta0: float = _NAN
+    eta0_ci: tuple[float, float] = (_NAN, _NAN)
+    eta0_source: str = ""
+    alpha: float = _NAN
+    alpha_se: float = _NAN
+    alpha_ci: tuple[float, float] = (_NAN, _NAN)
+    Z: float = _NAN
+    Z_se: float = _NAN
+    Z_ci: tuple[float, float] = (_NAN, _NAN)
     confidence: float = 0.95
     n: int = 0
-    dof: int = 0
     rss: float = 0.0
     s: float = 0.0
     pressures_Pa: np.ndarray = field(default_factory=lambda: np.empty(0))
     viscosity_Pa_s: np.ndarray = field(default_factory=lambda: np.empty(0))
     residuals: np.ndarray = field(default_factory=lambda: np.empty(0))
     temperature_C: float | None = None
-    warnings: list[str] = field(default_factory=list)
+
+    @classmethod
+    def build(cls, *, law: str, eta0: float, eta0_se_log: float, eta0_source: str, alpha: float,
+              alpha_se: float, confidence: float, dof: int, p: np.ndarray, eta: np.ndarray,
+              residuals: np.ndarray, temperature_C: float | None, warnings: list[str],
+              Z: float = _NAN, Z_se: float = _NAN) -> ViscosityFit:
+        """The result from the estimates and their standard errors (intervals from Student t)."""
+        import pandas as pd
+
+        res = np.asarray(residuals, dtype=float)
+        n = int(p.size)
+        rss = float(res @ res)
+        t_c, t95 = _t(confidence, dof), student_t(dof)
+
+        def ci(v: float, se: float, t: float) -> tuple[float, float]:
+            return (v - t * se, v + t * se) if math.isfinite(se) else (_NAN, _NAN)
+
+        le = math.log(eta0)
+        se0 = eta0_se_log if math.isfinite(eta0_se_log) else 0.0
+        eta0_ci = (math.exp(le - t_c * se0), math.exp(le + t_c * se0))
+        free = {"eta0": eta0_source == "fitted", "alpha": law == "barus", "Z": law == "roelands"}
+        vals = {"eta0": eta0, "alpha": alpha, "Z": Z}
+        ses = {"eta0": eta0 * eta0_se_log, "alpha": alpha_se, "Z": Z_se}
+        names = tuple(k for k in ("eta0", "alpha", "Z") if free[k])
+        ci95 = {k: ci(vals[k], ses[k], t95) for k in names}
+        if "eta0" in ci95:
+            ci95["eta0"] = (math.exp(le - t95 * eta0_se_log), math.exp(le + t95 * eta0_se_log))
+        fixed = {k: vals[k] for k in ("eta0", "alpha") if not free[k]}
+        corr = np.full((len(names), len(names)), np.nan)
+        np.fill_diagonal(corr, 1.0)
+        model = eta * np.exp(-res)
+        data = pd.DataFrame({"pressure_Pa": p, "viscosity_measured_Pa_s": eta,
+                             "viscosity_model_Pa_s": model, "residual_ln_eta": res})
+        return cls(
+            kind="viscosity", names=names, params={k: float(vals[k]) for k in names},
+            stderr={k: float(ses[k]) if math.isfinite(ses[k]) else math.inf for k in names},
+            ci95=ci95, correlation=corr, residual_norm=math.sqrt(rss / dof), n_points=n,
+            warnings=warnings, data=data,
+            meta={"law": law, "eta0_source": eta0_source, "temperature_C": temperature_C,
+                  "lubricant_extra": {"viscosity": law}},
+            fixed=fixed, residual_unit="ln(Pa*s)", dof=int(dof), x_column="pressure_Pa",
+            y_column="viscosity_measured_Pa_s", law=law, eta0=eta0, eta0_ci=eta0_ci,
+            eta0_source=eta0_source, alpha=alpha, alpha_se=alpha_se,
+            alpha_ci=ci(alpha, alpha_se, t_c) if law == "barus" else (alpha, alpha), Z=Z,
+            Z_se=Z_se, Z_ci=ci(Z, Z_se, t_c), confidence=confidence, n=n, rss=rss,
+            s=math.sqrt(rss / dof), pressures_Pa=p, viscosity_Pa_s=eta, residuals=res,
+            temperature_C=temperature_C)
 
     def predict(self, p: np.ndarray | float) -> np.ndarray:
         """Viscosity (Pa s) of the fitted law at ``p`` (Pa)."""
@@ -113,9 +169,9 @@ class ViscosityFit:
         }
         if self.law == "roelands":
             d["Z"] = float(f"{self.Z:.6g}")
-        return d
+        return {"lubricant": d}
 
-    def summary(self) -> dict[str, Any]:
+    def row(self) -> dict[str, Any]:
         """One flat row (SI units) for ``fit.csv``."""
         lo, hi = self.confidence_label()
         return {
@@ -182,6 +238,7 @@ def _t(confidence: float, dof: int) -> float:
     return float(student_t.ppf(0.5 + confidence / 2, dof))
 
 
+@small_problem  # one BLAS thread: small matrices (torlab.threads)
 def fit_barus(p: Any, eta: Any, *, confidence: float = 0.95,
               temperature_C: float | None = None) -> ViscosityFit:
     """Barus fit ``ln eta = ln eta0 + alpha p`` (Eq. 5.39) by ordinary least squares.
@@ -212,11 +269,10 @@ def fit_barus(p: Any, eta: Any, *, confidence: float = 0.95,
     a = float(y.mean() - alpha * pm)
     res = y - (a + alpha * p)
     dof = n - 2
-    rss = float(np.sum(res * res))
-    s = math.sqrt(rss / dof)
+    s = math.sqrt(float(np.sum(res * res)) / dof)
     se_alpha = s / math.sqrt(sxx)
     se_a = s * math.sqrt(1.0 / n + pm * pm / sxx)
-    tq = _t(confidence, dof)
+    _t(confidence, dof)  # checks the level
     warnings = []
     if np.ptp(p) < 50e6:
         warnings.append(f"alpha from a narrow pressure range ({np.ptp(p) / 1e6:.3g} MPa)")
@@ -235,14 +291,13 @@ def fit_barus(p: Any, eta: Any, *, confidence: float = 0.95,
                 warnings.append(f"ln eta is curved against p (quadratic term t = {tstat:.3g}): "
                                 "the Barus law does not describe these data over the whole range; "
                                 "alpha is a secant (compare the Roelands fit)")
-    return ViscosityFit(
-        law="barus", eta0=math.exp(a), eta0_ci=(math.exp(a - tq * se_a), math.exp(a + tq * se_a)),
-        eta0_source="fitted", alpha=alpha, alpha_se=se_alpha,
-        alpha_ci=(alpha - tq * se_alpha, alpha + tq * se_alpha), confidence=confidence, n=n,
-        dof=dof, rss=rss, s=s, pressures_Pa=p, viscosity_Pa_s=eta, residuals=res,
+    return ViscosityFit.build(
+        law="barus", eta0=math.exp(a), eta0_se_log=se_a, eta0_source="fitted", alpha=alpha,
+        alpha_se=se_alpha, confidence=confidence, dof=dof, p=p, eta=eta, residuals=res,
         temperature_C=temperature_C, warnings=warnings)
 
 
+@small_problem  # one BLAS thread: small matrices (torlab.threads)
 def fit_roelands(p: Any, eta: Any, *, eta0: float | None = None, fit_eta0: bool | None = None,
                  confidence: float = 0.95, temperature_C: float | None = None) -> ViscosityFit:
     """Roelands fit (Eq. 5.38) of ``Z`` (and ``eta0``) by nonlinear least squares in ``ln eta``.
@@ -330,13 +385,10 @@ def fit_roelands(p: Any, eta: Any, *, eta0: float | None = None, fit_eta0: bool 
     Z = float(sol.x[0])
     le = float(sol.x[1]) if free_eta0 else math.log(eta0)  # type: ignore[arg-type]
     res = sol.fun
-    n = p.size
-    dof = n - k
-    rss = float(np.sum(res * res))
-    s = math.sqrt(rss / dof)
-    J = sol.jac
-    jtj = J.T @ J
-    tq = _t(confidence, dof)
+    dof = p.size - k
+    s = math.sqrt(float(np.sum(res * res)) / dof)
+    jtj = sol.jac.T @ sol.jac
+    _t(confidence, dof)  # checks the level
     cond = np.linalg.cond(jtj)
     if not np.isfinite(cond) or cond > 1e14:
         cov = np.full((k, k), np.nan)
@@ -344,23 +396,18 @@ def fit_roelands(p: Any, eta: Any, *, eta0: float | None = None, fit_eta0: bool 
     else:
         cov = s * s * np.linalg.inv(jtj)
     z_se = float(math.sqrt(cov[0, 0])) if np.isfinite(cov[0, 0]) and cov[0, 0] >= 0 else float("nan")
-    if free_eta0 and np.isfinite(cov[1, 1]):
-        le_se = math.sqrt(cov[1, 1])
-        eta0_ci = (math.exp(le - tq * le_se), math.exp(le + tq * le_se))
-    else:
-        eta0_ci = (math.exp(le), math.exp(le))
+    le_se = math.sqrt(cov[1, 1]) if free_eta0 and np.isfinite(cov[1, 1]) else \
+        (float("nan") if free_eta0 else 0.0)
     if float(np.max(p)) < Z_MIN_PRESSURE:
         warnings.append(f"Z is poorly determined: all pressures are below "
                         f"{Z_MIN_PRESSURE / 1e6:g} MPa, where the Roelands and Barus laws hardly "
                         "differ")
     if np.isfinite(z_se) and Z != 0 and z_se > 0.5 * abs(Z):
         warnings.append(f"Z is poorly determined (standard error {z_se / abs(Z):.0%})")
-    z_ci = (Z - tq * z_se, Z + tq * z_se) if np.isfinite(z_se) else (float("nan"), float("nan"))
     a0 = float(roelands_alpha0(math.exp(le), Z))
-    return ViscosityFit(
-        law="roelands", eta0=math.exp(le), eta0_ci=eta0_ci, eta0_source=source, alpha=a0,
-        alpha_se=float("nan"), alpha_ci=(a0, a0), Z=Z, Z_se=z_se, Z_ci=z_ci,
-        confidence=confidence, n=n, dof=dof, rss=rss, s=s, pressures_Pa=p, viscosity_Pa_s=e,
+    return ViscosityFit.build(
+        law="roelands", eta0=math.exp(le), eta0_se_log=le_se, eta0_source=source, alpha=a0,
+        alpha_se=float("nan"), Z=Z, Z_se=z_se, confidence=confidence, dof=dof, p=p, eta=e,
         residuals=np.asarray(res, dtype=float), temperature_C=temperature_C, warnings=warnings)
 
 

@@ -1,6 +1,6 @@
 """Asperity contact: Greenwood–Williamson pressure and the functions ``F_n``.
 
-Thesis 5.2.4 (Eqs. 5.41–5.43) as ``spec/model-notes.md`` section 6 reads it.
+Thesis 5.2.4 (Eqs. 5.41–5.43) as ``docs/model/thesis-reading.md`` reads it.
 
 * Roughness parameter ``K = psi * beta * gamma`` with ``psi`` the standard
   deviation of the asperity heights (m), ``beta`` the asperity tip *radius* (m)
@@ -564,7 +564,7 @@ def _positive(value: float, name: str, unit: str) -> float:
 
 
 def roughness_K(sigma: float, beta: float, gamma: float) -> float:
-    """Roughness parameter ``K = psi beta gamma`` (thesis 5.2.4; model-notes section 6).
+    """Roughness parameter ``K = psi beta gamma`` (thesis 5.2.4; docs/model/thesis-reading.md).
 
     Parameters
     ----------
@@ -584,7 +584,7 @@ def p_a_elastic(h: np.ndarray | float, sigma: float, beta: float, gamma: float,
     """Elastic (Greenwood–Williamson) asperity pressure, consistent form of Eq. 5.41 (Pa).
 
     ``p_a = (4/3) K E* sqrt(psi/beta) F_3/2(h/psi)`` with ``K = psi beta gamma``
-    (model-notes section 6; why not the printed ``K/2`` and ``sqrt(psi/gamma)``:
+    (docs/model/thesis-reading.md; why not the printed ``K/2`` and ``sqrt(psi/gamma)``:
     module docstring).
 
     Parameters
@@ -643,7 +643,7 @@ class AsperityModel:
         return self.coefficient * F_n(self.n, np.asarray(h, dtype=float) / self.sigma)
 
     def load(self, h: np.ndarray | float, a: float, b: float) -> np.ndarray:
-        """Asperity load ``F_BL = p_a(h) pi a b`` (N; model-notes section 7)."""
+        """Asperity load ``F_BL = p_a(h) pi a b`` (N; docs/model/thesis-reading.md)."""
         return self.pressure(h) * (math.pi * a * b)
 
     def h_star(self, F: float, a: float, b: float) -> float:

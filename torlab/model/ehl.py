@@ -1,4 +1,4 @@
-"""Elastohydrodynamic film and friction (thesis 5.2.3, Eqs. 5.31–5.40; model-notes section 5).
+"""Elastohydrodynamic film and friction (thesis 5.2.3, Eqs. 5.31–5.40; docs/model/thesis-reading.md).
 
 Film thickness (central, analytical):
 
@@ -16,7 +16,7 @@ Film thickness (central, analytical):
 
   with the ellipticity ``D = b/a`` (``b`` the transverse semi-axis, ``a`` the one
   in the rolling direction).  The thesis prints ``D = a/b`` (Eq. 5.33); Hamrock
-  and Dowson's ``k`` is transverse over rolling (model-notes section 5).  For
+  and Dowson's ``k`` is transverse over rolling (docs/model/thesis-reading.md).  For
   the circular contacts of Papers A and B both read 1.
 
 ``hc`` depends on the film load only through ``F_EHL^-e`` (``e = 0.21`` or
@@ -113,7 +113,7 @@ def _nonneg_array(x, key: str, unit: str) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Lubricant:
-    """The scene's ``lubricant:`` section, SI units (model-notes section 5).
+    """The scene's ``lubricant:`` section, SI units (docs/model/thesis-reading.md).
 
     Attributes
     ----------

@@ -1,4 +1,4 @@
-"""FASTSIM with the third-body layer (thesis 5.2.2, Eqs. 5.14-5.30; model-notes section 3).
+"""FASTSIM with the third-body layer (thesis 5.2.2, Eqs. 5.14-5.30; docs/model/thesis-reading.md).
 
 The model
 ---------
@@ -39,9 +39,11 @@ continuous strip solution:
   analytic well around the interval), and so has the elastic force
   ``integral_0^X_y tau dX = xi (a(y)^2/L1) [G(sin theta_y) - e(theta_y) cos theta_y]``
   with ``G(s) = s^2/2 - r s + r^2 ln(1 + s/r)``;
-* the yield angle ``theta_y`` is the root of ``xi E = tau_c1``, found to
-  round-off by a bracketed (Chandrupatla) iteration that is vectorised over
-  all strips and creepages (``scipy.optimize.elementwise.find_root``);
+* the yield angle ``theta_y`` is the first root of ``xi E = tau_c1``, bracketed
+  by a table (of the monotone ``e/sin theta``; with temperature, of the residual on
+  the temperature nodes) and found to round-off by a safeguarded Newton iteration
+  vectorised over all strips and creepages, which stops on a *relative* step
+  (:func:`_bracketed_newton`);
 * the plastic part is integrated by Gauss-Legendre panels that start at the
   yield point and at the end of the clamped zone (where ``u = tau_c1 L``, a
   closed form without temperature) and are graded geometrically with the
@@ -56,7 +58,7 @@ uniform and 1 clamp panel) is within 2.2e-5 (the target is 0.1 %) of the grid-fr
 adaptive quadrature of the continuous strip solution) over the accuracy test
 set; ``torlab bench`` prints the speed-against-error table.
 
-Temperature (thesis 5.2.5, model-notes section 4)
+Temperature (thesis 5.2.5, docs/model/thesis-reading.md)
 -------------------------------------------------
 With a ``thermal:`` section, the flash temperature of each strip is
 ``T(X) = T_A + (partition / sqrt(pi lambda rho c v)) integral_0^X q(X') / sqrt(X - X') dX'``
@@ -70,6 +72,9 @@ creepage (the relaxation halves whenever the residual stops shrinking) until
 :class:`~torlab.errors.ConvergenceError`.  When the temperature coefficients
 are zero, or the first pass shows a heating that changes the limits by less
 than 1e-6, no loop is run and the temperature is reported from one pass.
+The points of a call (creepages; with ``speed=``, one speed per point, as in a
+Stribeck curve) iterate together in one array, and each leaves the iteration
+when it has converged: its result does not depend on the other points.
 """
 
 from __future__ import annotations
@@ -194,6 +199,12 @@ class BoundaryResult:
     temperature_loop
         ``"off"`` (no thermal section), ``"single pass"`` (heating does not
         change the limits) or ``"iterated"``.
+    yield_iterations
+        Largest number of Newton iterations of a yield-angle solve (all strips
+        and creepages at once; with temperature, the largest over the loop's
+        passes): a few when the solve converges as it should.
+    notes
+        Remarks about the computation.
     """
 
     creepage: np.ndarray
@@ -202,6 +213,7 @@ class BoundaryResult:
     max_temperature_C: np.ndarray | None = None
     temperature_iterations: np.ndarray | None = None
     temperature_loop: str = "off"
+    yield_iterations: int = 0
     notes: list[str] = field(default_factory=list)
 
 
@@ -245,7 +257,10 @@ def e_strip(theta: np.ndarray, r: np.ndarray) -> np.ndarray:
         x, w = _gauss(24)
         t = th[:, None] * x[None, :]
         st = np.sin(t)
-        out[other] = th * np.sum(w[None, :] * st * st / (st + rr[:, None]), axis=1)
+        den = st + rr[:, None]
+        # the integrand tends to 0 with sin t where r = 0 (no layer): no 0/0 at theta = 0
+        f = np.divide(st * st, den, out=np.zeros_like(den), where=den > 0)
+        out[other] = th * np.sum(w[None, :] * f, axis=1)
     return out
 
 
@@ -334,7 +349,8 @@ def _interp_uniform(theta: np.ndarray, grid_T: np.ndarray) -> np.ndarray:
 class _Solver:
     """Vectorised evaluation for arrays of creepages (shape nx) and strips (shape ns)."""
 
-    def __init__(self, prob: FastsimProblem, grid: FastsimGrid, xi: np.ndarray) -> None:
+    def __init__(self, prob: FastsimProblem, grid: FastsimGrid, xi: np.ndarray,
+                 stats: dict[str, int] | None = None) -> None:
         self.prob = prob
         self.grid = grid
         lay = prob.layer
@@ -347,32 +363,42 @@ class _Solver:
         # yield condition e(theta; r) = c sin(theta) * f1(T), c = mu_c1 L1 p0 / (xi a)
         self.c = lay.mu_c1 * prob.L1 * prob.p0 / (self.xi * prob.a)
         self.Lp = lay.L_mup
+        #: e(theta; r) on the temperature nodes (1, ns, nT), set by the temperature loop
+        self.e_nodes: np.ndarray | None = None
+        #: largest iteration count of the yield-angle solves (shared with subsets)
+        self.stats = stats if stats is not None else {"yield_iterations": 0}
+
+    def subset(self, rows: np.ndarray) -> _Solver:
+        """The solver of the creepages ``xi[rows]`` (same strips, shared statistics)."""
+        sub = _Solver(self.prob, self.grid, self.xi[rows, 0], self.stats)
+        sub.e_nodes = self.e_nodes
+        return sub
 
     # -- yield angle ------------------------------------------------------------------------
     def yield_angle(self, dT_grid: np.ndarray | None) -> np.ndarray:
+        """Yield angles ``theta_y`` (nx, ns): the first root of ``xi E = tau_c1`` per strip.
+
+        ``dT_grid`` is the temperature rise on the uniform temperature nodes (None: the
+        isothermal limits).  Both paths are a safeguarded Newton iteration from a
+        bracketing table (:func:`_yield_isothermal`, :func:`_yield_thermal`).
+        """
         lay = self.prob.layer
         shape = np.broadcast_shapes(self.c.shape, self.r.shape)
         if lay.mu_c1 == 0.0:
             return np.zeros(shape)
         c = np.broadcast_to(self.c, shape)
         r = np.broadcast_to(self.r, shape)
-        if dT_grid is None:
-            return _yield_isothermal(c, r)
-        # with temperature: bracketed Chandrupatla iteration on the interpolated T
-        from scipy.optimize.elementwise import find_root
-
-        mu1T = lay.mu_c1_T
-        flat = dT_grid.reshape(-1, dT_grid.shape[-1])
-
-        def f(th, c_, r_, idx):
-            dT = _interp_uniform(th[..., None], flat[idx.astype(int)])[..., 0]
-            return e_strip(th, r_) - c_ * np.sin(th) * np.exp(mu1T * dT)
-
-        idx = np.arange(int(np.prod(shape))).reshape(shape).astype(float)
-        lo = np.full(shape, 1e-200)
-        hi = np.full(shape, math.pi)
-        res = find_root(f, (lo, hi), args=(c, r, idx), tolerances={"xatol": 1e-15, "xrtol": 4e-16})
-        return np.where(np.isfinite(res.x), res.x, math.pi)
+        if dT_grid is None or lay.mu_c1_T == 0.0:
+            # tau_c1 does not depend on the temperature: the isothermal yield point
+            th, its = _yield_isothermal(c, r)
+        else:
+            nT = dT_grid.shape[-1]
+            e_nodes = self.e_nodes
+            if e_nodes is None or e_nodes.shape[-1] != nT:
+                e_nodes = e_strip(np.linspace(0.0, math.pi, nT)[None, None, :], self.r[..., None])
+            th, its = _yield_thermal(c, r, e_nodes, dT_grid, lay.mu_c1_T)
+        self.stats["yield_iterations"] = max(self.stats["yield_iterations"], its)
+        return th
 
     # -- stress at arbitrary angles ---------------------------------------------------------
     def tau(self, theta: np.ndarray, th_y: np.ndarray | None, dT: np.ndarray | float,
@@ -449,16 +475,69 @@ class _Solver:
 
 
 _YIELD_TABLE = 256
+#: The yield-angle iteration stops once its Newton step is below this fraction of the angle.
+#: Newton converges quadratically, so the error left after a step ``s`` is of order ``s^2``:
+#: the angle is then exact to round-off.  (An absolute stop on the step never triggers
+#: where round-off alone keeps the step at a few ulp of pi.)
+_YIELD_RTOL = 1e-12
+#: Iteration budget: plain bisection from a table cell needs about 45 steps.
+_YIELD_MAX_ITER = 100
 
 
-def _yield_isothermal(c: np.ndarray, r: np.ndarray) -> np.ndarray:
+def _bracketed_newton(fdf: Any, lo: np.ndarray, hi: np.ndarray, th: np.ndarray,
+                      what: str) -> tuple[np.ndarray, int]:
+    """Safeguarded Newton iteration for increasing functions, vectorised over elements.
+
+    ``fdf(theta) -> (f, df)``; ``f < 0`` below the root, which lies in ``[lo, hi]``.  The
+    bracket shrinks with the sign of ``f``; a step that leaves it (or is not finite)
+    is replaced by bisection.  Stops when every element's step is at most
+    ``_YIELD_RTOL`` times its angle.
+
+    Returns
+    -------
+    tuple
+        The roots and the number of iterations.
+
+    Raises
+    ------
+    ConvergenceError
+        Not converged within ``_YIELD_MAX_ITER`` iterations.
+    """
+    step = np.full(th.shape, np.inf)
+    for it in range(1, _YIELD_MAX_ITER + 1):
+        f, df = fdf(th)
+        neg = f < 0
+        lo = np.where(neg, th, lo)
+        hi = np.where(neg, hi, th)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            new = th - f / df
+        bad = ~np.isfinite(new) | (new < lo) | (new > hi)
+        new = np.where(bad, 0.5 * (lo + hi), new)
+        step = np.abs(new - th)
+        th = new
+        if np.all(step <= _YIELD_RTOL * np.abs(th)):
+            return th, it
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = step / np.abs(th)
+    raise ConvergenceError(
+        f"{what}: the safeguarded Newton iteration did not converge in {_YIELD_MAX_ITER} "
+        f"steps (largest relative step {float(np.nanmax(rel)):.3g}); please report this scene",
+        iterations=_YIELD_MAX_ITER, residual=float(np.nanmax(rel)))
+
+
+def _yield_isothermal(c: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, int]:
     """Yield angles solving ``e(theta; r) = c sin(theta)`` without temperature.
 
     ``e/sin`` is strictly increasing on (0, pi] (the elastic stress grows while the
     limit is concave up to the centre and falls after it), so a table of it per strip
     brackets the root within pi/256; a safeguarded Newton iteration
     (derivative ``sin^2/(sin + r) - c cos``; bisection whenever a step leaves the
-    bracket) then converges to round-off in a few steps.
+    bracket, :func:`_bracketed_newton`) then converges to round-off in a few steps.
+
+    Returns
+    -------
+    tuple
+        The angles (shape of ``c``) and the number of Newton iterations.
     """
     nt = _YIELD_TABLE
     grid = np.linspace(0.0, math.pi, nt + 1)[1:]
@@ -470,23 +549,53 @@ def _yield_isothermal(c: np.ndarray, r: np.ndarray) -> np.ndarray:
     edges = np.r_[0.0, grid]
     lo = edges[k]
     hi = edges[np.minimum(k + 1, nt)]
-    th = 0.5 * (lo + hi)
-    for _ in range(60):
+
+    def fdf(th: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         st, ct = np.sin(th), np.cos(th)
-        f = e_strip(th, r) - c * st
-        df = st * st / (st + r) - c * ct
-        neg = f < 0
-        lo = np.where(neg, th, lo)
-        hi = np.where(neg, hi, th)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            new = th - f / df
-        bad = ~np.isfinite(new) | (new < lo) | (new > hi)
-        new = np.where(bad, 0.5 * (lo + hi), new)
-        step = np.max(np.abs(new - th))
-        th = new
-        if step <= 1e-15:
-            break
-    return th
+        return e_strip(th, r) - c * st, st * st / (st + r) - c * ct
+
+    return _bracketed_newton(fdf, lo, hi, 0.5 * (lo + hi), "FASTSIM yield angle")
+
+
+def _yield_thermal(c: np.ndarray, r: np.ndarray, e_nodes: np.ndarray, dT: np.ndarray,
+                   mu1T: float) -> tuple[np.ndarray, int]:
+    """Yield angles solving ``e(theta; r) = c sin(theta) exp(mu_c1_T dT(theta))`` (Eq. 5.26).
+
+    ``dT`` (nx, ns, nT) is the temperature rise on the uniform nodes, linear between
+    them (as everywhere in the scheme).  The sign of the residual on the nodes brackets
+    the *first* root (where the particle yields) in one cell; there ``dT`` is linear, the
+    residual smooth, and a safeguarded Newton iteration (:func:`_bracketed_newton`,
+    started from the secant through the cell ends) converges to round-off.
+
+    Returns
+    -------
+    tuple
+        The angles (nx, ns) and the number of Newton iterations.
+    """
+    nT = dT.shape[-1]
+    h = math.pi / (nT - 1)
+    nodes = np.linspace(0.0, math.pi, nT)
+    f_nodes = e_nodes - c[..., None] * np.sin(nodes) * np.exp(mu1T * dT)
+    above = f_nodes[..., 1:] >= 0.0
+    above[..., -1] = True  # f(pi) = e(pi) > 0: the particle has yielded by the trailing edge
+    k = np.argmax(above, axis=-1)[..., None]  # cell [theta_k, theta_k+1] holds the first root
+    lo = k[..., 0] * h
+    hi = np.where(k[..., 0] + 1 == nT - 1, math.pi, (k[..., 0] + 1) * h)
+    d0 = np.take_along_axis(dT, k, axis=-1)[..., 0]
+    slope = (np.take_along_axis(dT, k + 1, axis=-1)[..., 0] - d0) / h
+    f0 = np.take_along_axis(f_nodes, k, axis=-1)[..., 0]
+    f1 = np.take_along_axis(f_nodes, k + 1, axis=-1)[..., 0]
+    start = lo.copy()
+
+    def fdf(th: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        st, ct = np.sin(th), np.cos(th)
+        lim = c * np.exp(mu1T * (d0 + slope * (th - start)))
+        return e_strip(th, r) - lim * st, st * st / (st + r) - lim * (ct + mu1T * slope * st)
+
+    with np.errstate(divide="ignore", invalid="ignore"):
+        th0 = lo - f0 * (hi - lo) / (f1 - f0)
+    th0 = np.where(np.isfinite(th0) & (th0 > lo) & (th0 < hi), th0, 0.5 * (lo + hi))
+    return _bracketed_newton(fdf, lo, hi, th0, "FASTSIM yield angle with temperature")
 
 
 def _check_finite(name: str, arr: np.ndarray) -> None:
@@ -497,7 +606,7 @@ def _check_finite(name: str, arr: np.ndarray) -> None:
 
 
 def boundary_traction(prob: FastsimProblem, creepage: Any, grid: FastsimGrid | None = None,
-                      *, extra_heat_flux: Any = None) -> BoundaryResult:
+                      *, speed: Any = None, extra_heat_flux: Any = None) -> BoundaryResult:
     """Boundary traction coefficient ``mu_BL(xi)`` (Eq. 5.30) with the third-body layer.
 
     Parameters
@@ -508,10 +617,18 @@ def boundary_traction(prob: FastsimProblem, creepage: Any, grid: FastsimGrid | N
         Creepage(s) ``xi = w / v`` (fractions, any sign; Eq. 2.4 SRR as a fraction).
     grid
         Resolution (default :class:`FastsimGrid`).
+    speed
+        Rolling speed per creepage (m/s, >= 0), broadcast against ``creepage``;
+        default ``prob.speed``.  Only the flash temperature depends on it, so a
+        Stribeck curve with ``thermal:`` is one call with one point per speed.
     extra_heat_flux
         Optional callable ``(X_over_a, strip_cos_phi, creepage) -> (q_scale, q_add)``
         used by the mixed model to weight the boundary heat flux and add the
-        film's (see :mod:`torlab.model.predict`); ``None`` for a dry contact.
+        film's (see :mod:`torlab.model.mixed`); ``None`` for a dry contact.  It is
+        called once, with arrays that broadcast to (points, strips, temperature
+        nodes): the points are every element of ``creepage`` (as ``|creepage|``,
+        flattened, in order), so per-point data (speed, film, load share) can be
+        indexed by the first axis.
 
     Returns
     -------
@@ -520,14 +637,18 @@ def boundary_traction(prob: FastsimProblem, creepage: Any, grid: FastsimGrid | N
     Raises
     ------
     ConvergenceError
-        The contact-temperature iteration did not converge.
+        The contact-temperature iteration (or a yield-angle solve) did not converge.
     """
     grid = grid or FastsimGrid()
     xi_in = np.atleast_1d(np.asarray(creepage, dtype=float))
     if not np.all(np.isfinite(xi_in)):
         raise ValueError("creepage must be finite")
-    sign = np.sign(xi_in)
-    mag = np.abs(xi_in)
+    v = np.broadcast_to(np.asarray(prob.speed if speed is None else speed, dtype=float),
+                        xi_in.shape).ravel()
+    if not np.all(np.isfinite(v)) or np.any(v < 0):
+        raise ValueError("speed must be finite and >= 0")
+    sign = np.sign(xi_in).ravel()  # points in order; the outputs take the input's shape
+    mag = np.abs(xi_in).ravel()
     nz = mag > 0
     mu = np.zeros_like(mag)
     stick = np.ones_like(mag)
@@ -535,12 +656,21 @@ def boundary_traction(prob: FastsimProblem, creepage: Any, grid: FastsimGrid | N
     iters = None if prob.thermal is None else np.zeros(mag.shape, dtype=int)
     loop = "off" if prob.thermal is None else "single pass"
     notes: list[str] = []
+    stats = {"yield_iterations": 0}
     if nz.any():
         xi = mag[nz]
-        solver = _Solver(prob, grid, xi)
+        solver = _Solver(prob, grid, xi, stats)
         dT_grid = None
         if prob.thermal is not None:
-            dT_grid, it, loop, tm = _temperature(solver, prob, grid, xi, extra_heat_flux)
+            flux = None
+            if extra_heat_flux is not None:
+                thetaT, _ = flash_temperature_matrix(grid.temperature_nodes)
+                full = (mag.size, grid.n, thetaT.size)
+                q_scale, q_add = extra_heat_flux((1.0 - np.cos(thetaT))[None, None, :],
+                                                 solver.cphi[..., None], mag[:, None, None])
+                flux = (np.broadcast_to(np.asarray(q_scale, dtype=float), full)[nz],
+                        np.broadcast_to(np.asarray(q_add, dtype=float), full)[nz])
+            dT_grid, it, loop, tm = _temperature(solver, prob, grid, xi, v[nz], flux)
             iters[nz] = it
             tmax[nz] = tm
             if loop == "single pass":
@@ -550,9 +680,15 @@ def boundary_traction(prob: FastsimProblem, creepage: Any, grid: FastsimGrid | N
         mu[nz] = F / prob.load
         stick[nz] = st
     _check_finite("traction coefficient", mu)
-    return BoundaryResult(creepage=xi_in, mu=sign * mu, adhesion_fraction=stick,
-                          max_temperature_C=tmax, temperature_iterations=iters,
-                          temperature_loop=loop, notes=notes)
+    if tmax is not None:
+        _check_finite("flash temperature", tmax)
+    shape = xi_in.shape
+    return BoundaryResult(creepage=xi_in, mu=(sign * mu).reshape(shape),
+                          adhesion_fraction=stick.reshape(shape),
+                          max_temperature_C=None if tmax is None else tmax.reshape(shape),
+                          temperature_iterations=None if iters is None else iters.reshape(shape),
+                          temperature_loop=loop, yield_iterations=stats["yield_iterations"],
+                          notes=notes)
 
 
 #: largest |mu_T dT| the iteration accepts: exp(30) = 1e13 changes of the limits mean
@@ -561,81 +697,108 @@ _MAX_EXPONENT = 30.0
 
 
 def _temperature(solver: _Solver, prob: FastsimProblem, grid: FastsimGrid, xi: np.ndarray,
-                 extra_heat_flux: Any) -> tuple[np.ndarray, np.ndarray, str, np.ndarray]:
-    """Converge the flash temperature on the per-strip grid; returns (dT grid, iterations, mode, Tmax)."""
+                 speed: np.ndarray, flux: tuple[np.ndarray, np.ndarray] | None
+                 ) -> tuple[np.ndarray, np.ndarray, str, np.ndarray]:
+    """Converge the flash temperature on the per-strip grid, every point at once.
+
+    Each point (creepage ``xi[i]`` at speed ``speed[i]``) has its own under-relaxed
+    fixed-point iteration (module docstring); the points are iterated together, in
+    one array, and a point leaves the active set as soon as it has converged, so its
+    result does not depend on the other points computed with it.
+
+    Returns
+    -------
+    tuple
+        ``(dT grid (nx, ns, nT), iterations per point, mode, Tmax per point)``.
+    """
     th = prob.thermal
     lay = prob.layer
     thetaT, K = flash_temperature_matrix(grid.temperature_nodes)
-    nx, ns = len(xi), grid.n
-    coef = th.partition / math.sqrt(math.pi * th.conductivity * th.density * th.heat_capacity
-                                    * max(prob.speed, 1e-300))
-    scale = coef * np.sqrt(solver.aj)[..., None]  # (1, ns, 1)
-    w = xi[:, None, None] * prob.speed  # rigid slip velocity
-    theta_nodes = np.broadcast_to(thetaT, (nx, ns, len(thetaT)))
-    e_nodes = e_strip(thetaT[None, None, :], solver.r[..., None])  # fixed: (1, ns, nT)
-    if prob.speed <= 0:
-        return np.zeros((nx, ns, len(thetaT))), np.zeros(nx, dtype=int), "single pass", \
-            np.full(nx, prob.ambient_temperature)
+    KT = K.T
+    nx, ns, nT = len(xi), grid.n, len(thetaT)
+    moving = speed > 0
+    coef = th.partition / np.sqrt(math.pi * th.conductivity * th.density * th.heat_capacity
+                                  * np.maximum(speed, 1e-300))
+    scale = coef[:, None, None] * np.sqrt(solver.aj)[..., None]  # (nx, ns, 1)
+    w = (xi * speed)[:, None, None]  # rigid slip velocity
+    solver.e_nodes = e_strip(thetaT[None, None, :], solver.r[..., None])  # fixed: (1, ns, nT)
+    coupled = bool(lay.mu_c1_T or lay.mu_c2_T)
+    varying = np.ptp(speed) > 0 if nx else False
 
-    def G(dT: np.ndarray) -> np.ndarray:
-        th_y = solver.yield_angle(dT if (lay.mu_c1_T or lay.mu_c2_T) else None)
-        tau = solver.tau(theta_nodes, th_y, dT, e_nodes)
-        q = tau * w
+    def where(i: int) -> str:
+        return f"creepage {xi[i]:.4g}" + (f" and speed {speed[i]:.4g} m/s" if varying else "")
+
+    def G(dT: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """Flash temperature rise of the points ``rows`` given their temperature ``dT``."""
+        sub = solver if rows.size == nx else solver.subset(rows)
+        th_y = sub.yield_angle(dT if coupled else None)
+        theta_nodes = np.broadcast_to(thetaT, (rows.size, ns, nT))
+        tau = sub.tau(theta_nodes, th_y, dT, solver.e_nodes)
+        q = tau * w[rows]
         if th.slip_velocity == "local":
             q = np.where(theta_nodes < th_y[..., None], 0.0, q)
-        if extra_heat_flux is not None:
-            s_, add = extra_heat_flux(1.0 - np.cos(theta_nodes), solver.cphi[..., None], xi[:, None, None])
-            q = q * s_ + add
-        return scale * np.einsum("ij,xsj->xsi", K, q)
+        if flux is not None:
+            q = q * flux[0][rows] + flux[1][rows]
+        return scale[rows] * (q @ KT)
 
-    dT = np.zeros((nx, ns, len(thetaT)))
-    new = G(dT)
-    first = new
+    dT = np.zeros((nx, ns, nT))
+    its = np.where(moving, 1, 0)
+    rows = np.flatnonzero(moving)
+    if rows.size == 0:
+        return dT, its, "single pass", np.full(nx, prob.ambient_temperature)
+    new = np.zeros_like(dT)
+    new[rows] = G(dT[rows], rows)
+    peak = np.max(np.abs(new).reshape(nx, -1), axis=1)
     sens = max(abs(lay.mu_c1_T), abs(lay.mu_c2_T))
-    if sens == 0.0 or np.max(np.abs(new)) * sens < 1e-6:
-        tmax = prob.ambient_temperature + np.max(first.reshape(nx, -1), axis=1)
-        return first, np.ones(nx, dtype=int), "single pass", tmax
-    if np.max(np.abs(new)) * sens > _MAX_EXPONENT:
-        bad = int(np.argmax(np.max(np.abs(new).reshape(nx, -1), axis=1)))
+    single = peak * sens < 1e-6  # heating too small to change the limits: one pass
+    if sens == 0.0 or single.all():
+        tmax = prob.ambient_temperature + np.max(new.reshape(nx, -1), axis=1)
+        return new, its, "single pass", tmax
+    if np.max(peak) * sens > _MAX_EXPONENT:
+        bad = int(np.argmax(peak))
         raise ConvergenceError(
-            f"contact temperature runs away at creepage {xi[bad]:.4g}: the first pass already "
-            f"heats by {np.max(np.abs(new[bad])):.3g} K, and the temperature coefficients "
+            f"contact temperature runs away at {where(bad)}: the first pass already "
+            f"heats by {peak[bad]:.3g} K, and the temperature coefficients "
             f"mu_c1_T = {lay.mu_c1_T:g}, mu_c2_T = {lay.mu_c2_T:g} 1/K would change the limits "
             f"by a factor exp({_MAX_EXPONENT:g})", iterations=1)
+    dT[single] = new[single]
+    active = moving & ~single
     omega = np.ones(nx)
     res_prev = np.full(nx, np.inf)
-    its = np.ones(nx, dtype=int)
-    done = np.zeros(nx, dtype=bool)
     tol = th.tolerance
     for k in range(1, th.max_iterations + 1):
-        res = np.max(np.abs(new - dT).reshape(nx, -1), axis=1)
+        rows = np.flatnonzero(active)
+        res = np.max(np.abs(new[rows] - dT[rows]).reshape(rows.size, -1), axis=1)
         done = res < tol
-        if done.all():
-            dT = new
+        dT[rows[done]] = new[rows[done]]  # converged: keep G(T), leave the active set
+        active[rows[done]] = False
+        rows, res = rows[~done], res[~done]
+        if rows.size == 0:
             break
-        worse = res > 0.9 * res_prev
-        omega = np.where(worse & ~done, np.maximum(omega * 0.5, 1.0 / 1024), omega)
-        res_prev = res
-        upd = np.where(done, 1.0, omega)[:, None, None]
-        dT = dT + upd * (new - dT)
-        its = np.where(done, its, k + 1)
-        new = G(dT)
-        runaway = ~np.isfinite(new) | (sens * np.abs(new) > _MAX_EXPONENT)
+        worse = res > 0.9 * res_prev[rows]
+        omega[rows] = np.where(worse, np.maximum(omega[rows] * 0.5, 1.0 / 1024), omega[rows])
+        res_prev[rows] = res
+        dT[rows] = dT[rows] + omega[rows][:, None, None] * (new[rows] - dT[rows])
+        its[rows] = k + 1
+        new[rows] = G(dT[rows], rows)
+        runaway = ~np.isfinite(new[rows]) | (sens * np.abs(new[rows]) > _MAX_EXPONENT)
         if runaway.any():
-            bad = int(np.argmax(runaway.reshape(nx, -1).any(axis=1)))
+            bad = int(rows[np.argmax(runaway.reshape(rows.size, -1).any(axis=1))])
             raise ConvergenceError(
-                f"contact temperature diverged at creepage {xi[bad]:.4g} (thermal runaway: the "
-                f"temperature coefficients mu_c1_T/mu_c2_T make frictional heating self-amplifying)",
-                iterations=k)
+                f"contact temperature diverged at {where(bad)} (thermal runaway: the "
+                f"temperature coefficients mu_c1_T/mu_c2_T make frictional heating "
+                f"self-amplifying)", iterations=k)
     else:
-        res = np.max(np.abs(new - dT).reshape(nx, -1), axis=1)
-        bad = int(np.argmax(res))
+        rows = np.flatnonzero(active)
+        res = np.max(np.abs(new[rows] - dT[rows]).reshape(rows.size, -1), axis=1)
+        j = int(np.argmax(res))
+        bad = int(rows[j])
         raise ConvergenceError(
-            f"contact temperature did not converge at creepage {xi[bad]:.4g}: max |dT| = "
-            f"{res[bad]:.3g} K after {th.max_iterations} under-relaxed iterations (relaxation "
+            f"contact temperature did not converge at {where(bad)}: max |dT| = "
+            f"{res[j]:.3g} K after {th.max_iterations} under-relaxed iterations (relaxation "
             f"{omega[bad]:.3g}); the temperature coefficients mu_c1_T = {lay.mu_c1_T:g}, "
             f"mu_c2_T = {lay.mu_c2_T:g} 1/K make the heating unstable at this slip",
-            iterations=th.max_iterations, residual=float(res[bad]))
+            iterations=th.max_iterations, residual=float(res[j]))
     tmax = prob.ambient_temperature + np.max(dT.reshape(nx, -1), axis=1)
     return dT, its, "iterated", tmax
 

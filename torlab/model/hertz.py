@@ -5,7 +5,7 @@ Two solutions are offered:
 * :func:`hertz_approximate`: the thesis's Hamrock-Brewe approximations
   ``k = 1.0339 (rx/ry)^0.636`` (Eq. 5.8), ``theta = 1.0003 + 0.5968 ry/rx``
   (Eq. 5.9), ``a = (3 k^2 theta F R / (pi E*))^(1/3)`` (Eq. 5.11),
-  ``b = (3 theta F R / (pi k E*))^(1/3)`` (Eq. 5.12).  As model-notes section 1
+  ``b = (3 theta F R / (pi k E*))^(1/3)`` (Eq. 5.12).  As docs/model/thesis-reading.md
   says, they hold for ``rx >= ry`` (then ``a >= b``); for ``rx < ry`` the roles
   are swapped rather than extrapolated.
 * :func:`hertz_exact`: the exact solution with complete elliptic integrals
@@ -117,12 +117,14 @@ def hertz_exact(F: float, rx: float, ry: float, Es: float) -> ContactPatch:
         def f(m: float) -> float:
             kme = _k_minus_e(m)
             e_ = float(ellipe(m))
-            # (a/b)^2 E - K = E/(1-m) - K = (E - (1-m) K)/(1-m) ; K = E + kme
-            num = (e_ - (1 - m) * (e_ + kme)) / (1 - m)
+            # (a/b)^2 E - K = E/(1-m) - K = (E - (1-m) K)/(1-m) ; K = E + kme, so
+            # E - (1-m) K = m K - (K - E): no cancellation of E against K for small m
+            num = (m * (e_ + kme) - kme) / (1 - m)
             return num / kme - ratio
 
         hi = 1.0 - 1e-15
-        m = brentq(f, 1e-12, hi, xtol=1e-15, rtol=4 * np.finfo(float).eps, maxiter=200)
+        # relative stop only: m is as small as 1e-12 for nearly circular contacts
+        m = brentq(f, 1e-12, hi, xtol=1e-300, rtol=4 * np.finfo(float).eps, maxiter=200)
     if m == 0.0:
         long_ = (3 * F * big / (4 * Es)) ** (1 / 3)
         short = long_

@@ -1,11 +1,12 @@
 """Kalker's creepage coefficients C11, C22, C23 and the FASTSIM flexibilities (thesis Eq. 5.17).
 
 The table is Kalker's (1967 thesis; 1990 book Table E.3) as carried by the
-open-source CONTACT program (routine ``linrol``).  Interpolation follows CONTACT
-so results compare with it: linear in ``g`` between rows; in ``nu`` a quadratic
-through nu = 0, 0.25, 0.5 applied to ``1/C``.  Below ``g = 0.1`` (an extreme
-contact) Kalker's asymptotes for a slender ellipse are used and the functions
-report it: the table is never extrapolated.
+open-source CONTACT program (routine ``linrol``); ``docs/model/kalker.md``
+explains it.  Interpolation follows CONTACT so results compare with it: linear
+in ``g`` between rows; in ``nu`` a quadratic through nu = 0, 0.25, 0.5 applied to
+``1/C``.  Below ``g = 0.1`` (an extreme contact) Kalker's asymptotes for a
+slender ellipse are used and the functions report it: the table is never
+extrapolated.
 
 Flexibilities of Kalker's simplified theory with three flexibilities (Kalker
 1982, Vehicle System Dynamics 11), chosen so that FASTSIM in full adhesion
@@ -14,7 +15,7 @@ sqrt(ab) C23 phi)``: ``L1 = 8a/(3 C11 G)``, ``L2 = 8a/(3 C22 G)``,
 ``L3 = pi a sqrt(a/b)/(4 C23 G)``.
 
 With two different materials (steel ball on glass) Kalker's combined constants
-are used (model-notes section 3): ``2/G = 1/G1 + 1/G2``,
+are used (``docs/model/thesis-reading.md``): ``2/G = 1/G1 + 1/G2``,
 ``nu = (G/2) (nu1/G1 + nu2/G2)``, ``Gi = Ei / (2 (1 + nu_i))``.
 """
 
@@ -145,7 +146,7 @@ def C11(a_over_b: float, nu: float, *, warn: bool = True) -> float:
     Returns
     -------
     float
-        C11 (dimensionless).  Checks (kalker-c11.md): nu = 0.28 gives 3.7335
+        C11 (dimensionless).  Checks (``docs/model/kalker.md``): nu = 0.28 gives 3.7335
         (a/b = 0.5), 4.2262 (1), 5.2037 (2).
     """
     return _coefficient("C11", a_over_b, nu, warn)

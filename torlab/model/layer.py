@@ -9,9 +9,9 @@ Voce's law.  With the pressure ``p`` and temperature ``T``:
 * ``L_e = L_mue / p``  (elastic flexibility, m/Pa)              (Eq. 5.28)
 * ``L_p = L_mup``      (plastic length scale, m)                (Eq. 5.29)
 * plastic branch ``tau = tau_c1 + (tau_c2 - tau_c1) * (1 - exp(-(u - tau_c1*L)/L_p))``
-  (Eq. 5.24 as ``spec/model-notes.md`` section 3 reads it).
+  (Eq. 5.24 as ``docs/model/thesis-reading.md`` reads it).
 
-At a constant normal stress ``sigma`` (the HPT test, model-notes section 8) the
+At a constant normal stress ``sigma`` (the HPT test, docs/model/thesis-reading.md) the
 law gives the shear stress against the layer displacement directly:
 :func:`hpt_tau`.  The same four parameters drive FASTSIM in the rolling
 contact (:mod:`torlab.model.fastsim`).
@@ -72,7 +72,7 @@ def hpt_tau(u: np.ndarray, sigma: float, params: LayerParams, dT: float = 0.0) -
 
     Elastic ``tau = u / L_e`` with ``L_e = L_mue / sigma`` up to ``tau_c1``
     (reached at ``u_y = tau_c1 L_e = mu_c1 L_mue``), then Voce towards ``tau_c2``
-    (model-notes sections 3 and 8; thesis Eqs. 5.24, 5.26-5.29).
+    (docs/model/thesis-reading.md; thesis Eqs. 5.24, 5.26-5.29).
 
     Parameters
     ----------

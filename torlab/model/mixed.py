@@ -5,7 +5,7 @@ The pieces (each in its own module) are put together here:
 1. Hertz contact (:mod:`torlab.model.contact`);
 2. central film thickness ``hc`` (Eq. 5.31 or 5.32, :class:`torlab.model.ehl.FilmThickness`);
 3. Greenwood-Williamson asperity pressure (Eq. 5.41/5.42, :mod:`torlab.model.asperity`);
-4. the bracketed load-sharing solve ``hc(F - F_BL(h)) = h`` (model-notes section 7,
+4. the bracketed load-sharing solve ``hc(F - F_BL(h)) = h`` (docs/model/thesis-reading.md,
    :func:`torlab.model.loadshare.solve_load_sharing`), which does not depend on the
    creepage, so a traction curve needs it once;
 5. ``mu_EHL`` of the film (Eq. 5.37/5.40 with the scene's shear law,
@@ -24,7 +24,7 @@ Model only what the scene needs (and say so in ``modelled``):
   without a ``thermal:`` section no temperature is computed.
 
 A Newtonian film under a Barus or Roelands viscosity can give an absurd traction
-coefficient at high pressure and slip (thesis 5.2.3; the issue's reason for the
+coefficient at high pressure and slip (thesis 5.2.3; the reason for the
 ``limiting`` and ``eyring`` laws).  Above ``mu_EHL = 0.5`` the prediction says so
 in its notes and recommends ``shear: limiting``; a traction that overflows raises
 :class:`torlab.model.ehl.NonPhysicalTractionError`.
@@ -33,7 +33,7 @@ in its notes and recommends ``shear: limiting``; a traction that overflows raise
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -100,7 +100,7 @@ def mixed_contact(scene: Any) -> MixedContact:
     from torlab.model.asperity import Roughness
     from torlab.model.contact import build_contact
     from torlab.model.ehl import FilmThickness, Lubricant
-    from torlab.model.predict import fastsim_grid, fastsim_problem
+    from torlab.model.prediction import fastsim_grid, fastsim_problem
 
     if scene.lubricant is None:
         raise TorlabInputError("the scene has no lubricant: section", key="lubricant")
@@ -132,32 +132,44 @@ def _need_boundary(mc: MixedContact, share: np.ndarray, where: str) -> None:
             key="boundary")
 
 
-def _heat_of_film(mc: MixedContact, v: float, h: float, share: float):
+def _heat_of_film(mc: MixedContact, v: Any, h: Any, share: Any):
     """``extra_heat_flux`` for FASTSIM: boundary heat weighted by the asperity share plus
-    the film's ``(1 - share) tau_EHL w`` at each temperature node (Eq. 5.48)."""
+    the film's ``(1 - share) tau_EHL w`` at each temperature node (Eq. 5.48).
+
+    ``v``, ``h`` and ``share`` are scalars (one speed) or arrays with one entry per
+    point of the FASTSIM call (a Stribeck curve: one point per speed).
+    """
     from torlab.model.ehl import tau_ehl
 
     p0 = mc.contact.patch.p0
+    v, h, share = (np.asarray(x, dtype=float).reshape(-1, 1, 1) for x in (v, h, share))
     film_share = 1.0 - share
+    film = (film_share > 0.0) & (h > 0.0)
 
     def flux(X_over_a: np.ndarray, cphi: np.ndarray, xi: np.ndarray):
-        if film_share <= 0.0 or h <= 0.0:
+        if not film.any():
             return share, 0.0
         s_theta = np.sqrt(np.clip(X_over_a * (2.0 - X_over_a), 0.0, None))
         p = p0 * cphi * s_theta
         w = xi * v
-        return share, film_share * tau_ehl(p, w, h, mc.lubricant) * w
+        tau = tau_ehl(p, w, np.where(film, h, 1.0), mc.lubricant)  # h = 1 m: placeholder
+        return share, np.where(film, film_share * tau * w, 0.0)
 
     return flux
 
 
-def _boundary(mc: MixedContact, creepage: np.ndarray, v: float, h: float, share: float):
-    """FASTSIM at speed ``v`` for the asperity part (with the film's heat when thermal)."""
+def _boundary(mc: MixedContact, creepage: np.ndarray, v: Any, h: Any, share: Any):
+    """FASTSIM for the asperity part (with the film's heat when thermal).
+
+    ``v``, ``h``, ``share``: one speed (scalars) for a traction curve, or one per
+    creepage (arrays) for a Stribeck curve with temperature.
+    """
     from torlab.model.fastsim import boundary_traction
 
-    prob = mc.problem if mc.problem.speed == v else replace(mc.problem, speed=v)
-    extra = _heat_of_film(mc, v, h, share) if prob.thermal is not None else None
-    return boundary_traction(prob, creepage, mc.grid, extra_heat_flux=extra)
+    if mc.problem.thermal is None:
+        return boundary_traction(mc.problem, creepage, mc.grid)
+    return boundary_traction(mc.problem, creepage, mc.grid, speed=v,
+                             extra_heat_flux=_heat_of_film(mc, v, h, share))
 
 
 def _ehl_notes(mu_e: np.ndarray, lub: Any) -> list[str]:
@@ -169,7 +181,7 @@ def _ehl_notes(mu_e: np.ndarray, lub: Any) -> list[str]:
 
 
 def _modelled(mc: MixedContact, regimes: set[str], boundary_done: bool, loop: str) -> list[str]:
-    from torlab.model.predict import _temperature_note
+    from torlab.model.prediction import _temperature_note
 
     c = mc.contact
     lub = mc.lubricant
@@ -181,7 +193,7 @@ def _modelled(mc: MixedContact, regimes: set[str], boundary_done: bool, loop: st
         out.append("asperity load sharing: not modelled (no roughness: section, smooth surfaces)")
     else:
         out.append(f"asperity load sharing: Greenwood-Williamson, {mc.asperity.model} asperities "
-                   "(bracketed solve, model-notes section 7)")
+                   "(bracketed solve, docs/model/thesis-reading.md)")
     if boundary_done:
         out.append("boundary friction: FASTSIM with the third-body layer where the asperities "
                    "carry load")
@@ -227,7 +239,7 @@ def predict_traction_mixed(scene: Any, creepage: Any, *, trend_tolerance: float 
 
     from torlab.model.ehl import mu_ehl
     from torlab.model.loadshare import solve_load_sharing
-    from torlab.model.predict import TractionPrediction, _summary, classify_trend
+    from torlab.model.prediction import TractionPrediction, _summary, classify_trend
 
     xi = np.atleast_1d(np.asarray(creepage, dtype=float))
     if not np.all(np.isfinite(xi)):
@@ -281,8 +293,9 @@ def predict_stribeck(scene: Any, speed: Any, creepage: float) -> StribeckPredict
 
     The load sharing is solved for all speeds at once (vectorised bracketed root);
     FASTSIM runs once for the creepage when the scene has no ``thermal:`` section
-    (``mu_BL`` does not depend on speed then), else once per speed where the
-    asperities carry load.
+    (``mu_BL`` does not depend on speed then), else once for all the speeds where the
+    asperities carry load, one point per speed (each with its own contact-temperature
+    iteration, vectorised across speeds).
 
     Parameters
     ----------
@@ -329,11 +342,12 @@ def predict_stribeck(scene: Any, speed: Any, creepage: float) -> StribeckPredict
             mu_b[need] = bl.mu[0]
             loop = bl.temperature_loop
         else:
-            for i in np.flatnonzero(need):
-                bl = _boundary(mc, np.array([xi]), float(v[i]), float(h[i]), float(share[i]))
-                mu_b[i] = bl.mu[0]
-                tmax[i] = bl.max_temperature_C[0]
-                loop = bl.temperature_loop if loop != "iterated" else loop
+            # one point per speed, all speeds in one call (each has its own tau-T loop)
+            i = np.flatnonzero(need)
+            bl = _boundary(mc, np.full(i.size, xi), v[i], h[i], share[i])
+            mu_b[i] = bl.mu
+            tmax[i] = bl.max_temperature_C
+            loop = bl.temperature_loop
     mu = np.where(has_film, (1.0 - share) * np.nan_to_num(mu_e), 0.0) + \
         np.where(need, share * np.nan_to_num(mu_b), 0.0)
     lam = np.asarray(ls.lam, dtype=float)

@@ -1,4 +1,4 @@
-"""Pressure-viscosity laws (thesis Eqs. 5.38-5.39, model-notes section 5).
+"""Pressure-viscosity laws (thesis Eqs. 5.38-5.39, docs/model/thesis-reading.md).
 
 * Barus ``eta = eta0 exp(alpha p)``                                   (Eq. 5.39)
 * Roelands ``eta = eta0 exp[(ln eta0 + 9.67) ((1 + 5.1e-9 p)^Z - 1)]``   (Eq. 5.38)

@@ -12,9 +12,11 @@
 from __future__ import annotations
 
 import io
+import math
 import os
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
@@ -25,9 +27,28 @@ from torlab.errors import TorlabInputError
 _NUMBER_FIELD = re.compile(r"[+-]?(?:(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|inf(?:inity)?|nan)",
                            re.IGNORECASE)
 
-__all__ = ["PathOrBuffer", "detect_delimiter", "parse_numeric_rows", "read_text", "split_unit"]
+__all__ = ["LogMetadata", "PathOrBuffer", "detect_delimiter", "header_key", "number_field", "parse_log_columns",
+           "parse_numeric_rows", "read_log_header", "read_text", "sign_value", "split_unit"]
 
 PathOrBuffer = str | os.PathLike[str] | IO[str] | IO[bytes]
+
+
+def number_field(f: str, *, path: Any, line: int, column: str, shown: str | None = None
+                 ) -> float:
+    """One field of a data row as a finite number; the error names the file, line and column.
+
+    Only plain decimal numbers are taken (``float()`` alone would accept ``'1_0'``
+    or surrounding control characters); ``nan`` and ``inf`` are refused.
+    """
+    shown = f if shown is None else shown
+    if not _NUMBER_FIELD.fullmatch(f):
+        raise TorlabInputError(f"{shown!r} is not a number", path=path, line=line,
+                               key=f"column {column!r}")
+    v = float(f)
+    if not math.isfinite(v):
+        raise TorlabInputError(f"{shown!r} is not a finite number", path=path, line=line,
+                               key=f"column {column!r}")
+    return v
 
 
 def read_text(src: PathOrBuffer, *, name: str | None = None) -> tuple[str, str]:
@@ -188,16 +209,163 @@ def _scan_for_error(lines: Sequence[str], first_line_no: int, columns: Sequence[
                 if ae:
                     continue
                 raise TorlabInputError("empty value", path=path, line=ln, key=f"column {columns[j]!r}")
-            g = f.replace(decimal, ".") if decimal != "." else f
-            if not _NUMBER_FIELD.fullmatch(g):  # float() would accept '1_0' or control characters
-                raise TorlabInputError(f"{f!r} is not a number", path=path, line=ln,
-                                       key=f"column {columns[j]!r}")
-            v = float(g)
-            if not np.isfinite(v):
-                raise TorlabInputError(f"{f!r} is not a finite number", path=path, line=ln,
-                                       key=f"column {columns[j]!r}")
+            number_field(f.replace(decimal, ".") if decimal != "." else f, path=path,
+                         line=ln, column=columns[j], shown=f)  # raises on the bad field
 
 
 def as_path_str(p: Any) -> str:
     """``str`` of a path-like, for messages."""
     return os.fspath(p) if isinstance(p, (str, os.PathLike)) else str(p)
+
+
+# ------------------------------------------------------------------ the torlab-* log formats
+@dataclass
+class LogMetadata:
+    """What every ``torlab-*`` log header has (the instrument's metadata adds its keys).
+
+    Attributes
+    ----------
+    source
+        File name (for messages).
+    format_version
+        The version on the first line.
+    run_id, operator, date, notes
+        Free text of the header.
+    columns
+        torlab column -> the header cell it came from.
+    extra
+        User keys starting with ``x_`` (kept as text).
+    lines
+        Header key -> the file line it is on (for messages).
+    """
+
+    source: str = ""
+    format_version: int = 1
+    run_id: str = ""
+    operator: str = ""
+    date: str = ""
+    notes: str = ""
+    columns: dict[str, str] = field(default_factory=dict)
+    extra: dict[str, str] = field(default_factory=dict)
+    lines: dict[str, int] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain dict (for JSON/YAML)."""
+        return asdict(self)
+
+
+def header_key(meta: LogMetadata, key: str, value: str, keys: dict[str, str], path: str,
+               line: int | None, source: str = "header") -> str | None:
+    """The kind of a header key (``keys[key]``), its line recorded; ``None`` for the user's
+    own ``x_`` keys (kept in ``meta.extra``).
+
+    Raises
+    ------
+    TorlabInputError
+        An unknown key, with a suggestion.
+    """
+    from torlab._suggest import did_you_mean
+
+    if key.startswith(("x_", "x-")):
+        meta.extra[key] = value
+        return None
+    kind = keys.get(key)
+    if kind is None:
+        raise TorlabInputError(f"unknown {source} key {key!r}{did_you_mean(key, keys)} (known: "
+                               f"{', '.join(keys)}; prefix your own keys with x_)", path=path,
+                               line=line)
+    meta.lines[key] = line or 0
+    return kind
+
+
+def sign_value(value: str, key: str, path: str, line: int | None) -> float:
+    """A header sign: ``1``, ``+1`` or ``-1``."""
+    if value not in ("1", "+1", "-1"):
+        raise TorlabInputError(f"{key} must be 1 or -1, got {value!r}", path=path, line=line,
+                               key=key)
+    return float(value)
+
+
+def read_log_header(lines: list[str], fmt_id: str, fmt_version: int, display: str,
+                    set_meta: Callable[[str, str, int], None], *, hint: str = "",
+                    stop: int | None = None) -> tuple[int, int]:
+    """Check a ``torlab-*`` log's first line and read its ``# key: value`` header.
+
+    ``set_meta(key, value, line)`` takes each header line.  Returns the format
+    version and the index of the column-header line.
+
+    Raises
+    ------
+    TorlabInputError
+        Another first line (``hint`` is added to the message), a newer
+        version, a header line without ``key: value``, no column header.
+    """
+    first = lines[0].strip()
+    if not first.startswith("#") or fmt_id not in first:
+        raise TorlabInputError(f"not a {fmt_id} log: the first line must be '# {fmt_id} "
+                               f"{fmt_version}'{hint}", path=display, line=1)
+    try:
+        version = int(first.split(fmt_id, 1)[1].strip() or fmt_version)
+    except ValueError:
+        raise TorlabInputError(f"bad format version in {first!r}", path=display, line=1) from None
+    if version > fmt_version:
+        raise TorlabInputError(f"{fmt_id} version {version} is newer than this torlab reads "
+                               f"({fmt_version}); update torlab", path=display, line=1)
+    for i in range(1, len(lines) if stop is None else stop):
+        s = lines[i].strip()
+        if not s:
+            continue
+        if not s.startswith("#"):
+            return version, i
+        body = s[1:].strip()
+        if not body:
+            continue
+        if ":" not in body:
+            raise TorlabInputError(f"header line must be '# key: value', got {s!r}",
+                                   path=display, line=i + 1)
+        k, v = body.split(":", 1)
+        set_meta(k, v, i + 1)
+    raise TorlabInputError("no column header line after the '#' header", path=display,
+                           line=len(lines))
+
+
+def parse_log_columns(header: str, columns: dict[str, tuple[Any, ...]], display: str,
+                      line: int) -> dict[str, tuple[int, str]]:
+    """Name -> (index, unit) of a ``torlab-*`` log's comma-separated column header.
+
+    ``columns`` maps the known names to a tuple whose first item is the
+    quantity kind (``"dimensionless"`` needs no unit); ``x_`` columns are the
+    user's own and skipped.
+
+    Raises
+    ------
+    TorlabInputError
+        Another delimiter, an unnamed, unknown (with a suggestion) or repeated
+        column, a missing unit.
+    """
+    from torlab._suggest import did_you_mean
+
+    cells = header.split(",")
+    if len(cells) == 1:
+        other = detect_delimiter(header, ["\t", ";", "|"])
+        if other is not None:
+            raise TorlabInputError(f"columns are separated by {other!r}, expected ','",
+                                   path=display, line=line)
+    found: dict[str, tuple[int, str]] = {}
+    for j, c in enumerate(cells):
+        nm, unit = split_unit(c)
+        if not nm:
+            raise TorlabInputError(f"column {j + 1} has no name", path=display, line=line)
+        if nm.startswith("x_"):
+            continue
+        if nm not in columns:
+            raise TorlabInputError(f"unknown column {nm!r}{did_you_mean(nm, columns)} (known: "
+                                   f"{', '.join(columns)}; prefix your own with x_)",
+                                   path=display, line=line)
+        if nm in found:
+            raise TorlabInputError(f"column {nm!r} appears twice", path=display, line=line)
+        if columns[nm][0] != "dimensionless" and not unit:
+            raise TorlabInputError(f"column {nm!r} has no unit; write '{nm} [unit]'", path=display,
+                                   line=line)
+        found[nm] = (j, unit)
+    return found

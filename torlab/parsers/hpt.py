@@ -32,7 +32,7 @@ the file line of each row for messages.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -40,9 +40,12 @@ import numpy as np
 
 from torlab.errors import TorlabInputError
 from torlab.parsers._text import (
+    LogMetadata,
     PathOrBuffer,
     detect_delimiter,
+    header_key,
     parse_numeric_rows,
+    read_log_header,
     read_text,
     split_unit,
 )
@@ -88,7 +91,7 @@ METADATA_KEYS: dict[str, str] = {
 
 
 @dataclass
-class HptMetadata:
+class HptMetadata(LogMetadata):
     """Header of an HPT log, in SI units (temperatures in degC).
 
     Attributes
@@ -107,8 +110,6 @@ class HptMetadata:
         User keys starting with ``x_`` (kept as text).
     """
 
-    source: str = ""
-    format_version: int = FORMAT_VERSION
     product: str = ""
     product_type: str = ""
     applied_amount: float | None = None
@@ -127,17 +128,7 @@ class HptMetadata:
     rig_compliance: float | None = None
     specimen: str = ""
     condition: str = ""
-    run_id: str = ""
-    operator: str = ""
-    date: str = ""
-    notes: str = ""
-    columns: dict[str, str] = field(default_factory=dict)
-    extra: dict[str, str] = field(default_factory=dict)
-    lines: dict[str, int] = field(default_factory=dict)
 
-    def to_dict(self) -> dict[str, Any]:
-        """Plain dict (for JSON/YAML)."""
-        return asdict(self)
 
     @property
     def label(self) -> str:
@@ -158,15 +149,9 @@ def _set_meta(meta: HptMetadata, key: str, value: str, *, path: str, line: int |
 
     key = key.strip()
     value = value.strip()
-    if key.startswith(("x_", "x-")):
-        meta.extra[key] = value
-        return
-    kind = METADATA_KEYS.get(key)
+    kind = header_key(meta, key, value, METADATA_KEYS, path, line, source)
     if kind is None:
-        known = ", ".join(METADATA_KEYS)
-        raise TorlabInputError(f"unknown {source} key {key!r} (known: {known}; prefix your own "
-                               "keys with x_)", path=path, line=line)
-    meta.lines[key] = line or 0
+        return
     if kind == "text":
         setattr(meta, key, value)
         return
@@ -347,36 +332,11 @@ def read_hpt(src: PathOrBuffer, mapping: PathOrBuffer | dict[str, Any] | None = 
 
 
 def _read_native_header(lines: list[str], meta: HptMetadata, display: str) -> tuple[int, str, str, int]:
-    first = lines[0].strip()
-    if not first.startswith("#") or FORMAT_ID not in first:
-        raise TorlabInputError(
-            f"not a {FORMAT_ID} log: the first line must be '# {FORMAT_ID} {FORMAT_VERSION}' "
-            "(for another rig's CSV pass a column map with --map)", path=display, line=1)
-    try:
-        version = int(first.split(FORMAT_ID, 1)[1].strip() or FORMAT_VERSION)
-    except ValueError:
-        raise TorlabInputError(f"bad format version in {first!r}", path=display, line=1) from None
-    if version > FORMAT_VERSION:
-        raise TorlabInputError(f"{FORMAT_ID} version {version} is newer than this torlab reads "
-                               f"({FORMAT_VERSION}); update torlab", path=display, line=1)
-    meta.format_version = version
-    for i in range(1, len(lines)):
-        s = lines[i].strip()
-        if not s:
-            continue
-        if s.startswith("#"):
-            body = s[1:].strip()
-            if not body:
-                continue
-            if ":" not in body:
-                raise TorlabInputError(f"header line must be '# key: value', got {s!r}",
-                                       path=display, line=i + 1)
-            k, v = body.split(":", 1)
-            _set_meta(meta, k, v, path=display, line=i + 1)
-            continue
-        return i, ",", ".", 0
-    raise TorlabInputError("no column header line after the '#' header", path=display,
-                           line=len(lines))
+    meta.format_version, i = read_log_header(
+        lines, FORMAT_ID, FORMAT_VERSION, display,
+        lambda k, v, ln: _set_meta(meta, k, v, path=display, line=ln),
+        hint=" (for another rig's CSV pass a column map with --map)")
+    return i, ",", ".", 0
 
 
 def _locate_mapped_header(lines: list[str], mapping: dict[str, Any], display: str) -> tuple[int, str, str, int]:

@@ -33,7 +33,7 @@ import io
 import math
 import os
 from collections.abc import Iterator
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -42,10 +42,13 @@ import numpy as np
 from torlab.errors import TorlabInputError
 from torlab.parsers._text import (
     _NUMBER_FIELD,
+    LogMetadata,
     PathOrBuffer,
-    detect_delimiter,
+    header_key,
+    parse_log_columns,
+    read_log_header,
     read_text,
-    split_unit,
+    sign_value,
 )
 
 __all__ = [
@@ -105,11 +108,9 @@ METADATA_KEYS: dict[str, str] = {
 
 
 @dataclass
-class OpticalMetadata:
+class OpticalMetadata(LogMetadata):
     """Header of an optical tribometer log (SI, temperatures in degC)."""
 
-    source: str = ""
-    format_version: int = FORMAT_VERSION
     ball_radius: float | None = None
     test: str = ""
     surface: str = ""
@@ -121,17 +122,7 @@ class OpticalMetadata:
     ball: str = ""
     disc: str = ""
     rig: str = ""
-    run_id: str = ""
-    operator: str = ""
-    date: str = ""
-    notes: str = ""
-    columns: dict[str, str] = field(default_factory=dict)
-    extra: dict[str, str] = field(default_factory=dict)
-    lines: dict[str, int] = field(default_factory=dict)
 
-    def to_dict(self) -> dict[str, Any]:
-        """Plain dict."""
-        return asdict(self)
 
     @property
     def label(self) -> str:
@@ -165,14 +156,9 @@ def _set_meta(meta: OpticalMetadata, key: str, value: str, path: str, line: int)
     from torlab.units import to_si
 
     key, value = key.strip(), value.strip()
-    if key.startswith(("x_", "x-")):
-        meta.extra[key] = value
-        return
-    kind = METADATA_KEYS.get(key)
+    kind = header_key(meta, key, value, METADATA_KEYS, path, line)
     if kind is None:
-        raise TorlabInputError(f"unknown header key {key!r} (known: {', '.join(METADATA_KEYS)}; "
-                               "prefix your own keys with x_)", path=path, line=line)
-    meta.lines[key] = line
+        return
     if kind == "text":
         if key == "test":
             v = value.lower().replace(" ", "_").replace("-", "_")
@@ -183,10 +169,7 @@ def _set_meta(meta: OpticalMetadata, key: str, value: str, path: str, line: int)
         setattr(meta, key, value)
         return
     if kind == "sign":
-        if value not in ("1", "+1", "-1"):
-            raise TorlabInputError(f"friction_sign must be 1 or -1, got {value!r}", path=path,
-                                   line=line, key=key)
-        meta.friction_sign = float(value)
+        meta.friction_sign = sign_value(value, key, path, line)
         return
     setattr(meta, key, to_si(value, kind, where=key, path=path, line=line))
 
@@ -235,62 +218,15 @@ def open_optical(src: PathOrBuffer, *, name: str | None = None) -> OpticalSource
             raise TorlabInputError("file is empty", path=display)
         hlines = text.split("\n")
     meta = OpticalMetadata(source=display)
-    first = hlines[0].strip()
-    if not first.startswith("#") or FORMAT_ID not in first:
-        raise TorlabInputError(f"not a {FORMAT_ID} log: the first line must be "
-                               f"'# {FORMAT_ID} {FORMAT_VERSION}' (PCS EHD2 exports are read too)",
-                               path=display, line=1)
-    try:
-        version = int(first.split(FORMAT_ID, 1)[1].strip() or FORMAT_VERSION)
-    except ValueError:
-        raise TorlabInputError(f"bad format version in {first!r}", path=display, line=1) from None
-    if version > FORMAT_VERSION:
-        raise TorlabInputError(f"{FORMAT_ID} version {version} is newer than this torlab reads "
-                               f"({FORMAT_VERSION}); update torlab", path=display, line=1)
-    hi = None
-    for i in range(1, len(hlines) - (0 if text is not None else 1)):
-        s = hlines[i].strip()
-        if not s:
-            continue
-        if s.startswith("#"):
-            body = s[1:].strip()
-            if not body:
-                continue
-            if ":" not in body:
-                raise TorlabInputError(f"header line must be '# key: value', got {s!r}",
-                                       path=display, line=i + 1)
-            k, v = body.split(":", 1)
-            _set_meta(meta, k, v, display, i + 1)
-            continue
-        hi = i
-        break
-    if hi is None:
-        raise TorlabInputError("no column header line after the '#' header", path=display,
-                               line=len(hlines))
+    meta.format_version, hi = read_log_header(
+        hlines, FORMAT_ID, FORMAT_VERSION, display,
+        lambda k, v, ln: _set_meta(meta, k, v, display, ln),
+        hint=" (PCS EHD2 exports are read too)",
+        stop=len(hlines) - (0 if text is not None else 1))
     header_line = hi + 1
     header = hlines[hi]
     cells = header.split(",")
-    if len(cells) == 1:
-        other = detect_delimiter(header, ["\t", ";", "|"])
-        if other is not None:
-            raise TorlabInputError(f"columns are separated by {other!r}, expected ','",
-                                   path=display, line=header_line)
-    found: dict[str, tuple[int, str]] = {}
-    for j, c in enumerate(cells):
-        nm, unit = split_unit(c)
-        if not nm:
-            raise TorlabInputError(f"column {j + 1} has no name", path=display, line=header_line)
-        if nm.startswith("x_"):
-            continue
-        if nm not in COLUMNS:
-            raise TorlabInputError(f"unknown column {nm!r} (known: {', '.join(COLUMNS)}; prefix "
-                                   "your own with x_)", path=display, line=header_line)
-        if nm in found:
-            raise TorlabInputError(f"column {nm!r} appears twice", path=display, line=header_line)
-        if COLUMNS[nm][0] != "dimensionless" and not unit:
-            raise TorlabInputError(f"column {nm!r} has no unit; write '{nm} [unit]'", path=display,
-                                   line=header_line)
-        found[nm] = (j, unit)
+    found = parse_log_columns(header, COLUMNS, display, header_line)
     for req in ("time", "ball_speed", "disc_speed", "normal_load"):
         if req not in found:
             raise TorlabInputError(f"missing column {req!r}", path=display, line=header_line)

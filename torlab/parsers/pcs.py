@@ -74,7 +74,7 @@ from typing import Any
 import numpy as np
 
 from torlab.errors import TorlabInputError
-from torlab.parsers._text import PathOrBuffer, read_text, split_unit
+from torlab.parsers._text import PathOrBuffer, number_field, read_text, split_unit
 
 __all__ = [
     "INSTRUMENTS",
@@ -88,6 +88,7 @@ __all__ = [
     "read_etm",
     "read_mtm",
     "read_pcs",
+    "step_geometry",
     "step_table",
 ]
 
@@ -204,7 +205,6 @@ _HEATING = re.compile(r"Controlling temperature to\s*(?P<T>[+-]?\d+(?:\.\d*)?)\s
                       re.IGNORECASE)
 _NUMERIC_START = re.compile(r"^\s*[+-]?(?:\d|\.\d)")
 _NOT_NUMBER_CHARS = re.compile(r"[^0-9eE+\-.\t\n ]")
-_FLOAT = re.compile(r"^[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?$")
 
 
 @dataclass
@@ -238,6 +238,11 @@ class PcsStep:
         File lines of the ``Step`` line and of the step's last non-blank line.
     header_line
         File line of the column header, ``None`` for steps without a table.
+    plot_x, plot_y
+        The step's plot columns as its own header names them: PCS writes the
+        x column and the y columns of the step's plot first (``SRR (%)``,
+        ``Traction Coeff (-)``) before the full data block; these are their
+        torlab names (``srr``, ``traction_coefficient``).
     notes
         Free-text lines of the step.
     """
@@ -255,6 +260,8 @@ class PcsStep:
     first_line: int = 0
     last_line: int = 0
     header_line: int | None = None
+    plot_x: str = ""
+    plot_y: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
 
     @property
@@ -354,16 +361,23 @@ class PcsMetadata:
 
 
 def normalise_step_type(raw: str) -> str:
-    """Normalised step type of a PCS spelling (``BOD_TIMED``, ``BodTimed`` -> ``timed``).
+    """Normalised step type of a PCS spelling (``BOD_TIMED``, ``BodTimed``, ``POD_TIMED`` -> ``timed``).
 
     Letters are upper-cased, everything else removed, and a leading ``BOD``
-    (ball on disc) dropped; :data:`STEP_TYPES` maps the rest.  Unknown types
-    give ``"other"``.
+    (ball on disc) or ``POD`` (pin on disc) dropped; :data:`STEP_TYPES` maps
+    the rest.  Unknown types give ``"other"``.
     """
     key = re.sub(r"[^A-Z]", "", raw.upper())
-    if key.startswith("BOD") and key != "BOD":
+    if key.startswith(("BOD", "POD")) and len(key) > 3:
         key = key[3:]
     return STEP_TYPES.get(key, "other")
+
+
+def step_geometry(raw: str) -> str:
+    """Contact geometry a step type names: ``"ball on disc"`` (``BOD_...``), ``"pin on disc"``
+    (``POD_...``), or ``""`` (not said)."""
+    key = re.sub(r"[^A-Z]", "", raw.upper())
+    return {"BOD": "ball on disc", "POD": "pin on disc"}.get(key[:3], "") if len(key) > 3 else ""
 
 
 def _ranges(nums: list[int]) -> str:
@@ -882,6 +896,13 @@ def _group_frame(hblocks: list[_Block], meta: PcsMetadata, path: str) -> Any:
     cells = first.header_cells or []
     ncol = len(cells)
     cols = _resolve_header(cells, path, first.step.header_line or 0, meta)
+    plot = []  # the plot block: the header's cells up to the first empty one
+    for c in cols:
+        if not c.cell:
+            break
+        plot.append(c.name)
+    for b in hblocks:
+        b.step.plot_x, b.step.plot_y = (plot[0], plot[1:]) if plot else ("", [])
     num_idx = [c.index for c in cols if not c.text]
     text_idx = [c.index for c in cols if c.text]
     data: list[str] = []
@@ -1004,17 +1025,8 @@ def _scan_rows(data: list[str], line_nos: np.ndarray, ncol: int, use: list[int],
             f = fields[j].strip(" ")
             if not f:
                 continue
-            label = cells[j].strip() or f"column {j + 1}"
-            if not _FLOAT.match(f):
-                what = "a finite number" if f.lower().lstrip("+-") in ("nan", "inf", "infinity") \
-                    else "a number"
-                raise TorlabInputError(f"{f!r} is not {what}", path=path, line=ln,
-                                       key=f"column {label!r}")
-            v = float(f)
-            if not math.isfinite(v):
-                raise TorlabInputError(f"{f!r} is not a finite number", path=path, line=ln,
-                                       key=f"column {label!r}")
-            out[i, k] = v
+            out[i, k] = number_field(f, path=path, line=ln,
+                                     column=cells[j].strip() or f"column {j + 1}")
     return out
 
 

@@ -29,7 +29,7 @@ logged), ``fall`` (where logged) and ``line``.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -37,11 +37,14 @@ import numpy as np
 
 from torlab.errors import TorlabInputError
 from torlab.parsers._text import (
+    LogMetadata,
     PathOrBuffer,
-    detect_delimiter,
+    header_key,
+    parse_log_columns,
     parse_numeric_rows,
+    read_log_header,
     read_text,
-    split_unit,
+    sign_value,
 )
 
 __all__ = ["COLUMNS", "DENSITY_MODELS", "FORMAT_ID", "METADATA_KEYS", "ViscometerMetadata",
@@ -82,7 +85,7 @@ METADATA_KEYS: dict[str, str] = {
 
 
 @dataclass
-class ViscometerMetadata:
+class ViscometerMetadata(LogMetadata):
     """Header of a viscometer log (SI units, temperatures in degC).
 
     Attributes
@@ -102,8 +105,6 @@ class ViscometerMetadata:
         +1 when the position increases as the body falls, -1 otherwise.
     """
 
-    source: str = ""
-    format_version: int = FORMAT_VERSION
     liquid: str = ""
     liquid_density: float | None = None
     density_model: str = "constant"
@@ -114,17 +115,7 @@ class ViscometerMetadata:
     temperature: float | None = None
     position_sign: float = 1.0
     fall_distance: float | None = None
-    run_id: str = ""
-    operator: str = ""
-    date: str = ""
-    notes: str = ""
-    columns: dict[str, str] = field(default_factory=dict)
-    extra: dict[str, str] = field(default_factory=dict)
-    lines: dict[str, int] = field(default_factory=dict)
 
-    def to_dict(self) -> dict[str, Any]:
-        """Plain dict."""
-        return asdict(self)
 
     @property
     def label(self) -> str:
@@ -170,14 +161,9 @@ def _set_meta(meta: ViscometerMetadata, key: str, value: str, path: str, line: i
     from torlab.units import to_si
 
     key, value = key.strip(), value.strip()
-    if key.startswith(("x_", "x-")):
-        meta.extra[key] = value
-        return
-    kind = METADATA_KEYS.get(key)
+    kind = header_key(meta, key, value, METADATA_KEYS, path, line)
     if kind is None:
-        raise TorlabInputError(f"unknown header key {key!r} (known: {', '.join(METADATA_KEYS)}; "
-                               "prefix your own keys with x_)", path=path, line=line)
-    meta.lines[key] = line
+        return
     if kind == "text":
         if key == "density_model":
             v = value.lower().replace("_", "-").replace(" ", "-")
@@ -188,10 +174,7 @@ def _set_meta(meta: ViscometerMetadata, key: str, value: str, path: str, line: i
         setattr(meta, key, value)
         return
     if kind == "sign":
-        if value not in ("1", "+1", "-1"):
-            raise TorlabInputError(f"position_sign must be 1 or -1, got {value!r}", path=path,
-                                   line=line, key=key)
-        meta.position_sign = float(value)
+        meta.position_sign = sign_value(value, key, path, line)
         return
     if kind == "calibration":
         meta.calibration_constant = parse_calibration_constant(value, path=path, line=line)
@@ -231,37 +214,9 @@ def read_viscometer(src: PathOrBuffer, *, name: str | None = None) -> tuple[Any,
         raise TorlabInputError("file is empty", path=display)
     lines = text.split("\n")
     meta = ViscometerMetadata(source=display)
-    first = lines[0].strip()
-    if not first.startswith("#") or FORMAT_ID not in first:
-        raise TorlabInputError(f"not a {FORMAT_ID} log: the first line must be "
-                               f"'# {FORMAT_ID} {FORMAT_VERSION}'", path=display, line=1)
-    try:
-        version = int(first.split(FORMAT_ID, 1)[1].strip() or FORMAT_VERSION)
-    except ValueError:
-        raise TorlabInputError(f"bad format version in {first!r}", path=display, line=1) from None
-    if version > FORMAT_VERSION:
-        raise TorlabInputError(f"{FORMAT_ID} version {version} is newer than this torlab reads "
-                               f"({FORMAT_VERSION}); update torlab", path=display, line=1)
-    hi = None
-    for i in range(1, len(lines)):
-        s = lines[i].strip()
-        if not s:
-            continue
-        if s.startswith("#"):
-            body = s[1:].strip()
-            if not body:
-                continue
-            if ":" not in body:
-                raise TorlabInputError(f"header line must be '# key: value', got {s!r}",
-                                       path=display, line=i + 1)
-            k, v = body.split(":", 1)
-            _set_meta(meta, k, v, display, i + 1)
-            continue
-        hi = i
-        break
-    if hi is None:
-        raise TorlabInputError("no column header line after the '#' header", path=display,
-                               line=len(lines))
+    meta.format_version, hi = read_log_header(
+        lines, FORMAT_ID, FORMAT_VERSION, display,
+        lambda k, v, ln: _set_meta(meta, k, v, display, ln))
     for req in ("liquid_density", "body_density"):
         if getattr(meta, req) is None:
             raise TorlabInputError(f"missing header key {req!r} (e.g. '# {req}: "
@@ -273,25 +228,7 @@ def read_viscometer(src: PathOrBuffer, *, name: str | None = None) -> tuple[Any,
     header_line = hi + 1
     header = lines[hi]
     cells = header.split(",")
-    if len(cells) == 1:
-        other = detect_delimiter(header, ["\t", ";", "|"])
-        if other is not None:
-            raise TorlabInputError(f"columns are separated by {other!r}, expected ','",
-                                   path=display, line=header_line)
-    found: dict[str, tuple[int, str]] = {}
-    for j, c in enumerate(cells):
-        nm, unit = split_unit(c)
-        if nm.startswith("x_"):
-            continue
-        if nm not in COLUMNS:
-            raise TorlabInputError(f"unknown column {nm!r} (known: {', '.join(COLUMNS)}; prefix "
-                                   "your own with x_)", path=display, line=header_line)
-        if nm in found:
-            raise TorlabInputError(f"column {nm!r} appears twice", path=display, line=header_line)
-        if COLUMNS[nm][0] != "dimensionless" and not unit:
-            raise TorlabInputError(f"column {nm!r} has no unit; write '{nm} [unit]'", path=display,
-                                   line=header_line)
-        found[nm] = (j, unit)
+    found = parse_log_columns(header, COLUMNS, display, header_line)
     for nm, (_, _, req) in COLUMNS.items():
         if req and nm not in found:
             raise TorlabInputError(f"missing column {nm!r}", path=display, line=header_line)

@@ -190,7 +190,11 @@ def _problem(doc: Any, err: dict[str, Any], data: Any) -> TorlabInputError:
     msg = err.get("msg", "")
     raw = _lookup(data, loc)
     if t == "extra_forbidden":
-        text = "unknown key (see docs/protocols.md for the keys of this section)"
+        from torlab._suggest import key_suggestion
+        from torlab.protocols.schema import Protocol
+
+        hint = key_suggestion(Protocol, loc)
+        text = f"unknown key{hint or ' (see docs/protocols.md for the keys of this section)'}"
     elif t == "missing":
         text = "missing (required)"
     elif t == "literal_error":

@@ -119,7 +119,7 @@ def _grid_values(kind: str, *, positive: bool = False):
 
         try:
             if isinstance(v, str):
-                from torlab.cli._common import parse_values
+                from torlab.grids import parse_values
 
                 vals = [float(x) for x in parse_values(v, kind, "grid")]
             elif isinstance(v, list):

@@ -124,6 +124,27 @@ class RigCompliance:
             tau, u = np.r_[0.0, tau], np.r_[u[0] - tau[0] * (u[1] - u[0]) / (tau[1] - tau[0]), u]
         return cls(tau, u - u[0], source=str(display))
 
+    @classmethod
+    def from_spec(cls, spec: Any, where: str = "compliance") -> RigCompliance | None:
+        """A compliance from what a user gives: None, a :class:`RigCompliance`, a number
+        (m/Pa), a curve file, or a constant with a unit (``"0.012 um/MPa"``)."""
+        if spec is None or isinstance(spec, RigCompliance):
+            return spec
+        if isinstance(spec, (int, float)):
+            return cls.linear(float(spec))
+        p = Path(str(spec))
+        if p.exists():
+            return cls.from_file(p)
+        from torlab.units import to_si
+
+        return cls.linear(to_si(str(spec), "compliance", where=where))
+
+    @property
+    def path(self) -> Path | None:
+        """The curve file it was read from (None for a constant)."""
+        p = Path(self.source) if self.source else None
+        return p if p is not None and p.is_file() else None
+
     def __call__(self, tau: np.ndarray) -> np.ndarray:
         """Rig displacement at shear stress ``tau`` (Pa) -> m."""
         tau = np.asarray(tau, dtype=float)

@@ -33,14 +33,22 @@ test".  :func:`time_test_metrics` computes, from the coefficient ``mu(t)``:
 "Smoothed" is a running median over ``smooth`` (10 s by default; ``0`` uses the
 raw samples), so one noisy sample does not make a minimum or a crossing.
 
+The analysis is for records with an application: :func:`reduce_pcs` runs it on
+the timed steps whose description marks one (``"time test after
+application"``), or on every timed step when asked (``after_application=True``,
+``--after-application``); a plain timed run (a 3-hour ball-on-disc test) is
+reduced as a curve with its mean and spread only.
+
 Curves
 ------
-:func:`reduce_pcs` turns every data step of a PCS file into tidy curves:
-traction steps -> mu against SRR, Stribeck steps -> mu against rolling speed,
-timed steps -> mu against time, film steps (EHD2) -> film thickness and traction
-against rolling speed; each row with the load and temperatures.  The
-coefficient is the signed one (see :mod:`torlab.parsers.pcs`); SRR is a
-fraction as PCS defines it.
+:func:`reduce_pcs` turns every data step of a PCS file into tidy curves, one
+table per step kind: traction steps -> mu against SRR, Stribeck steps -> mu
+against rolling speed, timed steps (ball or pin on disc) -> mu against time,
+film steps (EHD2) -> film thickness and traction against rolling speed, mapper
+and unknown step types -> mu against the x column of their own header; each row
+with every column the step logged.  The coefficient is the signed one (see
+:mod:`torlab.parsers.pcs`); SRR is a fraction as PCS defines it.  EHD2 film
+steps are labelled by their temperature.
 """
 
 from __future__ import annotations
@@ -59,9 +67,12 @@ __all__ = [
     "DEFAULT_THRESHOLD",
     "PcsReduction",
     "TimeTestResult",
+    "application_marked",
     "mu_series",
     "reduce_pcs",
     "running_median",
+    "step_kind",
+    "step_label",
     "time_test_metrics",
 ]
 
@@ -73,13 +84,9 @@ DEFAULT_MIN_RISE = 0.03
 DEFAULT_TAIL_S = 120.0
 DEFAULT_APPLICATION_WINDOW_S = 30.0
 
-#: x column of each curve type
+#: x column of each step kind when its header's plot column is not logged
 CURVE_X = {"traction": "srr", "stribeck": "rolling_speed_m_s", "timed": "step_time_s",
-           "film": "rolling_speed_m_s"}
-#: columns carried into the curve tables where the file has them
-_CARRY = ("step_time_s", "srr", "rolling_speed_m_s", "sliding_speed_m_s", "traction_force_N",
-          "ball_load_N", "lube_temperature_C", "pot_temperature_C", "film_thickness_m",
-          "film_thickness_sd_m", "wear_m", "ecr")
+           "film": "rolling_speed_m_s", "mapper": "srr"}
 
 
 @dataclass
@@ -335,15 +342,23 @@ class PcsReduction:
     meta
         The file's :class:`~torlab.parsers.pcs.PcsMetadata`.
     curves
-        Curve type (``traction``, ``stribeck``, ``timed``, ``film``) -> tidy
-        DataFrame: ``step``, ``traction_coefficient`` (signed), the x column of
-        :data:`CURVE_X`, loads, speeds, temperatures where logged, ``line``.
+        Step kind (``traction``, ``stribeck``, ``timed``, ``film``, ``mapper``,
+        or an unknown step type's own name) -> tidy DataFrame of its steps:
+        ``step``, ``label``, ``traction_coefficient`` (signed) and every column
+        the steps logged (the file's own header), ``line``.
     steps
-        One summary row per data step.
+        One summary row per data step (kind, label, x column, load,
+        temperatures, coefficient mean/sd/range, film range ...).
     time_tests
-        :class:`TimeTestResult` of every timed step.
+        :class:`TimeTestResult` of every timed step analysed as a time test
+        after application.
     mu_source
         Where the coefficient came from.
+    curve_x, curve_y
+        Kind -> the x and y column of its curves (x from the steps' own
+        header: PCS writes each step's plot x column first).
+    notes
+        What the reduction decided (unknown kinds, timed steps not analysed ...).
     """
 
     meta: PcsMetadata
@@ -351,6 +366,9 @@ class PcsReduction:
     steps: Any
     time_tests: list[TimeTestResult]
     mu_source: str
+    curve_x: dict[str, str] = field(default_factory=dict)
+    curve_y: dict[str, str] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
 
     @property
     def label(self) -> str:
@@ -363,16 +381,59 @@ def _nan_stat(fn: Any, v: np.ndarray) -> float:
     return float(fn(v)) if v.size else float("nan")
 
 
-def reduce_pcs(df: Any, meta: PcsMetadata, *, time_tests: bool = True, **time_test_options: Any
-               ) -> PcsReduction:
-    """Reduce a parsed PCS file to curves per step type, step summaries and time tests.
+def step_kind(step: Any) -> str:
+    """The kind a step is reduced as: its normalised type, or its own type name when unknown."""
+    if step.type != "other":
+        return step.type
+    from torlab.parsers.pcs import _sanitise
+
+    return _sanitise(step.type_raw) or "other"
+
+
+def application_marked(step: Any, meta: PcsMetadata) -> bool:
+    """Whether the file marks an application in this step (its description or the profile's).
+
+    The time-test analysis after application (Paper B) is meant for records
+    with an application; PCS exports carry no flag for it, so the words of
+    the step description or the profile description (``"... after
+    application"``) are the mark.
+    """
+    import re
+
+    text = f"{step.description} {meta.profile}".lower()
+    return re.search(r"\bappli(?:cation|ed)\b", text) is not None
+
+
+def step_label(step: Any, sub: Any) -> str:
+    """A readable label: film steps by their temperature (``"40.2 °C"``), others by number."""
+    if step.type == "film":
+        for c in ("lube_temperature_C", "pot_temperature_C"):
+            if c in sub and sub[c].notna().any():
+                return f"{float(sub[c].mean()):.1f} °C"
+    return f"step {step.number}"
+
+
+def reduce_pcs(df: Any, meta: PcsMetadata, *, time_tests: bool = True,
+               after_application: bool | None = None, **time_test_options: Any) -> PcsReduction:
+    """Reduce a parsed PCS file: curves per step kind, step summaries, time tests.
+
+    Every data step is reduced the same way, whatever its kind: its rows with
+    every column it logged, the signed coefficient (:func:`mu_series`) and a
+    summary row; the x column of its curve is the first column of its own
+    header (the step's plot x in the PCS software).  Unknown step types are
+    reduced the same way under their own name, with a note.
 
     Parameters
     ----------
     df, meta
         From :func:`torlab.parsers.pcs.read_pcs`.
     time_tests
-        Compute :func:`time_test_metrics` for every timed step.
+        Allow the time-test analysis after application.
+    after_application
+        ``True``: analyse every timed step as a time test after application
+        (:func:`time_test_metrics`); ``None`` (default): only the timed steps
+        whose description (or the profile's) marks an application, or every
+        one when ``application_time`` is given; ``False``: none.
     **time_test_options
         Passed to :func:`time_test_metrics` (``threshold``, ``application_time``,
         ``recovery_fraction``, ``recovery_level``, ``smooth``, ``duration`` ...).
@@ -384,97 +445,144 @@ def reduce_pcs(df: Any, meta: PcsMetadata, *, time_tests: bool = True, **time_te
     Raises
     ------
     TorlabInputError
-        The file has no data step with a traction coefficient or film
-        thickness to reduce.
+        The file has no data step with a traction coefficient, traction force
+        or film thickness to reduce.
     """
     import pandas as pd
 
-    mu, src = mu_series(df)
-    curves: dict[str, Any] = {}
-    rows = []
-    tts: list[TimeTestResult] = []
     if len(df) == 0:
         raise TorlabInputError("no data rows in any step (nothing to reduce)", path=meta.source)
+    mu, src = mu_series(df)
+    has_film = "film_thickness_m" in df and df["film_thickness_m"].notna().any()
+    if mu is None and not has_film:
+        raise TorlabInputError("no traction coefficient, traction force or film thickness in any "
+                               "step: no traction, Stribeck, timed or film curve to reduce",
+                               path=meta.source)
+    if after_application is None and time_test_options.get("application_time") is not None:
+        after_application = True
     step_no = df["step"].to_numpy()
     line = df["line"].to_numpy()
-    for kind, xcol in CURVE_X.items():
-        sel = (df["step_type"] == kind).to_numpy()
-        if not sel.any():
-            continue
-        sub = df.loc[sel]
-        out = {"step": sub["step"].to_numpy()}
-        if mu is not None:
-            out["traction_coefficient"] = mu[sel]
-        for c in _CARRY:
-            if c in sub and sub[c].notna().any():
-                out[c] = sub[c].to_numpy(dtype=float)
-        if xcol not in out:
-            continue
-        if kind == "film" and "film_thickness_m" not in out and mu is None:
-            continue
-        if kind != "film" and mu is None:
-            continue
-        out["line"] = sub["line"].to_numpy()
-        cdf = pd.DataFrame(out)
-        # a row is useful only with its x and its y
-        ycol = "film_thickness_m" if kind == "film" and "film_thickness_m" in cdf else \
-            "traction_coefficient"
-        keep = cdf[xcol].notna() & cdf[ycol].notna()
-        curves[kind] = cdf.loc[keep].reset_index(drop=True)
-    if not curves:
-        raise TorlabInputError("no traction, Stribeck, timed or film step with a traction "
-                               "coefficient or film thickness to reduce", path=meta.source)
+    value_cols = [c for c in df.columns if c not in ("step", "step_type", "line",
+                                                     "traction_coefficient",
+                                                     "traction_coefficient_signed")]
+    parts: dict[str, list[Any]] = {}
+    xcols: dict[str, list[str]] = {}
+    rows, tts, notes = [], [], []
+    plain_timed = []
     for st in meta.steps:
         if not st.has_data:
             continue
-        sel = step_no == st.number
-        sel &= (line >= st.first_line) & (line <= st.last_line)
+        sel = (step_no == st.number) & (line >= st.first_line) & (line <= st.last_line)
         if not sel.any():
             continue
         sub = df.loc[sel]
-
-        def col(c: str, sub: Any = sub) -> np.ndarray:
-            return sub[c].to_numpy(dtype=float) if c in sub else np.array([])
-
-        m = mu[sel] if mu is not None else np.array([])
-        row = {
-            "file": Path(meta.source).name,
-            "instrument": meta.instrument,
-            "step": st.number,
-            "step_type": st.type,
-            "step_type_raw": st.type_raw,
-            "description": st.description,
-            "started_at": "" if st.started_at is None else st.started_at.isoformat(sep=" "),
-            "n_rows": int(sel.sum()),
-            "ball_load_N": _nan_stat(np.mean, col("ball_load_N")),
-            "lube_temperature_C": _nan_stat(np.mean, col("lube_temperature_C")),
-            "pot_temperature_C": _nan_stat(np.mean, col("pot_temperature_C")),
-            "rolling_speed_min_m_s": _nan_stat(np.min, col("rolling_speed_m_s")),
-            "rolling_speed_max_m_s": _nan_stat(np.max, col("rolling_speed_m_s")),
-            "srr_min": _nan_stat(np.min, col("srr")),
-            "srr_max": _nan_stat(np.max, col("srr")),
-            "traction_coefficient_mean": _nan_stat(np.mean, m),
-            "traction_coefficient_min": _nan_stat(np.min, m),
-            "traction_coefficient_max": _nan_stat(np.max, m),
-            "film_thickness_min_m": _nan_stat(np.min, col("film_thickness_m")),
-            "film_thickness_max_m": _nan_stat(np.max, col("film_thickness_m")),
-            "first_line": st.first_line,
-            "last_line": st.last_line,
-        }
-        rows.append(row)
-        if time_tests and st.type == "timed" and m.size and "step_time_s" in sub:
-            tcol = col("step_time_s")
-            ok = np.isfinite(tcol) & np.isfinite(m)
-            if ok.sum() >= 5:
-                try:
-                    tts.append(time_test_metrics(tcol[ok], m[ok], label=Path(meta.source).name,
-                                                 step=st.number, **time_test_options))
-                except TorlabInputError as e:
-                    if e.key is not None:  # a bad option: the user's error, not the file's
-                        raise
-                    raise TorlabInputError(f"step {st.number}: {e.message}", path=meta.source,
-                                           line=st.first_line) from None
+        kind = step_kind(st)
+        m = mu[sel] if mu is not None else np.full(int(sel.sum()), np.nan)
+        logged = [c for c in value_cols if sub[c].notna().any()]
+        x = st.plot_x if st.plot_x in logged and st.plot_x != "traction_coefficient" else \
+            CURVE_X.get(kind, "step_time_s")
+        if x not in logged:
+            x = next((c for c in ("step_time_s", *logged) if c in logged), "")
+        if st.type == "other":
+            notes.append(f"step {st.number}: step type {st.type_raw!r} is not one torlab knows; "
+                         f"reduced generically as {kind!r} (every logged column, x: {x or 'none'})")
+        label = step_label(st, sub)
+        cur = {"step": sub["step"].to_numpy(), "label": np.full(int(sel.sum()), label,
+                                                                  dtype=object)}
+        if np.isfinite(m).any():
+            cur["traction_coefficient"] = m
+        for c in logged:
+            cur[c] = sub[c].to_numpy()
+        cur["line"] = sub["line"].to_numpy()
+        parts.setdefault(kind, []).append(pd.DataFrame(cur))
+        xcols.setdefault(kind, []).append(x)
+        rows.append(_step_row(meta, st, kind, label, x, sub, m))
+        if st.type != "timed" or not time_tests or "step_time_s" not in sub:
+            continue
+        if after_application is False or (after_application is None
+                                           and not application_marked(st, meta)):
+            plain_timed.append(st.number)
+            continue
+        tt = _time_test(meta, st, sub["step_time_s"].to_numpy(dtype=float), m, time_test_options)
+        if tt is not None:
+            tts.append(tt)
+    if plain_timed:
+        notes.append(f"timed step(s) {', '.join(map(str, plain_timed))}: no application marked, "
+                     "reduced as plain timed runs (ask for the time-test analysis after "
+                     "application with --after-application)")
+    curves, curve_x, curve_y = {}, {}, {}
+    for kind, frames in parts.items():
+        cdf = pd.concat(frames, ignore_index=True, sort=False)
+        x = max(set(xcols[kind]), key=xcols[kind].count)
+        y = "traction_coefficient" if "traction_coefficient" in cdf else ""
+        if kind == "film" and "film_thickness_m" in cdf:
+            y = "film_thickness_m"
+        if not y:
+            y = next((c for c in ("film_thickness_m", "traction_force_N") if c in cdf), "")
+        if not x or not y:
+            notes.append(f"{kind} steps: no {'x' if not x else 'y'} column, no curve")
+            continue
+        keep = cdf[x].notna() & cdf[y].notna()
+        curves[kind] = cdf.loc[keep].reset_index(drop=True)
+        curve_x[kind], curve_y[kind] = x, y
     steps = pd.DataFrame(rows)
     # summary columns never filled in this file are dropped
     steps = steps[[c for c in steps.columns if steps[c].dtype == object or steps[c].notna().any()]]
-    return PcsReduction(meta=meta, curves=curves, steps=steps, time_tests=tts, mu_source=src)
+    return PcsReduction(meta=meta, curves=curves, steps=steps, time_tests=tts, mu_source=src,
+                        curve_x=curve_x, curve_y=curve_y, notes=notes)
+
+
+def _step_row(meta: PcsMetadata, st: Any, kind: str, label: str, x: str, sub: Any,
+              m: np.ndarray) -> dict[str, Any]:
+    """One row of the steps table."""
+    from torlab.parsers.pcs import step_geometry
+
+    def col(c: str) -> np.ndarray:
+        return sub[c].to_numpy(dtype=float) if c in sub else np.array([])
+
+    return {
+        "file": Path(meta.source).name,
+        "instrument": meta.instrument,
+        "step": st.number,
+        "step_type": kind,
+        "step_type_raw": st.type_raw,
+        "geometry": step_geometry(st.type_raw),
+        "label": label,
+        "description": st.description,
+        "x_column": x,
+        "started_at": "" if st.started_at is None else st.started_at.isoformat(sep=" "),
+        "n_rows": len(sub),
+        "duration_s": _nan_stat(np.max, col("step_time_s")),
+        "ball_load_N": _nan_stat(np.mean, col("ball_load_N")),
+        "lube_temperature_C": _nan_stat(np.mean, col("lube_temperature_C")),
+        "pot_temperature_C": _nan_stat(np.mean, col("pot_temperature_C")),
+        "rolling_speed_min_m_s": _nan_stat(np.min, col("rolling_speed_m_s")),
+        "rolling_speed_max_m_s": _nan_stat(np.max, col("rolling_speed_m_s")),
+        "srr_min": _nan_stat(np.min, col("srr")),
+        "srr_max": _nan_stat(np.max, col("srr")),
+        "traction_coefficient_mean": _nan_stat(np.mean, m),
+        "traction_coefficient_sd": _nan_stat(lambda v: np.std(v, ddof=1) if v.size > 1
+                                             else np.nan, m),
+        "traction_coefficient_min": _nan_stat(np.min, m),
+        "traction_coefficient_max": _nan_stat(np.max, m),
+        "film_thickness_min_m": _nan_stat(np.min, col("film_thickness_m")),
+        "film_thickness_max_m": _nan_stat(np.max, col("film_thickness_m")),
+        "first_line": st.first_line,
+        "last_line": st.last_line,
+    }
+
+
+def _time_test(meta: PcsMetadata, st: Any, t: np.ndarray, m: np.ndarray,
+               options: dict[str, Any]) -> TimeTestResult | None:
+    """The time-test figures of one timed step (None with fewer than 5 samples)."""
+    ok = np.isfinite(t) & np.isfinite(m)
+    if ok.sum() < 5:
+        return None
+    try:
+        return time_test_metrics(t[ok], m[ok], label=Path(meta.source).name, step=st.number,
+                                 **options)
+    except TorlabInputError as e:
+        if e.key is not None:  # a bad option: the user's error, not the file's
+            raise
+        raise TorlabInputError(f"step {st.number}: {e.message}", path=meta.source,
+                               line=st.first_line) from None

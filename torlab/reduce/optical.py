@@ -490,14 +490,17 @@ def fold_traction(points: Any, *, rel_tol: float = DEFAULT_SYM_REL, abs_tol: flo
 FOLDED_OPTIONAL = ("traction_coefficient_pos", "traction_coefficient_neg_folded", "difference")
 
 
-def reduce_ehd2(df: Any, meta: Any) -> OpticalResult:
+def reduce_ehd2(df: Any, meta: Any, *, test: str | None = None, sym_rel: float = DEFAULT_SYM_REL,
+                sym_abs: float = DEFAULT_SYM_ABS) -> OpticalResult:
     """Film steps of a PCS EHD2 export as an optical result (film thickness and traction).
 
     Each EHD2 film-step row is already one condition (the instrument averages
     at each rolling speed), so the rows are the points: ``rolling_speed_m_s``,
     ``srr``, ``film_thickness_m``, ``traction_coefficient`` (see
     :func:`torlab.reduce.mtm.mu_series` for its source), ``ball_load_N`` as
-    ``normal_load_N``, temperatures, ``step``, ``line``.
+    ``normal_load_N``, temperatures, ``step``, ``line``.  A traction test
+    (given as ``test`` or detected) is folded onto positive SRR with the
+    symmetry check, as for an optical log (:func:`fold_traction`).
 
     Raises
     ------
@@ -536,8 +539,10 @@ def reduce_ehd2(df: Any, meta: Any) -> OpticalResult:
     warnings = []
     if src:
         warnings.append(f"traction coefficient from {src}")
-    kind, how = classify_test(points, meta.lubricant)
+    kind, how = classify_test(points, meta.lubricant, given=test)
     res = OpticalResult(source=meta.source, label=Path(meta.source).name, test=kind,
                         test_source=how, points=points, window_s=0.0, rows=int(sel.sum()),
                         instrument="EHD2", warnings=warnings)
+    if kind in ("traction", "dry_traction") and "traction_coefficient" in points:
+        res.folded, res.symmetry = fold_traction(points, rel_tol=sym_rel, abs_tol=sym_abs)
     return res

@@ -49,6 +49,7 @@ __all__ = [
     "Fall",
     "ViscometerResult",
     "calibrate",
+    "calibrate_from_references",
     "find_falls",
     "liquid_density",
     "reduce_viscometer",
@@ -327,6 +328,9 @@ class ViscometerResult:
         deviation, number of falls.
     calibration
         The ``K`` used.
+    fits
+        Pressure-viscosity fits of the falls, where asked for
+        (:mod:`torlab.fit.viscosity`).
     fall_list
         :class:`Fall` objects (for figures).
     """
@@ -338,6 +342,7 @@ class ViscometerResult:
     fall_list: list[Fall] = field(default_factory=list)
     trace: Any = None
     warnings: list[str] = field(default_factory=list)
+    fits: list[Any] = field(default_factory=list)
 
     @property
     def label(self) -> str:
@@ -426,6 +431,38 @@ def calibrate(df: Any, meta: ViscometerMetadata, *, tol: float = DEFAULT_TOL,
                        n_falls=int(K.size),
                        source=f"reference liquid {meta.liquid or ''} in {Path(meta.source).name} "
                               f"({eta * 1e3:g} mPa*s)".replace("  ", " "))
+
+
+def calibrate_from_references(paths: list[Any], *, tol: float = DEFAULT_TOL
+                              ) -> tuple[Calibration, list[dict[str, Any]]]:
+    """One calibration constant from reference-liquid logs, and one row per log.
+
+    ``K`` is the mean of the logs' constants weighted by their number of
+    falls; its spread ``K_sd`` is the standard deviation between the logs when
+    there are several, else the one log's standard deviation over its falls
+    (:func:`calibrate`).
+
+    Raises
+    ------
+    TorlabInputError
+        No reference log, or one without a reference viscosity or falls.
+    """
+    from torlab.parsers.viscometer import read_viscometer
+
+    if not paths:
+        raise TorlabInputError("no reference log given")
+    cals, rows = [], []
+    for r in paths:
+        rdf, rmeta = read_viscometer(r)
+        c = calibrate(rdf, rmeta, tol=tol)
+        cals.append(c)
+        rows.append({"file": Path(r).name, **c.to_dict()})
+    Ks = np.array([c.K for c in cals])
+    w = np.array([c.n_falls for c in cals], dtype=float)
+    K = float(np.sum(w * Ks) / w.sum())
+    sd = float(np.std(Ks, ddof=1)) if len(Ks) > 1 else cals[0].K_sd
+    return Calibration(K, K_sd=sd, n_falls=int(w.sum()),
+                       source=", ".join(Path(r).name for r in paths)), rows
 
 
 def reduce_viscometer(df: Any, meta: ViscometerMetadata, *, calibration: Calibration | None = None,

@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from torlab.fit.result import FitResult
 from torlab.reports.html import Figure, Section, Table
 from torlab.reports.plotting import subplots
 
@@ -112,8 +113,8 @@ def amount_series(results: list[Any], products: dict[str, Any], *, temperature: 
 
 
 @dataclass
-class CrossingFit:
-    """One product's amount-dependency fit and threshold crossing."""
+class _Crossing:
+    """One product's amount-dependency fit while it is being computed."""
 
     product: str
     unit: str
@@ -121,6 +122,7 @@ class CrossingFit:
     method: str
     params: dict[str, float] = field(default_factory=dict)
     cov: Any = None
+    dof: int = 0
     crossing: float = float("nan")
     crossing_low: float = float("nan")
     crossing_high: float = float("nan")
@@ -128,6 +130,80 @@ class CrossingFit:
     band_low_amount: float = float("nan")
     band_high_amount: float = float("nan")
     notes: list[str] = field(default_factory=list)
+    data: Any = None
+
+
+_NAN = float("nan")
+
+
+@dataclass
+class CrossingFit(FitResult):
+    """One product's amount-dependency fit and threshold crossing: a
+    :class:`~torlab.fit.result.FitResult` (``kind="amount_crossing"``; parameters
+    ``f_low``, ``f_high``, ``k``, ``c`` of the logistic when it was fitted, none for
+    an interpolation) with the crossing amount and its interval.
+
+    Attributes
+    ----------
+    product, unit
+        Product (with condition) and the unit of its amounts (µl, mg).
+    method
+        ``"logistic"``, ``"interpolation"`` or ``"none"`` (no crossing).
+    status
+        ``"crosses"``, ``"below threshold at every amount"`` or ``"above ..."``.
+    crossing, crossing_low, crossing_high
+        Amount where f falls below the threshold and its interval (NaN where
+        not reported).
+    band_low_amount, band_high_amount
+        Amounts where f enters and leaves the optimal band.
+    cov
+        Covariance of the logistic parameters (pooled residual variance).
+    notes
+        What the fit decided (fallbacks to interpolation ...).
+    """
+
+    product: str = ""
+    unit: str = ""
+    method: str = ""
+    status: str = ""
+    crossing: float = _NAN
+    crossing_low: float = _NAN
+    crossing_high: float = _NAN
+    band_low_amount: float = _NAN
+    band_high_amount: float = _NAN
+    cov: Any = None
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def n(self) -> int:
+        """Number of amounts of the series."""
+        return self.n_points
+
+    @classmethod
+    def of(cls, c: _Crossing) -> CrossingFit:
+        """The result of a finished :class:`_Crossing`."""
+        extra = {k: getattr(c, k) for k in ("product", "unit", "method", "status", "crossing",
+                                            "crossing_low", "crossing_high", "band_low_amount",
+                                            "band_high_amount", "notes")}
+        meta = {"product": c.product, "method": c.method, "status": c.status,
+                "source": c.product}
+        common = {"residual_unit": "-", "x_column": "applied_amount", "y_column": "f_measured",
+                  "meta": meta, "n_points": c.n, "data": c.data, "warnings": list(c.notes)}
+        if c.method == "logistic" and c.cov is not None:
+            names = ("f_low", "f_high", "k", "c")
+            r = c.data["residual"].to_numpy()
+            res = cls.from_covariance("amount_crossing", names, [c.params[n] for n in names],
+                                      c.cov, dof=max(c.dof, 1), residual_norm=float(
+                                          np.sqrt(np.mean(r * r))), **common, **extra)
+            res.cov = c.cov
+            return res
+        params = dict(c.params)
+        names = tuple(params)
+        inf = {n: math.inf for n in names}
+        return cls(kind="amount_crossing", names=names, params=params, stderr=inf,
+                   ci95={n: (_NAN, _NAN) for n in names},
+                   correlation=np.full((len(names), len(names)), np.nan),
+                   residual_norm=_NAN, cov=c.cov, **common, **extra)
 
 
 def _ln_crossing(p: dict[str, float], level: float) -> float:
@@ -163,7 +239,7 @@ def fit_crossings(series: Any, *, threshold: float, band: tuple[float, float],
     """
     from scipy.optimize import least_squares
 
-    fits: list[CrossingFit] = []
+    fits: list[_Crossing] = []
     jacs: dict[str, Any] = {}
     ss, dof = 0.0, 0
     for prod, g in series.groupby("product", sort=False):
@@ -172,7 +248,7 @@ def fit_crossings(series: Any, *, threshold: float, band: tuple[float, float],
         f = g["f"].to_numpy(dtype=float)
         x = np.log(a)
         unit = str(g["applied_amount_unit"].iloc[0])
-        cf = CrossingFit(product=str(prod), unit=unit, n=len(a), method=curve)
+        cf = _Crossing(product=str(prod), unit=unit, n=len(a), method=curve)
         if f.max() < threshold:
             cf.status = "below threshold at every amount"
         elif f[-1] >= threshold and f.min() >= threshold:
@@ -213,13 +289,18 @@ def fit_crossings(series: Any, *, threshold: float, band: tuple[float, float],
             cf.method = "interpolation"
         fits.append(_finish(cf, x, f, a, lin, threshold, band))
     _intervals(fits, jacs, ss, dof, threshold, confidence)
-    return fits
+    return [CrossingFit.of(cf) for cf in fits]
 
 
-def _finish(cf: CrossingFit, x: np.ndarray, f: np.ndarray, a: np.ndarray, lin: float,
-            threshold: float, band: tuple[float, float]) -> CrossingFit:
+def _finish(cf: _Crossing, x: np.ndarray, f: np.ndarray, a: np.ndarray, lin: float,
+            threshold: float, band: tuple[float, float]) -> _Crossing:
     """Crossing and band amounts of one product from its fit (or interpolation)."""
+    import pandas as pd
+
     p = cf.params
+    model = logistic(x, **p) if cf.method == "logistic" and p else np.interp(x, x, f)
+    cf.data = pd.DataFrame({"applied_amount": a, "ln_amount": x, "f_measured": f,
+                            "f_model": model, "residual": f - model})
     if cf.status == "crosses" and cf.method == "logistic":
         if p["f_low"] < threshold < p["f_high"]:
             cf.crossing = math.exp(_ln_crossing(p, threshold))
@@ -242,7 +323,7 @@ def _finish(cf: CrossingFit, x: np.ndarray, f: np.ndarray, a: np.ndarray, lin: f
     return cf
 
 
-def _intervals(fits: list[CrossingFit], jacs: dict[str, Any], ss: float, dof: int,
+def _intervals(fits: list[_Crossing], jacs: dict[str, Any], ss: float, dof: int,
                threshold: float, confidence: float) -> None:
     """Pooled residual variance -> delta-method intervals on ln A*."""
     from scipy.stats import t as student
@@ -259,7 +340,7 @@ def _intervals(fits: list[CrossingFit], jacs: dict[str, Any], ss: float, dof: in
             except np.linalg.LinAlgError:
                 cf.notes.append(f"{cf.product}: singular fit, no interval")
                 continue
-            cf.cov = cov
+            cf.cov, cf.dof = cov, dof
             if cf.status == "crosses" and cf.method == "logistic" and math.isfinite(cf.crossing):
                 gr = _ln_crossing_grad(cf.params, threshold)
                 se = math.sqrt(max(float(gr @ cov @ gr), 0.0))

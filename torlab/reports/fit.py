@@ -51,7 +51,7 @@ def fit_figure(result: Any, title: str | None = None,
     fig, (ax, axr) = subplots(2, 1, sharex=True, figsize=(7.0, 6.0),
                               gridspec_kw={"height_ratios": [3, 1]})
     d = result.data
-    xc, xl, xf, ym, ymod, yl, yf, rc, loglog = _LAYOUT[result.kind]
+    xc, xl, xf, ym, ymod, yl, yf, rc, loglog = _layout(result)
     groups = [(None, d)] if "curve" not in d or d["curve"].nunique() == 1 else list(d.groupby("curve"))
     for g, sub in groups:
         x = sub[xc].to_numpy() * xf
@@ -63,7 +63,7 @@ def fit_figure(result: Any, title: str | None = None,
         else:
             ax.plot(np.asarray(model_curve[0]) * xf, np.asarray(model_curve[1]) * yf, "-", lw=1.2,
                     label="model")
-        axr.plot(x, sub[rc].to_numpy() * _RES_LABEL[result.kind][1], ".", ms=3)
+        axr.plot(x, sub[rc].to_numpy() * _res_label(result)[1], ".", ms=3)
     if result.kind == "temperature":
         x = d[xc].to_numpy()
         order = np.argsort(x)
@@ -81,12 +81,32 @@ def fit_figure(result: Any, title: str | None = None,
         axr.set_xscale("log")
     axr.axhline(0.0, color="k", lw=0.6)
     ax.set_ylabel(yl)
-    axr.set_ylabel(_RES_LABEL[result.kind][0])
+    axr.set_ylabel(_res_label(result)[0])
     axr.set_xlabel(xl)
     ax.legend(loc="best")
     txt = ", ".join(f"{n} = {_fmt(n, result.params[n])}" for n in result.names[:4])
     ax.set_title(title or f"{result.kind} fit: {result.meta.get('source', '')}\n{txt}", fontsize=9)
     return fig
+
+
+def _layout(result: Any) -> tuple[str, str, float, str, str, str, float, str, bool]:
+    """The figure layout of a kind; any other fit draws its ``x_column`` against its
+    ``y_column`` (``*_measured*`` -> ``*_model*``) and its first ``residual*`` column."""
+    if result.kind in _LAYOUT:
+        return _LAYOUT[result.kind]
+    from torlab.reports.mtm import axis_label
+
+    d = result.data
+    xc = result.x_column or d.columns[0]
+    ym = result.y_column or next(c for c in d.columns if "measured" in c)
+    ymod = ym.replace("measured", "model")
+    rc = next((c for c in d.columns if c.startswith("residual")), ym)
+    (xl, xf), (yl, yf) = axis_label(xc), axis_label(ym.replace("_measured", ""))
+    return xc, xl, xf, ym, ymod if ymod in d else ym, yl, yf, rc, False
+
+
+def _res_label(result: Any) -> tuple[str, float]:
+    return _RES_LABEL.get(result.kind, (f"residual ({result.residual_unit})", 1.0))
 
 
 def _fmt(name: str, v: float) -> str:

@@ -8,70 +8,86 @@ import numpy as np
 
 from torlab.reports.plotting import subplots
 
-__all__ = ["curve_figure", "time_test_figure"]
+__all__ = ["axis_label", "curve_figure", "time_test_figure"]
 
-_LABELS = {
-    "traction": ("SRR (%)", 100.0, "srr"),
-    "stribeck": ("rolling speed (m/s)", 1.0, "rolling_speed_m_s"),
-    "timed": ("step time (s)", 1.0, "step_time_s"),
-    "film": ("rolling speed (m/s)", 1.0, "rolling_speed_m_s"),
+#: axis label and scale of the usual columns
+_AXES = {
+    "srr": ("SRR (%)", 100.0),
+    "rolling_speed_m_s": ("rolling speed (m/s)", 1.0),
+    "sliding_speed_m_s": ("sliding speed (m/s)", 1.0),
+    "step_time_s": ("step time (s)", 1.0),
+    "traction_coefficient": ("traction coefficient μ (–)", 1.0),
+    "film_thickness_m": ("film thickness h (nm)", 1e9),
+    "traction_force_N": ("traction force (N)", 1.0),
 }
+_UNITS = (("_m_s", "m/s"), ("_Pa", "Pa"), ("_N", "N"), ("_C", "°C"), ("_s", "s"), ("_m", "m"),
+          ("_Hz", "Hz"))
+
+
+def axis_label(column: str) -> tuple[str, float]:
+    """Axis label and scale of a torlab column (the unit from its name's suffix)."""
+    if column in _AXES:
+        return _AXES[column]
+    for suffix, unit in _UNITS:
+        if column.endswith(suffix):
+            return f"{column[:-len(suffix)].replace('_', ' ')} ({unit})", 1.0
+    return column.replace("_", " "), 1.0
 
 
 def curve_figure(red: Any, kind: str) -> Any:
-    """One curve type of a reduced PCS file, every step on one figure.
+    """One step kind of a reduced PCS file, every step on one figure.
 
-    Traction: coefficient against SRR (%); Stribeck: against rolling speed
-    (log axis); timed: against step time; film (EHD2): film thickness (nm) and
-    coefficient against rolling speed (log axes).  Steps are coloured in file
-    order (viridis); many steps are drawn thin.
+    The y column (coefficient, or film thickness) against the x column of the
+    steps' own header: traction steps against SRR (%), Stribeck steps against
+    rolling speed (log axis), timed steps against step time, film steps (EHD2)
+    film thickness (nm) and coefficient against rolling speed (log axes).
+    Steps are labelled (film steps by temperature) and coloured in file order;
+    more than ten are drawn thin in viridis with a colour bar.
     """
     import matplotlib
 
     d = red.curves[kind]
-    xl, xs, xcol = _LABELS[kind]
+    xcol, ycol = red.curve_x[kind], red.curve_y[kind]
+    xl, xs = axis_label(xcol)
+    yl, ys = axis_label(ycol)
     steps = list(dict.fromkeys(d["step"].tolist()))
     n = len(steps)
     cmap = matplotlib.colormaps["viridis"]
-    film = kind == "film"
-    if film:
+    second = ycol != "traction_coefficient" and "traction_coefficient" in d
+    if second:
         fig, (ax, ax2) = subplots(2, 1, sharex=True, figsize=(7.5, 6.5))
     else:
         fig, ax = subplots(figsize=(7.5, 4.8))
         ax2 = None
     lw = 1.2 if n <= 20 else 0.4
     step_arr = d["step"].to_numpy()
+    labels = d["label"].to_numpy() if "label" in d else None
     for i, st in enumerate(steps):
         sel = step_arr == st
         x = d.loc[sel, xcol].to_numpy() * xs
-        color = cmap(i / max(1, n - 1)) if n > 1 else "C0"
-        label = f"step {st}" if n <= 12 else None
-        if film:
-            ax.plot(x, d.loc[sel, "film_thickness_m"].to_numpy() * 1e9, "o-", ms=3, lw=lw,
-                    color=color, label=label)
-            if "traction_coefficient" in d:
-                ax2.plot(x, d.loc[sel, "traction_coefficient"].to_numpy(), "o-", ms=3, lw=lw,
-                         color=color)
-        else:
-            ax.plot(x, d.loc[sel, "traction_coefficient"].to_numpy(), "-", lw=lw, color=color,
-                    label=label, marker="o" if sel.sum() < 60 else None, ms=2)
-    ax.set_xlabel(xl) if not film else ax2.set_xlabel(xl)
-    if film:
-        ax.set_ylabel("film thickness h (nm)")
-        ax2.set_ylabel("traction coefficient (–)")
+        color = f"C{i}" if n <= 10 else cmap(i / max(1, n - 1))
+        label = (str(labels[sel][0]) if labels is not None else f"step {st}") if n <= 12 else None
+        marker = "o" if sel.sum() < 60 else None
+        ax.plot(x, d.loc[sel, ycol].to_numpy() * ys, "-", lw=lw, color=color, label=label,
+                marker=marker, ms=3)
+        if ax2 is not None:
+            ax2.plot(x, d.loc[sel, "traction_coefficient"].to_numpy(), "-", marker=marker, ms=3,
+                     lw=lw, color=color)
+    (ax2 if ax2 is not None else ax).set_xlabel(xl)
+    ax.set_ylabel(yl)
+    if ax2 is not None:
+        ax2.set_ylabel("traction coefficient μ (–)")
+    if xcol == "rolling_speed_m_s" and np.nanmin(d[xcol]) > 0:
         ax.set_xscale("log")
+    if ycol == "film_thickness_m" and np.nanmin(d[ycol]) > 0:
         ax.set_yscale("log")
-    else:
-        ax.set_ylabel("traction coefficient μ (–)")
-        if kind == "stribeck":
-            ax.set_xscale("log")
     if n <= 12:
         ax.legend(loc="best")
     else:
         sm = matplotlib.cm.ScalarMappable(cmap=cmap, norm=matplotlib.colors.Normalize(
             vmin=min(steps), vmax=max(steps)))
         fig.colorbar(sm, ax=ax, label="step number")
-    fig.suptitle(f"{red.label}: {kind} steps ({n})")
+    fig.suptitle(f"{red.label}: {kind.replace('_', ' ')} steps ({n})")
     return fig
 
 
@@ -91,10 +107,10 @@ def time_test_figure(red: Any, results: list[Any]) -> Any:
         t = d.loc[sel, "step_time_s"].to_numpy()
         mu = d.loc[sel, "traction_coefficient"].to_numpy()
         color = f"C{i % 10}"
-        ax.plot(t, mu, lw=0.8, color=color, label=f"step {st}")
         r = by_step.get(st)
         if r is None:
             continue
+        ax.plot(t, mu, lw=0.8, color=color, label=f"step {st}")
         ax.axvline(r.application_time_s, color=color, ls="--", lw=0.8)
         ax.plot([r.minimum_time_s], [r.minimum], "o", color=color, ms=5)
         if r.recovered:

@@ -1,0 +1,151 @@
+"""The public API: lazy top level, unit strings, the notebook example, the API reference."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+
+import pytest
+from conftest import ROOT
+
+DOCS = ROOT / "docs"
+
+
+def test_import_torlab_is_light_and_names_load_lazily():
+    # a fresh interpreter: importing torlab (and building the CLI) imports no numerical library
+    code = ("import sys, torlab, torlab.cli; "
+            "print(sorted(m for m in ('numpy', 'pandas', 'scipy', 'matplotlib', 'pint') "
+            "if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+    import torlab
+
+    assert callable(torlab.reduce_file) and callable(torlab.fit_hpt)
+    assert {"reduce_file", "fit_hpt", "predict_traction", "run_protocol"} <= set(dir(torlab))
+    with pytest.raises(AttributeError):
+        torlab.no_such_thing  # noqa: B018
+
+
+def test_unit_strings_equal_si_numbers():
+    import numpy as np
+
+    import torlab
+
+    f = ROOT / "sample_data" / "hpt" / "hpt_OFM1_4uL_25C.txt"
+    a = torlab.reduce_file(f, window="20 um")
+    b = torlab.reduce_file(f, window=20e-6)
+    assert a.key_numbers["f_window"] == b.key_numbers["f_window"]
+    c = torlab.reduce_file(f, window="0.04 mm")
+    assert c.key_numbers["window_m"] == pytest.approx(40e-6)
+    scene = ROOT / "protocols" / "scenes" / "wheel_rail_tab54.yaml"
+    p1 = torlab.predict_traction(scene, "0:2 %:5")
+    p2 = torlab.predict_traction(scene, np.linspace(0, 0.02, 5))
+    assert p1.table["mu"].tolist() == pytest.approx(p2.table["mu"].tolist(), rel=1e-12)
+
+
+def test_unknown_option_says_did_you_mean():
+    import torlab
+    from torlab.errors import TorlabInputError
+
+    f = ROOT / "sample_data" / "hpt" / "hpt_OFM1_4uL_25C.txt"
+    with pytest.raises(TorlabInputError, match=r"unknown option 'windw'.*did you mean 'window'"):
+        torlab.reduce_file(f, windw="20 um")
+    with pytest.raises(TorlabInputError, match="did you mean 'hpt'"):
+        torlab.reduce_file(f, "hpx")
+
+
+def _cells(md: str) -> list[str]:
+    return re.findall(r"```python\n(.*?)```", md, flags=re.S)
+
+
+def test_notebook_example_runs(monkeypatch):
+    """Every code cell of docs/notebook.md, in order, in one namespace (as a notebook would)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    monkeypatch.chdir(ROOT)
+    cells = _cells((DOCS / "notebook.md").read_text(encoding="utf-8"))
+    assert len(cells) >= 5
+    ns: dict = {}
+    for i, cell in enumerate(cells):
+        try:
+            exec(compile(cell, f"docs/notebook.md cell {i + 1}", "exec"), ns)
+        except Exception as e:  # name the cell
+            raise AssertionError(f"docs/notebook.md cell {i + 1} failed: {e!r}") from e
+    import matplotlib.pyplot as plt
+
+    plt.close("all")
+
+
+def test_api_reference_builds_without_warnings(tmp_path):
+    pytest.importorskip("pdoc", reason="the docs extra (pdoc) is not installed: pip install "
+                        "'torlab[docs]' to build the API reference")
+    sys.path.insert(0, str(DOCS))
+    try:
+        import build_api
+    finally:
+        sys.path.remove(str(DOCS))
+    problems = build_api.build(tmp_path)
+    assert problems == []
+    page = (tmp_path / "torlab" / "api.html").read_text(encoding="utf-8")
+    for name in ("fit_hpt", "reduce_files", "predict_traction", "run_protocol"):
+        assert f'id="{name}"' in page, name
+
+
+TOY = '''
+from pathlib import Path
+from torlab.instruments import Option
+from torlab.instruments.reduction import Reduction
+
+NAME = "toy"
+OPTIONS = {"scale": Option("length", 1e-3, "A length.", check="positive")}
+
+
+def detect(head):
+    return "toy log" if head.startswith("# toy") else ""
+
+
+def read(path, **_):
+    import pandas as pd
+    return pd.read_csv(path, comment="#"), {"source": str(path)}
+
+
+def reduce(path, **opts):
+    df, meta = read(path)
+    df = df.assign(x_m=df["x"] * opts["scale"])
+    return Reduction(NAME, str(path), {"scaled": df}, {"n": len(df)}, meta=meta)
+
+
+def figures(red):
+    return {}
+
+
+def collect(reds, options):
+    import pandas as pd
+    return {"summary": pd.DataFrame([r.key_numbers for r in reds])}, {}, {}
+
+
+def display(reds):
+    return [("toy", [r.key_numbers for r in reds], {})]
+'''
+
+
+def test_a_new_instrument_is_one_module_and_one_registry_entry(tmp_path, monkeypatch, cli):
+    """DEVELOPERS.md's claim: a module and a registry entry, and torlab reduce detects it."""
+    import pandas as pd
+
+    from torlab import instruments
+
+    (tmp_path / "toy_instrument.py").write_text(TOY)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    entry = instruments.Instrument("toy", "toy rig", "toy_instrument", "toy logs")
+    monkeypatch.setitem(instruments.REGISTRY, "toy", entry)
+    f = tmp_path / "run1.csv"
+    f.write_text("# toy log\nx\n1\n2\n")
+    r = cli("reduce", f, "-O", "scale=2 mm", "-o", tmp_path / "o")
+    assert r.exit_code == 0, r.output
+    assert "run1.csv: read as toy (toy log)" in r.output
+    out = pd.read_csv(tmp_path / "o" / "run1_scaled.csv")
+    assert out["x_m"].tolist() == pytest.approx([0.002, 0.004])
+    assert pd.read_csv(tmp_path / "o" / "summary.csv")["n"].tolist() == [2]

@@ -1,0 +1,405 @@
+"""torlab's public API: what a notebook calls, available at the top level (``torlab.reduce``).
+
+Every function accepts quantities as unit strings (``window="20 um"``,
+``creepage="0:0.05:101"``, ``speed="10 mm/s:2 m/s:50"``) or as SI numbers, and
+returns DataFrames and result objects:
+
+========================  ===============================================================
+:func:`read`              a raw file -> ``(DataFrame, metadata)``, instrument detected
+:func:`reduce_file`       one file -> :class:`~torlab.instruments.reduction.Reduction`
+:func:`reduce_files`      files, folders, patterns -> list of Reductions
+:func:`fit_hpt`           HPT curves -> the layer's :class:`~torlab.fit.result.FitResult`
+:func:`fit_traction`      a measured traction curve and a scene -> layer FitResult
+:func:`fit_temperature`   HPT runs at several temperatures -> temperature coefficients
+:func:`fit_viscosity`     viscometer data -> Barus / Roelands FitResult
+:func:`fit_film`          film thickness against speed -> speed exponent (and alpha)
+:func:`load_scene`        scene and parameter files -> a validated Scene
+:func:`predict_traction`  scene, creepages -> traction curve (mu, trend after saturation)
+:func:`predict_stribeck`  scene, speeds, creepage -> Stribeck curve (mu, film, regimes)
+:func:`run_protocol`      a YAML protocol -> reports in a folder
+========================  ===============================================================
+
+Example::
+
+    import torlab
+
+    red = torlab.reduce_file("exports/demo_5.txt")        # instrument detected, said in red.detected
+    red.tables["timed"].head()
+    fit = torlab.fit_hpt("logs/hpt_OFM1_4uL_25C.txt", compliance="logs/rig_compliance.csv")
+    print(fit.report())
+    curve = torlab.predict_traction("scene.yaml", "0:5 %:51", params=fit)
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from torlab.errors import TorlabInputError
+
+__all__ = [
+    "fit_film",
+    "fit_hpt",
+    "fit_temperature",
+    "fit_traction",
+    "fit_viscosity",
+    "load_scene",
+    "predict_stribeck",
+    "predict_traction",
+    "read",
+    "reduce_file",
+    "reduce_files",
+    "run_protocol",
+]
+
+PathLike = str | os.PathLike[str]
+
+
+# ------------------------------------------------------------------ reading and reducing
+def read(path: PathLike, instrument: str | None = None, **options: Any) -> tuple[Any, Any]:
+    """Parse a raw instrument file.
+
+    Parameters
+    ----------
+    path
+        The file.
+    instrument
+        ``"pcs"`` (or ``"mtm"``, ``"etm"``, ``"ehd2"``), ``"hpt"``, ``"optical"``,
+        ``"visc"``; default: detected from the file's first lines.
+    **options
+        Parser options (``map=`` for an HPT CSV of another rig).
+
+    Returns
+    -------
+    (pandas.DataFrame, metadata)
+        The rows in SI units (the unit in each column name) and the file's header.
+    """
+    from torlab.instruments import read_file
+
+    return read_file(path, instrument, **options)
+
+
+def reduce_file(path: PathLike, instrument: str | None = None, **options: Any) -> Any:
+    """Reduce one file as ``torlab reduce`` does (the name ``torlab.reduce`` is the package
+    of the reductions themselves, :mod:`torlab.reduce`).
+
+    Parameters
+    ----------
+    path
+        The file.
+    instrument
+        Registry name or alias (see :func:`read`); default: detected.
+    **options
+        The instrument's reduction options, unit strings allowed: HPT
+        ``window="20 um"``, ``compliance="0.012 um/MPa"``; PCS
+        ``after_application=True``, ``duration="20 min"``; optical
+        ``window="4 s"``; viscometer ``reference=[...]``, ``law="roelands"``
+        (``torlab reduce --list`` names them all).
+
+    Returns
+    -------
+    Reduction
+        ``tables`` (name -> DataFrame), ``summary()``, ``notes``, ``figures()``
+        and the measured curves (``traction_curves()`` ...).
+    """
+    from torlab.instruments import reduce_file as _reduce
+
+    return _reduce(path, instrument, **options)
+
+
+def reduce_files(paths: PathLike | Sequence[PathLike], instrument: str | None = None,
+                 **options: Any) -> list[Any]:
+    """Reduce files, folders and patterns (``"exports/*.txt"``), each file's instrument
+    detected unless given; options as in :func:`reduce_file` (computed once for the batch)."""
+    from torlab.instruments import expand_inputs, is_instrument
+    from torlab.instruments import reduce_files as _reduce
+
+    items = [paths] if isinstance(paths, (str, os.PathLike)) else list(paths)
+    files, _ = expand_inputs(items, "input", is_instrument(instrument))
+    return _reduce(files, instrument, **options)
+
+
+# ------------------------------------------------------------------ fits
+def _hpt_item(item: Any, compliance: Any) -> Any:
+    from torlab.instruments.reduction import Reduction
+
+    if isinstance(item, (str, os.PathLike)):
+        return reduce_file(item, "hpt", compliance=compliance).detail
+    if isinstance(item, Reduction):
+        return item.detail
+    return item
+
+
+def fit_hpt(curves: Any, *, compliance: Any = None, sigma: Any = None) -> Any:
+    """The third-body layer ``mu_c1, mu_c2, L_mue, L_mup`` from HPT curves (thesis
+    Eqs. 5.24-5.29); several curves (repeats of one product and amount) fitted jointly.
+
+    Parameters
+    ----------
+    curves
+        One or a list of: HPT log paths, :class:`Reduction` objects of HPT logs,
+        :class:`~torlab.reduce.hpt.HptResult` or reduced DataFrames.
+    compliance
+        Rig compliance: a curve file, ``"0.012 um/MPa"``, m/Pa, or a
+        :class:`~torlab.reduce.hpt.RigCompliance` (default: the one the
+        reduction subtracted).
+    sigma
+        Normal stress (``"750 MPa"`` or Pa); default: each curve's mean.
+
+    Returns
+    -------
+    FitResult
+    """
+    from torlab.fit.layer import fit_layer_hpt
+    from torlab.reduce.hpt import RigCompliance
+    from torlab.units import to_si
+
+    comp = RigCompliance.from_spec(compliance)
+    items = curves if isinstance(curves, (list, tuple)) else [curves]
+    prepared = [_hpt_item(c, comp) for c in items]
+    s = None if sigma is None else to_si(sigma, "pressure", where="sigma")
+    return fit_layer_hpt(prepared, sigma=s, compliance=None if isinstance(
+        items[0], (str, os.PathLike)) else comp)
+
+
+def fit_temperature(curves: Any, temperatures: Any = None, *,
+                    reference_temperature: Any = "25 degC", compliance: Any = None) -> Any:
+    """Temperature coefficients ``mu_c1_T, mu_c2_T`` (thesis Eqs. 5.26-5.27) from one layer
+    fit per HPT run (paths, Reductions, HptResults or FitResults).
+
+    ``temperatures`` (one per run, ``"50 degC"`` or degC) default to the logs' headers.
+    """
+    from torlab.fit.result import FitResult
+    from torlab.fit.temperature import fit_temperature_coefficients
+    from torlab.reduce.hpt import RigCompliance
+    from torlab.units import to_si
+
+    comp = RigCompliance.from_spec(compliance)
+    items = [c if isinstance(c, FitResult) else _hpt_item(c, comp) for c in curves]
+    temps = None if temperatures is None else \
+        [to_si(t, "temperature", where="temperatures") + 273.15 for t in temperatures]
+    tref = to_si(reference_temperature, "temperature", where="reference_temperature")
+    return fit_temperature_coefficients(items, temps, reference_temperature_C=tref)
+
+
+def _scene(scene: Any, params: Any = None) -> Any:
+    """A Scene from a Scene, a dict or scene/parameter files, with fitted parameters applied."""
+    from torlab.fit.result import FitResult
+    from torlab.protocols.loader import deep_merge
+    from torlab.scene import Scene, scene_from_dict
+
+    extra = params if isinstance(params, (list, tuple)) else ([] if params is None else [params])
+    files = [p for p in extra if isinstance(p, (str, os.PathLike))]
+    if isinstance(scene, (str, os.PathLike)):
+        sc = load_scene(scene, *files)
+    elif isinstance(scene, Scene):
+        sc = scene
+    else:
+        sc = scene_from_dict(dict(scene))
+    sets = [p.to_scene_dict() if isinstance(p, FitResult) else p
+            for p in extra if not isinstance(p, (str, os.PathLike))]
+    if not sets:
+        return sc
+    d = sc.model_dump(exclude_none=True)
+    for s in sets:
+        deep_merge(d, s)
+    return scene_from_dict(d)
+
+
+def fit_traction(scene: Any, data: Any, *, fix: dict[str, Any] | None = None,
+                 dry: bool = False) -> Any:
+    """The layer from a measured traction curve mu(creepage) through the traction model
+    (thesis Eqs. 5.14-5.30; the mixed model for a lubricated scene).
+
+    Parameters
+    ----------
+    scene
+        Scene file, dict or Scene of the test contact.
+    data
+        A file (an instrument file with a traction curve, or a CSV with
+        ``creepage``/``srr`` and ``mu``), a :class:`Reduction`, or ``(creepage, mu)``.
+    fix
+        Parameters held fixed: ``{"L_mup": "20 um"}``.
+    dry
+        Ignore the scene's lubricant and roughness (a dry test).
+
+    Returns
+    -------
+    FitResult
+    """
+    import numpy as np
+
+    from torlab.fit.traction import fit_layer_traction, layer_values
+    from torlab.instruments.reduction import Reduction
+
+    sc = _scene(scene)
+    if dry:
+        sc = sc.model_copy(update={"lubricant": None, "roughness": None})
+    if isinstance(data, (str, os.PathLike)):
+        from torlab.instruments.measured import traction_data
+
+        xi, mu, _ = traction_data(Path(data))
+    elif isinstance(data, Reduction):
+        cs = data.traction_curves()
+        xi, mu = np.concatenate([c.x for c in cs]), np.concatenate([c.y for c in cs])
+    else:
+        xi, mu = data
+    return fit_layer_traction(sc, np.asarray(xi, dtype=float), np.asarray(mu, dtype=float),
+                              fixed=layer_values(fix or {}))
+
+
+def fit_viscosity(data: Any, law: str = "roelands", **options: Any) -> Any:
+    """A pressure-viscosity law (Barus Eq. 5.39 or Roelands Eq. 5.38) from viscometer data.
+
+    Parameters
+    ----------
+    data
+        A viscometer log path or :class:`Reduction` (its falls), or ``(p, eta)``
+        (pressures, viscosities; unit strings or SI).
+    law
+        ``"barus"`` or ``"roelands"``.
+    **options
+        ``eta0`` (``"65 mPa*s"``), ``fit_eta0``, ``confidence``, ``temperature_C``.
+
+    Returns
+    -------
+    FitResult
+        (a :class:`~torlab.fit.viscosity.ViscosityFit`).
+    """
+    import numpy as np
+
+    from torlab.fit.viscosity import fit_viscosity as _fit
+    from torlab.instruments.reduction import Reduction
+    from torlab.units import to_si
+
+    if isinstance(data, (str, os.PathLike)):
+        data = reduce_file(data, "visc", law="")
+    if isinstance(data, Reduction):
+        falls = data.detail.falls
+        p, eta = falls["pressure_Pa"].to_numpy(), falls["viscosity_Pa_s"].to_numpy()
+        if "temperature_C" in falls:
+            options.setdefault("temperature_C", float(falls["temperature_C"].mean()))
+    else:
+        p = np.array([to_si(x, "pressure", where="p") for x in data[0]])
+        eta = np.array([to_si(x, "viscosity", where="eta") for x in data[1]])
+    if options.get("eta0") is not None:
+        options["eta0"] = to_si(options["eta0"], "viscosity", where="eta0")
+    return _fit(p, eta, law, **options)
+
+
+def fit_film(data: Any, *, curve: str | None = None, scene: Any = None,
+             min_speed: Any = None) -> Any:
+    """The film's speed exponent (Hamrock-Dowson: 0.67, Eq. 5.32) and, with a scene, the
+    effective pressure-viscosity coefficient.
+
+    Parameters
+    ----------
+    data
+        A file (EHD2 export, optical log, CSV), a :class:`Reduction`, or
+        ``(speed, film thickness)``.
+    curve
+        Which film curve of a file with several (EHD2 film steps are labelled by
+        temperature: ``"40.2 °C"``).
+    scene
+        Scene (file, dict, Scene) of the contact, for alpha.
+    min_speed
+        Fit only speeds at or above this (``"50 mm/s"``).
+
+    Returns
+    -------
+    FitResult
+    """
+    from torlab.fit.film import fit_film_thickness
+    from torlab.instruments.reduction import Reduction
+    from torlab.units import to_si
+
+    if isinstance(data, (str, os.PathLike)):
+        from torlab.instruments.measured import film_data
+
+        groups = film_data(Path(data))
+    elif isinstance(data, Reduction):
+        groups = [(c.label, c.x, c.y) for c in data.film_curves()]
+    else:
+        groups = [("", data[0], data[1])]
+    if curve is not None:
+        groups = [g for g in groups if g[0] == curve]
+    if len(groups) != 1:
+        raise TorlabInputError(f"{'no' if not groups else 'several'} film curves; choose one with "
+                               f"curve= (have: {', '.join(repr(g[0]) for g in groups) or 'none'})",
+                               key="curve")
+    vmin = None if min_speed is None else to_si(min_speed, "velocity", where="min_speed")
+    sc = None if scene is None else _scene(scene)
+    return fit_film_thickness(groups[0][1], groups[0][2], scene=sc, min_speed=vmin)
+
+
+# ------------------------------------------------------------------ scenes and predictions
+def load_scene(scene: PathLike, *params: PathLike) -> Any:
+    """A validated scene from its YAML file and optional parameter files merged in order
+    (``torlab fit`` output ``params.yaml``); all quantities in SI units."""
+    from torlab.scene import load_scene as _load
+
+    return _load(scene, *params)
+
+
+def _grid(values: Any, kind: str, name: str) -> Any:
+    import numpy as np
+
+    from torlab.grids import parse_values
+    from torlab.units import to_si
+
+    if isinstance(values, str):
+        return parse_values(values, kind, name)
+    arr = values if isinstance(values, (list, tuple)) else np.atleast_1d(values)
+    return np.array([to_si(v, kind, where=name) for v in arr], dtype=float)
+
+
+def predict_traction(scene: Any, creepage: Any, *, params: Any = None,
+                     trend_tolerance: float = 0.01) -> Any:
+    """Traction curve of a scene (thesis model: Hertz + FASTSIM with the layer, contact
+    temperature, EHL film and asperity load sharing where the scene has them).
+
+    Parameters
+    ----------
+    scene
+        Scene file, dict or Scene.
+    creepage
+        ``"0:0.05:101"`` (start:stop:count), ``"0.1 %, 1 %"``, or numbers (fractions).
+    params
+        Parameter files or FitResults applied over the scene (``fit_hpt(...)``).
+    trend_tolerance
+        Relative change after saturation below which the trend is neutral.
+
+    Returns
+    -------
+    TractionPrediction
+        ``table`` (creepage, mu ...), ``trend``, ``modelled``, ``summary``.
+    """
+    from torlab.model.predict import predict_traction as _predict
+
+    return _predict(_scene(scene, params), _grid(creepage, "dimensionless", "creepage"),
+                    trend_tolerance=trend_tolerance)
+
+
+def predict_stribeck(scene: Any, speed: Any, creepage: Any, *, params: Any = None) -> Any:
+    """Stribeck curve: mu against rolling speed at one creepage, with film thickness,
+    film parameter, asperity load share and regime (thesis Eq. 5.47).
+
+    ``speed``: ``"10 mm/s:2 m/s:50"`` or numbers (m/s); ``creepage``: ``"2 %"`` or a
+    fraction; ``params`` as in :func:`predict_traction`.
+    """
+    from torlab.model.mixed import predict_stribeck as _predict
+    from torlab.units import to_si
+
+    return _predict(_scene(scene, params), _grid(speed, "velocity", "speed"),
+                    to_si(creepage, "dimensionless", where="creepage"))
+
+
+def run_protocol(protocol: PathLike, out: PathLike, *, force: bool = False,
+                 cache: bool = True) -> Any:
+    """Run a YAML test protocol from raw logs to reports (``torlab run``); returns the
+    :class:`~torlab.protocols.runner.RunResult` (key numbers in ``summary``)."""
+    from torlab.protocols.runner import run_protocol as _run
+
+    return _run(protocol, out, force=force, cache=cache, command="torlab.run_protocol")

@@ -1,0 +1,101 @@
+"""High-pressure torsion logs (registry entry ``hpt``).
+
+Reads ``torlab-hpt`` logs (or another rig's CSV with a column map) with
+:func:`torlab.parsers.hpt.read_hpt` and reduces them with
+:func:`torlab.reduce.hpt.reduce_hpt`: sigma, tau and f against displacement,
+f over the window before the maximum (thesis Eqs. 5.1-5.4).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from torlab.instruments import Option
+from torlab.instruments.reduction import Reduction
+
+NAME = "hpt"
+
+OPTIONS: dict[str, Option] = {
+    "window": Option("length", 20e-6, "Displacement window before the maximum over which f is "
+                     "averaged.", check="positive"),
+    "source": Option("choice", "auto", "Displacement from the 'motor' angle, the 'encoder' "
+                     "angle, or 'auto' (motor where logged).", ("auto", "motor", "encoder")),
+    "compliance": Option("object", None, "Rig compliance to subtract: a curve file, a constant "
+                         "such as '0.012 um/MPa', or a RigCompliance."),
+    "map": Option("object", None, "Column map (YAML file or dict) for another rig's CSV."),
+}
+
+
+def detect(head: str) -> str:
+    """``"torlab-hpt log"`` for a file starting with ``# torlab-hpt``."""
+    return "torlab-hpt log" if head.lstrip().startswith("# torlab-hpt") else ""
+
+
+def read(path: Path, map: Any = None, **_: Any) -> tuple[Any, Any]:
+    """:func:`torlab.parsers.hpt.read_hpt` (with the column map, if any)."""
+    from torlab.parsers.hpt import read_hpt
+
+    return read_hpt(path, map)
+
+
+def prepare(opts: dict[str, Any]) -> dict[str, Any]:
+    """Read the compliance curve and the column map once for all files."""
+    from torlab.parsers.hpt import read_hpt_map
+    from torlab.reduce.hpt import RigCompliance
+
+    out = dict(opts)
+    out["compliance"] = RigCompliance.from_spec(opts.get("compliance"), where="--compliance")
+    if opts.get("map") is not None and not isinstance(opts["map"], dict):
+        out["map"] = read_hpt_map(opts["map"])
+    return out
+
+
+def reduce(path: Path, **opts: Any) -> Reduction:
+    """Read and reduce one log."""
+    from torlab.reduce.hpt import reduce_hpt
+
+    if "compliance" in opts and opts["compliance"] is not None \
+            and not callable(opts["compliance"]):
+        opts = prepare(opts)
+    df, meta = read(path, opts.get("map"))
+    res = reduce_hpt(df, meta, window=opts.get("window", 20e-6), source=opts.get("source", "auto"),
+                     compliance=opts.get("compliance"))
+    notes = [f"rig compliance subtracted: {res.compliance}"] if res.compliance else []
+    return Reduction(NAME, str(path), {"reduced": res.data}, res.summary(), notes, meta, res)
+
+
+def figures(red: Reduction) -> dict[str, Any]:
+    """No per-file figure: every run is drawn on one figure (:func:`collect`)."""
+    return {}
+
+
+def collect(reds: list[Reduction], options: dict[str, Any]) -> tuple[dict, dict, dict]:
+    """``summary`` (one row per run) and ``hpt`` (every run on one figure)."""
+    import pandas as pd
+
+    from torlab.reports.hpt import hpt_figure
+
+    rows = pd.DataFrame([r.detail.summary() for r in reds])
+    fig = hpt_figure([r.detail for r in reds], title="HPT: shear stress and friction")
+    return ({"summary": rows}, {"summary": ("applied_amount", "temperature_C")}, {"hpt": fig})
+
+
+def display(reds: list[Reduction]) -> list[tuple[str, list[dict], dict]]:
+    """Console table: product, amount, temperature, sigma, f over the window."""
+    rows = []
+    w = reds[0].detail.window_m if reds else 20e-6
+    fcol = f"f (last {w * 1e6:g} µm)"
+    for red in reds:
+        r = red.detail.summary()
+        rows.append({
+            "file": r["file"], "product": r["product"] + (f" {r['condition']}" if r["condition"]
+                                                          else ""),
+            "amount": "" if r["applied_amount_unit"] == "" else
+            f"{r['applied_amount']:g} {r['applied_amount_unit']}",
+            "T (°C)": "" if r["temperature_C"] != r["temperature_C"] else f"{r['temperature_C']:.0f}",
+            "σ (MPa)": r["normal_stress_Pa"] / 1e6, fcol: r["f_window"], "± sd": r["f_window_std"],
+            "u max (µm)": r["displacement_max_m"] * 1e6, "u from": r["displacement_source"],
+        })
+    return [("HPT reduction", rows, {"σ (MPa)": ".1f", "u max (µm)": ".1f", "± sd": ".4f",
+                                     fcol: ".4f"})]

@@ -1,0 +1,132 @@
+"""Writing reductions: per-file tables, figures and files; the tables over all files; Excel.
+
+:func:`write_reductions` is what ``torlab reduce`` and every ``torlab <instrument>
+reduce`` command write: for each reduced file ``<stem>_<table>.csv``,
+``<stem>_<figure>.png`` and its further files (``<stem>_metadata.json`` ...);
+then each instrument's tables over all its files (``summary.csv``,
+``time_tests.csv`` ...; prefixed with the instrument's name when one run
+reduces files of several instruments) and figures; with ``xlsx=True`` one
+Excel workbook of every table (``tables.xlsx``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from torlab.errors import TorlabInputError
+
+__all__ = ["write_reductions", "write_xlsx"]
+
+
+def _unique_stems(reds: list[Any]) -> list[str]:
+    stems: list[str] = []
+    for r in reds:
+        s = r.stem
+        while s in stems:
+            s += "_"
+        stems.append(s)
+    return stems
+
+
+def write_reductions(dest: Any, reds: list[Any], options: dict[str, dict[str, Any]] | None = None,
+                     *, figures: bool = True, xlsx: bool = False) -> list[str]:
+    """Write reductions into an :class:`~torlab.outputs.OutputDir` (staged; the caller commits).
+
+    Parameters
+    ----------
+    dest
+        The output folder.
+    reds
+        :class:`~torlab.instruments.reduction.Reduction` objects.
+    options
+        Instrument name -> the (prepared) options of its reductions, for the
+        tables over all files (the viscometer's calibration rows).
+    figures
+        Write PNG figures.
+    xlsx
+        Also write ``tables.xlsx``: one sheet per table (needs openpyxl).
+
+    Returns
+    -------
+    list of str
+        The names of the files written.
+    """
+    from torlab.instruments import get_instrument
+
+    options = options or {}
+    written: list[str] = []
+    sheets: dict[str, Any] = {}
+    for red, stem in zip(reds, _unique_stems(reds), strict=True):
+        for name, df in red.tables.items():
+            fn = f"{stem}_{name}.csv"
+            dest.write_csv(fn, df, allow_missing=red.optional.get(name, ()))
+            written.append(fn)
+            sheets[f"{stem}_{name}"] = df
+        for name, content in red.files.items():
+            fn = f"{stem}_{name}"
+            if isinstance(content, (dict, list)):
+                dest.write_json(fn, content)
+            else:
+                dest.write_text(fn, str(content))
+            written.append(fn)
+        if figures:
+            for name, fig in red.figures().items():
+                fn = f"{stem}_{name}.png" if name else f"{stem}.png"
+                dest.save_figure(fn, fig)
+                written.append(fn)
+    kinds = list(dict.fromkeys(r.instrument for r in reds))
+    for kind in kinds:
+        mine = [r for r in reds if r.instrument == kind]
+        impl = get_instrument(kind).impl()
+        tables, optional, figs = impl.collect(mine, options.get(kind, {}))
+        pre = "" if len(kinds) == 1 else f"{kind}_"
+        for name, df in tables.items():
+            dest.write_csv(f"{pre}{name}.csv", df, allow_missing=optional.get(name, ()))
+            written.append(f"{pre}{name}.csv")
+            sheets[f"{pre}{name}"] = df
+        if figures:
+            for name, fig in figs.items():
+                dest.save_figure(f"{pre}{name}.png", fig)
+                written.append(f"{pre}{name}.png")
+    if xlsx:
+        import io
+
+        buf = io.BytesIO()
+        write_xlsx(buf, sheets)
+        dest.write_bytes("tables.xlsx", buf.getvalue())
+        written.append("tables.xlsx")
+    return written
+
+
+def write_xlsx(path: str | Path | Any, tables: dict[str, Any]) -> Any:
+    """Write tables as the sheets of one Excel workbook (openpyxl).
+
+    Sheet names are cut to Excel's 31 characters (made unique); every sheet
+    keeps the CSV's column names, so units stay in the headers.
+
+    Raises
+    ------
+    TorlabInputError
+        openpyxl is not installed (the message says how to install it).
+    """
+    try:
+        import openpyxl  # noqa: F401
+    except ImportError:
+        raise TorlabInputError("--xlsx needs openpyxl: pip install 'torlab[xlsx]' (or pip "
+                               "install openpyxl)", key="--xlsx") from None
+    import pandas as pd
+
+    path = Path(path) if isinstance(path, (str, Path)) else path
+    used: set[str] = set()
+    with pd.ExcelWriter(path, engine="openpyxl") as xw:
+        for name, df in tables.items():
+            sheet = name[:31]
+            k = 1
+            while sheet in used:
+                tail = f"~{k}"
+                sheet = name[:31 - len(tail)] + tail
+                k += 1
+            used.add(sheet)
+            df.to_excel(xw, sheet_name=sheet, index=False)
+    return path

@@ -1,0 +1,198 @@
+"""PCS Instruments MTM / ETM / EHD2 text exports (registry entry ``pcs``).
+
+Reads with :func:`torlab.parsers.pcs.read_pcs`, reduces with
+:func:`torlab.reduce.mtm.reduce_pcs`: one table per step kind (traction,
+Stribeck, timed, film, mapper, unknown kinds under their own name), the steps
+table, and the time-test analysis after application where the file marks an
+application or ``after_application`` asks for it.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from torlab.instruments import Option
+from torlab.instruments.reduction import Curve, Reduction
+
+NAME = "pcs"
+_FIRST = re.compile(r"^\s*((MTM|ETM|EHD)\w*\s+Test\s+Data\s+File|Step\s+1\b.*started\s+at)",
+                    re.IGNORECASE)
+
+OPTIONS: dict[str, Option] = {
+    "family": Option("choice", None, "Read the files as MTM, ETM or EHD2 exports (default: "
+                     "detected from the first line).", ("MTM", "ETM", "EHD2")),
+    "after_application": Option("flag", None, "Analyse every timed step as a time test after "
+                                "application (default: only where the file marks an "
+                                "application)."),
+    "threshold": Option("number", 0.15, "Low-adhesion threshold of the time tests.",
+                        check="nonneg"),
+    "application_time": Option("time", None, "Application moment on the step-time axis "
+                               "(implies after_application)."),
+    "recovery_fraction": Option("number", 0.9, "Recovered at this fraction of the way back "
+                                "from the minimum to the plateau.", check="fraction"),
+    "recovery_level": Option("number", None, "Recovered when the coefficient reaches this "
+                             "fixed value instead."),
+    "smooth": Option("time", 10.0, "Running-median window for the minimum and the crossings.",
+                     check="nonneg"),
+    "min_drop": Option("number", 0.05, "Smallest drop taken as the application when "
+                       "detecting it.", check="nonneg"),
+    "min_rise": Option("number", 0.03, "Smallest plateau - minimum taken as a recovery.",
+                       check="nonneg"),
+    "tail": Option("time", 120.0, "Window at the end over which the plateau is the median.",
+                   check="positive"),
+    "duration": Option("time", None, "Evaluate up to this time after the application.",
+                       check="positive"),
+}
+#: options of the time-test analysis (passed to time_test_metrics)
+_TIME_TEST = ("threshold", "application_time", "recovery_fraction", "recovery_level", "smooth",
+              "min_drop", "min_rise", "tail", "duration")
+
+
+def detect(head: str) -> str:
+    """``"first line '...'"`` for a PCS export (``MTM311 Test Data File``, ``Step 1 started at``)."""
+    first = next((s.strip() for s in head.splitlines() if s.strip()), "")
+    if _FIRST.match(first):
+        return f"PCS export: first line {first[:40]!r}"
+    return ""
+
+
+def read(path: Path, family: str | None = None, **_: Any) -> tuple[Any, Any]:
+    """:func:`torlab.parsers.pcs.read_pcs` (``family``: MTM, ETM or EHD2, default detected)."""
+    from torlab.parsers.pcs import read_pcs
+
+    return read_pcs(path, instrument=family)
+
+
+def reduce(path: Path, **opts: Any) -> Reduction:
+    """Read and reduce one export (:func:`torlab.reduce.mtm.reduce_pcs`)."""
+    from torlab.reduce.mtm import reduce_pcs
+
+    df, meta = read(path, opts.get("family"))
+    tt = {k: opts[k] for k in _TIME_TEST if opts.get(k) is not None}
+    red = reduce_pcs(df, meta, after_application=opts.get("after_application"), **tt)
+    tables = {"steps": red.steps, **red.curves}
+    ids = {"step", "line", "n_rows", "first_line", "last_line"}
+    optional = {k: tuple(c for c in v.columns if c not in ids) for k, v in tables.items()}
+    key = {"pcs_instrument": meta.instrument, "instrument_model": meta.instrument_model,
+           "steps": len(meta.steps), "data_steps": len(red.steps),
+           "kinds": ", ".join(red.curves), "time_tests": len(red.time_tests),
+           "coefficient_source": red.mu_source}
+    return Reduction(NAME, str(path), tables, key, [*meta.warnings, *red.notes], meta, red,
+                     optional, {"metadata.json": meta.to_dict()})
+
+
+def figures(red: Reduction) -> dict[str, Any]:
+    """One figure per step kind, and the time tests."""
+    from torlab.reports.mtm import curve_figure, time_test_figure
+
+    d = red.detail
+    figs = {kind: curve_figure(d, kind) for kind in d.curves}
+    if d.time_tests:
+        figs["time_test"] = time_test_figure(d, d.time_tests)
+    return figs
+
+
+def collect(reds: list[Reduction], options: dict[str, Any]) -> tuple[dict, dict, dict]:
+    """``summary`` (every data step of every file) and ``time_tests`` tables."""
+    import pandas as pd
+
+    from torlab.reduce.mtm import TIME_TEST_OPTIONAL
+
+    summary = pd.concat([r.detail.steps for r in reds], ignore_index=True)
+    ids = {"step", "line", "n_rows", "first_line", "last_line"}
+    tables = {"summary": summary}
+    optional = {"summary": tuple(c for c in summary.columns if c not in ids)}
+    tts = [dict(file=r.label, **t.summary()) for r in reds for t in r.detail.time_tests]
+    if tts:
+        tables["time_tests"] = pd.DataFrame(tts).drop(columns=["label"])
+        optional["time_tests"] = TIME_TEST_OPTIONAL
+    return tables, optional, {}
+
+
+def display(reds: list[Reduction]) -> list[tuple[str, list[dict], dict]]:
+    """Console tables: steps per kind and file; the time tests."""
+    rows = []
+    for r in reds:
+        s = r.detail.steps
+        for kind in dict.fromkeys(s["step_type"]):
+            sub = s[s["step_type"] == kind]
+            lo, hi = sub.get("traction_coefficient_min"), sub.get("traction_coefficient_max")
+            rows.append({
+                "file": r.label, "instrument": r.meta.instrument, "step type": kind,
+                "steps": len(sub), "rows": int(sub["n_rows"].sum()),
+                "load (N)": _mean(sub, "ball_load_N"), "lube T (°C)": _mean(sub, "lube_temperature_C"),
+                "μ range": "" if lo is None or lo.isna().all() else f"{lo.min():.4f} … {hi.max():.4f}",
+            })
+    out = [("PCS reduction", rows, {"load (N)": ".1f", "lube T (°C)": ".1f"})]
+    tts = [t for r in reds for t in r.detail.time_tests]
+    if tts:
+        below = f"time μ<{tts[0].threshold:g} (s)"
+        shown = [{
+            "file": t.label, "step": t.step,
+            "application (s)": f"{t.application_time_s:.0f} ({t.application_source.split()[0]})",
+            "minimum": t.minimum,
+            "recovery (s)": f"{t.recovery_time_s:.0f}" if t.recovered else "not recovered",
+            "mean after recovery": f"{t.mean_after_recovery:.4f}" if t.recovered else "",
+            below: t.time_below_threshold_s, "plateau": t.plateau,
+        } for t in tts]
+        out.append(("Time tests after application (thesis Fig. 5.9)", shown,
+                    {"minimum": ".4f", "plateau": ".4f", below: ".0f"}))
+    return out
+
+
+def _mean(df: Any, col: str) -> float:
+    return float(df[col].mean()) if col in df else float("nan")
+
+
+# ------------------------------------------------------------------ measured curves
+def traction_curves(red: Reduction) -> list[Curve]:
+    """One curve per traction step: |SRR| and |mu| (folded), with the step's mean speed."""
+    d = red.detail.curves.get("traction")
+    if d is None:
+        return []
+    out = []
+    for st in dict.fromkeys(d["step"].tolist()):
+        sub = d[d["step"] == st].sort_values("srr")
+        v = float(sub["rolling_speed_m_s"].mean()) if "rolling_speed_m_s" in sub else None
+        out.append(Curve(f"step {st}", np.abs(sub["srr"].to_numpy(dtype=float)),
+                         np.abs(sub["traction_coefficient"].to_numpy(dtype=float)), speed_m_s=v,
+                         temperature_C=_temp(sub)))
+    return out
+
+
+def stribeck_curves(red: Reduction) -> list[Curve]:
+    """The Stribeck steps' points, sorted by rolling speed."""
+    d = red.detail.curves.get("stribeck")
+    if d is None:
+        return []
+    d = d.sort_values("rolling_speed_m_s")
+    srr = d["srr"].to_numpy(dtype=float) if "srr" in d else np.full(len(d), np.nan)
+    return [Curve("", d["rolling_speed_m_s"].to_numpy(dtype=float),
+                  d["traction_coefficient"].to_numpy(dtype=float), srr=srr,
+                  temperature_C=_temp(d))]
+
+
+def film_curves(red: Reduction) -> list[Curve]:
+    """One film-thickness curve per film step, labelled by its temperature."""
+    d = red.detail.curves.get("film")
+    if d is None or "film_thickness_m" not in d:
+        return []
+    out = []
+    for st in dict.fromkeys(d["step"].tolist()):
+        sub = d[(d["step"] == st) & d["film_thickness_m"].notna()]
+        if len(sub):
+            out.append(Curve(str(sub["label"].iloc[0]), sub["rolling_speed_m_s"].to_numpy(dtype=float),
+                             sub["film_thickness_m"].to_numpy(dtype=float),
+                             temperature_C=_temp(sub)))
+    return out
+
+
+def _temp(d: Any) -> float | None:
+    for c in ("lube_temperature_C", "pot_temperature_C", "temperature_C"):
+        if c in d and d[c].notna().any():
+            return float(d[c].mean())
+    return None

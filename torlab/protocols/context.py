@@ -1,0 +1,204 @@
+"""What a protocol run carries from stage to stage (:class:`RunContext`).
+
+The runner (:mod:`torlab.protocols.runner`) only sequences; the stages
+(:mod:`~torlab.protocols.data` reduces, :mod:`~torlab.protocols.fits` fits,
+:mod:`~torlab.protocols.sections` builds the report sections) read and fill a
+:class:`RunContext`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from torlab.errors import FitError, TorlabInputError
+
+__all__ = ["Progress", "RunContext", "finite"]
+
+
+def finite(v: Any) -> Any:
+    """JSON-safe value: non-finite floats -> None, numpy scalars -> Python, paths -> str."""
+    if isinstance(v, dict):
+        return {str(k): finite(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [finite(x) for x in v]
+    if isinstance(v, np.ndarray):
+        return [finite(x) for x in v.tolist()]
+    if isinstance(v, np.generic):
+        v = v.item()
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    if isinstance(v, Path):
+        return str(v)
+    return v
+
+
+class Progress:
+    """Rich progress bars for the long steps (no output when disabled)."""
+
+    def __init__(self, enabled: bool) -> None:
+        self.enabled = enabled
+        self._p: Any = None
+
+    def __enter__(self) -> Progress:
+        if self.enabled:
+            from rich.progress import (
+                BarColumn,
+                MofNCompleteColumn,
+                TextColumn,
+                TimeElapsedColumn,
+            )
+            from rich.progress import (
+                Progress as RichProgress,
+            )
+
+            self._p = RichProgress(TextColumn("{task.description}"), BarColumn(),
+                                   MofNCompleteColumn(), TimeElapsedColumn(), transient=False)
+            self._p.__enter__()
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        if self._p is not None:
+            self._p.__exit__(*exc)
+
+    def track(self, items: Iterable[Any], description: str) -> Iterator[Any]:
+        """Yield ``items`` while advancing a bar."""
+        items = list(items)
+        if self._p is None:
+            yield from items
+            return
+        task = self._p.add_task(description, total=len(items))
+        for it in items:
+            yield it
+            self._p.advance(task)
+
+
+@dataclass
+class RunContext:
+    """State of one protocol run.
+
+    Attributes
+    ----------
+    lp
+        The loaded protocol (:class:`~torlab.protocols.loader.LoadedProtocol`).
+    dest, cache, prog
+        Output folder, result cache, progress bars.
+    reductions
+        Data section (``hpt``, ``mtm``, ``optical``, ``visc``) -> the
+        :class:`~torlab.instruments.reduction.Reduction` of each file, in order.
+    keys
+        ``id(reduction)`` -> cache key of its reduction (fits key on it).
+    param_sets
+        Parameter set name (``hpt:OFM1``, ``lubricant:ester`` ...) -> scene dict.
+    fit_rows, fit_results, fit_summary
+        Parameter table rows, ``(name, FitResult)`` and the summary of every fit.
+    data_summary, notes
+        Key numbers of the reduced data; notes for the report.
+    """
+
+    lp: Any
+    dest: Any
+    cache: Any
+    prog: Progress
+    reductions: dict[str, list[Any]] = field(default_factory=dict)
+    keys: dict[int, str] = field(default_factory=dict)
+    param_sets: dict[str, dict[str, Any]] = field(default_factory=dict)
+    fit_rows: list[dict[str, Any]] = field(default_factory=list)
+    fit_results: list[tuple[str, Any]] = field(default_factory=list)
+    fit_summary: dict[str, Any] = field(default_factory=dict)
+    data_summary: dict[str, Any] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def p(self) -> Any:
+        """The protocol."""
+        return self.lp.protocol
+
+    def sha(self, path: Path) -> str:
+        """SHA-256 of a file (cached by the result cache)."""
+        from torlab.protocols.cache import file_sha256
+
+        return file_sha256(path)
+
+    def reduction(self, path: Path) -> Any:
+        """The reduction of one of the protocol's data files."""
+        for reds in self.reductions.values():
+            for r in reds:
+                if Path(r.source) == Path(path):
+                    return r
+        raise TorlabInputError("not one of the protocol's data files", path=path)
+
+    def labelled(self, section: str) -> list[tuple[str, Any]]:
+        """``(label, reduction)`` of a data section (the protocol's labels, else file stems)."""
+        labels = self.lp.labels(section)
+        return [(labels.get(Path(r.source)) or r.stem, r) for r in self.reductions.get(section, [])]
+
+    def add_fit(self, name: str, res: Any, scene_dict: dict[str, Any], *,
+                keep_set: bool = True) -> None:
+        """Record a fitted parameter set: table rows, summary, ``fits/<name>.yaml``."""
+        from torlab.yamlio import dump_yaml
+
+        if keep_set:
+            self.param_sets[name] = scene_dict
+        for r in res.table().to_dict("records"):
+            self.fit_rows.append({"set": name, "kind": res.kind, **r})
+        self.fit_results.append((name, res))
+        self.fit_summary[name] = {"kind": res.kind, "params": dict(res.params),
+                                  "ci95": {k: list(v) for k, v in res.ci95.items()},
+                                  "residual_rms": res.residual_norm,
+                                  "warnings": list(res.warnings)}
+        self.dest.write_text(f"fits/{name.replace(':', '_')}.yaml",
+                             dump_yaml(finite(res.to_yaml_dict())))
+
+    def scenes_for(self, refs: list[Any], params: list[str]) -> list[tuple[str, Any, dict]]:
+        """``(set name, Scene, scene dict)`` for scene files with parameter sets applied.
+
+        ``hpt:*`` gives one scene per fitted HPT product; other sets are applied in order.
+        """
+        from torlab.protocols.loader import deep_merge
+        from torlab.scene import scene_from_dict
+
+        files = tuple(x.resolved for x in refs)
+        base = self.lp.scenes[files]
+        star = [s[4:] for s in self.param_sets if s.startswith("hpt:")] \
+            if "hpt:*" in params else [None]
+        if "hpt:*" in params and not star:
+            raise FitError("hpt:* names no fitted HPT layer (fits.hpt_layers fitted nothing)")
+        out = []
+        for prod in star:
+            sd = deep_merge({}, base)
+            for ps in params:
+                name = f"hpt:{prod}" if ps == "hpt:*" else ps
+                if name not in self.param_sets:
+                    raise FitError(f"parameter set {name!r} was not fitted (see the fits: "
+                                   "section and the notes above)")
+                deep_merge(sd, self.param_sets[name])
+            try:
+                sc = scene_from_dict(sd, path=str(files[0]))
+            except TorlabInputError as e:
+                raise TorlabInputError(f"the scene with {', '.join(params)} applied is invalid: "
+                                       f"{e}", path=files[0]) from None
+            out.append((prod or "", sc, sd))
+        return out
+
+    def predict(self, kind: str, scene: dict[str, Any], **kw: Any) -> Any:
+        """A cached prediction: ``kind`` ``traction`` or ``stribeck`` of a scene dict."""
+        def compute() -> Any:
+            from torlab.scene import scene_from_dict
+
+            sc = scene_from_dict(scene)
+            if kind == "traction":
+                from torlab.model.predict import predict_traction
+
+                return predict_traction(sc, kw["creepage"],
+                                        trend_tolerance=kw.get("trend_tolerance", 0.01))
+            from torlab.model.mixed import predict_stribeck
+
+            return predict_stribeck(sc, kw["speed"], kw["creepage"])
+
+        return self.cache.get_or_compute(kw.pop("cache_kind", kind), compute, scene=scene, **kw)

@@ -1,0 +1,160 @@
+"""The fit stage of a protocol: the ``fits:`` section's parameter sets.
+
+* ``fits.hpt_layers``: per product (and condition) the third-body layer from
+  its HPT runs at the amounts and temperature asked for
+  (:func:`torlab.fit.layer.fit_layer_hpt`, several runs fitted jointly), and
+  the temperature coefficients from its runs at other temperatures
+  (:func:`torlab.fit.temperature.fit_temperature_coefficients`) -> ``hpt:<product>``;
+* ``fits.traction_layers``: the layer from a measured traction curve through
+  the traction model (:func:`torlab.fit.traction.fit_layer_traction`) ->
+  ``traction:<name>``;
+* ``fits.lubricants``: a viscosity law from viscometer falls
+  (:func:`torlab.fit.viscosity.fit_viscosity`) -> ``lubricant:<name>``.
+
+Every fit is cached on the cache keys of the reductions it uses.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from torlab.errors import TorlabInputError
+from torlab.protocols.context import RunContext
+
+__all__ = ["fit_all", "measured_traction"]
+
+
+def fit_all(ctx: RunContext) -> None:
+    """Fit every parameter set the protocol asks for, in order."""
+    f = ctx.p.fits
+    if f.hpt_layers is not None:
+        fit_hpt_layers(ctx)
+    for t in f.traction_layers:
+        fit_traction_layer(ctx, t)
+    for lf in f.lubricants:
+        fit_lubricant(ctx, lf)
+
+
+def _hpt_groups(ctx: RunContext, cfg: Any) -> dict[str, list[Any]]:
+    """Product label -> its HPT runs (reductions), restricted to ``cfg.products``."""
+    groups: dict[str, list[Any]] = {}
+    for r in ctx.reductions.get("hpt", []):
+        m = r.meta
+        label = m.product + (f"-{m.condition}" if m.condition else "")
+        if cfg.products and label not in cfg.products and m.product not in cfg.products:
+            continue
+        groups.setdefault(label, []).append(r)
+    if not groups:
+        raise TorlabInputError("fits.hpt_layers: no HPT run of the listed products",
+                               key="fits.hpt_layers.products")
+    return groups
+
+
+def _amount_ok(cfg: Any, m: Any) -> bool:
+    if m.applied_amount is None:
+        return True
+    return any(kind == m.applied_amount_kind and math.isclose(v, m.applied_amount, rel_tol=1e-6)
+               for kind, v in cfg.amounts)
+
+
+def fit_hpt_layers(ctx: RunContext) -> None:
+    """``hpt:<product>`` parameter sets (layer and temperature coefficients)."""
+    from torlab.fit.layer import fit_layer_hpt
+
+    cfg = ctx.p.fits.hpt_layers
+    groups = _hpt_groups(ctx, cfg)
+    for label in ctx.prog.track(sorted(groups), "fits: HPT layers"):
+        runs = [r for r in groups[label] if _amount_ok(cfg, r.meta)]
+        at_t = [r for r in runs if r.meta.temperature is None
+                or abs(r.meta.temperature - cfg.temperature) <= cfg.temperature_tolerance]
+        if not at_t:
+            ctx.notes.append(f"fits.hpt_layers: {label} has no run at the listed amounts "
+                             f"and {cfg.temperature:g} °C; no layer fitted")
+            continue
+        if len(at_t) > 1 and not cfg.joint:
+            raise TorlabInputError(
+                f"{label}: {len(at_t)} runs match the amounts and temperature "
+                f"({', '.join(r.label for r in at_t)}); set joint: true to "
+                "fit them together, or list one amount", key="fits.hpt_layers.amounts")
+        res = ctx.cache.get_or_compute(
+            "fit_hpt", lambda at_t=at_t: fit_layer_hpt([r.detail for r in at_t]),
+            runs=[ctx.keys[id(r)] for r in at_t])
+        scene_dict = res.to_scene_dict()
+        others = [r for r in runs if all(r is not x for x in at_t)
+                  and r.meta.temperature is not None]
+        if cfg.temperature_coefficients and others:
+            _temperature(ctx, cfg, label, at_t[:1] + sorted(others, key=lambda r: r.meta.temperature),
+                         scene_dict)
+        ctx.add_fit(f"hpt:{label}", res, scene_dict)
+
+
+def _temperature(ctx: RunContext, cfg: Any, label: str, curves: list[Any],
+                 scene_dict: dict[str, Any]) -> None:
+    """Temperature coefficients of a product's layer, merged into its scene dict."""
+    from torlab.fit.temperature import fit_temperature_coefficients
+
+    temps_K = [c.meta.temperature + 273.15 if c.meta.temperature is not None
+               else cfg.temperature + 273.15 for c in curves]
+    tres = ctx.cache.get_or_compute(
+        "fit_temperature",
+        lambda: fit_temperature_coefficients([c.detail for c in curves], temps_K),
+        runs=[ctx.keys[id(c)] for c in curves], temps=temps_K)
+    tb = tres.to_scene_dict().get("boundary", {})
+    scene_dict.setdefault("boundary", {}).update(
+        {k: v for k, v in tb.items() if k in ("mu_c1_T", "mu_c2_T")})
+    ctx.add_fit(f"hpt-T:{label}", tres, tres.to_scene_dict(), keep_set=False)
+
+
+def measured_traction(ctx: RunContext, path: Path) -> list[Any]:
+    """The traction curves of a protocol data file (folded; one per speed or step)."""
+    return ctx.reduction(path).traction_curves()
+
+
+def fit_traction_layer(ctx: RunContext, t: Any) -> None:
+    """``traction:<name>``: the layer from a measured traction curve."""
+    from torlab.fit.traction import fit_layer_traction
+    from torlab.protocols.loader import deep_merge
+    from torlab.scene import scene_from_dict
+
+    curves = measured_traction(ctx, t.measured.resolved)
+    files = tuple(x.resolved for x in t.scene)
+    xi = np.concatenate([c.x for c in curves])
+    mu = np.concatenate([c.y for c in curves])
+    speeds = [c.speed_m_s for c in curves if c.speed_m_s is not None]
+
+    def compute() -> Any:
+        sd = deep_merge({}, ctx.lp.scenes[files])
+        if speeds:
+            sd.setdefault("kinematics", {})["speed"] = float(np.median(speeds))
+        return fit_layer_traction(scene_from_dict(sd), xi, mu)
+
+    res = ctx.cache.get_or_compute("fit_traction", compute,
+                                   measured=ctx.sha(t.measured.resolved),
+                                   scene=ctx.lp.scenes[files], xi=xi, mu=mu)
+    ctx.add_fit(f"traction:{t.name}", res, res.to_scene_dict())
+
+
+def fit_lubricant(ctx: RunContext, lf: Any) -> None:
+    """``lubricant:<name>``: a viscosity law from a viscometer file's falls."""
+    from torlab.fit.viscosity import fit_viscosity
+
+    res = ctx.reduction(lf.measured.resolved).detail
+    p = res.falls["pressure_Pa"].to_numpy(dtype=float)
+    eta = res.falls["viscosity_Pa_s"].to_numpy(dtype=float)
+    T = float(res.falls["temperature_C"].mean()) if "temperature_C" in res.falls else None
+    d = ctx.p.data.visc
+    kw: dict[str, Any] = {"confidence": d.confidence, "temperature_C": T}
+    if lf.law == "roelands":
+        kw.update(eta0=d.eta0, fit_eta0=True if d.fit_eta0 else None)
+    ft = fit_viscosity(p, eta, lf.law, **kw)
+    name = f"lubricant:{lf.name}"
+    ctx.add_fit(name, ft, ft.to_scene_dict())
+    row = ft.row()
+    ctx.fit_summary[name] = {"kind": "viscosity", "law": lf.law,
+                             "params": {k: v for k, v in row.items()
+                                        if isinstance(v, (int, float))},
+                             "warnings": list(ft.warnings)}

@@ -1,0 +1,256 @@
+"""The report stage of a protocol: one section per ``reports:`` entry.
+
+Each function takes the run's :class:`~torlab.protocols.context.RunContext`
+and returns a :class:`torlab.reports.html.Section` built by the report modules
+(:mod:`torlab.reports.amount`, :mod:`~torlab.reports.timetest`,
+:mod:`~torlab.reports.traction`, :mod:`~torlab.reports.stribeck`); model
+curves come from :func:`torlab.model.predict.predict_traction` and
+:func:`torlab.model.mixed.predict_stribeck` through the run's cache.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from torlab.errors import TorlabInputError
+from torlab.protocols.context import RunContext, finite
+
+__all__ = ["build_sections"]
+
+
+def build_sections(ctx: RunContext) -> list[Any]:
+    """Every report section the protocol asks for, then the fitted parameter sets."""
+    r = ctx.p.reports
+    builders = (("amount", amount), ("time_test", time_test), ("traction", traction),
+                ("stribeck", stribeck), ("film", film))
+    out = [fn(ctx) for key, fn in builders if getattr(r, key) is not None]
+    if ctx.fit_rows:
+        out.append(fits_section(ctx))
+    return out
+
+
+def amount(ctx: RunContext) -> Any:
+    """Friction against applied amount per product, with the threshold crossings (Paper C)."""
+    from torlab.reports.amount import amount_section, amount_series
+
+    cfg = ctx.p.reports.amount
+    series = amount_series([r.detail for r in ctx.reductions.get("hpt", [])], ctx.p.products,
+                           temperature=cfg.temperature,
+                           temperature_tolerance=cfg.temperature_tolerance,
+                           only=cfg.products or None)
+    if cfg.products:
+        have = set(series["product"]) if len(series) else set()
+        missing = [p for p in cfg.products if p not in have
+                   and not any(h.startswith(p + "-") for h in have)]
+        if missing:
+            raise TorlabInputError(f"no HPT run with an applied amount for "
+                                   f"{', '.join(missing)}", key="reports.amount.products")
+    return amount_section(series, cfg)
+
+
+def _initial_drop(ctx: RunContext, idp: Any) -> dict[str, Any]:
+    """The model's coefficient at each time test's creepage and speed (initial drop)."""
+    ((_, sc, sd),) = ctx.scenes_for(idp.scene, idp.params)
+    model: dict[str, Any] = {"mu": {}, "creepage": {}, "load_share": {}, "modelled": {},
+                             "scene": sc.name or idp.scene[0].path, "params": list(idp.params)}
+    for label, red in ctx.prog.track(ctx.labelled("mtm"), "time tests: initial-drop model"):
+        d, tts = red.detail.curves.get("timed"), red.detail.time_tests
+        if d is None or not tts:
+            continue
+        after = d[(d["step"] == tts[0].step) & (d["step_time_s"] >= tts[0].application_time_s)]
+        xi = idp.creepage
+        if xi is None:
+            if "srr" not in after or after["srr"].isna().all():
+                raise TorlabInputError(f"{label}: the timed step logs no SRR; give "
+                                       "reports.time_test.initial_drop.creepage",
+                                       key="reports.time_test")
+            xi = float(f"{np.median(np.abs(after['srr'].dropna())):.3g}")
+        v = float(np.median(after["rolling_speed_m_s"].dropna())) \
+            if "rolling_speed_m_s" in after and after["rolling_speed_m_s"].notna().any() \
+            else sc.kinematics.speed
+        sdv = dict(sd, kinematics={**sd.get("kinematics", {}), "speed": v})
+        pred = ctx.predict("traction", sdv, creepage=np.array([xi]), cache_kind="initial_drop_v3")
+        row = pred.table.iloc[0]
+        model["mu"][label] = float(abs(row["mu"]))
+        model["load_share"][label] = float(row.get("load_share_asperity", 1.0))
+        model["modelled"][label] = list(pred.modelled)
+        model["creepage"][label] = xi
+    return model
+
+
+def time_test(ctx: RunContext) -> Any:
+    """Time tests after application (Paper B), with the initial-drop model if asked."""
+    from torlab.reports.timetest import time_test_section
+
+    cfg = ctx.p.reports.time_test
+    model = _initial_drop(ctx, cfg.initial_drop) if cfg.initial_drop is not None else None
+    return time_test_section([(lab, r.detail) for lab, r in ctx.labelled("mtm")], cfg, model)
+
+
+def _measured_curves(ctx: RunContext, ci: int, c: Any) -> list[Any]:
+    """The measured traction curves of one ``reports.traction.curves`` entry."""
+    import pandas as pd
+
+    from torlab.model.predict import classify_trend
+    from torlab.reports.traction import TractionCurve
+
+    cfg = ctx.p.reports.traction
+    curves = ctx.reduction(c.measured.resolved).traction_curves()
+    many = len(curves) > 1
+    out = []
+    for cv in curves:
+        v = cv.speed_m_s
+        at = f" @ {v:.3g} m/s" if v is not None and many else ""
+        lab = c.measured.path.rsplit("/", 1)[-1] + at
+        out.append(TractionCurve(
+            label=f"measured {lab}" if c.scene else c.label + at, kind="measured",
+            table=pd.DataFrame({"creepage": cv.x, "mu": cv.y}),
+            trend=classify_trend(cv.x, cv.y, tolerance=cfg.trend_tolerance),
+            source=str(c.measured.path), speed_m_s=v,
+            group=f"{ci}:{v:.3g}" if v is not None and c.speeds == "measured" else f"{ci}:"))
+    return out
+
+
+def traction(ctx: RunContext) -> Any:
+    """Predicted (and measured) traction curves with their trend after saturation (H4.1)."""
+    from torlab.reports.traction import TractionCurve, traction_section
+
+    cfg = ctx.p.reports.traction
+    xi = np.asarray(cfg.creepage, dtype=float)
+    curves: list[Any] = []
+    measured: list[Any] = []
+    jobs = []
+    for ci, c in enumerate(cfg.curves):
+        mine = _measured_curves(ctx, ci, c) if c.measured else []
+        measured += mine
+        if not c.scene:
+            continue
+        if c.speeds is None:
+            speeds: list[float | None] = [None]
+        elif c.speeds == "measured":
+            speeds = [m.speed_m_s for m in mine if m.speed_m_s is not None] or [None]
+        else:
+            speeds = list(c.speeds)
+        for setname, sc, sd in ctx.scenes_for(c.scene, c.params):
+            jobs += [(ci, c, setname, sc, sd, v, len(speeds) > 1) for v in speeds]
+    for ci, c, setname, sc, sd, v, many in ctx.prog.track(jobs, "traction: predicting curves"):
+        sdv = sd if v is None else dict(sd, kinematics={**sd.get("kinematics", {}), "speed": v})
+        pred = ctx.predict("traction", sdv, creepage=xi, trend_tolerance=cfg.trend_tolerance)
+        speed = sc.kinematics.speed if v is None else v
+        label = c.label.replace("{set}", setname) + (f" @ {speed:.3g} m/s" if many else "")
+        one_set = len(set(ctx.param_sets)) <= 1 or "hpt:*" not in c.params
+        curves.append(TractionCurve(
+            label=label, kind="model", table=pred.table, trend=pred.trend,
+            source=" + ".join([*(x.path for x in c.scene), *c.params]).replace(
+                "hpt:*", f"hpt:{setname}"), speed_m_s=speed, modelled=pred.modelled,
+            group=f"{ci}:{speed:.3g}" if c.speeds == "measured" else
+            (f"{ci}:" if one_set else f"{ci}:{setname}")))
+        if sc.boundary is not None:
+            curves[-1].boundary = sc.boundary.model_dump()
+    return traction_section(curves + measured, cfg)
+
+
+def _measured_stribeck(ctx: RunContext, path: Any) -> Any:
+    import pandas as pd
+
+    cv = ctx.reduction(path).stribeck_curve()
+    return pd.DataFrame({"rolling_speed_m_s": cv.x, "srr": cv.srr,
+                         "traction_coefficient": cv.y}).reset_index(drop=True)
+
+
+def stribeck(ctx: RunContext) -> Any:
+    """Predicted Stribeck curves with the measured points."""
+    from torlab.reports.stribeck import StribeckCurve, stribeck_section
+
+    cfg = ctx.p.reports.stribeck
+    v = np.asarray(cfg.speed, dtype=float)
+    curves: list[Any] = []
+    for c in ctx.prog.track(cfg.curves, "Stribeck: predicting curves"):
+        meas = _measured_stribeck(ctx, c.measured.resolved) if c.measured else None
+        xi = cfg.creepage
+        if xi is None and meas is not None and meas["srr"].notna().any():
+            xi = float(f"{np.median(np.abs(meas['srr'].dropna())):.3g}")  # the set SRR
+        if xi is None and c.scene:
+            raise TorlabInputError("give reports.stribeck.creepage (no measured file to take "
+                                   "the SRR from)", key="reports.stribeck.creepage")
+        if not c.scene:
+            curves.append(StribeckCurve(label=c.label, creepage=xi, measured=meas,
+                                        measured_label=c.measured.path.rsplit("/", 1)[-1],
+                                        source=str(c.measured.path)))
+            continue
+        for setname, _sc, sd in ctx.scenes_for(c.scene, c.params):
+            pred = ctx.predict("stribeck", sd, speed=v, creepage=xi)
+            curves.append(StribeckCurve(
+                label=c.label.replace("{set}", setname), table=pred.table, creepage=xi,
+                measured=meas, measured_label="" if c.measured is None else
+                c.measured.path.rsplit("/", 1)[-1] + " (measured)",
+                source=" + ".join([*(x.path for x in c.scene), *c.params]),
+                modelled=pred.modelled))
+    return stribeck_section(curves)
+
+
+def film(ctx: RunContext) -> Any:
+    """Measured film thickness against speed, the model's film and the fitted speed exponent."""
+    import pandas as pd
+
+    from torlab.fit.film import fit_film_thickness
+    from torlab.reports.stribeck import film_section
+
+    cfg = ctx.p.reports.film
+    measured, models, fits = [], [], []
+    for c in cfg.curves:
+        d = None
+        if c.measured is not None:
+            try:
+                cvs = ctx.reduction(c.measured.resolved).film_curves()
+            except TorlabInputError:
+                raise TorlabInputError("no film thickness measured", path=c.measured.resolved,
+                                       key="reports.film") from None
+            d = pd.DataFrame({"rolling_speed_m_s": np.concatenate([cv.x for cv in cvs]),
+                              "film_thickness_m": np.concatenate([cv.y for cv in cvs])})
+            d = d.sort_values("rolling_speed_m_s")
+            measured.append((c.label, d))
+        scs = ctx.scenes_for(c.scene, c.params) if c.scene else []
+        for setname, _sc, sd in scs:
+            lo, hi = (float(d["rolling_speed_m_s"].min()), float(d["rolling_speed_m_s"].max())) \
+                if d is not None else (0.01, 3.0)
+            pred = ctx.predict("stribeck", sd, speed=np.geomspace(lo, hi, 40), creepage=0.0,
+                               cache_kind="film_model")
+            models.append((c.label.replace("{set}", setname), pred.table))
+        if d is not None:
+            fr = fit_film_thickness(d["rolling_speed_m_s"].to_numpy(),
+                                    d["film_thickness_m"].to_numpy(),
+                                    scene=scs[0][1] if scs else None,
+                                    min_speed=cfg.min_speed or None)
+            fits.append((c.label, fr))
+            ctx.fit_summary[f"film:{c.label}"] = {
+                "kind": fr.kind, "params": dict(fr.params),
+                "ci95": {k: list(v) for k, v in fr.ci95.items()}, "warnings": list(fr.warnings)}
+    return film_section(measured, models, fits)
+
+
+def fits_section(ctx: RunContext) -> Any:
+    """The fitted parameter sets: table, data-against-model figures, warnings."""
+    import pandas as pd
+
+    from torlab.reports.html import Figure, Section, Table
+
+    figs = [Figure(f"fit_{name.replace(':', '_')}", res.plot(),
+                   f"{name}: data against the fitted model, residuals")
+            for name, res in ctx.fit_results]
+    warn = [f"{name}: {w}" for name, res in ctx.fit_results for w in res.warnings]
+    show = {"set": ("set", ""), "parameter": ("parameter", ""), "value": ("value", ".5g"),
+            "stderr": ("stderr", ".3g"), "95 % low": ("ci95_low", ".5g"),
+            "95 % high": ("ci95_high", ".5g"), "unit": ("unit", ""), "status": ("status", "")}
+    return Section(
+        key="fits", title="Fitted parameter sets", paragraphs=[
+            "Parameters identified from the protocol's data (torlab.fit): the HPT layers "
+            "(thesis Eqs. 5.24-5.29) per product, temperature coefficients, layers from "
+            "measured traction curves and viscosity laws; each set is also written as a "
+            "scene parameter file in fits/ for 'torlab predict'."],
+        figures=figs, tables=[Table("parameters", pd.DataFrame(ctx.fit_rows), "Fitted parameters",
+                                    show, allow_missing=("value", "stderr", "ci95_low",
+                                                         "ci95_high"))],
+        summary=finite(ctx.fit_summary), notes=warn)
