@@ -132,11 +132,13 @@ def fit_polach(problem: CreepProblem, creepage: Any, speed: Any, *, lateral: Any
     """
     df = polach_data(problem, creepage, speed, lateral=lateral, spin=spin, grid=grid)
     res = fit_polach_data(df, polach_contact(problem), source=source, ordered=ordered)
-    if len(np.unique(df["speed_m_s"])) > 1 and problem.thermal is None:
+    lay = problem.layer
+    if len(np.unique(df["speed_m_s"])) > 1 and (problem.thermal is None
+                                                 or (lay.mu_c1_T == 0 and lay.mu_c2_T == 0)):
         res.warnings.append(
-            "the scene has no thermal: section, so torlab's forces do not depend on speed "
-            "while Polach's depend on the slip velocity s V: the fit compromises between the "
-            "speeds (see the residuals per speed)")
+            "torlab's forces do not depend on speed here (no thermal: section or zero "
+            "temperature coefficients) while Polach's depend on the slip velocity s V: the fit "
+            "compromises between the speeds (see the residuals per speed)")
     return res
 
 

@@ -113,6 +113,7 @@ __all__ = [
     "creep_problem",
     "kalker_weighted_flexibility",
     "naive_creep_forces",
+    "predict_creep",
 ]
 
 Restick = Literal["thesis", "kalker"]
@@ -319,6 +320,61 @@ def creep_problem(scene: Any, contact: Any = None) -> CreepProblem:
         c22 = C22(p.a / p.b, contact.nu)
         c23 = C23(p.a / p.b, contact.nu)
     return CreepProblem.from_fastsim(prob, L2=L2(p.a, c22, contact.G), L3=L3(p.a, p.b, c23, contact.G))
+
+
+def scene_grid(scene: Any) -> CreepGrid:
+    """The creep-force grid of a scene's ``grid:`` section (strips, nodes, temperature)."""
+    g = scene.grid
+    return CreepGrid(n=g.n, m=g.m, temperature_nodes=g.temperature_nodes)
+
+
+def predict_creep(scene: Any, creepage: Any, lateral: float = 0.0, spin: float = 0.0) -> Any:
+    """Creep forces of a dry scene along a creepage curve at a lateral creepage and a spin.
+
+    Parameters
+    ----------
+    scene
+        A validated dry :class:`~torlab.scene.Scene` (``boundary:``, no ``lubricant:``).
+    creepage
+        Longitudinal creepages (fractions).
+    lateral, spin
+        Lateral creepage (fraction) and spin (1/m), the same for every point.
+
+    Returns
+    -------
+    torlab.model.predict.TractionPrediction
+        ``table`` with the scene contract's ``creepage`` and ``mu`` (= ``mu_x``) and
+        ``lateral, spin_1_m, mu_x, mu_y, Fx_N, Fy_N, Mz_Nm, adhesion_fraction``
+        (``max_temperature_C`` with ``thermal:``).
+    """
+    from torlab.model.contact import build_contact
+    from torlab.model.predict import TractionPrediction, classify_trend
+
+    xi = np.atleast_1d(np.asarray(creepage, dtype=float))
+    contact = build_contact(scene)
+    prob = creep_problem(scene, contact)
+    r = creep_forces(prob, xi, lateral, spin, scene_grid(scene))
+    table = r.table()
+    table.insert(1, "mu", r.mu_x)
+    loop = {"off": "contact temperature: not modelled (no thermal: section)",
+            "single pass": "contact temperature: computed once, no tau-T loop",
+            "iterated": "contact temperature: coupled to the limits, iterated to convergence"}
+    modelled = [f"Hertz contact ({contact.patch.method})",
+                "boundary friction: FASTSIM with the third-body layer in longitudinal creepage, "
+                "lateral creepage and spin (Kalker's three flexibilities; Voce limit)",
+                "EHL film: not modelled (dry scene, no lubricant:)",
+                loop[r.temperature_loop]]
+    trend = classify_trend(xi, r.mu_x)
+    from torlab import __version__
+
+    summary = {"torlab_version": __version__, "scene": scene.name, "contact": contact.summary(),
+               "modelled": modelled, "notes": list(contact.notes),
+               "lateral": float(lateral), "spin_1_m": float(spin),
+               "flexibilities_m_Pa": {"L1": prob.L1, "L2": prob.L2, "L3": prob.L3},
+               "mu_max": float(np.max(np.hypot(r.mu_x, r.mu_y))),
+               "trend_after_saturation": trend, "boundary": scene.boundary.model_dump()}
+    return TractionPrediction(table=table, contact=contact, modelled=modelled, trend=trend,
+                              summary=summary)
 
 
 # -------------------------------------------------------------------------------------------

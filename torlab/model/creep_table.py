@@ -51,6 +51,7 @@ __all__ = [
     "creep_table",
     "kalker_scales",
     "require_xarray",
+    "scene_creep_table",
 ]
 
 #: the CSV/netCDF variables with their units and meaning
@@ -339,3 +340,45 @@ def _with_speed(p: CreepProblem, v: float) -> CreepProblem:
     from dataclasses import replace
 
     return replace(p, speed=v)
+
+
+def scene_creep_table(scene: Any, creepage: Any, lateral: Any, spin: Any, *, speed: Any = None,
+                      amounts: Sequence[tuple[float, Any]] | None = None, amount_unit: str = "",
+                      normalised: bool = False, map_fn: Any = None,
+                      provenance: dict[str, Any] | None = None) -> CreepTable:
+    """:func:`creep_table` of a scene (or, with ``amounts``, of one scene per amount).
+
+    Parameters
+    ----------
+    scene
+        A validated dry :class:`~torlab.scene.Scene`; ignored when ``amounts`` is given.
+    creepage, lateral, spin
+        Axis values: fractions and 1/m, or with ``normalised`` Kalker's ``xi*``, ``eta*``,
+        ``phi*`` (converted with the scene's contact and ``mu_c2``; with an amount axis,
+        with the first amount's).
+    speed
+        Optional speed axis (m/s).
+    amounts
+        ``(amount, scene)`` pairs for an amount axis (one parameter set per amount).
+    amount_unit
+        Unit text of the amounts.
+    normalised
+        Axes given in Kalker's normalised creepages.
+    map_fn
+        ``map``-like callable for the chunks (e.g. an executor's ``map``).
+    provenance
+        Attributes to store (scene files, command).
+    """
+    from torlab.model.creep import creep_problem, scene_grid
+
+    first = amounts[0][1] if amounts else scene
+    prob0 = creep_problem(first)
+    xi, eta, phi = (np.atleast_1d(np.asarray(v, dtype=float)) for v in (creepage, lateral, spin))
+    if normalised:
+        s = kalker_scales(prob0)
+        xi, eta, phi = xi / s["xi"], eta / s["eta"], phi / s["phi"]
+    prov = {"scene": getattr(first, "name", ""), "axes_given_normalised": int(normalised),
+            **(provenance or {})}
+    target: Any = prob0 if not amounts else [(float(a), creep_problem(sc)) for a, sc in amounts]
+    return creep_table(target, xi, eta, phi, speed=speed, amount_unit=amount_unit,
+                       grid=scene_grid(first), map_fn=map_fn, provenance=prov)
