@@ -150,11 +150,11 @@ class CreepGrid:
     n: int = 6
     spin_panels: int = 8
     spin_strips: int = 4
-    m: int = 4
+    m: int = 3
     elastic_panels: int = 8
     clamp_panels: int = 1
     graded_panels: int = 6
-    uniform_panels: int = 8
+    uniform_panels: int = 16
     yield_table: int = 64
     temperature_nodes: int = 48
 
@@ -323,9 +323,14 @@ def creep_problem(scene: Any, contact: Any = None) -> CreepProblem:
 
 
 def scene_grid(scene: Any) -> CreepGrid:
-    """The creep-force grid of a scene's ``grid:`` section (strips, nodes, temperature)."""
+    """The creep-force grid of a scene's ``grid:`` section.
+
+    ``n`` (strips per half contact without spin) and ``temperature_nodes`` carry over;
+    the nodes along a strip are the creep scheme's own (:class:`CreepGrid`), whose
+    panels differ from the longitudinal scheme's.
+    """
     g = scene.grid
-    return CreepGrid(n=g.n, m=g.m, temperature_nodes=g.temperature_nodes)
+    return CreepGrid(n=g.n, temperature_nodes=g.temperature_nodes)
 
 
 def predict_creep(scene: Any, creepage: Any, lateral: float = 0.0, spin: float = 0.0) -> Any:
@@ -728,15 +733,15 @@ def _first_root(f_table: np.ndarray, grid: np.ndarray, start: np.ndarray
 
 
 def _newton_bracketed(f_and_df, lo: np.ndarray, hi: np.ndarray, found: np.ndarray,
-                      iters: int = 60) -> np.ndarray:
+                      iters: int = 60, start: np.ndarray | None = None) -> np.ndarray:
     """Safeguarded Newton on brackets ``[lo, hi]`` with ``f(lo) < 0 <= f(hi)``.
 
     Lanes without a bracket (``found`` False) are returned as ``hi``.  A step that
     leaves the bracket is replaced by bisection; the iteration stops when every
-    step is below 1e-14 rad.
+    step is below 1e-13 rad.  ``start`` (inside the bracket) defaults to its middle.
     """
     lo = np.where(found, lo, hi)
-    th = 0.5 * (lo + hi)
+    th = 0.5 * (lo + hi) if start is None else np.clip(start, lo, hi)
     for _ in range(iters):
         f, df = f_and_df(th)
         neg = f < 0
@@ -749,7 +754,7 @@ def _newton_bracketed(f_and_df, lo: np.ndarray, hi: np.ndarray, found: np.ndarra
         new = np.where(found, new, hi)
         step = np.max(np.abs(new - th), initial=0.0)
         th = new
-        if step <= 1e-14:
+        if step <= 1e-13:
             break
     return th
 
@@ -798,15 +803,21 @@ class _Solver:
         lo0 = lo.copy()
         xg, wg = _gauss(6)
         last = {}
+        # start: regula falsi between the bracketing table values
+        fk = np.take_along_axis(f, k[..., None], axis=-1)[..., 0]
+        fkm = np.where(k > 0, np.take_along_axis(f, km, axis=-1)[..., 0], 0.0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            start = np.where((k > 0) & (fk > fkm), lo + (hi - lo) * (-fkm) / (fk - fkm),
+                             0.5 * (lo + hi))
 
         def fdf(th):
             h = (th - lo0)[..., None]
-            Tx, Ty = ln.T(lo0[..., None] + h * xg)
-            txx = tx0 + np.sum(Tx * wg, axis=-1) * h[..., 0]
-            tyy = ty0 + np.sum(Ty * wg, axis=-1) * h[..., 0]
+            Tx, Ty = ln.T(np.concatenate([lo0[..., None] + h * xg, th[..., None]], axis=-1))
+            txx = tx0 + np.sum(Tx[..., :-1] * wg, axis=-1) * h[..., 0]
+            tyy = ty0 + np.sum(Ty[..., :-1] * wg, axis=-1) * h[..., 0]
             last["tau"] = (th, txx, tyy)
             m = np.sqrt(txx * txx + tyy * tyy)
-            Tx1, Ty1 = ln.T(th)
+            Tx1, Ty1 = Tx[..., -1], Ty[..., -1]
             dT = 0.0 if dT_grid is None else _interp_uniform(th[..., None], dT_grid)[..., 0]
             f1 = np.exp(mu1T * dT) if mu1T else 1.0
             with np.errstate(invalid="ignore", divide="ignore"):
@@ -814,9 +825,9 @@ class _Solver:
             return (m - lay.mu_c1 * ln.pressure(th) * f1,
                     dm - lay.mu_c1 * ln.dpressure(th) * f1)
 
-        th = _newton_bracketed(fdf, lo, hi, found)
+        th = _newton_bracketed(fdf, lo, hi, found, start=start)
         th = np.where(found, th, math.pi)
-        fdf(th)  # the stick traction at the converged angle
+        # the stick traction at the last iterate (within 1e-13 rad of the root)
         _, txy, tyy = last["tau"]
         txy = np.where(found, txy, tx[..., -1])
         tyy = np.where(found, tyy, ty[..., -1])
@@ -830,11 +841,21 @@ class _Solver:
             return th_y  # no hardening: the clamp does not change g
         dTy = 0.0 if dT_grid is None else _interp_uniform(th_y[..., None], dT_grid)[..., 0]
         k_y = ln.kappa(th_y, dTy)
+        if np.all(k_y >= 0):
+            return th_y  # every strip yields past the clamp (its leading half)
         tab = np.broadcast_to(self.tab, (nc, ns, self.tab.size))
         dTt = 0.0 if dT_grid is None else _interp_uniform(tab, dT_grid)
         kt = ln.kappa(tab, dTt)
         lo, hi, found = _first_root(kt, self.tab, th_y)
         mu1T = lay.mu_c1_T
+        # start: regula falsi between kappa at the bracket's ends
+        kk = np.argmax((kt >= 0) & (self.tab > th_y[..., None]), axis=-1)
+        k_hi = np.take_along_axis(kt, kk[..., None], axis=-1)[..., 0]
+        k_lo = np.where(lo <= th_y, k_y,
+                        np.take_along_axis(kt, np.maximum(kk - 1, 0)[..., None], axis=-1)[..., 0])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            start = np.where(k_hi > k_lo, lo + (hi - lo) * (-k_lo) / (k_hi - k_lo),
+                             0.5 * (lo + hi))
 
         def fdf(th):
             dT = 0.0 if dT_grid is None else _interp_uniform(th[..., None], dT_grid)[..., 0]
@@ -845,7 +866,7 @@ class _Solver:
             return k, dk
 
         lo = np.minimum(lo, hi)
-        th = _newton_bracketed(fdf, lo, hi, found & (k_y < 0), iters=40)
+        th = _newton_bracketed(fdf, lo, hi, found & (k_y < 0), iters=40, start=start)
         th = np.where(found, th, math.pi)
         return np.where(k_y >= 0, th_y, np.maximum(th, th_y))
 
@@ -893,7 +914,15 @@ class _Solver:
         else:
             stick = ln.Pj * aj * (0.5 * th_y - 0.25 * np.sin(2.0 * th_y))
         # plastic zone
-        pl = ln.panels(self.plastic_edges(th_y, th_s), g.m, txy, tyy, ln.slip_path(th_y))
+        edges = self.plastic_edges(th_y, th_s)
+        # panels empty in every lane (a clamp that does not occur, graded edges beyond the
+        # trailing edge) cost march steps for nothing: drop them
+        keep = np.any(np.diff(edges, axis=-1) > 0, axis=(0, 1))
+        if not keep.all():
+            idx = np.concatenate([[0], np.flatnonzero(keep) + 1])
+            edges = np.concatenate([edges[..., :1], edges[..., idx[1:]]], axis=-1)
+            edges = np.maximum.accumulate(edges, axis=-1)
+        pl = ln.panels(edges, g.m, txy, tyy, ln.slip_path(th_y))
         thp = pl["theta"]
         tau, plastic, gvals = self.march(th_y, txy, tyy, pl, dT_grid)
         jac = aj[..., None] * pl["st"] * pl["weight"]
@@ -994,24 +1023,31 @@ class _Solver:
         g_new = gp[..., 1:]
         lim = (g_new if prob.restick == "kalker" else np.minimum(gp[..., :-1], g_new)) \
             * (1.0 - 1e-12)
-        out = np.empty(thp.shape, dtype=complex)
-        plast = np.empty(thp.shape, dtype=bool)
+        # step axis first: each step works on contiguous slices
+        def steps(a: np.ndarray) -> np.ndarray:
+            return np.ascontiguousarray(np.moveaxis(a, -1, 0))
+
+        Q11, Q12, Q21, Q22 = (steps(q) for q in (q11, q12, q21, q22))
+        DT, GN, LIM = steps(dtel), steps(g_new), steps(lim)
+        out = np.empty((M, *thp.shape[:-1]), dtype=complex)
+        plast = np.empty((M, *thp.shape[:-1]), dtype=bool)
         plastic = yielded
         d = dir0
         tau = np.where(plastic, gp[..., 0] * dir0, tel[..., 0])
         for i in range(M):
-            trial = tau + dtel[..., i]
+            trial = tau + DT[i]
             at = np.abs(trial)
-            zn = q11[..., i] * d + q12[..., i]
-            zn /= q21[..., i] * d + q22[..., i]
+            zn = (Q11[i] * d + Q12[i]) / (Q21[i] * d + Q22[i])
             zn /= np.abs(zn)
-            gi = g_new[..., i]
-            newp = np.where(plastic, at >= lim[..., i], at >= gi)
+            gi = GN[i]
+            newp = np.where(plastic, at >= LIM[i], at >= gi)
             d = np.where(plastic & newp, zn, trial / (at + 1e-300))
             tau = np.where(newp, gi * d, trial)
             plastic = newp
-            out[..., i] = tau
-            plast[..., i] = newp
+            out[i] = tau
+            plast[i] = newp
+        out = np.moveaxis(out, 0, -1)
+        plast = np.moveaxis(plast, 0, -1)
         return out, plast, g_new
 
 
@@ -1105,7 +1141,7 @@ def creep_forces(problem: CreepProblem, creepage: Any, lateral: Any = 0.0, spin:
         # the mirror y -> -y, (xi, -eta, -phi), reverses Fy and Mz.  Each triple is mapped to
         # one with xi >= 0, eta >= 0 (and phi >= 0 where eta = 0) and each distinct one is
         # solved once: a table symmetric about zero costs a quarter.
-        if symmetry:
+        if symmetry and np.count_nonzero(nz) > 1:
             uniq, inv, sx, sy = canonical_creepages(xi[nz], eta[nz], phi[nz])
         else:
             uniq = np.stack([xi[nz], eta[nz], phi[nz]], axis=1)
