@@ -59,25 +59,31 @@ longitudinal one of :func:`torlab.model.fastsim.boundary_traction`.
 
 The numerical scheme
 --------------------
-* Strips: ``y = b sin(phi_s)`` at the Gauss nodes of each half contact (``n``
-  per half; the halves differ with spin and lateral creepage), so the square
-  root at the lateral edges is integrated exactly.
+* Strips: ``y = b sin(phi_s)``.  Without spin the Gauss nodes of each half contact
+  (``n`` per half, mirrored: the longitudinal model's strips); with spin 8 equal
+  panels in ``phi_s`` with 4 Gauss strips each, because spin makes the strip forces
+  kink across the contact, which low-order panels integrate better.
 * First yield: a table of ``|tau_el| - tau_c1`` at 64 angles per strip brackets
-  the first crossing; a safeguarded Newton iteration (bisection whenever a
-  step leaves the bracket) converges to round-off.  The end of the clamped zone
-  (``kappa`` turning positive) is found the same way.
-* Elastic zone: Gauss panels with the closed-form stress.  Plastic zone: Gauss
-  panels starting at the yield point and at the clamp end, graded with the
-  Voce length ``L_mup/|w|`` (as in the longitudinal scheme), then uniform.
+  the first crossing (spin can make ``|tau_el|/tau_c1`` non-monotone); a safeguarded
+  Newton iteration from the regula-falsi point (bisection whenever a step leaves the
+  bracket) converges to 1e-13 rad.  The end of the clamped zone (``kappa`` turning
+  positive) is found the same way.
+* Panels: the elastic zone in 8 Gauss panels; the plastic zone in a clamp panel,
+  6 panels graded with the Voce length ``L_mup/|w|`` from the clamp end (as in the
+  longitudinal scheme) and 16 uniform panels, 3 nodes each.  The stick traction and
+  the slip path ``S`` at the nodes are integrated panel by panel from ``T`` (explicit),
+  with each panel's integration matrix through its ends and Gauss nodes.
 * The traction is marched through the nodes of the plastic panels.  The
   magnitude is the explicit limit ``g``.  The direction over a step is the
   exact solution of ``d chi/d theta = -(k sin chi + beta')`` (``chi`` the angle
-  between the traction and ``T``, ``k = |T|/g`` at the step's midpoint,
+  between the traction and ``T``, ``k = |T|/g`` averaged over the step,
   ``beta'`` the turning rate of ``T`` over the step), a Riccati equation solved
-  as a 2x2 linear system: second order, and exact in the stiff limit where the
-  traction trails the slip direction by ``beta'/k``.  Stick and slip switch at
-  the nodes (FASTSIM's test on the trial traction ``tau + Delta tau_el``, the
-  increment exact).
+  as a 2x2 linear system and applied as a Moebius map of ``exp(i psi)``: second
+  order, and exact in the stiff limit where the traction trails the slip direction
+  by ``beta'/k``.  Stick and slip switch at the nodes (FASTSIM's test on the trial
+  traction ``tau + Delta tau_el``, the increment exact).
+* Symmetries: ``(-xi, eta, phi)`` reverses ``Fx``, ``(xi, -eta, -phi)`` reverses
+  ``Fy`` and ``Mz``; each distinct triple is solved once (:func:`canonical_creepages`).
 * Temperature: as in :mod:`torlab.model.fastsim` (flash temperature on 48
   uniform angles per strip, heat flux ``|tau| |w| v`` with the rigid slip
   ``w``, or zero in stick with ``slip_velocity: local``; an adaptively
@@ -934,7 +940,6 @@ class _Solver:
         wstrip = ln.wy * prob.b * ln.cphi
         with np.errstate(invalid="ignore", divide="ignore"):
             rho = np.where(gvals > 0, np.abs(tau) / np.where(gvals > 0, gvals, 1.0), 1.0)
-        self.last_strips = (Fx, Fy, Mz)  # per strip (unit width), for diagnostics
         return _Solution(Fx=np.sum(wstrip * Fx, axis=-1), Fy=np.sum(wstrip * Fy, axis=-1),
                          Mz=np.sum(wstrip * Mz, axis=-1),
                          stick=np.sum(wstrip * stick, axis=-1) / prob.load, th_y=th_y,
