@@ -48,6 +48,7 @@ KINDS: dict[str, tuple[str, str]] = {
     "conductivity": ("[power]/[length]/[temperature]", "W/(m*K)"),
     "heat_capacity": ("[energy]/[mass]/[temperature]", "J/(kg*K)"),
     "frequency": ("1/[time]", "Hz"),
+    "inverse_length": ("1/[length]", "1/m"),
 }
 
 _NUMBER = re.compile(

@@ -329,3 +329,45 @@ def visc_cmd(
         write_fit(dest, res, title=f"Viscosity fit ({law})")
     print_fit(res, f"Viscosity fit ({law})")
     console().print(f"wrote {', '.join(_FILES)} to {out}")
+
+
+@app.command("polach")
+def polach_cmd(
+    scene: Annotated[list[Path], typer.Argument(help="Scene YAML, then parameter files of the "
+                                                "product (e.g. 'torlab fit' output), in order.")],
+    out: OutOpt,
+    creepage: Annotated[str, typer.Option(help="Longitudinal creepages of the fit range "
+                                          "(start:stop:count or a list).")] = "0:0.05:41",
+    speed: Annotated[str, typer.Option(help="Rolling speeds of the fit range (units allowed).")]
+    = "5 m/s,20 m/s",
+    lateral: Annotated[str | None, typer.Option(help="Optional lateral creepages added at each "
+                                                "creepage and speed.")] = None,
+    spin: Annotated[str | None, typer.Option(help="Optional spins (1/m) added likewise.")] = None,
+    force: ForceOpt = False,
+) -> None:
+    """Polach's creep-force parameters mu0, A, B, kA, kS (Polach 2005; spin of 1999) fitted
+    to torlab's predicted creep forces of a dry scene over a creepage and speed range.
+
+    Writes params.yaml (the parameters in the fit: section), fit_table.csv, correlation.csv,
+    fit_data.csv (torlab, Polach and their difference per point: the fit error as a curve),
+    fit.png and summary.json (RMS and largest error: the numbers).
+    """
+    from torlab.fit.polach import fit_polach
+    from torlab.grids import parse_values
+    from torlab.model.creep import creep_problem
+    from torlab.outputs import OutputDir
+    from torlab.scene import load_scene
+
+    files = require_files(scene, "scene")
+    sc = load_scene(*files)
+    res = fit_polach(creep_problem(sc), parse_values(creepage, "dimensionless", "--creepage"),
+                     parse_values(speed, "velocity", "--speed"),
+                     lateral=None if lateral is None else parse_values(lateral, "dimensionless",
+                                                                       "--lateral"),
+                     spin=None if spin is None else parse_values(spin, "inverse_length", "--spin"),
+                     source=sc.name or files[0].stem)
+    with OutputDir(out, force=force, inputs=files, command=command_line()) as dest:
+        write_fit(dest, res, title=f"Polach fit: {res.meta['source']}")
+    print_fit(res, f"Polach fit: {res.meta['source']}")
+    console().print(f"largest difference Polach - torlab: {res.meta['max_abs_residual']:.3g} "
+                    f"(F/N); wrote {', '.join(_FILES)} to {out}")

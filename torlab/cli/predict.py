@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated
 
@@ -39,6 +40,10 @@ def traction_cmd(
     creepage: Annotated[str, typer.Option(help="Creepages (= SRR as a fraction): start:stop:count "
                                           "or a comma list; units allowed ('0 %:5 %:101').")]
     = "0:0.05:101",
+    lateral: Annotated[str, typer.Option(help="Lateral creepage (fraction) of every point; "
+                                         "non-zero: creep forces in three creepages.")] = "0",
+    spin: Annotated[str, typer.Option(help="Spin (1/m, units allowed: '0.5 1/m') of every "
+                                      "point; non-zero: creep forces in three creepages.")] = "0",
     force: ForceOpt = False,
 ) -> None:
     """Traction curve mu(creepage) at the scene's speed.
@@ -46,7 +51,8 @@ def traction_cmd(
     Writes traction.csv (creepage, mu, and where modelled mu_boundary, mu_ehl,
     load_share_asperity, film_thickness_m, max_temperature_C), traction.png/.svg
     (mu against creepage with the layer's limits mu_c1, mu_c2) and summary.json
-    (what was modelled, the trend after saturation, thesis H4.1).
+    (what was modelled, the trend after saturation, thesis H4.1).  With --lateral or
+    --spin (dry scenes): lateral, spin_1_m, Fx_N, Fy_N, Mz_Nm, mu_x, mu_y too (mu = mu_x).
     """
     from torlab.cli._common import parse_values
     from torlab.model.predict import predict_traction
@@ -57,9 +63,16 @@ def traction_cmd(
     files = require_files(scene, "scene")
     sc = load_scene(*files)
     xi = parse_values(creepage, "dimensionless", "--creepage")
+    eta = float(parse_values(lateral, "dimensionless", "--lateral")[0])
+    phi = float(parse_values(spin, "inverse_length", "--spin")[0])
     dest = OutputDir(out, force=force, inputs=files, command=command_line())
     with dest:
-        pred = predict_traction(sc, xi)
+        if eta or phi:
+            from torlab.model.creep import predict_creep
+
+            pred = predict_creep(sc, xi, eta, phi)
+        else:
+            pred = predict_traction(sc, xi)
         dest.write_csv("traction.csv", pred.table)
         summary = dict(pred.summary, creepage_range=[float(xi.min()), float(xi.max())],
                        n_points=int(xi.size))
@@ -140,3 +153,79 @@ def stribeck_cmd(
     console().print(f"mu from {s['mu_min']:.4g} to {s['mu_max']:.4g}; regimes: "
                     + ", ".join(f"{k} ({n} speeds)" for k, n in s["regimes"].items()))
     console().print(f"wrote stribeck.csv, stribeck.png, stribeck.svg, summary.json to {out}")
+
+
+@app.command("table")
+def table_cmd(
+    scene: ScenesArg,
+    out: OutOpt,
+    creepage: Annotated[str, typer.Option(help="Longitudinal-creepage axis (start:stop:count or "
+                                          "a list; >= 2 points).")] = "-0.01:0.01:21",
+    lateral: Annotated[str, typer.Option(help="Lateral-creepage axis.")] = "-0.01:0.01:21",
+    spin: Annotated[str, typer.Option(help="Spin axis (1/m; units allowed).")] = "-2:2:11",
+    speed: Annotated[str | None, typer.Option(help="Optional speed axis (m/s; units allowed): "
+                                              "changes the contact temperature.")] = None,
+    amount: Annotated[list[str] | None, typer.Option(
+        help="Amount axis: 'AMOUNT=PARAMS.yaml' per applied amount, e.g. '4 uL=p4.yaml' "
+        "(repeatable; the parameter file overrides the scene).")] = None,
+    normalised: Annotated[bool, typer.Option(help="Axes in Kalker's normalised creepages "
+                                             "xi*, eta*, phi* instead of fractions and 1/m.")]
+    = False,
+    force: ForceOpt = False,
+) -> None:
+    """Creep-force table over creepage x lateral x spin (x speed x amount) for a dry scene.
+
+    Writes creep_table.nc (netCDF3: axes, units, Kalker's normalisation, the scene's
+    provenance), creep_table.csv (one row per point) and summary.json.
+    """
+    from torlab.cli._common import parse_values
+    from torlab.model.creep_table import scene_creep_table
+    from torlab.outputs import OutputDir
+    from torlab.scene import load_scene
+
+    files = require_files(scene, "scene")
+    kinds = ("dimensionless", "dimensionless", "inverse_length") if not normalised else \
+        ("dimensionless",) * 3
+    axes = [parse_values(v, k, f"--{n}") for v, k, n in
+            zip((creepage, lateral, spin), kinds, ("creepage", "lateral", "spin"), strict=True)]
+    v = parse_values(speed, "velocity", "--speed") if speed is not None else None
+    pairs, unit, extra = _parse_amounts(amount or [])
+    amounts = [(a, load_scene(*files, p)) for a, p in pairs] if pairs else None
+    sc = load_scene(*files)
+    tab = scene_creep_table(sc, *axes, speed=v, amounts=amounts, amount_unit=unit,
+                            normalised=normalised, provenance={
+                                "scene_files": [str(f) for f in [*files, *extra]],
+                                "command": command_line()})
+    dest = OutputDir(out, force=force, inputs=[*files, *extra], command=command_line())
+    with dest:
+        names = tab.write(dest)
+        dims = dict(tab.dataset.sizes)
+        dest.write_json("summary.json", {"dims": dims, "notes": tab.notes,
+                                         "attributes": {k: v for k, v in tab.dataset.attrs.items()
+                                                        if isinstance(v, (str, int, float))}})
+    for n in tab.notes:
+        console().print(f"[yellow]note:[/yellow] {n}")
+    console().print(f"table {' x '.join(f'{k} {v}' for k, v in dims.items())}; wrote "
+                    f"{', '.join(names)}, summary.json to {out}")
+
+
+def _parse_amounts(items: Sequence[str]) -> tuple[list[tuple[float, Path]], str, list[Path]]:
+    """``'4 uL=params.yaml'`` items: ``([(4.0, Path)], 'uL', [Path])`` (one unit for all)."""
+    import re
+
+    from torlab.errors import TorlabInputError
+
+    pairs: list[tuple[float, Path]] = []
+    units = set()
+    for it in items:
+        m = re.fullmatch(r"\s*([+-]?\d+(?:\.\d*)?(?:[eE][+-]?\d+)?)\s*([^=]*?)\s*=\s*(.+)", it)
+        if not m:
+            raise TorlabInputError(f"{it!r}: write AMOUNT=PARAMS.yaml, e.g. '4 uL=p4.yaml'",
+                                   key="--amount")
+        units.add(m.group(2))
+        pairs.append((float(m.group(1)), Path(m.group(3).strip())))
+    if len(units) > 1:
+        raise TorlabInputError(f"amounts in different units {sorted(units)}: use one unit",
+                               key="--amount")
+    files = require_files([p for _, p in pairs], "parameter") if pairs else []
+    return [(a, f) for (a, _), f in zip(pairs, files, strict=True)], (units.pop() if units else ""), files

@@ -47,6 +47,12 @@ PARAM_UNITS: dict[str, str] = {
     "rig_compliance": "m/Pa",
     "mu_c1_Tref": "-",
     "mu_c2_Tref": "-",
+    # Polach's creep-force law (torlab.model.polach)
+    "mu0": "-",
+    "A": "-",
+    "B": "s/m",
+    "kA": "-",
+    "kS": "-",
 }
 
 #: keys of the scene contract's ``boundary:`` and ``lubricant:`` sections

@@ -20,10 +20,14 @@ _LAYOUT: dict[str, tuple[str, str, float, str, str, str, float, str, bool]] = {
              "film_thickness_model_m", "central film thickness h (nm)", 1e9, "residual_m", True),
     "viscosity": ("pressure_Pa", "pressure p (MPa)", 1e-6, "viscosity_measured_Pa_s",
                   "viscosity_model_Pa_s", "viscosity η (mPa·s)", 1e3, "residual_ln_eta", False),
+    "polach": ("creepage", "creepage ξ (%)", 100.0, "mu_torlab", "mu_polach",
+               "F/N: torlab (points), Polach (lines)", 1.0, "residual", False),
 }
 _RES_LABEL = {"layer_hpt": ("residual (MPa)", 1e-6), "layer_traction": ("residual μ (-)", 1.0),
               "temperature": ("residual μ (-)", 1.0), "film": ("residual (nm)", 1e9),
-              "viscosity": ("residual ln η (-)", 1.0)}
+              "viscosity": ("residual ln η (-)", 1.0), "polach": ("Polach - torlab (-)", 1.0)}
+#: legend names of the data and the model where they are not a measurement and a model
+_LEGEND = {"polach": ("torlab", "Polach")}
 
 
 def fit_figure(result: Any, title: str | None = None,
@@ -55,9 +59,11 @@ def fit_figure(result: Any, title: str | None = None,
         x = sub[xc].to_numpy() * xf
         order = np.argsort(x, kind="stable")
         lab = "" if g is None else f" {g}"
-        ax.plot(x, sub[ym].to_numpy() * yf, ".", ms=3, alpha=0.6, label=f"measured{lab}")
+        data_name, model_name = _LEGEND.get(result.kind, ("measured", "model"))
+        ax.plot(x, sub[ym].to_numpy() * yf, ".", ms=3, alpha=0.6, label=f"{data_name}{lab}")
         if model_curve is None or g is not None:
-            ax.plot(x[order], sub[ymod].to_numpy()[order] * yf, "-", lw=1.2, label=f"model{lab}")
+            ax.plot(x[order], sub[ymod].to_numpy()[order] * yf, "-", lw=1.2,
+                    label=f"{model_name}{lab}")
         else:
             ax.plot(np.asarray(model_curve[0]) * xf, np.asarray(model_curve[1]) * yf, "-", lw=1.2,
                     label="model")

@@ -1,0 +1,252 @@
+"""Polach's parameters from torlab's predicted creep forces of a measured product.
+
+A fitted TOR product (its third-body layer, and the temperature coefficients if the
+scene has ``thermal:``) gives torlab's creep forces (:mod:`torlab.model.creep`);
+:func:`fit_polach` finds Polach's ``mu0, A, B, kA, kS`` (:mod:`torlab.model.polach`)
+that reproduce them over a stated range of creepage and rolling speed, so the
+product's behaviour can be handed to any vehicle-dynamics code that accepts
+Polach's law.
+
+* Data: ``mu_x = Fx/N`` of torlab's model on the grid creepage x speed (longitudinal
+  creepage: where Polach's parameters are identified and where traction and braking
+  are decided), optionally with lateral creepage and spin points (then ``mu_y`` too).
+* Fit: bounded least squares (``scipy.optimize.least_squares``, trust-region
+  reflective) in ``mu0, A, B, kA, kS`` with ``0 < kA, kS <= 1``, ``A > 0``,
+  ``B >= 0``; start from the data (``mu0`` at the curve's maximum, ``kA = kS`` from the
+  initial slope against Kalker's, ``A`` from the fall after the maximum).
+* Uncertainty: the linearised covariance ``s^2 (J^T J)^-1``; it describes how well the
+  five numbers pin down torlab's curve, not a measurement's scatter (the data are a
+  model's, without noise): the intervals are those of the approximation.
+* Fit error: the curve (``data``: torlab, Polach, residual per point) and the numbers
+  (RMS and largest residual in ``mu``).  Polach's ``kS <= kA`` is checked.
+
+Without ``thermal:`` torlab's forces do not depend on speed, while Polach's depend
+on the slip velocity ``s V``: at several speeds the fit then compromises, which the
+residuals show; ``B`` is determined only where the curve falls after its maximum.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from torlab.errors import FitError, TorlabInputError
+from torlab.fit.result import FitResult, covariance_from_jacobian
+from torlab.model.creep import CreepGrid, CreepProblem, creep_forces
+from torlab.model.polach import PolachParams, polach_contact, polach_forces
+
+__all__ = ["NAMES", "fit_polach", "fit_polach_data", "polach_data"]
+
+NAMES = ("mu0", "A", "B", "kA", "kS")
+_LOWER = np.array([1e-4, 1e-3, 0.0, 1e-4, 1e-4])
+_UPPER = np.array([3.0, 5.0, 1e3, 1.0, 1.0])
+
+
+def polach_data(problem: CreepProblem, creepage: Any, speed: Any, *, lateral: Any = None,
+                spin: Any = None, grid: CreepGrid | None = None) -> Any:
+    """torlab's creep forces on the fit grid: a long DataFrame.
+
+    Columns ``creepage, lateral, spin_1_m, speed_m_s, mu_x, mu_y`` (``mu = F/N``); one
+    row per (creepage, speed), plus, where given, the lateral creepages and spins at
+    each creepage and speed.
+    """
+    from dataclasses import replace
+
+    import pandas as pd
+
+    xi = np.atleast_1d(np.asarray(creepage, dtype=float))
+    v = np.atleast_1d(np.asarray(speed, dtype=float))
+    if xi.size < 3:
+        raise TorlabInputError("a Polach fit needs at least three creepages", key="creepage")
+    if np.any(v <= 0) or not np.all(np.isfinite(v)):
+        raise TorlabInputError("speeds must be positive and finite", key="speed")
+    et = np.atleast_1d(np.asarray(lateral if lateral is not None else [0.0], dtype=float))
+    ph = np.atleast_1d(np.asarray(spin if spin is not None else [0.0], dtype=float))
+    X, E, P = (g.ravel() for g in np.meshgrid(xi, et, ph, indexing="ij"))
+    rows = []
+    for vv in v:
+        pv = replace(problem, speed=float(vv))
+        r = creep_forces(pv, X, E, P, grid)
+        rows.append(pd.DataFrame({"creepage": X, "lateral": E, "spin_1_m": P,
+                                  "speed_m_s": vv, "mu_x": r.mu_x, "mu_y": r.mu_y}))
+    return pd.concat(rows, ignore_index=True)
+
+
+def _start(df: Any, contact: Any) -> np.ndarray:
+    lon = df[(df["lateral"] == 0) & (df["spin_1_m"] == 0)]
+    v0 = lon["speed_m_s"].min()
+    c = lon[lon["speed_m_s"] == v0].sort_values("creepage")
+    x = c["creepage"].to_numpy()
+    y = np.abs(c["mu_x"].to_numpy())
+    k = int(np.argmax(y))
+    mu0 = max(float(y[k]), 1e-3)
+    kal = contact.G_C11 * contact.a * contact.b / contact.Q  # Kalker's slope of mu_x
+    pos = (x > 0) & (y < 0.3 * mu0)
+    slope = float(np.median(y[pos] / x[pos])) if pos.any() else kal
+    kk = float(np.clip(slope / kal, 1e-3, 1.0))
+    tail = y[-1] / mu0
+    A = float(np.clip(tail, 0.05, 1.0))
+    B = 0.0 if A > 0.98 else 1.0 / max(float(x[-1] * v0), 1e-6)
+    return np.array([mu0 * 1.02, A, B, kk, kk])
+
+
+def fit_polach(problem: CreepProblem, creepage: Any, speed: Any, *, lateral: Any = None,
+               spin: Any = None, grid: CreepGrid | None = None, source: str = "",
+               ordered: bool = True) -> FitResult:
+    """Fit Polach's ``mu0, A, B, kA, kS`` to torlab's creep forces of ``problem``.
+
+    Parameters
+    ----------
+    problem
+        The contact and the fitted product (:func:`torlab.model.creep.creep_problem`).
+    creepage
+        Longitudinal creepages of the fit range (fractions, >= 3 values).
+    speed
+        Rolling speeds (m/s) of the fit range.
+    lateral, spin
+        Optional lateral creepages and spins (1/m) added at each creepage and speed
+        (then ``mu_y`` is fitted too).
+    grid
+        Resolution of torlab's creep-force scheme.
+    source
+        Label for the provenance (scene name).
+    ordered
+        Keep Polach's ``kS <= kA`` (fitted as ``kA`` and ``kS/kA`` in (0, 1]); False lets
+        both range over (0, 1] (then a violation is reported).
+
+    Returns
+    -------
+    FitResult
+        ``kind="polach"``; ``data`` holds per point ``component, creepage, lateral,
+        spin_1_m, speed_m_s, curve, mu_torlab, mu_polach, residual``; ``meta`` the fit
+        range, the RMS and the largest residual.
+
+    Raises
+    ------
+    TorlabInputError
+        Too few creepages, bad speeds, spin without the contact shape.
+    FitError
+        The optimiser failed.
+    """
+    df = polach_data(problem, creepage, speed, lateral=lateral, spin=spin, grid=grid)
+    res = fit_polach_data(df, polach_contact(problem), source=source, ordered=ordered)
+    lay = problem.layer
+    if len(np.unique(df["speed_m_s"])) > 1 and (problem.thermal is None
+                                                 or (lay.mu_c1_T == 0 and lay.mu_c2_T == 0)):
+        res.warnings.append(
+            "torlab's forces do not depend on speed here (no thermal: section or zero "
+            "temperature coefficients) while Polach's depend on the slip velocity s V: the fit "
+            "compromises between the speeds (see the residuals per speed)")
+    return res
+
+
+def fit_polach_data(df: Any, contact: Any, *, source: str = "", ordered: bool = True
+                    ) -> FitResult:
+    """Fit Polach's law to creep forces given as a table (see :func:`polach_data`).
+
+    ``df`` has columns ``creepage, lateral, spin_1_m, speed_m_s, mu_x, mu_y`` (``mu = F/Q``);
+    ``contact`` is Polach's :class:`~torlab.model.polach.PolachContact`.  ``mu_y`` is
+    fitted where any lateral creepage or spin is non-zero.
+    """
+    import pandas as pd
+    from scipy.optimize import least_squares
+
+    N = contact.Q
+    use_y = bool(np.any(df["lateral"] != 0) or np.any(df["spin_1_m"] != 0))
+    X, E, P, V = (df[c].to_numpy() for c in ("creepage", "lateral", "spin_1_m", "speed_m_s"))
+    target = df["mu_x"].to_numpy()
+    if use_y:
+        target = np.concatenate([target, df["mu_y"].to_numpy()])
+    n_eval = [0]
+
+    def model(p: np.ndarray) -> np.ndarray:
+        n_eval[0] += 1
+        fx, fy = polach_forces(PolachParams(*p), contact, X, E, P, V)
+        out = fx / N
+        return np.concatenate([out, fy / N]) if use_y else out
+
+    def resid(p: np.ndarray) -> np.ndarray:
+        return model(p) - target
+
+    # internal parameters: kS as the fraction q = kS/kA when ordered
+    def to_p(t: np.ndarray) -> np.ndarray:
+        return np.array([t[0], t[1], t[2], t[3], t[4] * t[3] if ordered else t[4]])
+
+    x0 = _start(df, contact)
+    if ordered:
+        x0[4] = 1.0
+    x0 = np.clip(x0, _LOWER + 1e-9, _UPPER - 1e-9)
+
+    def resid_t(t: np.ndarray) -> np.ndarray:
+        return resid(to_p(t))
+
+    try:
+        sol = least_squares(resid_t, x0, bounds=(_LOWER, _UPPER), method="trf", x_scale="jac",
+                            xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=2000)
+    except (ValueError, FloatingPointError) as e:  # pragma: no cover - defensive
+        raise FitError(f"Polach fit failed: {e}") from None
+    if not np.all(np.isfinite(sol.x)):
+        raise FitError("Polach fit failed: non-finite parameters")
+    t = sol.x
+    p = to_p(t)
+    r = sol.fun
+    cov_t, _ = covariance_from_jacobian(sol.jac, r, len(NAMES))
+    # a parameter at its bound is held there by the constraint: its interval is not a
+    # least-squares one
+    at_bound = (np.abs(t - _LOWER) < 1e-8 * np.maximum(1, np.abs(_LOWER))) | \
+        (np.abs(t - _UPPER) < 1e-8 * np.maximum(1, np.abs(_UPPER)))
+    for i in np.flatnonzero(at_bound):
+        cov_t[i, :] = np.inf
+        cov_t[:, i] = np.inf
+    Jt = np.eye(len(NAMES))
+    if ordered:
+        Jt[4, 3], Jt[4, 4] = t[4], t[3]
+    with np.errstate(invalid="ignore"):
+        cov = Jt @ np.where(np.isfinite(cov_t), cov_t, 0.0) @ Jt.T
+    inf_rows = ~np.isfinite(np.diag(cov_t))
+    for i in range(len(NAMES)):
+        if np.any(inf_rows[np.flatnonzero(Jt[i])]):
+            cov[i, :] = np.inf
+            cov[:, i] = np.inf
+    warnings: list[str] = []
+    labels = list(NAMES[:4]) + (["kS/kA"] if ordered else ["kS"])
+    for i, n in enumerate(labels):
+        if at_bound[i]:
+            side = "lower" if abs(t[i] - _LOWER[i]) < abs(t[i] - _UPPER[i]) else "upper"
+            warnings.append(f"{n} not determined: held at its {side} bound {t[i]:.4g} "
+                            "(the fit would go beyond Polach's range)")
+    for i, n in enumerate(NAMES):
+        if at_bound[i] or (i == 4 and at_bound[4]):
+            continue
+        if not math.isfinite(cov[i, i]):
+            warnings.append(f"{n} not determined by torlab's curve over this range")
+        elif math.sqrt(cov[i, i]) > 0.5 * abs(p[i]) and p[i] != 0:
+            warnings.append(f"{n} poorly determined (standard error "
+                            f"{math.sqrt(cov[i, i]):.2g} for {p[i]:.4g})")
+    if not ordered and p[4] > p[3] * (1 + 1e-9):
+        warnings.append(f"kS = {p[4]:.3g} > kA = {p[3]:.3g}: outside Polach's kS <= kA <= 1 "
+                        "(the curve's initial slope is not split the way his law assumes)")
+    mod = model(p)
+    n = X.size
+    comps = ["x"] + (["y"] if use_y else [])
+    data = pd.concat([pd.DataFrame({
+        "component": c, "creepage": X, "lateral": E, "spin_1_m": P, "speed_m_s": V,
+        "curve": [f"v = {vv:g} m/s" for vv in V],
+        "mu_torlab": target[i * n:(i + 1) * n], "mu_polach": mod[i * n:(i + 1) * n],
+        "residual": r[i * n:(i + 1) * n]}) for i, c in enumerate(comps)], ignore_index=True)
+    dof = max(r.size - len(NAMES), 1)
+    meta = {"source": source, "creepage_range": [float(np.min(X)), float(np.max(X))],
+            "speed_range_m_s": [float(np.min(V)), float(np.max(V))],
+            "lateral_range": [float(np.min(E)), float(np.max(E))],
+            "spin_range_1_m": [float(np.min(P)), float(np.max(P))],
+            "max_abs_residual": float(np.max(np.abs(r))),
+            "rms_residual": float(math.sqrt(float(np.mean(r * r)))),
+            "components": comps, "model": "Polach 2005 (mu0, A, B, kA, kS), spin of Polach 1999",
+            "kS_le_kA_enforced": bool(ordered),
+            "optimizer": sol.message}
+    return FitResult.from_covariance(
+        "polach", NAMES, p, cov, dof=dof, residual_norm=float(math.sqrt(float(np.mean(r * r)))),
+        n_points=int(r.size), warnings=warnings, data=data, meta=meta, residual_unit="-",
+        n_evaluations=int(sol.nfev), x_column="creepage", y_column="mu_torlab")

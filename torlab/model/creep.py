@@ -1,0 +1,1519 @@
+"""Creep forces in longitudinal creepage, lateral creepage and spin: FASTSIM with the layer.
+
+Vehicle-dynamics codes take a creep-force law in the longitudinal creepage
+``xi``, the lateral creepage ``eta`` and the spin ``phi`` (1/m).  This module
+extends the longitudinal boundary model of :mod:`torlab.model.fastsim` (thesis
+5.2.2, Eqs. 5.14-5.30; model-notes section 3) to all three, keeping the
+third-body layer and the contact temperature.
+
+The model
+---------
+Elliptical Hertz contact, semi-axes ``a`` (rolling direction) and ``b``; a strip
+at lateral position ``y`` has half-length ``a(y) = a sqrt(1 - y^2/b^2)``; a
+particle enters at the leading edge ``x = a(y)`` with zero traction and travels
+the distance ``X = a(y) - x``.  The rigid slip (per unit rolling distance) is
+``w = (xi - phi y, eta + phi x)``.  Signs: the traction is the one the creepage
+drives, positive for positive creepage (torlab's ``mu``); Kalker's and CONTACT's
+forces are these with the sign reversed.
+
+* Elastic (stick): Kalker's simplified theory with three flexibilities
+  (Kalker 1982, Vehicle System Dynamics 11) and the layer's flexibility
+  ``L_mue/p`` (Eq. 5.28) in series with each of them::
+
+      d tau_x/dX = xi/(L1 + Le) - phi y/(L3 + Le)
+      d tau_y/dX = eta/(L2 + Le) + phi x/(L3 + Le),     Le = L_mue / p
+
+  ``L1 = 8a/(3 C11 G)``, ``L2 = 8a/(3 C22 G)``, ``L3 = pi a sqrt(a/b)/(4 C23 G)``
+  (:mod:`torlab.model.kalker`).  In the angle ``theta`` with
+  ``X = a(y)(1 - cos theta)``, ``p = P(y) sin theta`` the stick traction has a
+  closed form: ``tau_x = (xi a(y)/L1) e(theta; r1) - (phi y a(y)/L3) e(theta; r3)``,
+  ``tau_y = (eta a(y)/L2) e(theta; r2) + (phi a(y)^2/L3) G(sin theta; r3)`` with
+  ``e = integral sin^2/(sin + r)``, ``G(s) = integral_0^s x^2/(x + r) dx`` and
+  ``r_i = L_mue/(L_i P(y))``.
+* The particle yields where ``|tau|`` first reaches ``tau_c1 = mu_c1 p f1(T)``
+  (Eq. 5.26).  From then on its traction has the magnitude of the Voce limit
+  (Eq. 5.24 as the notes read it, 5.27)::
+
+      g = tau_c1 + (tau_c2 - tau_c1) (1 - exp(-kappa / L_mup)),
+      kappa = max(S(X) - tau_c1 (L_K + Le), 0),   S(X) = integral_0^X |w| dX'
+
+  ``S`` is the accumulated rigid slip (path length) and ``tau_c1 (L_K + Le)``
+  the elastic displacement at the limit, with Kalker's (1982) weighted
+  flexibility ``L_K = (|xi| L1 + |eta| L2 + c |phi| L3)/sqrt(xi^2 + eta^2 + c^2 phi^2)``,
+  ``c = sqrt(ab)``.  With ``eta = phi = 0`` this is exactly the longitudinal
+  ``kappa = xi X - tau_c1 L`` of :mod:`torlab.model.fastsim`.
+* Its direction is FASTSIM's: the direction of the trial traction (the traction
+  plus the elastic increment), whose continuous limit is
+  ``d psi/d theta = (n . T)/g`` with ``T = d tau_el/d theta`` and ``n`` the
+  normal to the traction.
+* A yielded particle stays on the limit while it is loaded (the thesis: "the
+  state stays plastic"); when the rigid slip turns against its traction (spin)
+  it unloads elastically and sticks again until its traction reaches the limit
+  once more: ``restick="thesis"`` (default).  ``restick="kalker"`` is FASTSIM's
+  own rule (stick whenever the trial traction is inside the limit), which is the
+  same for a Coulomb contact in pure creepage and is what CONTACT computes.
+
+``Fx = integral tau_x dA``, ``Fy = integral tau_y dA``,
+``Mz = integral (x tau_y - y tau_x) dA``.  With ``eta = phi = 0`` the model is the
+longitudinal one of :func:`torlab.model.fastsim.boundary_traction`.
+
+The numerical scheme
+--------------------
+* Strips: ``y = b sin(phi_s)``.  Without spin the Gauss nodes of each half contact
+  (``n`` per half, mirrored: the longitudinal model's strips); with spin 8 equal
+  panels in ``phi_s`` with 4 Gauss strips each, because spin makes the strip forces
+  kink across the contact, which low-order panels integrate better.
+* First yield: a table of ``|tau_el| - tau_c1`` at 64 angles per strip brackets
+  the first crossing (spin can make ``|tau_el|/tau_c1`` non-monotone); a safeguarded
+  Newton iteration from the regula-falsi point (bisection whenever a step leaves the
+  bracket) converges to 1e-13 rad.  The end of the clamped zone (``kappa`` turning
+  positive) is found the same way.
+* Panels: the elastic zone in 8 Gauss panels; the plastic zone in a clamp panel,
+  6 panels graded with the Voce length ``L_mup/|w|`` from the clamp end (as in the
+  longitudinal scheme) and 16 uniform panels, 3 nodes each.  The stick traction and
+  the slip path ``S`` at the nodes are integrated panel by panel from ``T`` (explicit),
+  with each panel's integration matrix through its ends and Gauss nodes.
+* The traction is marched through the nodes of the plastic panels.  The
+  magnitude is the explicit limit ``g``.  The direction over a step is the
+  exact solution of ``d chi/d theta = -(k sin chi + beta')`` (``chi`` the angle
+  between the traction and ``T``, ``k = |T|/g`` averaged over the step,
+  ``beta'`` the turning rate of ``T`` over the step), a Riccati equation solved
+  as a 2x2 linear system and applied as a Moebius map of ``exp(i psi)``: second
+  order, and exact in the stiff limit where the traction trails the slip direction
+  by ``beta'/k``.  Stick and slip switch at the nodes (FASTSIM's test on the trial
+  traction ``tau + Delta tau_el``, the increment exact).
+* Symmetries: ``(-xi, eta, phi)`` reverses ``Fx``, ``(xi, -eta, -phi)`` reverses
+  ``Fy`` and ``Mz``; each distinct triple is solved once (:func:`canonical_creepages`).
+* Temperature: as in :mod:`torlab.model.fastsim` (flash temperature on 48
+  uniform angles per strip, heat flux ``|tau| |w| v`` with the rigid slip
+  ``w``, or zero in stick with ``slip_velocity: local``; an adaptively
+  under-relaxed fixed point to ``thermal.tolerance``, or
+  :class:`~torlab.errors.ConvergenceError`).
+
+:func:`creep_forces_reference` integrates the same model without a grid (an ODE
+per strip with event location, adaptive quadrature across the strips) for tests
+and the benchmark.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, field
+from functools import cache, lru_cache
+from typing import Any, Literal
+
+import numpy as np
+
+from torlab.errors import ConvergenceError, NumericalError, TorlabInputError
+from torlab.model.fastsim import FastsimProblem, ThermalParams, e_strip, flash_temperature_matrix
+from torlab.model.layer import LayerParams
+
+__all__ = [
+    "CreepGrid",
+    "CreepProblem",
+    "CreepResult",
+    "canonical_creepages",
+    "creep_forces",
+    "creep_forces_reference",
+    "creep_problem",
+    "kalker_weighted_flexibility",
+    "naive_creep_forces",
+    "predict_creep",
+]
+
+Restick = Literal["thesis", "kalker"]
+Bound = Literal["elliptic", "parabolic"]
+
+
+# -------------------------------------------------------------------------------------------
+# problem definition
+# -------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class CreepGrid:
+    """Resolution of the creep-force scheme.
+
+    Attributes
+    ----------
+    n
+        Gauss strips per half contact (``2 n`` strips) without spin.
+    spin_panels, spin_strips
+        With spin: equal panels in ``phi`` (``y = b sin phi``) over the contact and
+        Gauss strips per panel.  Spin makes the strip forces kink across the
+        contact (where the stick/slip pattern of the strips changes), which
+        low-order panels integrate better than one high-order rule.
+    m
+        Gauss nodes per panel along a strip.
+    elastic_panels, clamp_panels, graded_panels, uniform_panels
+        Panels of the elastic zone, the clamped zone, the Voce-graded start of
+        the plastic zone and the rest of it.
+    yield_table
+        Angles per strip of the table that brackets the first yield.
+    temperature_nodes
+        Nodes per strip of the temperature grid.
+    """
+
+    n: int = 6
+    spin_panels: int = 8
+    spin_strips: int = 4
+    m: int = 3
+    elastic_panels: int = 8
+    clamp_panels: int = 1
+    graded_panels: int = 6
+    uniform_panels: int = 16
+    yield_table: int = 64
+    temperature_nodes: int = 48
+
+
+@dataclass(frozen=True)
+class CreepProblem:
+    """Everything the creep-force model needs, SI units.
+
+    Attributes
+    ----------
+    a, b
+        Semi-axes (m), ``a`` in the rolling direction.
+    p0
+        Maximum Hertz pressure (Pa).
+    L1, L2, L3
+        Kalker's flexibilities (m/Pa) for longitudinal, lateral creepage and
+        spin; ``L2``/``L3`` may be None when the contact's shape and elastic
+        constants are unknown: then only the creepages they do not need can
+        be computed.
+    layer
+        Third-body layer parameters.
+    speed
+        Rolling speed (m/s), needed with ``thermal``.
+    ambient_temperature
+        ``T_A`` (degC).
+    thermal
+        Flash-temperature model, or None.
+    traction_bound
+        ``elliptic`` (Hertz pressure, the thesis) or ``parabolic`` (Kalker's
+        FASTSIM bound ``p = 2N/(pi a b)(1 - x^2/a^2 - y^2/b^2)``, for comparisons
+        with FASTSIM codes; only without layer flexibility, ``L_mue = 0``).
+    restick
+        ``thesis`` (a yielded particle stays on the limit while loaded) or
+        ``kalker`` (FASTSIM's rule); see the module docstring.
+    """
+
+    a: float
+    b: float
+    p0: float
+    L1: float
+    layer: LayerParams
+    L2: float | None = None
+    L3: float | None = None
+    speed: float = 1.0
+    ambient_temperature: float = 20.0
+    thermal: ThermalParams | None = None
+    traction_bound: Bound = "elliptic"
+    restick: Restick = "thesis"
+
+    @property
+    def load(self) -> float:
+        """Normal load ``2 pi a b p0 / 3`` (N)."""
+        return 2.0 * math.pi * self.a * self.b * self.p0 / 3.0
+
+    @classmethod
+    def from_fastsim(cls, prob: FastsimProblem, *, L2: float | None = None,
+                     L3: float | None = None, **kw: Any) -> CreepProblem:
+        """The creep problem of a longitudinal :class:`FastsimProblem` plus ``L2``, ``L3``."""
+        return cls(a=prob.a, b=prob.b, p0=prob.p0, L1=prob.L1, L2=L2, L3=L3, layer=prob.layer,
+                   speed=prob.speed, ambient_temperature=prob.ambient_temperature,
+                   thermal=prob.thermal, **kw)
+
+
+@dataclass
+class CreepResult:
+    """Creep forces over a set of creepage triples (arrays of the broadcast input shape).
+
+    Attributes
+    ----------
+    creepage, lateral, spin
+        The creepages as given (fractions; spin in 1/m).
+    Fx, Fy
+        Tangential forces (N), positive along positive creepage.
+    Mz
+        Spin moment about the contact centre (N m).
+    mu_x, mu_y
+        ``Fx/N``, ``Fy/N``.
+    adhesion_fraction
+        Fraction of the load carried in stick.
+    max_temperature_C, temperature_iterations, temperature_loop
+        As in :class:`~torlab.model.fastsim.BoundaryResult`.
+    load
+        Normal load N (N).
+    notes
+        Messages for the user.
+    """
+
+    creepage: np.ndarray
+    lateral: np.ndarray
+    spin: np.ndarray
+    Fx: np.ndarray
+    Fy: np.ndarray
+    Mz: np.ndarray
+    mu_x: np.ndarray
+    mu_y: np.ndarray
+    adhesion_fraction: np.ndarray
+    load: float
+    max_temperature_C: np.ndarray | None = None
+    temperature_iterations: np.ndarray | None = None
+    temperature_loop: str = "off"
+    notes: list[str] = field(default_factory=list)
+
+    def table(self) -> Any:
+        """Long DataFrame: ``creepage, lateral, spin_1_m, Fx_N, Fy_N, Mz_Nm, mu_x, mu_y, ...``."""
+        import pandas as pd
+
+        d = {"creepage": self.creepage.ravel(), "lateral": self.lateral.ravel(),
+             "spin_1_m": self.spin.ravel(), "Fx_N": self.Fx.ravel(), "Fy_N": self.Fy.ravel(),
+             "Mz_Nm": self.Mz.ravel(), "mu_x": self.mu_x.ravel(), "mu_y": self.mu_y.ravel(),
+             "adhesion_fraction": self.adhesion_fraction.ravel()}
+        if self.max_temperature_C is not None:
+            d["max_temperature_C"] = self.max_temperature_C.ravel()
+        return pd.DataFrame(d)
+
+
+def kalker_weighted_flexibility(prob: CreepProblem, xi: Any, eta: Any, phi: Any) -> np.ndarray:
+    """Kalker's (1982) single weighted flexibility ``(|xi| L1 + |eta| L2 + c|phi| L3)/|v|``.
+
+    ``|v| = sqrt(xi^2 + eta^2 + c^2 phi^2)``, ``c = sqrt(ab)``; ``L1`` where all
+    creepages vanish.  Used for the elastic displacement at the limit in the Voce
+    slip ``kappa``.
+    """
+    xi, eta, phi = (np.asarray(v, dtype=float) for v in (xi, eta, phi))
+    c = math.sqrt(prob.a * prob.b)
+    L2 = prob.L2 if prob.L2 is not None else prob.L1
+    L3 = prob.L3 if prob.L3 is not None else prob.L1
+    num = np.abs(xi) * prob.L1 + np.abs(eta) * L2 + c * np.abs(phi) * L3
+    den = np.sqrt(xi * xi + eta * eta + (c * phi) ** 2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = np.where(den > 0, num / np.where(den > 0, den, 1.0), prob.L1)
+    return out
+
+
+def creep_problem(scene: Any, contact: Any = None) -> CreepProblem:
+    """The :class:`CreepProblem` of a (dry) scene: Hertz patch, C11, C22, C23, layer, thermal.
+
+    Raises
+    ------
+    TorlabInputError
+        The scene has no ``boundary:`` section or is lubricated (the creep-force
+        model is the dry/third-body boundary model; a film's contribution is not
+        modelled in three creepages).
+    """
+    import warnings
+
+    from torlab.model.contact import build_contact
+    from torlab.model.kalker import C22, C23, L2, L3, ExtremeContactWarning
+    from torlab.model.predict import fastsim_problem
+
+    if scene.boundary is None:
+        raise TorlabInputError("creep forces need a boundary: section (mu_c1, mu_c2, L_mue, L_mup)",
+                               key="boundary")
+    if scene.lubricant is not None:
+        raise TorlabInputError("creep forces in lateral creepage and spin are modelled for dry "
+                               "(third-body layer) scenes only: remove the lubricant: section or "
+                               "use 'torlab predict traction' for the longitudinal mixed model",
+                               key="lubricant")
+    contact = contact or build_contact(scene)
+    prob = fastsim_problem(scene, contact)
+    p = contact.patch
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ExtremeContactWarning)  # build_contact noted it
+        c22 = C22(p.a / p.b, contact.nu)
+        c23 = C23(p.a / p.b, contact.nu)
+    return CreepProblem.from_fastsim(prob, L2=L2(p.a, c22, contact.G), L3=L3(p.a, p.b, c23, contact.G))
+
+
+def scene_grid(scene: Any) -> CreepGrid:
+    """The creep-force grid of a scene's ``grid:`` section.
+
+    ``n`` (strips per half contact without spin) and ``temperature_nodes`` carry over;
+    the nodes along a strip are the creep scheme's own (:class:`CreepGrid`), whose
+    panels differ from the longitudinal scheme's.
+    """
+    g = scene.grid
+    return CreepGrid(n=g.n, temperature_nodes=g.temperature_nodes)
+
+
+def predict_creep(scene: Any, creepage: Any, lateral: float = 0.0, spin: float = 0.0) -> Any:
+    """Creep forces of a dry scene along a creepage curve at a lateral creepage and a spin.
+
+    Parameters
+    ----------
+    scene
+        A validated dry :class:`~torlab.scene.Scene` (``boundary:``, no ``lubricant:``).
+    creepage
+        Longitudinal creepages (fractions).
+    lateral, spin
+        Lateral creepage (fraction) and spin (1/m), the same for every point.
+
+    Returns
+    -------
+    torlab.model.predict.TractionPrediction
+        ``table`` with the scene contract's ``creepage`` and ``mu`` (= ``mu_x``) and
+        ``lateral, spin_1_m, mu_x, mu_y, Fx_N, Fy_N, Mz_Nm, adhesion_fraction``
+        (``max_temperature_C`` with ``thermal:``).
+    """
+    from torlab.model.contact import build_contact
+    from torlab.model.predict import TractionPrediction, classify_trend
+
+    xi = np.atleast_1d(np.asarray(creepage, dtype=float))
+    contact = build_contact(scene)
+    prob = creep_problem(scene, contact)
+    r = creep_forces(prob, xi, lateral, spin, scene_grid(scene))
+    table = r.table()
+    table.insert(1, "mu", r.mu_x)
+    loop = {"off": "contact temperature: not modelled (no thermal: section)",
+            "single pass": "contact temperature: computed once, no tau-T loop",
+            "iterated": "contact temperature: coupled to the limits, iterated to convergence"}
+    modelled = [f"Hertz contact ({contact.patch.method})",
+                "boundary friction: FASTSIM with the third-body layer in longitudinal creepage, "
+                "lateral creepage and spin (Kalker's three flexibilities; Voce limit)",
+                "EHL film: not modelled (dry scene, no lubricant:)",
+                loop[r.temperature_loop]]
+    trend = classify_trend(xi, r.mu_x)
+    from torlab import __version__
+
+    summary = {"torlab_version": __version__, "scene": scene.name, "contact": contact.summary(),
+               "modelled": modelled, "notes": list(contact.notes),
+               "lateral": float(lateral), "spin_1_m": float(spin),
+               "flexibilities_m_Pa": {"L1": prob.L1, "L2": prob.L2, "L3": prob.L3},
+               "mu_max": float(np.max(np.hypot(r.mu_x, r.mu_y))),
+               "trend_after_saturation": trend, "boundary": scene.boundary.model_dump()}
+    return TractionPrediction(table=table, contact=contact, modelled=modelled, trend=trend,
+                              summary=summary)
+
+
+# -------------------------------------------------------------------------------------------
+# closed forms along a strip
+# -------------------------------------------------------------------------------------------
+@cache
+def _gauss(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss-Legendre nodes and weights on [0, 1]."""
+    x, w = np.polynomial.legendre.leggauss(n)
+    return 0.5 * (x + 1.0), 0.5 * w
+
+
+@cache
+def _gauss_integration(n: int) -> np.ndarray:
+    """Integration matrix of a panel from its start to its ``n`` Gauss nodes.
+
+    ``S[k, :] @ [f(0), f(x_1) ... f(x_n), f(1)]`` integrates the interpolant of ``f``
+    through the panel's two ends and its Gauss nodes from 0 to ``x_k`` (order ``n + 2``).
+    """
+    x, _ = _gauss(n)
+    pts = np.concatenate([[0.0], x, [1.0]])
+    k = pts.size
+    coef = np.linalg.inv(np.vander(pts, k, increasing=True))  # l_j(x) = sum_i coef[i, j] x^i
+    powers = np.arange(1, k + 1)
+    P = x[:, None] ** powers[None, :] / powers[None, :]  # integral_0^{x_k} x^i dx
+    return P @ coef
+
+
+@cache
+def _panel_strips(panels: int, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Strips of ``panels`` equal panels in ``phi`` over (-pi/2, pi/2), ``n`` Gauss nodes each."""
+    x, w = _gauss(n)
+    edges = np.linspace(-0.5 * math.pi, 0.5 * math.pi, panels + 1)
+    h = np.diff(edges)
+    ph = (edges[:-1, None] + h[:, None] * x[None, :]).ravel()
+    ww = (h[:, None] * w[None, :]).ravel()
+    return np.sin(ph), np.cos(ph), ww
+
+
+@cache
+def _strips(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``sin phi``, ``cos phi`` and weights of the strips over the whole contact (``y = b sin phi``).
+
+    The Gauss rule of each half, mirrored: with ``eta = phi = 0`` the two halves
+    give the same strips, so the longitudinal model is reproduced node for node.
+    """
+    x, w = _gauss(n)
+    ph = 0.5 * math.pi * x
+    ph = np.concatenate([-ph[::-1], ph])
+    ww = np.concatenate([w[::-1], w]) * 0.5 * math.pi
+    return np.sin(ph), np.cos(ph), ww
+
+
+def _G(s: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """``G(s; r) = integral_0^s x^2/(x + r) dx = s^2/2 - r s + r^2 ln(1 + s/r)`` (series for s << r)."""
+    s, r = np.broadcast_arrays(np.asarray(s, dtype=float), np.asarray(r, dtype=float))
+    out = 0.5 * s * s
+    pos = r > 0
+    if pos.any():
+        ss, rr = s[pos], r[pos]
+        z = ss / rr
+        small = z < 0.1
+        val = np.empty(ss.shape)
+        if small.any():
+            zz = z[small]
+            acc = np.zeros(zz.shape)
+            for k in range(3, 20):
+                acc += (-1) ** (k + 1) * zz**k / k
+            val[small] = rr[small] ** 2 * acc
+        big = ~small
+        if big.any():
+            val[big] = 0.5 * ss[big] ** 2 - rr[big] * ss[big] + rr[big] ** 2 * np.log1p(z[big])
+        out[pos] = val
+    return out
+
+
+def _q(st: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """``sin^2/(sin + r)``, the derivative of ``e(theta; r)``."""
+    return st * st / (st + r) if np.any(r) else st
+
+
+def _e(theta: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """``e(theta; r)`` (:func:`torlab.model.fastsim.e_strip`); ``1 - cos`` when ``r = 0``."""
+    if not np.any(r):
+        return 2.0 * np.sin(0.5 * np.asarray(theta, dtype=float)) ** 2 + 0.0 * r
+    return e_strip(theta, r)
+
+
+def _interp_uniform(theta: np.ndarray, grid_T: np.ndarray) -> np.ndarray:
+    """Linear interpolation in ``theta`` of values on uniform nodes over [0, pi] (last axis)."""
+    nT = grid_T.shape[-1]
+    pos = np.clip(theta / math.pi * (nT - 1), 0.0, nT - 1 - 1e-12)
+    i0 = pos.astype(int)
+    f = pos - i0
+    lo = np.take_along_axis(grid_T, i0, axis=-1)
+    hi = np.take_along_axis(grid_T, i0 + 1, axis=-1)
+    return lo + f * (hi - lo)
+
+
+# -------------------------------------------------------------------------------------------
+# the solver
+# -------------------------------------------------------------------------------------------
+@lru_cache(maxsize=16)
+def _tables(prob: CreepProblem, grid: CreepGrid, spin: bool, lateral: bool
+            ) -> tuple[np.ndarray, tuple[np.ndarray, ...], np.ndarray, tuple[np.ndarray, ...]]:
+    """Closed forms ``e(theta; r1..3)``, ``G(sin theta; r3)`` at the yield table's and the
+    temperature grid's angles, per strip: they depend on the problem only, not the creepages."""
+    ln = _Lanes(prob, grid, np.zeros(1), np.full(1, float(lateral)), np.full(1, float(spin)))
+    tab = np.linspace(0.0, math.pi, grid.yield_table + 1)[1:]
+    thT, _ = flash_temperature_matrix(grid.temperature_nodes)
+    shape = ln.Pj[..., None].shape
+    ex_tab = ln._ex(np.broadcast_to(tab, shape[:-1] + tab.shape))
+    ex_T = ln._ex(np.broadcast_to(thT, shape[:-1] + thT.shape))
+    return tab, ex_tab, thT, ex_T
+
+
+class _Lanes:
+    """Per (case, strip) constants; arrays (nc, ns) and closed forms at angles (nc, ns, k)."""
+
+    def __init__(self, prob: CreepProblem, grid: CreepGrid, xi: np.ndarray, eta: np.ndarray,
+                 phi: np.ndarray) -> None:
+        self.prob, self.grid = prob, grid
+        lay = prob.layer
+        self.spin = bool(np.any(phi != 0))
+        self.lateral = bool(np.any(eta != 0))
+        if self.spin:
+            sphi, cphi, wy = _panel_strips(grid.spin_panels, grid.spin_strips)
+        else:
+            sphi, cphi, wy = _strips(grid.n)
+        self.wy = wy
+        self.cphi = cphi[None, :]
+        self.y = prob.b * sphi[None, :]
+        self.aj = prob.a * self.cphi
+        parabolic = prob.traction_bound == "parabolic"
+        self.parabolic = parabolic
+        if parabolic:
+            self.Pj = (4.0 / 3.0) * prob.p0 * self.cphi**2  # 2N/(pi a b) (1 - y^2/b^2)
+        else:
+            self.Pj = prob.p0 * self.cphi
+        self.xi, self.eta, self.phi = xi[:, None], eta[:, None], phi[:, None]
+        L1 = prob.L1
+        L2 = prob.L2 if prob.L2 is not None else L1
+        L3 = prob.L3 if prob.L3 is not None else L1
+        self.L = (L1, L2, L3)
+        zero = np.zeros_like(self.Pj)
+        if lay.L_mue > 0:
+            self.r = tuple(lay.L_mue / (Li * self.Pj) for Li in self.L)
+        else:
+            self.r = (zero, zero, zero)
+        aj = self.aj
+        self.Ax1 = self.xi * aj / L1
+        self.Ax3 = -self.phi * self.y * aj / L3
+        self.Ay2 = self.eta * aj / L2
+        self.Ay3 = self.phi * aj * aj / L3
+        self.wx = self.xi - self.phi * self.y
+        self.LK = kalker_weighted_flexibility(prob, xi, eta, phi)[:, None]
+
+    # -- closed forms ---------------------------------------------------------------------
+    def _ex(self, theta: np.ndarray, cache: dict | None = None) -> tuple[np.ndarray, ...]:
+        """``e(theta; r1), e(theta; r2), e(theta; r3), G(sin theta; r3)`` broadcast with theta."""
+        r1, r2, r3 = (r[..., None] if theta.ndim == 3 else r for r in self.r)
+        e1 = _e(theta, r1)
+        e2 = e1 if r2 is r1 or (self.L[1] == self.L[0]) or not self.lateral else _e(theta, r2)
+        e3 = e1 if (self.L[2] == self.L[0]) or not self.spin else _e(theta, r3)
+        G3 = _G(np.sin(theta), r3) if self.spin else 0.0 * e1
+        return e1, e2, e3, G3
+
+    def _coef(self, ndim: int) -> tuple[np.ndarray, ...]:
+        if ndim == 3:
+            return (self.Ax1[..., None], self.Ax3[..., None], self.Ay2[..., None],
+                    self.Ay3[..., None])
+        return self.Ax1, self.Ax3, self.Ay2, self.Ay3
+
+    def tau_el(self, theta: np.ndarray, ex: tuple[np.ndarray, ...] | None = None
+               ) -> tuple[np.ndarray, np.ndarray]:
+        """Stick traction ``(tau_x, tau_y)`` at angles ``theta`` from the leading edge."""
+        e1, e2, e3, G3 = ex if ex is not None else self._ex(theta)
+        Ax1, Ax3, Ay2, Ay3 = self._coef(np.ndim(theta) if np.ndim(theta) == 3 else 2)
+        tx = Ax1 * e1 + Ax3 * e3
+        ty = Ay2 * e2 + Ay3 * G3
+        return tx, ty
+
+    def T(self, theta: np.ndarray, st: np.ndarray | None = None, ct: np.ndarray | None = None
+          ) -> tuple[np.ndarray, np.ndarray]:
+        """``d tau_el / d theta`` at angles of shape (nc, ns, ...) (sin, cos if known)."""
+        extra = (None,) * (np.ndim(theta) - 2)
+        r1, r2, r3 = (r[(..., *extra)] for r in self.r)
+        st = np.sin(theta) if st is None else st
+        q1 = _q(st, r1)
+        q2 = q1 if (self.L[1] == self.L[0]) or not self.lateral else _q(st, r2)
+        q3 = q1 if (self.L[2] == self.L[0]) or not self.spin else _q(st, r3)
+        Ax1, Ax3, Ay2, Ay3 = (c[(..., *extra)] for c in (self.Ax1, self.Ax3, self.Ay2, self.Ay3))
+        tx = Ax1 * q1 if not self.spin else Ax1 * q1 + Ax3 * q3
+        if self.spin:
+            ty = Ay2 * q2 + Ay3 * (np.cos(theta) if ct is None else ct) * q3
+        else:
+            ty = Ay2 * q2
+        return tx, ty
+
+    def panels(self, edges: np.ndarray, m: int, tx0: np.ndarray, ty0: np.ndarray,
+               S0: np.ndarray | None = None) -> dict[str, np.ndarray]:
+        """Gauss nodes of the panels ``edges`` (nc, ns, P+1) and the stick traction there.
+
+        The traction (and, given ``S0``, the accumulated rigid slip) is integrated from its
+        value at ``edges[..., 0]``: panel by panel with the Gauss weights (order 2m), inside a
+        panel with the Gauss integration matrix (order m) -- from ``T`` at the nodes, which
+        the march needs anyway.
+        """
+        x, w = _gauss(m)
+        Sm = _gauss_integration(m)
+        lo, hv = edges[..., :-1, None], np.diff(edges, axis=-1)[..., None]
+        th = lo + hv * x  # (nc, ns, P, m)
+        st, ct = np.sin(th), np.cos(th)
+        Tx, Ty = self.T(th, st, ct)
+        se, ce = np.sin(edges), np.cos(edges)
+        Tex, Tey = self.T(edges, se, ce)
+
+        def flat(a):
+            return a.reshape(*a.shape[:2], -1)
+
+        out = {"theta": flat(th), "weight": flat(hv * w), "st": flat(st), "ct": flat(ct)}
+
+        def cum(f, fe, f0):
+            allp = np.concatenate([fe[..., :-1, None], f, fe[..., 1:, None]], axis=-1)
+            within = np.einsum("kj,...j->...k", Sm, allp) * hv
+            total = np.sum(f * w, axis=-1) * hv[..., 0]
+            start = f0[..., None] + np.concatenate(
+                [np.zeros((*f0.shape, 1)), np.cumsum(total, axis=-1)[..., :-1]], axis=-1)
+            return (start[..., None] + within).reshape(*f.shape[:2], -1)
+
+        out["tx"] = cum(Tx, Tex, tx0)
+        out["ty"] = cum(Ty, Tey, ty0)
+        out["Tx"] = flat(Tx)
+        out["Ty"] = flat(Ty)
+        if S0 is not None:
+            dS = self.rigid_slip(th, ct) * self.aj[..., None, None] * st
+            dSe = self.rigid_slip(edges, ce) * self.aj[..., None] * se
+            out["S"] = cum(dS, dSe, S0)
+        return out
+
+    def tau_cumulative(self, pts: np.ndarray, tx0: np.ndarray, ty0: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray]:
+        """Stick traction at increasing angles ``pts`` (last axis) from its value at ``pts[..., 0]``.
+
+        ``tau_el(t_k) = tau_el(t_0) + sum of integral_{t_j}^{t_j+1} T``, each interval by a
+        4-point Gauss rule on the explicit, analytic ``T`` (exact to ~1e-10 on the short
+        intervals between the nodes), without the closed forms' logarithms.
+        """
+        x, w = _gauss(4)
+        lo = pts[..., :-1, None]
+        h = np.diff(pts, axis=-1)[..., None]
+        Tx, Ty = self.T(lo + h * x)  # (nc, ns, k-1, 6): broadcast in T via ndim 4
+        ix = np.sum(Tx * w, axis=-1) * h[..., 0]
+        iy = np.sum(Ty * w, axis=-1) * h[..., 0]
+        tx = np.concatenate([tx0[..., None], tx0[..., None] + np.cumsum(ix, axis=-1)], axis=-1)
+        ty = np.concatenate([ty0[..., None], ty0[..., None] + np.cumsum(iy, axis=-1)], axis=-1)
+        return tx, ty
+
+    def pressure(self, theta: np.ndarray, st: np.ndarray | None = None) -> np.ndarray:
+        P = self.Pj[(..., *(None,) * (np.ndim(theta) - 2))]
+        st = np.sin(theta) if st is None else st
+        return P * (st * st if self.parabolic else st)
+
+    def dpressure(self, theta: np.ndarray) -> np.ndarray:
+        P = self.Pj[..., None] if np.ndim(theta) == 3 else self.Pj
+        return P * (2.0 * np.sin(theta) * np.cos(theta) if self.parabolic else np.cos(theta))
+
+    def slip_path(self, theta: np.ndarray) -> np.ndarray:
+        """``S = integral_0^X |w| dX'``, the accumulated rigid slip (closed form)."""
+        ex3 = np.ndim(theta) == 3
+        aj = self.aj[..., None] if ex3 else self.aj
+        wx = np.abs(self.wx[..., None] if ex3 else self.wx)
+        eta = self.eta[..., None] if ex3 else self.eta
+        phi = self.phi[..., None] if ex3 else self.phi
+        X = aj * (1.0 - np.cos(theta))
+        x1 = aj - X
+        z0 = eta + phi * aj
+        z1 = eta + phi * x1
+        zm = eta + phi * (aj - 0.5 * X)
+
+        def absw(z):
+            return np.sqrt(wx * wx + z * z)
+
+        simpson = X / 6.0 * (absw(z0) + 4.0 * absw(zm) + absw(z1))
+        small = np.abs(phi) * X <= 1e-4 * (wx + np.abs(zm))
+        if not self.spin or np.all(small):
+            return simpson
+
+        def H(z):
+            R = absw(z)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ash = np.where(wx > 0, wx * wx * np.arcsinh(z / np.where(wx > 0, wx, 1.0)), 0.0)
+            return 0.5 * (z * R + ash)
+
+        with np.errstate(divide="ignore", invalid="ignore"):
+            closed = (H(z0) - H(z1)) / np.where(phi != 0, phi, 1.0)
+        return np.where(small, simpson, closed)
+
+    def rigid_slip(self, theta: np.ndarray, ct: np.ndarray | None = None) -> np.ndarray:
+        """``|w|`` at angles ``theta`` of shape (nc, ns, ...) (cos theta if known)."""
+        ex = (..., *(None,) * (np.ndim(theta) - 2))
+        ct = np.cos(theta) if ct is None else ct
+        wy = self.eta[ex] + self.phi[ex] * self.aj[ex] * ct
+        wx = self.wx[ex]
+        return np.sqrt(wx * wx + wy * wy)
+
+    def limits(self, theta: np.ndarray, dT: np.ndarray | float, S: np.ndarray | None = None,
+               st: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """``(tau_c1, g)``: the elastic limit and the Voce limit at angles ``theta``.
+
+        ``S`` is the accumulated rigid slip there (closed form when not given).
+        """
+        lay = self.prob.layer
+        p = self.pressure(theta, st)
+        f1 = np.exp(lay.mu_c1_T * dT) if lay.mu_c1_T else 1.0
+        f2 = np.exp(lay.mu_c2_T * dT) if lay.mu_c2_T else 1.0
+        t1 = lay.mu_c1 * p * f1
+        t2 = lay.mu_c2 * p * f2
+        LK = self.LK[(..., *(None,) * (np.ndim(theta) - 2))]
+        S = self.slip_path(theta) if S is None else S
+        kap = S - lay.mu_c1 * f1 * (LK * p + lay.L_mue)
+        if lay.L_mup > 0:
+            decay = np.exp(-np.maximum(kap, 0.0) / lay.L_mup)
+        else:
+            decay = np.where(kap > 0, 0.0, 1.0)
+        return t1, t2 - (t2 - t1) * decay
+
+    def kappa(self, theta: np.ndarray, dT: np.ndarray | float) -> np.ndarray:
+        lay = self.prob.layer
+        p = self.pressure(theta)
+        f1 = np.exp(lay.mu_c1_T * dT) if lay.mu_c1_T else 1.0
+        LK = self.LK[..., None] if np.ndim(theta) == 3 else self.LK
+        return self.slip_path(theta) - lay.mu_c1 * f1 * (LK * p + lay.L_mue)
+
+
+def _first_root(f_table: np.ndarray, grid: np.ndarray, start: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Bracket of the first sign change (- to +) of tabulated ``f`` after ``start``.
+
+    ``f_table`` (nc, ns, K) at ``grid`` (K,) angles in (0, pi].  Returns
+    ``(lo, hi, found)``; ``found`` False where ``f`` stays negative.
+    """
+    after = grid[None, None, :] > start[..., None]
+    pos = (f_table >= 0) & after
+    found = pos.any(axis=-1)
+    k = np.argmax(pos, axis=-1)
+    edges = np.r_[0.0, grid]
+    lo = np.maximum(edges[k], start)
+    hi = edges[k + 1]
+    return lo, hi, found
+
+
+def _newton_bracketed(f_and_df, lo: np.ndarray, hi: np.ndarray, found: np.ndarray,
+                      iters: int = 60, start: np.ndarray | None = None) -> np.ndarray:
+    """Safeguarded Newton on brackets ``[lo, hi]`` with ``f(lo) < 0 <= f(hi)``.
+
+    Lanes without a bracket (``found`` False) are returned as ``hi``.  A step that
+    leaves the bracket is replaced by bisection; the iteration stops when every
+    step is below 1e-13 rad.  ``start`` (inside the bracket) defaults to its middle.
+    """
+    lo = np.where(found, lo, hi)
+    th = 0.5 * (lo + hi) if start is None else np.clip(start, lo, hi)
+    for _ in range(iters):
+        f, df = f_and_df(th)
+        neg = f < 0
+        lo = np.where(neg, th, lo)
+        hi = np.where(neg, hi, th)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            new = th - f / df
+        bad = ~np.isfinite(new) | (new < lo) | (new > hi)
+        new = np.where(bad, 0.5 * (lo + hi), new)
+        new = np.where(found, new, hi)
+        step = np.max(np.abs(new - th), initial=0.0)
+        th = new
+        if step <= 1e-13:
+            break
+    return th
+
+
+@dataclass
+class _Solution:
+    Fx: np.ndarray
+    Fy: np.ndarray
+    Mz: np.ndarray
+    stick: np.ndarray
+    th_y: np.ndarray
+    nodes: np.ndarray | None = None  # plastic nodes (nc, ns, M)
+    rho: np.ndarray | None = None  # |tau|/g at the nodes
+    plastic: np.ndarray | None = None
+
+
+class _Solver:
+    def __init__(self, prob: CreepProblem, grid: CreepGrid, xi: np.ndarray, eta: np.ndarray,
+                 phi: np.ndarray) -> None:
+        self.prob, self.grid = prob, grid
+        self.ln = _Lanes(prob, grid, xi, eta, phi)
+        self.tab, self._tab_ex, self.thetaT, self._T_ex = _tables(prob, grid, self.ln.spin,
+                                                                  self.ln.lateral)
+
+    # -- first yield -------------------------------------------------------------------------
+    def yield_angle(self, dT_grid: np.ndarray | None
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """First angle where ``|tau_el|`` reaches ``tau_c1`` (pi where it never does), and the
+        stick traction ``(tau_x, tau_y)`` there."""
+        ln, lay = self.ln, self.prob.layer
+        nc, ns = ln.xi.shape[0], ln.Pj.shape[1]
+        if lay.mu_c1 == 0.0:
+            return np.zeros((nc, ns)), np.zeros((nc, ns)), np.zeros((nc, ns))
+        tab = np.broadcast_to(self.tab, (nc, ns, self.tab.size))
+        dTt = 0.0 if dT_grid is None else _interp_uniform(tab, dT_grid)
+        tx, ty = ln.tau_el(tab, self._tab_ex)
+        mu1T = lay.mu_c1_T
+        t1 = lay.mu_c1 * ln.pressure(tab) * (np.exp(mu1T * dTt) if mu1T else 1.0)
+        f = np.sqrt(tx * tx + ty * ty) - t1
+        lo, hi, found = _first_root(f, self.tab, np.zeros((nc, ns)))
+        # the stick traction at the bracket's start, then tau_el(theta) = tau_lo + integral of T
+        k = np.argmax((f >= 0), axis=-1)
+        km = np.maximum(k - 1, 0)[..., None]
+        tx0 = np.where(k > 0, np.take_along_axis(tx, km, axis=-1)[..., 0], 0.0)
+        ty0 = np.where(k > 0, np.take_along_axis(ty, km, axis=-1)[..., 0], 0.0)
+        lo0 = lo.copy()
+        xg, wg = _gauss(6)
+        last = {}
+        # start: regula falsi between the bracketing table values
+        fk = np.take_along_axis(f, k[..., None], axis=-1)[..., 0]
+        fkm = np.where(k > 0, np.take_along_axis(f, km, axis=-1)[..., 0], 0.0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            start = np.where((k > 0) & (fk > fkm), lo + (hi - lo) * (-fkm) / (fk - fkm),
+                             0.5 * (lo + hi))
+
+        def fdf(th):
+            h = (th - lo0)[..., None]
+            Tx, Ty = ln.T(np.concatenate([lo0[..., None] + h * xg, th[..., None]], axis=-1))
+            txx = tx0 + np.sum(Tx[..., :-1] * wg, axis=-1) * h[..., 0]
+            tyy = ty0 + np.sum(Ty[..., :-1] * wg, axis=-1) * h[..., 0]
+            last["tau"] = (th, txx, tyy)
+            m = np.sqrt(txx * txx + tyy * tyy)
+            Tx1, Ty1 = Tx[..., -1], Ty[..., -1]
+            dT = 0.0 if dT_grid is None else _interp_uniform(th[..., None], dT_grid)[..., 0]
+            f1 = np.exp(mu1T * dT) if mu1T else 1.0
+            with np.errstate(invalid="ignore", divide="ignore"):
+                dm = np.where(m > 0, (txx * Tx1 + tyy * Ty1) / np.where(m > 0, m, 1.0), 0.0)
+            return (m - lay.mu_c1 * ln.pressure(th) * f1,
+                    dm - lay.mu_c1 * ln.dpressure(th) * f1)
+
+        th = _newton_bracketed(fdf, lo, hi, found, start=start)
+        th = np.where(found, th, math.pi)
+        # the stick traction at the last iterate (within 1e-13 rad of the root)
+        _, txy, tyy = last["tau"]
+        txy = np.where(found, txy, tx[..., -1])
+        tyy = np.where(found, tyy, ty[..., -1])
+        return th, txy, tyy
+
+    def clamp_end(self, th_y: np.ndarray, dT_grid: np.ndarray | None) -> np.ndarray:
+        """First angle after the yield point where the Voce slip ``kappa`` turns positive."""
+        ln, lay = self.ln, self.prob.layer
+        nc, ns = th_y.shape
+        if lay.mu_c2 == lay.mu_c1 and lay.mu_c1_T == lay.mu_c2_T:
+            return th_y  # no hardening: the clamp does not change g
+        dTy = 0.0 if dT_grid is None else _interp_uniform(th_y[..., None], dT_grid)[..., 0]
+        k_y = ln.kappa(th_y, dTy)
+        if np.all(k_y >= 0):
+            return th_y  # every strip yields past the clamp (its leading half)
+        tab = np.broadcast_to(self.tab, (nc, ns, self.tab.size))
+        dTt = 0.0 if dT_grid is None else _interp_uniform(tab, dT_grid)
+        kt = ln.kappa(tab, dTt)
+        lo, hi, found = _first_root(kt, self.tab, th_y)
+        mu1T = lay.mu_c1_T
+        # start: regula falsi between kappa at the bracket's ends
+        kk = np.argmax((kt >= 0) & (self.tab > th_y[..., None]), axis=-1)
+        k_hi = np.take_along_axis(kt, kk[..., None], axis=-1)[..., 0]
+        k_lo = np.where(lo <= th_y, k_y,
+                        np.take_along_axis(kt, np.maximum(kk - 1, 0)[..., None], axis=-1)[..., 0])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            start = np.where(k_hi > k_lo, lo + (hi - lo) * (-k_lo) / (k_hi - k_lo),
+                             0.5 * (lo + hi))
+
+        def fdf(th):
+            dT = 0.0 if dT_grid is None else _interp_uniform(th[..., None], dT_grid)[..., 0]
+            f1 = np.exp(mu1T * dT) if mu1T else 1.0
+            k = ln.kappa(th, dT)
+            dk = (ln.rigid_slip(th) * ln.aj * np.sin(th)
+                  - lay.mu_c1 * f1 * ln.LK * ln.dpressure(th))
+            return k, dk
+
+        lo = np.minimum(lo, hi)
+        th = _newton_bracketed(fdf, lo, hi, found & (k_y < 0), iters=40, start=start)
+        th = np.where(found, th, math.pi)
+        return np.where(k_y >= 0, th_y, np.maximum(th, th_y))
+
+    # -- panels ------------------------------------------------------------------------------
+    def plastic_edges(self, th_y: np.ndarray, th_s: np.ndarray) -> np.ndarray:
+        """Panel edges of the plastic zone (nc, ns, P+1): clamp, Voce-graded and uniform."""
+        g, ln, lay = self.grid, self.ln, self.prob.layer
+        aj = ln.aj
+        w_s = ln.rigid_slip(th_s)
+        with np.errstate(divide="ignore"):
+            ell = np.where(w_s > 0, lay.L_mup / np.where(w_s > 0, w_s, 1.0), 2.0 * aj) \
+                if lay.L_mup > 0 else np.zeros_like(th_s)
+        Xs = aj * (1.0 - np.cos(th_s))
+        grades = 0.25 * 2.0 ** np.arange(g.graded_panels)
+        Xb = np.minimum(Xs[..., None] + ell[..., None] * grades, 2.0 * aj[..., None])
+        thb = np.maximum(np.arccos(np.clip(1.0 - Xb / aj[..., None], -1.0, 1.0)), th_s[..., None])
+        # uniform panels over the whole plastic zone, refined by the Voce-graded edges near its
+        # start (edges beyond pi collapse into empty panels at the trailing edge)
+        uni = th_s[..., None] + (math.pi - th_s[..., None]) * np.linspace(0, 1, g.uniform_panels + 1)
+        cl = th_y[..., None] + (th_s - th_y)[..., None] * np.linspace(0, 1, g.clamp_panels + 1)
+        edges = np.concatenate([cl, np.sort(np.concatenate([thb, uni[..., 1:]], axis=-1), axis=-1)],
+                               axis=-1)
+        return edges
+
+    # -- march -------------------------------------------------------------------------------
+    def solve(self, dT_grid: np.ndarray | None) -> _Solution:
+        ln, g, prob = self.ln, self.grid, self.prob
+        th_y, txy, tyy = self.yield_angle(dT_grid)
+        th_s = self.clamp_end(th_y, dT_grid)
+        aj, y = ln.aj, ln.y
+        nc, ns = th_y.shape
+        # elastic zone: Gauss panels on [0, theta_y], the stick traction integrated from 0
+        zero = np.zeros((nc, ns))
+        el = ln.panels(th_y[..., None] * np.linspace(0.0, 1.0, g.elastic_panels + 1), g.m,
+                       zero, zero)
+        tx, ty = el["tx"], el["ty"]
+        jac = aj[..., None] * el["st"] * el["weight"]  # dX
+        xx = aj[..., None] * el["ct"]
+        Fx = np.sum(tx * jac, axis=-1)
+        Fy = np.sum(ty * jac, axis=-1)
+        Mz = np.sum((xx * ty - y[..., None] * tx) * jac, axis=-1)
+        if ln.parabolic:
+            c = np.cos(th_y)
+            stick = ln.Pj * aj * (2.0 / 3.0 - c + c**3 / 3.0)
+        else:
+            stick = ln.Pj * aj * (0.5 * th_y - 0.25 * np.sin(2.0 * th_y))
+        # plastic zone
+        edges = self.plastic_edges(th_y, th_s)
+        # panels empty in every lane (a clamp that does not occur, graded edges beyond the
+        # trailing edge) cost march steps for nothing: drop them
+        keep = np.any(np.diff(edges, axis=-1) > 0, axis=(0, 1))
+        if not keep.all():
+            idx = np.concatenate([[0], np.flatnonzero(keep) + 1])
+            edges = np.concatenate([edges[..., :1], edges[..., idx[1:]]], axis=-1)
+            edges = np.maximum.accumulate(edges, axis=-1)
+        pl = ln.panels(edges, g.m, txy, tyy, ln.slip_path(th_y))
+        thp = pl["theta"]
+        tau, plastic, gvals = self.march(th_y, txy, tyy, pl, dT_grid)
+        jac = aj[..., None] * pl["st"] * pl["weight"]
+        xx = aj[..., None] * pl["ct"]
+        Fx = Fx + np.sum(tau.real * jac, axis=-1)
+        Fy = Fy + np.sum(tau.imag * jac, axis=-1)
+        Mz = Mz + np.sum((xx * tau.imag - y[..., None] * tau.real) * jac, axis=-1)
+        stick = stick + np.sum(np.where(plastic, 0.0, ln.pressure(thp, pl["st"])) * jac, axis=-1)
+        wstrip = ln.wy * prob.b * ln.cphi
+        with np.errstate(invalid="ignore", divide="ignore"):
+            rho = np.where(gvals > 0, np.abs(tau) / np.where(gvals > 0, gvals, 1.0), 1.0)
+        return _Solution(Fx=np.sum(wstrip * Fx, axis=-1), Fy=np.sum(wstrip * Fy, axis=-1),
+                         Mz=np.sum(wstrip * Mz, axis=-1),
+                         stick=np.sum(wstrip * stick, axis=-1) / prob.load, th_y=th_y,
+                         nodes=thp, rho=rho, plastic=plastic)
+
+    def march(self, th_y: np.ndarray, txy: np.ndarray, tyy: np.ndarray, pl: dict,
+              dT_grid: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Traction at the plastic-zone nodes (complex ``tau_x + i tau_y``), slip flags, ``g``.
+
+        Everything that does not depend on the marched state is computed for all steps at
+        once: the stick increments, the limits, and per step the Moebius map that carries
+        the traction direction ``zeta = exp(i psi)`` over the step (the exact solution of
+        the direction equation with the step's coefficients).  The loop then costs a few
+        array operations per node.
+        """
+        ln, prob = self.ln, self.prob
+        thp = pl["theta"]
+        pts = np.concatenate([th_y[..., None], thp], axis=-1)  # (nc, ns, M+1)
+        M = thp.shape[-1]
+        tel = np.concatenate([(txy + 1j * tyy)[..., None], pl["tx"] + 1j * pl["ty"]], axis=-1)
+        dtel = np.diff(tel, axis=-1)
+        dT_p = 0.0 if dT_grid is None else _interp_uniform(pts, dT_grid)
+        S = np.concatenate([ln.slip_path(th_y)[..., None], pl["S"]], axis=-1)
+        st = np.concatenate([np.sin(th_y)[..., None], pl["st"]], axis=-1)
+        _, gp = ln.limits(pts, dT_p, S, st)
+        Tyx, Tyy = ln.T(np.maximum(th_y, 1e-9))
+        Tp = np.concatenate([(Tyx + 1j * Tyy)[..., None], pl["Tx"] + 1j * pl["Ty"]], axis=-1)
+        yielded = th_y < math.pi
+        # a yielded particle takes the Voce limit at once (a jump where kappa > 0, as in the
+        # longitudinal model); the direction is the stick traction's, or T's where that is 0
+        mag0 = np.abs(tel[..., 0])
+        dir0 = np.where(mag0 > 0, tel[..., 0] / np.where(mag0 > 0, mag0, 1.0),
+                        np.exp(1j * np.angle(Tp[..., 0])))
+        direction_fixed = not ln.spin and (not ln.lateral or not np.any(ln.r[0] != ln.r[1])) \
+            and prob.restick == "thesis"
+        if direction_fixed:
+            # one rigid-slip direction along every strip, equal flexibilities in x and y:
+            # the stick traction, the slip and so the traction keep one direction, and
+            # a loaded particle never unloads
+            d = dir0[..., None]
+            plast = np.broadcast_to(yielded[..., None], thp.shape)
+            return np.where(plast, gp[..., 1:] * d, tel[..., 1:]), plast, gp[..., 1:]
+        h = np.diff(pts, axis=-1)
+        aT = np.abs(Tp)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            kp = np.where(gp > 0, aT / np.where(gp > 0, gp, 1.0), 1e8)
+        kh = np.where(h > 0, np.minimum(0.5 * (kp[..., 1:] + kp[..., :-1]) * h, 1e8), 0.0)
+        uT = np.where(aT > 0, Tp / np.where(aT > 0, aT, 1.0), 1.0)  # exp(i beta) at the points
+        dbeta = np.angle(uT[..., 1:] * np.conj(uT[..., :-1]))
+        dbeta = np.where(h > 0, dbeta, 0.0)
+        # chi = psi - beta obeys d chi/dt = -(k sin chi + beta'); with u = tan(chi/2) that is
+        # a Riccati equation, u = A/B with (A, B)' = [[-k/2, -b/2], [b/2, k/2]] (A, B):
+        # exp of the step's matrix (scaled: only the ratio matters)
+        lam2 = 0.25 * (kh * kh - dbeta * dbeta)
+        lam = np.sqrt(np.abs(lam2))
+        C = np.ones(lam.shape)
+        Sh = np.ones(lam.shape)  # sinh(lam)/lam scaled by cosh, or sin(lam)/lam; 1 at lam = 0
+        big = lam > 1e-12
+        pos = big & (lam2 >= 0)
+        neg = big & (lam2 < 0)
+        Sh[pos] = np.tanh(lam[pos]) / lam[pos]
+        if neg.any():
+            ln_ = lam[neg]
+            C[neg] = np.cos(ln_)
+            Sh[neg] = np.sin(ln_) / ln_
+        m11 = C - 0.5 * Sh * kh
+        m22 = C + 0.5 * Sh * kh
+        m12 = -0.5 * Sh * dbeta
+        m21 = -m12
+        # zeta -> w = zeta e^{-i beta0} -> u = -i (w - 1)/(w + 1) -> u1 = M u
+        # -> w1 = (1 + i u1)/(1 - i u1) -> zeta1 = e^{i beta1} w1; as 2x2 matrices
+        # Q = D1 Cf M Cinv D0 with Cinv D0 = [[-i e0, i], [e0, 1]], Cf = [[i, 1], [-i, 1]]
+        e0 = np.conj(uT[..., :-1])
+        e1 = uT[..., 1:]
+        b11 = (m12 - 1j * m11) * e0
+        b12 = 1j * m11 + m12
+        b21 = (m22 - 1j * m21) * e0
+        b22 = 1j * m21 + m22
+        q11 = e1 * (1j * b11 + b21)
+        q12 = e1 * (1j * b12 + b22)
+        q21 = b21 - 1j * b11
+        q22 = b22 - 1j * b12
+        # unloading test on the trial traction: a yielded particle stays on the limit unless
+        # |trial| falls below min(its traction, the new limit) (the thesis); Kalker: below
+        # the new limit.  A relative margin keeps an empty step from counting as unloading.
+        g_new = gp[..., 1:]
+        lim = (g_new if prob.restick == "kalker" else np.minimum(gp[..., :-1], g_new)) \
+            * (1.0 - 1e-12)
+        # step axis first: each step works on contiguous slices
+        def steps(a: np.ndarray) -> np.ndarray:
+            return np.ascontiguousarray(np.moveaxis(a, -1, 0))
+
+        Q11, Q12, Q21, Q22 = (steps(q) for q in (q11, q12, q21, q22))
+        DT, GN, LIM = steps(dtel), steps(g_new), steps(lim)
+        out = np.empty((M, *thp.shape[:-1]), dtype=complex)
+        plast = np.empty((M, *thp.shape[:-1]), dtype=bool)
+        plastic = yielded
+        d = dir0
+        tau = np.where(plastic, gp[..., 0] * dir0, tel[..., 0])
+        for i in range(M):
+            trial = tau + DT[i]
+            at = np.abs(trial)
+            zn = (Q11[i] * d + Q12[i]) / (Q21[i] * d + Q22[i])
+            zn /= np.abs(zn)
+            gi = GN[i]
+            newp = np.where(plastic, at >= LIM[i], at >= gi)
+            d = np.where(plastic & newp, zn, trial / (at + 1e-300))
+            tau = np.where(newp, gi * d, trial)
+            plastic = newp
+            out[i] = tau
+            plast[i] = newp
+        out = np.moveaxis(out, 0, -1)
+        plast = np.moveaxis(plast, 0, -1)
+        return out, plast, g_new
+
+
+#: largest |mu_T dT| the temperature iteration accepts (as in torlab.model.fastsim)
+_MAX_EXPONENT = 30.0
+
+
+def canonical_creepages(xi: np.ndarray, eta: np.ndarray, phi: np.ndarray
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The distinct creepage triples up to the model's symmetries.
+
+    ``(-xi, eta, phi)`` reverses ``Fx``; the mirror ``y -> -y``, ``(xi, -eta, -phi)``,
+    reverses ``Fy`` and ``Mz``.  Returns ``(unique, inverse, sx, sy)``: ``unique`` (k, 3)
+    has ``xi >= 0``, ``eta >= 0`` (``phi >= 0`` where ``eta = 0``), and
+    ``Fx = sx * Fx_unique[inverse]``, ``Fy = sy * Fy_unique[inverse]``, ``Mz = sy * ...``.
+    """
+    sx = np.where(xi < 0, -1.0, 1.0)
+    sy = np.where((eta < 0) | ((eta == 0) & (phi < 0)), -1.0, 1.0)
+    canon = np.stack([np.abs(xi), sy * eta, sy * phi], axis=1)
+    # values equal to 1e-12 of their column's range count as one (an axis such as
+    # linspace(-1, 1, 21) is symmetric only to round-off); the first of them is solved
+    scale = np.max(np.abs(canon), axis=0)
+    key = np.round(canon / np.where(scale > 0, scale * 1e-12, 1.0))
+    _, first, inv = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    return canon[first], inv.ravel(), sx, sy
+
+
+def creep_forces(problem: CreepProblem, creepage: Any, lateral: Any = 0.0, spin: Any = 0.0,
+                 grid: CreepGrid | None = None, *, symmetry: bool = True) -> CreepResult:
+    """Creep forces ``Fx, Fy, Mz`` for creepages ``xi``, ``eta`` and spin ``phi`` (1/m).
+
+    Parameters
+    ----------
+    problem
+        Contact, flexibilities and layer (:class:`CreepProblem`, :func:`creep_problem`).
+    creepage, lateral, spin
+        Longitudinal and lateral creepage (fractions) and spin (1/m); broadcast
+        against each other (vectorised: a whole table is one call).
+    grid
+        Resolution (default :class:`CreepGrid`).
+    symmetry
+        Solve each creepage triple once up to the model's symmetries
+        (:func:`canonical_creepages`; exact, the strips are mirrored); False solves every
+        triple as given (tests of the symmetries).
+
+    Returns
+    -------
+    CreepResult
+
+    Raises
+    ------
+    TorlabInputError
+        Lateral creepage or spin without the flexibility they need (the contact
+        shape), non-finite creepages, a parabolic bound with a layer flexibility.
+    ConvergenceError
+        The contact-temperature iteration did not converge.
+    """
+    grid = grid or CreepGrid()
+    xi_in, eta_in, phi_in = np.broadcast_arrays(*(np.asarray(v, dtype=float)
+                                                  for v in (creepage, lateral, spin)))
+    shape = xi_in.shape
+    xi, eta, phi = (v.ravel() for v in (xi_in, eta_in, phi_in))
+    for name, v in (("creepage", xi), ("lateral creepage", eta), ("spin", phi)):
+        if not np.all(np.isfinite(v)):
+            raise TorlabInputError(f"{name} must be finite", key=name)
+    if np.any(phi != 0) and problem.L3 is None:
+        raise TorlabInputError("spin needs the contact shape: the semi-axes a, b and the elastic "
+                               "constants for Kalker's C23 and L3 = pi a sqrt(a/b)/(4 C23 G) "
+                               "(build the problem with creep_problem(scene) or give L3)",
+                               key="spin")
+    if np.any(eta != 0) and problem.L2 is None:
+        raise TorlabInputError("lateral creepage needs Kalker's C22 and L2 = 8a/(3 C22 G) of the "
+                               "contact (build the problem with creep_problem(scene) or give L2)",
+                               key="lateral")
+    if problem.traction_bound == "parabolic" and problem.layer.L_mue > 0:
+        raise TorlabInputError("the parabolic traction bound is Kalker's FASTSIM bound for "
+                               "comparisons; it is not defined with a layer flexibility (L_mue > 0)",
+                               key="traction_bound")
+    prob = problem
+    N = prob.load
+    Fx = np.zeros(xi.shape)
+    Fy = np.zeros(xi.shape)
+    Mz = np.zeros(xi.shape)
+    stick = np.ones(xi.shape)
+    tmax = None if prob.thermal is None else np.full(xi.shape, prob.ambient_temperature)
+    iters = None if prob.thermal is None else np.zeros(xi.shape, dtype=int)
+    loop = "off" if prob.thermal is None else "single pass"
+    nz = (xi != 0) | (eta != 0) | (phi != 0)
+    if nz.any():
+        # symmetries of the model (exact on the mirrored strips): (-xi, eta, phi) reverses Fx;
+        # the mirror y -> -y, (xi, -eta, -phi), reverses Fy and Mz.  Each triple is mapped to
+        # one with xi >= 0, eta >= 0 (and phi >= 0 where eta = 0) and each distinct one is
+        # solved once: a table symmetric about zero costs a quarter.
+        if symmetry and np.count_nonzero(nz) > 1:
+            uniq, inv, sx, sy = canonical_creepages(xi[nz], eta[nz], phi[nz])
+        else:
+            uniq = np.stack([xi[nz], eta[nz], phi[nz]], axis=1)
+            inv, sx, sy = np.arange(uniq.shape[0]), np.ones(uniq.shape[0]), np.ones(uniq.shape[0])
+        solver = _Solver(prob, grid, uniq[:, 0].copy(), uniq[:, 1].copy(), uniq[:, 2].copy())
+        dT_grid = None
+        if prob.thermal is not None:
+            dT_grid, it, loop, tm = _temperature(solver, prob, grid)
+            iters[nz] = it[inv]
+            tmax[nz] = tm[inv]
+            if prob.layer.mu_c1_T == 0 and prob.layer.mu_c2_T == 0:
+                dT_grid = None
+        sol = solver.solve(dT_grid)
+        Fx[nz] = sx * sol.Fx[inv]
+        Fy[nz] = sy * sol.Fy[inv]
+        Mz[nz] = sy * sol.Mz[inv]
+        stick[nz] = sol.stick[inv]
+    for name, arr in (("Fx", Fx), ("Fy", Fy), ("Mz", Mz)):
+        if not np.all(np.isfinite(arr)):
+            raise NumericalError(f"creep forces: non-finite {name}; please report this scene")
+
+    def r(arr: np.ndarray) -> np.ndarray:
+        return arr.reshape(shape)
+
+    return CreepResult(creepage=xi_in.copy(), lateral=eta_in.copy(), spin=phi_in.copy(),
+                       Fx=r(Fx), Fy=r(Fy), Mz=r(Mz), mu_x=r(Fx / N), mu_y=r(Fy / N),
+                       adhesion_fraction=r(stick), load=N,
+                       max_temperature_C=None if tmax is None else r(tmax),
+                       temperature_iterations=None if iters is None else r(iters),
+                       temperature_loop=loop)
+
+
+def _temperature(solver: _Solver, prob: CreepProblem, grid: CreepGrid
+                 ) -> tuple[np.ndarray, np.ndarray, str, np.ndarray]:
+    """Converge the flash temperature on the per-strip grid (as :mod:`torlab.model.fastsim` does)."""
+    th, lay, ln = prob.thermal, prob.layer, solver.ln
+    thetaT, K = flash_temperature_matrix(grid.temperature_nodes)
+    nc, ns = ln.xi.shape[0], ln.Pj.shape[1]
+    nT = thetaT.size
+    if prob.speed <= 0:
+        return (np.zeros((nc, ns, nT)), np.zeros(nc, dtype=int), "single pass",
+                np.full(nc, prob.ambient_temperature))
+    coef = th.partition / math.sqrt(math.pi * th.conductivity * th.density * th.heat_capacity
+                                    * prob.speed)
+    scale = coef * np.sqrt(ln.aj)[..., None]
+    thT = np.broadcast_to(thetaT, (nc, ns, nT))
+    w_abs = ln.rigid_slip(thT) * prob.speed
+    coupled = bool(lay.mu_c1_T or lay.mu_c2_T)
+    tx, ty = ln.tau_el(thT, solver._T_ex)  # stick traction at the temperature nodes (fixed)
+
+    def G(dT: np.ndarray) -> np.ndarray:
+        sol = solver.solve(dT if coupled else None)
+        _, gT = ln.limits(thT, dT)
+        before = thT < sol.th_y[..., None]
+        # piecewise-linear |tau|/g (and the slip flag) between the march's nodes, all lanes at
+        # once: lanes are shifted apart along one axis so a single np.interp serves them all
+        off = 4.0 * np.arange(nc * ns).reshape(nc, ns, 1)
+        xp = np.concatenate([sol.th_y[..., None], sol.nodes], axis=-1) + off
+        rp = np.concatenate([sol.rho[..., :1], sol.rho], axis=-1)
+        pp = np.concatenate([np.ones((nc, ns, 1)), sol.plastic.astype(float)], axis=-1)
+        xq = (thT + off).ravel()
+        rho = np.interp(xq, xp.ravel(), rp.ravel()).reshape(thT.shape)
+        plast = np.interp(xq, xp.ravel(), pp.ravel()).reshape(thT.shape) >= 0.5
+        mag = np.where(before, np.sqrt(tx * tx + ty * ty), rho * gT)
+        q = mag * w_abs
+        if th.slip_velocity == "local":
+            q = np.where(before | ~plast, 0.0, q)
+        return scale * np.einsum("ij,xsj->xsi", K, q)
+
+    dT = np.zeros((nc, ns, nT))
+    new = G(dT)
+    sens = max(abs(lay.mu_c1_T), abs(lay.mu_c2_T))
+    if sens == 0.0 or np.max(np.abs(new)) * sens < 1e-6:
+        return new, np.ones(nc, dtype=int), "single pass", \
+            prob.ambient_temperature + np.max(new.reshape(nc, -1), axis=1)
+    if np.max(np.abs(new)) * sens > _MAX_EXPONENT:
+        raise ConvergenceError(
+            f"contact temperature runs away: the first pass already heats by "
+            f"{np.max(np.abs(new)):.3g} K, and the temperature coefficients mu_c1_T = "
+            f"{lay.mu_c1_T:g}, mu_c2_T = {lay.mu_c2_T:g} 1/K would change the limits by a factor "
+            f"exp({_MAX_EXPONENT:g})", iterations=1)
+    omega = np.ones(nc)
+    res_prev = np.full(nc, np.inf)
+    its = np.ones(nc, dtype=int)
+    for k in range(1, th.max_iterations + 1):
+        res = np.max(np.abs(new - dT).reshape(nc, -1), axis=1)
+        done = res < th.tolerance
+        if done.all():
+            dT = new
+            break
+        worse = res > 0.9 * res_prev
+        omega = np.where(worse & ~done, np.maximum(omega * 0.5, 1.0 / 1024), omega)
+        res_prev = res
+        dT = dT + np.where(done, 1.0, omega)[:, None, None] * (new - dT)
+        its = np.where(done, its, k + 1)
+        new = G(dT)
+        if np.any(~np.isfinite(new)) or np.max(np.abs(new)) * sens > _MAX_EXPONENT:
+            raise ConvergenceError("contact temperature diverged (thermal runaway: the temperature "
+                                   "coefficients make frictional heating self-amplifying)",
+                                   iterations=k)
+    else:
+        res = np.max(np.abs(new - dT).reshape(nc, -1), axis=1)
+        raise ConvergenceError(
+            f"contact temperature did not converge: max |dT| = {res.max():.3g} K after "
+            f"{th.max_iterations} under-relaxed iterations", iterations=th.max_iterations,
+            residual=float(res.max()))
+    return dT, its, "iterated", prob.ambient_temperature + np.max(dT.reshape(nc, -1), axis=1)
+
+
+# -------------------------------------------------------------------------------------------
+# grid-free reference (ODE per strip with events, adaptive quadrature across)
+# -------------------------------------------------------------------------------------------
+def _reference_strip(prob: CreepProblem, xi: float, eta: float, phi: float, yb: float,
+                     rtol: float) -> np.ndarray:
+    """``(Fx, Fy, Mz)`` per unit width of the strip at ``y = b yb`` (the reference's ODE)."""
+    from scipy.integrate import solve_ivp
+
+    lay = prob.layer
+    L1 = prob.L1
+    L2 = prob.L2 if prob.L2 is not None else L1
+    L3 = prob.L3 if prob.L3 is not None else L1
+    LK = float(kalker_weighted_flexibility(prob, xi, eta, phi))
+    kalker = prob.restick == "kalker"
+    parab = prob.traction_bound == "parabolic"
+    p0 = (4.0 / 3.0) * prob.p0 if parab else prob.p0
+    c2 = 1.0 - yb * yb
+    if c2 <= 0:
+        return np.zeros(3)
+    ay = prob.a * math.sqrt(c2)
+    y = prob.b * yb
+    pc = p0 * (c2 if parab else math.sqrt(c2))  # peak pressure of the strip
+    wx = xi - phi * y
+
+    # integrated in the angle t with X = ay (1 - cos t), x = ay cos t, p = pc sin t
+    # (sin^2 t for the parabolic bound): every integrand is smooth in t
+    def p_of(t):
+        st = math.sin(t)
+        return pc * (st * st if parab else st)
+
+    def dp_of(t):  # dp/dt
+        return pc * (2 * math.sin(t) * math.cos(t) if parab else math.cos(t))
+
+    def Tel(t):  # d tau_el / dt
+        p = p_of(t)
+        if lay.L_mue > 0:
+            if p <= 0:
+                return 0.0, 0.0
+            le = lay.L_mue / p
+        else:
+            le = 0.0
+        x = ay * math.cos(t)
+        j = ay * math.sin(t)
+        return (j * (xi / (L1 + le) - phi * y / (L3 + le)),
+                j * (eta / (L2 + le) + phi * x / (L3 + le)))
+
+    def absw(t):  # |w| dX/dt
+        return math.hypot(wx, eta + phi * ay * math.cos(t)) * ay * math.sin(t)
+
+    def kap(t, S):  # Voce slip before the clamp max(., 0); S rides along as a state
+        return S - lay.mu_c1 * (LK * p_of(t) + lay.L_mue)
+
+    def glim(t, S):
+        p = p_of(t)
+        t1, t2 = lay.mu_c1 * p, lay.mu_c2 * p
+        k = kap(t, S)
+        if lay.L_mup > 0:
+            return t2 - (t2 - t1) * math.exp(-max(k, 0.0) / lay.L_mup)
+        return t2 if k > 0 else t1
+
+    def dglim(t, S):  # dg/dt
+        p, dp = p_of(t), dp_of(t)
+        k = kap(t, S)
+        if lay.L_mup > 0:
+            e = math.exp(-max(k, 0.0) / lay.L_mup)
+            dk = (absw(t) - lay.mu_c1 * LK * dp) if k > 0 else 0.0
+            return lay.mu_c1 * dp + (lay.mu_c2 - lay.mu_c1) * (dp * (1 - e) + p * e * dk / lay.L_mup)
+        return (lay.mu_c2 if k > 0 else lay.mu_c1) * dp
+
+    end = math.pi
+    X0 = 0.0
+    # stick: [tau_x, tau_y, S, Fx, Fy, Mz]; slip: [psi, 0, S, Fx, Fy, Mz]
+    state = np.zeros(6)
+    mode = "stick"
+    first = [True]
+    rt = dict(method="DOP853", rtol=rtol, atol=1e-14 * max(1.0, lay.mu_c2 * prob.p0 * ay))
+
+    def rhs_stick(t, s):
+        Tx, Ty = Tel(t)
+        x = ay * math.cos(t)
+        j = ay * math.sin(t)
+        return [Tx, Ty, absw(t), j * s[0], j * s[1], j * (x * s[1] - y * s[0])]
+
+    def rhs_slip(t, s):
+        Tx, Ty = Tel(t)
+        g = glim(t, s[2])
+        c, sn = math.cos(s[0]), math.sin(s[0])
+        x = ay * math.cos(t)
+        j = ay * math.sin(t)
+        dpsi = (-sn * Tx + c * Ty) / g if g > 0 else 0.0
+        return [dpsi, 0.0, absw(t), j * g * c, j * g * sn, j * g * (x * sn - y * c)]
+
+    def ev_yield(t, s):
+        # a particle that unloaded sits at the limit: a relative margin of 1e-9 keeps
+        # the event from firing again at the point where it stuck
+        lim = lay.mu_c1 * p_of(t) if first[0] else glim(t, s[2]) * (1 + 1e-9)
+        return math.hypot(s[0], s[1]) - lim if t > 1e-12 else -1.0
+
+    ev_yield.terminal = True
+    ev_yield.direction = 1
+
+    def ev_unload(t, s):
+        Tx, Ty = Tel(t)
+        lam = math.cos(s[0]) * Tx + math.sin(s[0]) * Ty
+        gd = dglim(t, s[2])
+        return lam - (gd if kalker else min(gd, 0.0))
+
+    ev_unload.terminal = True
+    ev_unload.direction = -1
+
+    def ev_clamp(t, s):  # the Voce limit's kink: restart the integrator there
+        return kap(t, s[2])
+
+    ev_clamp.terminal = True
+    ev_clamp.direction = 1
+    guard = 0
+    skip_clamp = False
+    while X0 < end - 1e-12 and guard < 400:
+        guard += 1
+        if mode == "stick":
+            sol = solve_ivp(rhs_stick, (X0, end), state, events=ev_yield, **rt)
+        else:
+            evs = [ev_unload] if skip_clamp else [ev_unload, ev_clamp]
+            sol = solve_ivp(rhs_slip, (X0, end), state, events=evs, **rt)
+        skip_clamp = mode == "slip" and sol.status == 1 and not sol.t_events[0].size
+        if sol.status == -1:
+            raise ConvergenceError(f"reference ODE failed on a strip: {sol.message}")
+        state = sol.y[:, -1].copy()
+        Xn = sol.t[-1]
+        if sol.status == 1:
+            if mode == "stick":
+                mag = math.hypot(state[0], state[1])
+                if mag > 0:
+                    psi = math.atan2(state[1], state[0])
+                else:
+                    Tx, Ty = Tel(Xn + 1e-9)
+                    psi = math.atan2(Ty, Tx)
+                state[0], state[1] = psi, 0.0
+                mode = "slip"
+                first[0] = False
+            elif sol.t_events[0].size:  # unloading: stick again
+                g = glim(Xn, state[2])
+                state[0], state[1] = g * math.cos(state[0]), g * math.sin(state[0])
+                mode = "stick"
+            # the clamp event only restarts the slip integration
+            if Xn <= X0:  # an event at the start point: step past it
+                Xn = X0 + 1e-12
+        X0 = Xn
+    if guard >= 400:
+        raise ConvergenceError("reference: more than 400 stick/slip switches on one strip")
+    return state[3:]
+
+
+
+def creep_forces_reference(problem: CreepProblem, creepage: float, lateral: float = 0.0,
+                           spin: float = 0.0, *, rtol: float = 1e-9) -> tuple[float, float, float]:
+    """Grid-free ``(Fx, Fy, Mz)`` of the isothermal model, for tests and the benchmark.
+
+    Independent of the fast scheme's closed forms, tables and march: per strip,
+    ``solve_ivp`` (DOP853) integrates the stick traction ``d tau/dX`` from the
+    rigid slip and the flexibilities, or in slip the direction
+    ``d psi/dX = (n . d tau_el/dX)/g`` with the magnitude ``g`` from the Voce law,
+    switching at located events (yield, unloading, re-yield) and at the clamp end;
+    the forces ride along as integrals; ``quad_vec`` integrates across the strips.
+    Slow (seconds to a minute).
+    """
+    from scipy.integrate import quad_vec
+
+    prob = problem
+    if prob.thermal is not None and (prob.layer.mu_c1_T or prob.layer.mu_c2_T):
+        raise ValueError("the reference covers the isothermal model only")
+    xi, eta, phi = float(creepage), float(lateral), float(spin)
+
+    scale = np.array([1.0, 1.0, 1.0 / prob.a])  # Mz/a: comparable sizes for quad_vec's norm
+
+    def integrand(ph: float) -> np.ndarray:
+        return _reference_strip(prob, xi, eta, phi, math.sin(ph), rtol) * math.cos(ph) * scale
+
+    pts = np.linspace(-0.5 * math.pi, 0.5 * math.pi, 9)
+    total = np.zeros(3)
+    for lo, hi in itertools.pairwise(pts):
+        val, _err = quad_vec(integrand, lo, hi, epsabs=0.0, epsrel=1e2 * rtol, limit=400)
+        total += val
+    return tuple(float(v) for v in prob.b * total / scale)
+
+
+# -------------------------------------------------------------------------------------------
+# naive first-order FASTSIM (uniform grid), the benchmark's baseline
+# -------------------------------------------------------------------------------------------
+def naive_creep_forces(problem: CreepProblem, creepage: Any, lateral: Any = 0.0, spin: Any = 0.0,
+                       *, mx: int = 50, my: int = 50, scale: float = 1.0
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """FASTSIM with the layer on a uniform ``mx x my`` grid (first order), isothermal.
+
+    Kalker's discrete scheme as CONTACT runs it (element centres, implicit Euler
+    from the leading edge: ``tau_i = tau_(i-1) + Delta tau_el``, clipped to the
+    limit), with the layer's flexibility and the Voce limit of this module at the
+    element centres.  Vectorised over rows and creepages, marched along ``x``.
+    ``scale`` enlarges the grid's box beyond the ellipse as CONTACT's potential contact
+    does (elements count where their centre is inside the ellipse).
+    Returns ``(Fx, Fy, Mz)`` in the broadcast shape of the creepages.
+    """
+    prob = problem
+    lay = prob.layer
+    xi_in, eta_in, phi_in = np.broadcast_arrays(*(np.asarray(v, dtype=float)
+                                                  for v in (creepage, lateral, spin)))
+    shape = xi_in.shape
+    xi, eta, phi = (v.ravel()[:, None] for v in (xi_in, eta_in, phi_in))
+    L1 = prob.L1
+    L2 = prob.L2 if prob.L2 is not None else L1
+    L3 = prob.L3 if prob.L3 is not None else L1
+    LK = kalker_weighted_flexibility(prob, xi, eta, phi)
+    a, b = prob.a, prob.b
+    dx, dy = 2 * scale * a / mx, 2 * scale * b / my
+    yc = -scale * b + dy * (np.arange(my) + 0.5)
+    xc = scale * a - dx * (np.arange(mx) + 0.5)  # leading edge first
+    parab = prob.traction_bound == "parabolic"
+    pk = (4.0 / 3.0) * prob.p0 if parab else prob.p0
+    y = yc[None, :]
+    nc = xi.shape[0]
+    tau = np.zeros((nc, my), dtype=complex)
+    S = np.zeros((nc, my))
+    plastic = np.zeros((nc, my), dtype=bool)
+    yielded = np.zeros((nc, my), dtype=bool)
+    Fx = np.zeros(nc)
+    Fy = np.zeros(nc)
+    Mz = np.zeros(nc)
+    kalker = prob.restick == "kalker"
+    wx = xi - phi * y
+    for x in xc:
+        u = 1.0 - (x / a) ** 2 - (y / b) ** 2
+        inside = np.broadcast_to(u > 0, (nc, my))
+        p = pk * (np.maximum(u, 0.0) if parab else np.sqrt(np.maximum(u, 0.0)))
+        with np.errstate(divide="ignore"):
+            le = np.where(u > 0, lay.L_mue / np.where(u > 0, p, 1.0), 0.0)
+        wy = eta + phi * x
+        S = np.where(inside, S + np.hypot(wx, wy) * dx, 0.0)
+        d_el = ((xi / (L1 + le) - phi * y / (L3 + le))
+                + 1j * (eta / (L2 + le) + phi * x / (L3 + le))) * dx
+        t1, t2 = lay.mu_c1 * p, lay.mu_c2 * p
+        kap = S - lay.mu_c1 * (LK * p + lay.L_mue)
+        if lay.L_mup > 0:
+            g = t2 - (t2 - t1) * np.exp(-np.maximum(kap, 0.0) / lay.L_mup)
+        else:
+            g = np.where(kap > 0, t2, t1)
+        cur = np.abs(tau)
+        trial = np.where(inside, tau + d_el, 0.0)
+        at = np.abs(trial)
+        lim_stick = g if kalker else np.minimum(cur, g)
+        stay = plastic & ~(at < lim_stick)
+        yield_now = ~plastic & (at >= np.where(yielded, g, t1))
+        newp = (stay | yield_now) & inside
+        with np.errstate(invalid="ignore", divide="ignore"):
+            dirn = np.where(at > 0, trial / np.where(at > 0, at, 1.0), 0.0)
+        tau = np.where(newp, g * dirn, trial)
+        plastic = newp
+        yielded = (yielded | newp) & inside
+        Fx += np.sum(tau.real, axis=1) * dx * dy
+        Fy += np.sum(tau.imag, axis=1) * dx * dy
+        Mz += np.sum(x * tau.imag - y * tau.real, axis=1) * dx * dy
+    return Fx.reshape(shape), Fy.reshape(shape), Mz.reshape(shape)

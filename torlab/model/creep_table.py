@@ -1,0 +1,384 @@
+"""Creep-force tables for vehicle-dynamics codes (xarray Dataset, netCDF, long CSV).
+
+:func:`creep_table` evaluates the creep-force model of :mod:`torlab.model.creep`
+on the Cartesian product of a longitudinal-creepage axis, a lateral-creepage axis
+and a spin axis (1/m), optionally times a speed axis (the contact temperature
+depends on it) and an amount axis (one scene or parameter set per applied product
+amount).  The result is an :class:`xarray.Dataset` with the forces in SI units
+and in the normalised form of Kalker's book of tables (Kalker 1996, "Book of tables
+for the Hertzian creep-force law"; CONTACT's ``usetab`` tables use it):
+
+* creepages scaled by the linear theory and the friction force,
+  ``xi* = G c^2 C11 xi/(3 mu N)``, ``eta* = G c^2 C22 eta/(3 mu N)``,
+  ``phi* = G c^3 C23 phi/(mu N)``, ``c = sqrt(ab)``;
+* forces ``Fx/(mu N)``, ``Fy/(mu N)``, moment ``Mz/(mu N c)``.
+
+In these units linear theory has slope 3 in ``xi*`` and ``eta*`` and 1 in ``phi*``,
+and full slip is 1.  ``G C11`` etc. are taken from the flexibilities
+(``G C11 = 8a/(3 L1)``, ``G C22 = 8a/(3 L2)``, ``G C23 = pi a sqrt(a/b)/(4 L3)``),
+which is Kalker's scaling wherever the flexibilities are his.  ``mu`` is the layer's
+saturation coefficient ``mu_c2`` (full slip of the isothermal model is ``mu_c2 N``);
+it is stored as ``mu_normalisation``.  Signs are torlab's (force along the creepage):
+Kalker's and CONTACT's tables carry the opposite sign.
+
+Each axis needs at least two points (a table is interpolated) and must increase
+strictly.  The evaluation is vectorised; the points are cut into chunks of
+``chunk`` creepage triples that are independent of each other, and ``map_fn``
+(``map`` by default; e.g. an executor's ``map``) evaluates them, so a process
+pool or a cluster can take the work.
+
+xarray is an optional dependency (``pip install 'torlab[tables]'``); netCDF is
+written as netCDF3 through scipy (``engine="scipy"``), so no compiled netCDF
+library is needed.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from torlab.errors import TorlabInputError
+from torlab.model.creep import CreepGrid, CreepProblem, canonical_creepages, creep_forces
+
+__all__ = [
+    "CreepTable",
+    "TableAxis",
+    "creep_table",
+    "kalker_scales",
+    "require_xarray",
+    "scene_creep_table",
+]
+
+#: the CSV/netCDF variables with their units and meaning
+VARIABLES: dict[str, tuple[str, str]] = {
+    "Fx_N": ("N", "longitudinal creep force (positive along positive creepage)"),
+    "Fy_N": ("N", "lateral creep force"),
+    "Mz_Nm": ("N m", "spin moment about the contact centre"),
+    "mu_x": ("1", "Fx / N"),
+    "mu_y": ("1", "Fy / N"),
+    "Fx_norm": ("1", "Fx / (mu N), Kalker's normalisation"),
+    "Fy_norm": ("1", "Fy / (mu N)"),
+    "Mz_norm": ("1", "Mz / (mu N c), c = sqrt(a b)"),
+    "adhesion_fraction": ("1", "fraction of the load carried in stick"),
+    "max_temperature_C": ("degC", "maximum flash temperature"),
+}
+
+
+def require_xarray() -> Any:
+    """Import xarray or raise a one-line :class:`TorlabInputError` saying how to get it."""
+    try:
+        import xarray
+    except ImportError:  # pragma: no cover - depends on the environment
+        raise TorlabInputError("creep-force tables need xarray: pip install 'torlab[tables]' "
+                               "(or pip install xarray)") from None
+    return xarray
+
+
+@dataclass(frozen=True)
+class TableAxis:
+    """One axis of a table: name, values (SI), unit and description."""
+
+    name: str
+    values: np.ndarray
+    unit: str
+    description: str
+
+    @classmethod
+    def make(cls, name: str, values: Any, unit: str, description: str) -> TableAxis:
+        """Validate: finite, at least two points, strictly increasing."""
+        v = np.atleast_1d(np.asarray(values, dtype=float)).ravel()
+        if v.size < 2:
+            raise TorlabInputError(f"table axis {name!r} has {v.size} point(s): a table axis "
+                                   "needs at least two (give start:stop:count or a list)",
+                                   key=name)
+        if not np.all(np.isfinite(v)):
+            raise TorlabInputError(f"table axis {name!r} has a non-finite value", key=name)
+        if np.any(np.diff(v) <= 0):
+            raise TorlabInputError(f"table axis {name!r} must increase strictly (a table is "
+                                   "interpolated along it)", key=name)
+        return cls(name, v, unit, description)
+
+
+def kalker_scales(prob: CreepProblem) -> dict[str, float]:
+    """Scales of Kalker's normalisation for a problem (see the module docstring).
+
+    Returns ``mu`` (= ``mu_c2``), ``N``, ``c``, and the factors turning ``xi``, ``eta``,
+    ``phi`` into ``xi*``, ``eta*``, ``phi*`` (``nan`` for a creepage whose flexibility
+    is unknown).
+    """
+    a, b = prob.a, prob.b
+    c = math.sqrt(a * b)
+    mu = prob.layer.mu_c2
+    N = prob.load
+    GC11 = 8 * a / (3 * prob.L1)
+    GC22 = 8 * a / (3 * prob.L2) if prob.L2 is not None else math.nan
+    GC23 = math.pi * a * math.sqrt(a / b) / (4 * prob.L3) if prob.L3 is not None else math.nan
+    muN = mu * N if mu > 0 else math.nan
+    return {"mu": mu, "N": N, "c": c, "xi": GC11 * c * c / (3 * muN),
+            "eta": GC22 * c * c / (3 * muN), "phi": GC23 * c**3 / muN,
+            "G_C11": GC11, "G_C22": GC22, "G_C23": GC23}
+
+
+def _chunk(prob: CreepProblem, grid: CreepGrid | None, xi: np.ndarray, eta: np.ndarray,
+           phi: np.ndarray) -> dict[str, np.ndarray]:
+    """Evaluate one chunk of creepage triples (a picklable unit of work for ``map_fn``)."""
+    r = creep_forces(prob, xi, eta, phi, grid)
+    out = {"Fx_N": r.Fx, "Fy_N": r.Fy, "Mz_Nm": r.Mz, "mu_x": r.mu_x, "mu_y": r.mu_y,
+           "adhesion_fraction": r.adhesion_fraction}
+    if r.max_temperature_C is not None:
+        out["max_temperature_C"] = r.max_temperature_C
+    return out
+
+
+def _chunk_star(args: tuple) -> dict[str, np.ndarray]:
+    return _chunk(*args)
+
+
+@dataclass
+class CreepTable:
+    """A computed table: the :class:`xarray.Dataset` and what went into it."""
+
+    dataset: Any
+    axes: list[TableAxis]
+    notes: list[str] = field(default_factory=list)
+
+    def to_long(self) -> Any:
+        """Long DataFrame, one row per point: axes (with units), normalised creepages, forces."""
+        ds = self.dataset
+        df = ds.to_dataframe().reset_index()
+        ren = {ax.name: _column(ax) for ax in self.axes}
+        return df.rename(columns=ren)
+
+    def write(self, out: Any, stem: str = "creep_table") -> list[str]:
+        """Write ``<stem>.nc`` (netCDF3 via scipy) and ``<stem>.csv`` through an
+        :class:`~torlab.outputs.OutputDir`; returns the file names."""
+        nc = f"{stem}.nc"
+        path = out.path(nc)
+        self.dataset.to_netcdf(path, engine="scipy", format="NETCDF3_64BIT")
+        out.write_csv(f"{stem}.csv", self.to_long(), float_format="%.9g")
+        return [nc, f"{stem}.csv"]
+
+
+def _column(ax: TableAxis) -> str:
+    unit = {"1": "", "1/m": "_1_m", "m/s": "_m_s"}.get(ax.unit, "_" + ax.unit.replace("/", "_"))
+    return f"{ax.name}{unit}"
+
+
+def creep_table(problem: CreepProblem | Sequence[tuple[float, CreepProblem]], creepage: Any,
+                lateral: Any, spin: Any, *, speed: Any = None, amount_unit: str = "",
+                grid: CreepGrid | None = None, chunk: int = 256,
+                map_fn: Callable[[Callable[[Any], Any], Iterable[Any]], Iterable[Any]] | None = None,
+                provenance: dict[str, Any] | None = None) -> CreepTable:
+    """N-dimensional creep-force table over creepage x lateral x spin (x speed x amount).
+
+    Parameters
+    ----------
+    problem
+        The contact and layer (:func:`torlab.model.creep.creep_problem`), or for an
+        amount axis a sequence of ``(amount, problem)`` pairs (amounts increasing).
+    creepage, lateral, spin
+        Axis values: longitudinal and lateral creepage (fractions), spin (1/m).
+    speed
+        Optional rolling-speed axis (m/s); it changes only the contact temperature
+        (a scene without ``thermal:`` gets a note that the forces do not depend on it).
+    amount_unit
+        Unit of the amount axis, for the metadata (``"uL"``, ``"mg/m"``...).
+    grid
+        Resolution of the creep-force scheme.
+    chunk
+        Creepage triples per unit of work.
+    map_fn
+        ``map``-like callable evaluating the chunks (default: the builtin ``map``).
+    provenance
+        Extra attributes (scene name and files, command line ...), stored as JSON text.
+
+    Returns
+    -------
+    CreepTable
+
+    Raises
+    ------
+    TorlabInputError
+        An axis with fewer than two points, unsorted or non-finite values; spin or
+        lateral creepage without the flexibilities they need; xarray missing.
+    """
+    xr = require_xarray()
+    axes = [TableAxis.make("creepage", creepage, "1", "longitudinal creepage xi"),
+            TableAxis.make("lateral", lateral, "1", "lateral creepage eta"),
+            TableAxis.make("spin", spin, "1/m", "spin phi")]
+    problems: list[tuple[float | None, CreepProblem]]
+    if isinstance(problem, CreepProblem):
+        problems = [(None, problem)]
+    else:
+        pairs = list(problem)
+        amounts = TableAxis.make("amount", [p[0] for p in pairs], amount_unit or "1",
+                                 f"applied product amount ({amount_unit or 'as given'})")
+        problems = [(float(v), p) for v, (_, p) in zip(amounts.values, pairs, strict=True)]
+        axes.append(amounts)
+    speeds = None
+    notes: list[str] = []
+    if speed is not None:
+        sp = TableAxis.make("speed", speed, "m/s", "rolling speed v")
+        if np.any(sp.values <= 0):
+            raise TorlabInputError("table axis 'speed' must be positive", key="speed")
+        speeds = sp.values
+        axes.insert(3, sp)
+        if all(p.thermal is None for _, p in problems):
+            notes.append("speed axis: the scene has no thermal: section, so the forces do not "
+                         "depend on speed (the values repeat along it)")
+    xi_ax, eta_ax, phi_ax = (ax.values for ax in axes[:3])
+    XI, ETA, PHI = (v.ravel() for v in np.meshgrid(xi_ax, eta_ax, phi_ax, indexing="ij"))
+    base_shape = (xi_ax.size, eta_ax.size, phi_ax.size)
+    for _, p in problems:
+        if p.L3 is None and np.any(PHI != 0):
+            raise TorlabInputError("spin needs the contact shape (L3 from C23): build the "
+                                   "problem from a scene", key="spin")
+        if p.L2 is None and np.any(ETA != 0):
+            raise TorlabInputError("lateral creepage needs L2 (from C22)", key="lateral")
+    # the model's symmetries: each distinct triple up to sign flips is solved once
+    # (a table symmetric about zero costs a quarter); then units of work:
+    # (problem at a speed) x chunk of distinct triples
+    uniq, inv, sx, sy = canonical_creepages(XI, ETA, PHI)
+    UX, UE, UP = (uniq[:, k].copy() for k in range(3))
+    work = []
+    variants = []
+    for amount, p in problems:
+        for v in (speeds if speeds is not None else [None]):
+            pv = p if v is None else _with_speed(p, float(v))
+            variants.append((amount, v, pv))
+            for s in range(0, UX.size, chunk):
+                work.append((pv, grid, UX[s:s + chunk], UE[s:s + chunk], UP[s:s + chunk]))
+    results = list((map_fn or map)(_chunk_star, work))
+    per_variant = math.ceil(UX.size / chunk)
+    sign = {"Fx_N": sx, "mu_x": sx, "Fy_N": sy, "mu_y": sy, "Mz_Nm": sy}
+    names = list(results[0])
+    shape_extra = ([speeds.size] if speeds is not None else []) + \
+        ([len(problems)] if problems[0][0] is not None else [])
+    full_shape = base_shape + tuple(shape_extra)
+    data = {k: np.empty(full_shape) for k in names}
+    for iv, (amount, v, _pv) in enumerate(variants):
+        parts = results[iv * per_variant:(iv + 1) * per_variant]
+        idx: tuple = ()
+        if speeds is not None:
+            idx += (int(np.flatnonzero(speeds == v)[0]),)
+        if amount is not None:
+            idx += (next(i for i, (a_, _) in enumerate(problems) if a_ == amount),)
+        for k in names:
+            vals = np.concatenate([r[k] for r in parts])[inv] * sign.get(k, 1.0)
+            data[k][(..., *idx)] = vals.reshape(base_shape)
+    dims = [ax.name for ax in axes]
+    # normalised creepages and forces, per problem (mu and the scales may change with amount)
+    scales = [kalker_scales(p) for _, p in problems]
+    sc = {k: np.array([s[k] for s in scales]) for k in ("mu", "N", "c", "xi", "eta", "phi")}
+    amount_dim = problems[0][0] is not None
+
+    def per_amount(v: np.ndarray) -> Any:
+        return xr.DataArray(v, dims=["amount"]) if amount_dim else float(v[0])
+
+    coords: dict[str, Any] = {ax.name: (ax.name, ax.values, {"units": ax.unit,
+                                                               "long_name": ax.description})
+                              for ax in axes}
+    ds = xr.Dataset({k: (dims, data[k], {"units": VARIABLES[k][0], "long_name": VARIABLES[k][1]})
+                     for k in names}, coords=coords)
+    muN = per_amount(sc["mu"] * sc["N"])
+    ds["Fx_norm"] = ds["Fx_N"] / muN
+    ds["Fy_norm"] = ds["Fy_N"] / muN
+    ds["Mz_norm"] = ds["Mz_Nm"] / (muN * per_amount(sc["c"]))
+    for k in ("Fx_norm", "Fy_norm", "Mz_norm"):
+        ds[k].attrs = {"units": VARIABLES[k][0], "long_name": VARIABLES[k][1]}
+    for name, key, desc in (("xi_norm", "xi", "G c^2 C11 xi / (3 mu N)"),
+                            ("eta_norm", "eta", "G c^2 C22 eta / (3 mu N)"),
+                            ("phi_norm", "phi", "G c^3 C23 phi / (mu N)")):
+        axis = {"xi": "creepage", "eta": "lateral", "phi": "spin"}[key]
+        val = ds[axis] * per_amount(sc[key])
+        ds = ds.assign_coords({name: val})
+        ds[name].attrs = {"units": "1", "long_name": f"Kalker-normalised {axis}: {desc}"}
+    ds = ds.transpose(*dims)
+    p0 = problems[0][1]
+    attrs: dict[str, Any] = {
+        "title": "creep-force table (torlab)",
+        "model": ("FASTSIM with the third-body layer in longitudinal creepage, lateral "
+                  "creepage and spin (Kalker's three flexibilities, Voce limit; "
+                  "torlab.model.creep)"),
+        "sign_convention": ("forces along positive creepage are positive; Kalker's and "
+                            "CONTACT's forces have the opposite sign"),
+        "normalisation": ("Kalker's book of tables: xi* = G c^2 C11 xi/(3 mu N), "
+                          "eta* = G c^2 C22 eta/(3 mu N), phi* = G c^3 C23 phi/(mu N), "
+                          "F/(mu N), Mz/(mu N c), c = sqrt(a b), mu = mu_c2"),
+        "mu_normalisation": float(sc["mu"][0]) if not amount_dim else json.dumps(
+            [float(v) for v in sc["mu"]]),
+        "a_m": p0.a, "b_m": p0.b, "load_N": p0.load, "p0_Pa": p0.p0,
+        "L1_m_Pa": p0.L1, "L2_m_Pa": p0.L2 if p0.L2 is not None else math.nan,
+        "L3_m_Pa": p0.L3 if p0.L3 is not None else math.nan,
+        "restick": p0.restick, "traction_bound": p0.traction_bound,
+        "grid": json.dumps(asdict(grid or CreepGrid())),
+        "layer": json.dumps(asdict(p0.layer)),
+        "thermal": json.dumps(asdict(p0.thermal)) if p0.thermal is not None else "none",
+        "speed_m_s": p0.speed, "ambient_temperature_C": p0.ambient_temperature,
+        "notes": json.dumps(notes),
+    }
+    from torlab import __version__
+
+    attrs["torlab_version"] = __version__
+    for k, v in (provenance or {}).items():
+        attrs[k] = v if isinstance(v, (str, int, float)) else json.dumps(v, default=str)
+    ds.attrs.update(attrs)
+    for k in names:
+        if not np.all(np.isfinite(data[k])):
+            from torlab.errors import NumericalError
+
+            raise NumericalError(f"creep table: non-finite values in {k}; please report this scene")
+    return CreepTable(dataset=ds, axes=axes, notes=notes)
+
+
+def _with_speed(p: CreepProblem, v: float) -> CreepProblem:
+    from dataclasses import replace
+
+    return replace(p, speed=v)
+
+
+def scene_creep_table(scene: Any, creepage: Any, lateral: Any, spin: Any, *, speed: Any = None,
+                      amounts: Sequence[tuple[float, Any]] | None = None, amount_unit: str = "",
+                      normalised: bool = False, map_fn: Any = None,
+                      provenance: dict[str, Any] | None = None) -> CreepTable:
+    """:func:`creep_table` of a scene (or, with ``amounts``, of one scene per amount).
+
+    Parameters
+    ----------
+    scene
+        A validated dry :class:`~torlab.scene.Scene`; ignored when ``amounts`` is given.
+    creepage, lateral, spin
+        Axis values: fractions and 1/m, or with ``normalised`` Kalker's ``xi*``, ``eta*``,
+        ``phi*`` (converted with the scene's contact and ``mu_c2``; with an amount axis,
+        with the first amount's).
+    speed
+        Optional speed axis (m/s).
+    amounts
+        ``(amount, scene)`` pairs for an amount axis (one parameter set per amount).
+    amount_unit
+        Unit text of the amounts.
+    normalised
+        Axes given in Kalker's normalised creepages.
+    map_fn
+        ``map``-like callable for the chunks (e.g. an executor's ``map``).
+    provenance
+        Attributes to store (scene files, command).
+    """
+    from torlab.model.creep import creep_problem, scene_grid
+
+    first = amounts[0][1] if amounts else scene
+    prob0 = creep_problem(first)
+    xi, eta, phi = (np.atleast_1d(np.asarray(v, dtype=float)) for v in (creepage, lateral, spin))
+    if normalised:
+        s = kalker_scales(prob0)
+        xi, eta, phi = xi / s["xi"], eta / s["eta"], phi / s["phi"]
+    prov = {"scene": getattr(first, "name", ""), "axes_given_normalised": int(normalised),
+            **(provenance or {})}
+    target: Any = prob0 if not amounts else [(float(a), creep_problem(sc)) for a, sc in amounts]
+    return creep_table(target, xi, eta, phi, speed=speed, amount_unit=amount_unit,
+                       grid=scene_grid(first), map_fn=map_fn, provenance=prov)
