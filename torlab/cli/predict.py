@@ -75,6 +75,9 @@ def traction_cmd(
     c.print(f"max |mu| = {mu.max():.4f} at creepage {pred.table['creepage'][mu.idxmax()]:.4g}")
     if t["trend"] == "not saturated":
         c.print("trend after saturation: not saturated (the curve does not level off in this range)")
+    elif t.get("trend_from_creepage") is None:  # e.g. 'too few points' after saturation
+        c.print(f"trend after saturation (H4.1): {t['trend']} (saturated at creepage "
+                f"{t['saturation_creepage']:.4g}; give more creepages beyond it to read a trend)")
     else:
         c.print(f"trend after saturation (H4.1): [bold]{t['trend']}[/bold] (saturated at "
                 f"creepage {t['saturation_creepage']:.4g}; from {t['trend_from_creepage']:.4g} "

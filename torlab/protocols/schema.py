@@ -388,7 +388,7 @@ class HptLayerFit(_Model):
 
     amounts: Annotated[list[Amount], BeforeValidator(_listify)] = Field(min_length=1)
     temperature: Temperature = 25.0
-    temperature_tolerance: Annotated[float, _q("temperature")] = Field(default=2.0, gt=0)
+    temperature_tolerance: Annotated[float, _q("temperature_difference")] = Field(default=2.0, gt=0)
     joint: bool = False
     temperature_coefficients: bool = True
     products: list[str] = []
@@ -546,7 +546,7 @@ class AmountReport(_Model):
     """
 
     temperature: Temperature = 25.0
-    temperature_tolerance: Annotated[float, _q("temperature")] = Field(default=2.0, gt=0)
+    temperature_tolerance: Annotated[float, _q("temperature_difference")] = Field(default=2.0, gt=0)
     band: Band = (0.15, 0.25)
     threshold: Fraction = Field(default=0.15, gt=0)
     basis: Literal["mass", "amount"] = "mass"
