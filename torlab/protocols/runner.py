@@ -322,7 +322,9 @@ class _Run:
         from torlab.yamlio import dump_yaml
 
         if hasattr(res, "to_yaml_dict"):
-            self.dest.write_text(f"fits/{name.replace(':', '_')}.yaml",
+            from torlab.outputs import safe_name
+
+            self.dest.write_text(f"fits/{safe_name(name.replace(':', '_'))}.yaml",
                                  dump_yaml(_finite(res.to_yaml_dict())))
 
     def _fit_hpt(self) -> None:
@@ -494,7 +496,9 @@ class _Run:
             self.fit_rows.append(row)
         from torlab.yamlio import dump_yaml
 
-        self.dest.write_text(f"fits/lubricant_{lf.name}.yaml",
+        from torlab.outputs import safe_name
+
+        self.dest.write_text(f"fits/lubricant_{safe_name(lf.name)}.yaml",
                              dump_yaml({"lubricant": ft.to_scene_dict()}))
 
     # ------------------------------------------------------------------ scenes
@@ -756,6 +760,7 @@ class _Run:
     def _fits_section(self) -> Any:
         import pandas as pd
 
+        from torlab.outputs import safe_name
         from torlab.reports.html import Figure, Section, Table
 
         df = pd.DataFrame(self.fit_rows)
@@ -766,7 +771,7 @@ class _Run:
             fit_figure = None
         if fit_figure is not None:
             for name, res in self.fit_results:
-                figs.append(Figure(f"fit_{name.replace(':', '_')}", fit_figure(res),
+                figs.append(Figure(f"fit_{safe_name(name.replace(':', '_'))}", fit_figure(res),
                                    f"{name}: data against the fitted model, residuals"))
         warn = [f"{name}: {w}" for name, res in self.fit_results for w in res.warnings]
         show = {"set": ("set", ""), "parameter": ("parameter", ""), "value": ("value", ".5g"),
