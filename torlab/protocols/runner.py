@@ -494,9 +494,8 @@ class _Run:
                 if not np.isfinite(row[c]):
                     row[c] = float("nan")
             self.fit_rows.append(row)
-        from torlab.yamlio import dump_yaml
-
         from torlab.outputs import safe_name
+        from torlab.yamlio import dump_yaml
 
         self.dest.write_text(f"fits/lubricant_{safe_name(lf.name)}.yaml",
                              dump_yaml({"lubricant": ft.to_scene_dict()}))

@@ -304,26 +304,56 @@ def time_test_metrics(
     )
 
 
-def mu_series(df: Any) -> tuple[np.ndarray | None, str]:
+def mu_series(df: Any, meta: Any = None) -> tuple[np.ndarray | None, str]:
     """The signed traction coefficient of PCS rows and where it comes from.
 
-    In order: the coefficient column (signed, see
+    Row by row, the first available of: the coefficient column (signed, see
     :func:`torlab.parsers.pcs.coefficient_column`); ``Traction Force / Ball
     Load``; ``Traction Force 1 / Ball Load`` (EHD2 film steps, which log only
-    that force).  ``(None, "")`` when none is available.
+    that force).  A blank coefficient cell is filled from the forces of its own
+    row, so one blank cell never blanks other rows.  A row whose Ball Load is
+    zero or negative gets no coefficient from the forces; with ``meta`` given,
+    such rows are reported in ``meta.warnings`` with their lines.  ``(None, "")``
+    when no row has a coefficient source.
     """
+    n = len(df)
+    mu = np.full(n, np.nan)
+    parts: list[str] = []
     col, src = coefficient_column(df)
-    if col and df[col].notna().any():
-        return df[col].to_numpy(dtype=float), src
+    if col:
+        c = df[col].to_numpy(dtype=float)
+        have = np.isfinite(c)
+        mu[have] = c[have]
+        if have.any():
+            parts.append(src)
     if "ball_load_N" in df:
         w = df["ball_load_N"].to_numpy(dtype=float)
+        zero = np.isfinite(w) & (w <= 0)
         for fcol, label in (("traction_force_N", "Traction Force / Ball Load"),
                             ("traction_force_1_N", "Traction Force 1 / Ball Load")):
-            if fcol in df and df[fcol].notna().any():
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    mu = np.where(w > 0, df[fcol].to_numpy(dtype=float) / w, np.nan)
-                return mu, label
-    return None, ""
+            if fcol not in df:
+                continue
+            f = df[fcol].to_numpy(dtype=float)
+            fill = ~np.isfinite(mu) & np.isfinite(f) & np.isfinite(w) & (w > 0)
+            if fill.any():
+                mu[fill] = f[fill] / w[fill]
+                parts.append(label if not parts else f"{label} ({int(fill.sum())} rows)")
+        if zero.any() and meta is not None:
+            kept = "the coefficient column is kept as written" if col and \
+                np.isfinite(mu[zero]).all() else "no coefficient from the forces there"
+            meta.warnings.append(f"Ball Load is zero or negative in {int(zero.sum())} of {n} "
+                                 f"rows ({_lines(df, zero)}): {kept}")
+    if not parts:
+        return None, ""
+    return mu, " + ".join(parts)
+
+
+def _lines(df: Any, sel: np.ndarray) -> str:
+    """``lines a-b`` (or ``line a``) of the selected rows, for messages."""
+    if "line" not in df:
+        return f"{int(sel.sum())} rows"
+    ln = df["line"].to_numpy()[sel]
+    return f"line {ln[0]}" if len(ln) == 1 else f"lines {ln.min()}-{ln.max()}"
 
 
 @dataclass
@@ -389,7 +419,7 @@ def reduce_pcs(df: Any, meta: PcsMetadata, *, time_tests: bool = True, **time_te
     """
     import pandas as pd
 
-    mu, src = mu_series(df)
+    mu, src = mu_series(df, meta)
     curves: dict[str, Any] = {}
     rows = []
     tts: list[TimeTestResult] = []
@@ -420,10 +450,20 @@ def reduce_pcs(df: Any, meta: PcsMetadata, *, time_tests: bool = True, **time_te
         ycol = "film_thickness_m" if kind == "film" and "film_thickness_m" in cdf else \
             "traction_coefficient"
         keep = cdf[xcol].notna() & cdf[ycol].notna()
-        curves[kind] = cdf.loc[keep].reset_index(drop=True)
+        if not keep.all():
+            lost = ~keep.to_numpy()
+            why = "a traction coefficient" if ycol == "traction_coefficient" else "a film thickness"
+            meta.warnings.append(f"{kind} steps: {int(lost.sum())} of {len(cdf)} rows have no "
+                                 f"{why} or no {xcol} and are left out ({_lines(cdf, lost)})")
+        if keep.any():
+            curves[kind] = cdf.loc[keep].reset_index(drop=True)
     if not curves:
+        why = ""
+        if mu is None or not np.isfinite(mu).any():
+            why = " (every Traction Coeff cell is blank and Traction Force / Ball Load cannot " \
+                  "be formed: no force or a zero Ball Load)"
         raise TorlabInputError("no traction, Stribeck, timed or film step with a traction "
-                               "coefficient or film thickness to reduce", path=meta.source)
+                               f"coefficient or film thickness to reduce{why}", path=meta.source)
     for st in meta.steps:
         if not st.has_data:
             continue

@@ -513,7 +513,7 @@ def reduce_ehd2(df: Any, meta: Any) -> OpticalResult:
         raise TorlabInputError("no FILM step with data rows in this PCS file (the optical "
                                "reduction reads EHD2 film steps)", path=meta.source)
     sub = df.loc[sel]
-    mu, src = mu_series(sub)
+    mu, src = mu_series(sub, meta)
     out: dict[str, Any] = {"condition": np.arange(1, int(sel.sum()) + 1),
                            "step": sub["step"].to_numpy()}
     for c, nm in (("rolling_speed_m_s", "rolling_speed_m_s"), ("srr", "srr"),
