@@ -58,6 +58,9 @@ def require_files(paths: Sequence[Path], what: str = "input") -> list[Path]:
             raise TorlabInputError(f"{what} file not found", path=p)
         if p.is_dir():
             raise TorlabInputError(f"is a folder; give the {what} file(s) in it", path=p)
+        if not p.is_file():
+            raise TorlabInputError(f"not a regular file (a device, FIFO or socket); give the "
+                                   f"{what} file", path=p)
         out.append(p)
     if not out:
         raise TorlabInputError(f"no {what} files given")

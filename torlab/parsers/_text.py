@@ -29,6 +29,9 @@ __all__ = ["PathOrBuffer", "detect_delimiter", "parse_numeric_rows", "read_text"
 
 PathOrBuffer = str | os.PathLike[str] | IO[str] | IO[bytes]
 
+#: largest text input read (bytes); a path must be a regular file (no FIFO or device)
+MAX_TEXT_BYTES = 1 << 30
+
 
 def read_text(src: PathOrBuffer, *, name: str | None = None) -> tuple[str, str]:
     """Read ``src`` (path, text buffer or bytes buffer) as text.
@@ -42,19 +45,25 @@ def read_text(src: PathOrBuffer, *, name: str | None = None) -> tuple[str, str]:
     Raises
     ------
     TorlabInputError
-        File missing, a folder, or unreadable.
+        File missing, a folder, not a regular file (a FIFO or ``/dev/zero``
+        would block or never end), larger than :data:`MAX_TEXT_BYTES`, or
+        unreadable.
     """
     if isinstance(src, (str, os.PathLike)):
+        from torlab.outputs import open_regular
+
         p = Path(src)
         display = name or str(p)
         try:
-            raw = p.read_bytes()
-        except FileNotFoundError:
-            raise TorlabInputError("file not found", path=display) from None
-        except IsADirectoryError:
-            raise TorlabInputError("is a folder, expected a file", path=display) from None
+            with open_regular(p) as f:
+                raw = f.read(MAX_TEXT_BYTES + 1)
+        except TorlabInputError as e:
+            raise TorlabInputError(e.message, path=display) from None
         except OSError as e:
             raise TorlabInputError(f"cannot read ({e.strerror})", path=display) from None
+        if len(raw) > MAX_TEXT_BYTES:
+            raise TorlabInputError(f"larger than {MAX_TEXT_BYTES >> 20} MiB; torlab reads "
+                                   "instrument logs up to that size", path=display)
     else:
         display = name or getattr(src, "name", None) or "<buffer>"
         raw = src.read()

@@ -221,8 +221,13 @@ def open_optical(src: PathOrBuffer, *, name: str | None = None) -> OpticalSource
             raise TorlabInputError(f"cannot read ({e.strerror})", path=display) from None
         if os.path.isdir(path):
             raise TorlabInputError("is a folder, expected a file", path=display)
-        with open(path, "rb") as f:
-            head = f.read(min(size, 1 << 16))
+        from torlab.outputs import open_regular
+
+        try:
+            with open_regular(path) as f:
+                head = f.read(min(size, 1 << 16))
+        except TorlabInputError as e:
+            raise TorlabInputError(e.message, path=display) from None
         if b"\x00" in head[:4096]:
             raise TorlabInputError("binary file, expected text", path=display)
         head_text, _ = read_text(io.BytesIO(head), name=display)

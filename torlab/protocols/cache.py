@@ -571,9 +571,12 @@ class ResultCache:
             self.not_cacheable.add(kind)
             self.used.discard(name)
             return value
+        from torlab.outputs import _writing
+
         target = self.register(f"{CACHE_DIR}/{name}") if self.register is not None else p
-        target.parent.mkdir(parents=True, exist_ok=True)
-        target.write_bytes(blob)
+        with _writing(target):
+            target.parent.mkdir(parents=True, exist_ok=True)
+            target.write_bytes(blob)
         return value
 
     def prune(self) -> int:
