@@ -188,7 +188,17 @@ def _set_meta(meta: OpticalMetadata, key: str, value: str, path: str, line: int)
                                    line=line, key=key)
         meta.friction_sign = float(value)
         return
-    setattr(meta, key, to_si(value, kind, where=key, path=path, line=line))
+    v = to_si(value, kind, where=key, path=path, line=line)
+    if key in _HEADER_RANGES:
+        from torlab.units import check_range
+
+        check_range(_HEADER_RANGES[key], v, where=key, path=path, line=line)
+    setattr(meta, key, v)
+
+
+#: header key -> plausible-range quantity (torlab.units.RANGES)
+_HEADER_RANGES = {"ball_radius": "ball_radius", "temperature": "temperature",
+                  "lubricant_viscosity": "viscosity"}
 
 
 def open_optical(src: PathOrBuffer, *, name: str | None = None) -> OpticalSource:
