@@ -211,7 +211,7 @@ def mutate_text(data: bytes, rng: random.Random) -> list[tuple[str, bytes]]:
             i = rng.choice(dl)
             nums = list(_NUM.finditer(ls[i]))
             m = rng.choice(nums)
-            v = rng.choice(HUGE[5:9]) if tag == "nan_cell" else rng.choice(HUGE[:5] + [b"1e30"])
+            v = rng.choice(HUGE[5:9]) if tag == "nan_cell" else rng.choice([*HUGE[:5], b"1e30"])
             l2 = list(ls)
             l2[i] = ls[i][: m.start()] + v + ls[i][m.end():]
             out.append((f"{tag}={v.decode() or 'empty'}", b"\n".join(l2)))
@@ -282,7 +282,7 @@ def mutate_yaml(data: bytes, rng: random.Random, *, values: int = 8) -> list[tup
             out.append((f"unit{a.decode()}->{c.decode() or 'none'}", data.replace(a, c, 1)))
     i = rng.choice(kv)
     out.append(("deleted_line", b"\n".join(ls[:i] + ls[i + 1:])))
-    out.append(("duplicated_line", b"\n".join(ls[: i + 1] + [ls[i]] + ls[i + 1:])))
+    out.append(("duplicated_line", b"\n".join([*ls[:i + 1], ls[i], *ls[i + 1:]])))
     out.append(("unknown_key", data + b"\nsurprise: 1\n"))
     out.append(("tab_indent", data.replace(b"\n  ", b"\n\t", 1)))
     out.append(("truncate", data[: rng.randrange(max(1, len(data)))]))
@@ -314,9 +314,15 @@ def build_corpus(seed: int = 20240613) -> list[Case]:
         for name, data in src[reader]:
             for mut, b in mutate_text(data, rng):
                 cases.append(Case(reader, name, mut, b))
+    for name, data in src["hpt"][:1]:
+        for mut, b in mutate_text(data, rng)[::3]:
+            cases.append(Case("fit_hpt", name, mut, b))
     for name, data in src["scene"]:
         for mut, b in mutate_yaml(data, rng):
             cases.append(Case("scene", name, mut, b))
+        if b"lubricant:" in data:
+            for mut, b in mutate_yaml(data, rng, values=4)[:8]:
+                cases.append(Case("scene_stribeck", name, mut, b))
     scene = (SCENES / "wheel_rail_tab54.yaml").read_bytes()
     # the documented scene without L_mue/L_mup (their defaults) and with thermal:
     nolayer = b"\n".join(ln for ln in scene.split(b"\n") if b"L_mu" not in ln)
@@ -349,7 +355,7 @@ def _alarm(signum: int, frame: object) -> None:
 
 def _place(case: Case, work: Path) -> Path:
     """Write the case's input into ``work`` and return its path."""
-    suffix = {"scene": ".yaml", "protocol": ".yaml", "hpt_map": ".yaml", "optical": ".csv"}.get(
+    suffix = {"scene": ".yaml", "scene_stribeck": ".yaml", "protocol": ".yaml", "hpt_map": ".yaml", "optical": ".csv"}.get(
         case.reader, ".txt")
     p = work / f"input{suffix}"
     if case.special == "fifo":
@@ -384,6 +390,11 @@ def command(case: Case, work: Path) -> list[str]:
         return ["visc", "reduce", str(p), "--reference", str(ref), "-o", out]
     if r == "scene":
         return ["predict", "traction", str(p), "--creepage", "0:0.05:6", "-o", out]
+    if r == "scene_stribeck":
+        return ["predict", "stribeck", str(p), "--speed", "0.01:2:6", "--creepage", "0.02",
+                "-o", out]
+    if r == "fit_hpt":
+        return ["fit", "hpt", str(p), "-o", out]
     if r == "hpt_map":
         csv = work / "rig2.csv"
         csv.write_bytes(HPT_MAP_CSV)

@@ -337,6 +337,8 @@ RANGES: dict[str, Range] = {
                             low_open=False, display="um/MPa"),
     "displacement_rate": Range("velocity", 1e-15, 1.0, 1e-9, 1e-3, "a displacement rate",
                                low_open=False, display="um/s"),
+    "displacement_window": Range("length", 0.0, 0.01, 1e-6, 1e-3,
+                                 "an HPT averaging window (displacement)", display="um"),
     "ball_radius": Range("length", 1e-6, 1.0, 5e-4, 0.05, "a ball radius", low_open=False,
                          display="mm"),
 }
@@ -379,6 +381,8 @@ def check_range(quantity: str, value: float, *, where: str = "", path: Any = Non
 
 
 def _show(value: float, r: Range) -> str:
+    if r.kind in ("temperature", "temperature_difference"):  # degC and K are the SI units here
+        return f"{value:.6g} {KINDS[r.kind][1]}"
     if not r.display or not math.isfinite(value) or value == 0:
         unit = r.display or KINDS[r.kind][1]
         return f"{value:.4g} {unit}".strip()

@@ -25,7 +25,8 @@ from torlab.errors import TorlabInputError
 _NUMBER_FIELD = re.compile(r"[+-]?(?:(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|inf(?:inity)?|nan)",
                            re.IGNORECASE)
 
-__all__ = ["PathOrBuffer", "detect_delimiter", "parse_numeric_rows", "read_text", "split_unit"]
+__all__ = ["PathOrBuffer", "detect_delimiter", "parse_numeric_rows", "read_text",
+           "refuse_below_absolute_zero", "split_unit"]
 
 PathOrBuffer = str | os.PathLike[str] | IO[str] | IO[bytes]
 
@@ -210,3 +211,22 @@ def _scan_for_error(lines: Sequence[str], first_line_no: int, columns: Sequence[
 def as_path_str(p: Any) -> str:
     """``str`` of a path-like, for messages."""
     return os.fspath(p) if isinstance(p, (str, os.PathLike)) else str(p)
+
+
+def refuse_below_absolute_zero(df: Any, display: str) -> None:
+    """A temperature column (``*_C``) below -273.15 degC is an error naming the line.
+
+    Temperature columns are converted to degC from any unit (K, degF); a value
+    below absolute zero is a wrong unit or a broken cell, never a measurement.
+    """
+    for c in df.columns:
+        if not str(c).endswith("_C"):
+            continue
+        v = df[c].to_numpy(dtype=float)
+        bad = v < -273.15 - 1e-9
+        if bad.any():
+            i = int(np.argmax(bad))
+            line = int(df["line"].iloc[i]) if "line" in df else None
+            raise TorlabInputError(f"{v[i]:g} degC is below absolute zero (-273.15 degC); "
+                                   "check the value and the column's unit", path=display,
+                                   line=line, key=str(c))

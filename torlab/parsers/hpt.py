@@ -44,6 +44,7 @@ from torlab.parsers._text import (
     detect_delimiter,
     parse_numeric_rows,
     read_text,
+    refuse_below_absolute_zero,
     split_unit,
 )
 
@@ -366,6 +367,7 @@ def read_hpt(src: PathOrBuffer, mapping: PathOrBuffer | dict[str, Any] | None = 
                                f"{meta.r1 * 1e3:g} mm, r2 = {meta.r2 * 1e3:g} mm)", path=display,  # type: ignore[operator]
                                line=meta.lines.get("r2"))
     _check_rows(df, meta, display)
+    refuse_below_absolute_zero(df, display)
     return df, meta
 
 

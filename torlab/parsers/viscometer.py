@@ -41,6 +41,7 @@ from torlab.parsers._text import (
     detect_delimiter,
     parse_numeric_rows,
     read_text,
+    refuse_below_absolute_zero,
     split_unit,
 )
 
@@ -344,4 +345,5 @@ def read_viscometer(src: PathOrBuffer, *, name: str | None = None) -> tuple[Any,
             raise TorlabInputError(f"fall must be a whole number >= 0, got {f[i]:g}", path=display,
                                    line=int(line_no[i]), key="fall")
         df["fall"] = df["fall"].astype(np.int64)
+    refuse_below_absolute_zero(df, display)
     return df, meta

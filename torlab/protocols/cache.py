@@ -231,7 +231,7 @@ def _enc_pandas(v: Any) -> Any:
     if isinstance(v, pd.DataFrame):
         if isinstance(v.columns, pd.MultiIndex):
             raise NotCacheable("MultiIndex columns")
-        return {"__t": "df", "columns": [encode_value(c) for c in v.columns],
+        return {"__t": "df", "columns": _enc_index(v.columns),
                 "data": [_enc_column(v.iloc[:, j]) for j in range(v.shape[1])],
                 "index": _enc_index(v.index), "attrs": encode_value(dict(v.attrs))}
     if isinstance(v, pd.Series):
@@ -399,13 +399,13 @@ def _dec_pandas(t: dict, d: int) -> Any:
         s.index = index
         s.name = decode_value(t["name"], depth=d)
         return s
-    cols = [_hashable(decode_value(c, depth=d)) for c in _list(t["columns"])]
+    cols = _dec_index(t["columns"], d)
     data = [_dec_column(c, d) for c in _list(t["data"])]
     if len(cols) != len(data) or any(len(s) != len(index) for s in data):
         raise BadEntry("table columns do not match")
-    df = pd.concat([s.set_axis(index) for s in data], axis=1) if data \
+    df = pd.concat([s.set_axis(index) for s in data], axis=1, ignore_index=True) if data \
         else pd.DataFrame(index=index)
-    df.columns = pd.Index(cols, dtype=object) if cols else df.columns
+    df.columns = cols
     attrs = decode_value(t.get("attrs", {"__t": "dict", "v": []}), depth=d)
     if not isinstance(attrs, dict):
         raise BadEntry("bad table attributes")
