@@ -45,9 +45,10 @@ reports:
         params: ["hpt:*"]
 """
 
-#: seconds between start and kill -9: fixed seed, spread over the run (import, reduction,
+#: seconds between start and kill -9: fixed seed, spread over a run (import, reduction,
 #: fits, figures, commit); any point must satisfy the invariant
-KILL_AFTER = sorted(round(random.Random(7).uniform(0.2, 8.0), 2) for _ in range(5))
+_RNG = random.Random(7)
+KILL_AFTER = sorted(round(_RNG.uniform(0.3, 6.0), 2) for _ in range(4))
 
 
 def _env(tmp: Path) -> dict[str, str]:

@@ -283,7 +283,17 @@ def _remove_tree(p: Path) -> None:
             p = trash
         except OSError:
             pass
-    shutil.rmtree(p, ignore_errors=True)
+
+    def writable(fn: Any, path: str, exc: Any) -> None:  # a read-only folder of ours
+        with contextlib.suppress(OSError):
+            os.chmod(os.path.dirname(path), 0o700)
+            os.chmod(path, 0o700)
+            fn(path)
+
+    if sys.version_info >= (3, 12):
+        shutil.rmtree(p, onexc=writable)
+    else:
+        shutil.rmtree(p, onerror=writable)
 
 
 # ---------------------------------------------------------------------------- the folder

@@ -53,11 +53,14 @@ def _split_debug(argv: list[str]) -> tuple[list[str], bool]:
 def _show_warning(message: Any, category: type, filename: str, lineno: int, file: Any = None,
                   line: str | None = None) -> None:
     """Print torlab's warnings as one line each (once); keep library warnings for --debug."""
+    import os
+
     from torlab.errors import TorlabWarning
 
     text = _one_line(str(message))
+    pkg = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     ours = issubclass(category, TorlabWarning) or (
-        issubclass(category, UserWarning) and "torlab" in filename.replace("\\", "/").split("/"))
+        issubclass(category, UserWarning) and os.path.abspath(filename).startswith(pkg + os.sep))
     if ours:
         if text not in _STATE["warnings"]:
             _STATE["warnings"].append(text)
