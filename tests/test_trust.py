@@ -563,3 +563,134 @@ def test_markdown_report_escapes_html_from_log_headers():
         i = lines.index(head)
         cells = len(re.findall(r"(?<!\\)\|", head))
         assert len(re.findall(r"(?<!\\)\|", lines[i + 2])) == cells
+
+
+# ------------------------------------------------------------------------------ the issue's wrong numbers
+def test_e_strip_without_elastic_layer_is_the_closed_form():
+    """L_mue = 0 (the scene default) gives r = 0: e = 1 - cos(theta), also at theta = 0."""
+    from torlab.model.fastsim import e_strip
+
+    th = np.array([0.0, 1e-12, 0.3, 1.0, np.pi / 2, np.pi])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        e = e_strip(th, np.zeros_like(th))
+    np.testing.assert_allclose(e, 1.0 - np.cos(th), rtol=1e-12, atol=1e-15)
+
+
+def test_documented_scene_without_layer_lengths_but_with_thermal(cli, tmp_path):
+    s = tmp_path / "s.yaml"
+    s.write_text("\n".join(ln for ln in SCENE.read_text().splitlines() if "L_mu" not in ln))
+    r = cli("predict", "traction", s, "--creepage", "0:0.05:11", "-o", tmp_path / "o")
+    assert r.exit_code == 0, r.output
+    import pandas as pd
+
+    t = pd.read_csv(tmp_path / "o" / "traction.csv")
+    assert np.isfinite(t["max_temperature_C"]).all() and t["max_temperature_C"].iloc[0] == 20.0
+    assert (t["mu"] <= 0.45 + 1e-12).all()  # never above mu_c2
+
+
+def test_short_creepage_list_on_a_saturating_scene(cli, tmp_path):
+    s = tmp_path / "s.yaml"  # without L_mue/L_mup: saturated at the first creepage
+    s.write_text("\n".join(ln for ln in SCENE.read_text().splitlines() if "L_mu" not in ln))
+    r = cli("predict", "traction", s, "--creepage", "0.01,0.02,0.05", "-o", tmp_path / "o")
+    assert r.exit_code == 0, r.output
+    assert "too few points" in r.output
+
+
+def test_predictions_outside_the_model_say_so(cli, tmp_path):
+    hot = tmp_path / "hot.yaml"
+    hot.write_text(SCENE.read_text().replace("speed: 10 m/s", "speed: 140 m/s")
+                   .replace("load: 20 kN", "load: 900 kN"))
+    r = cli("predict", "traction", hot, "--creepage", "0:0.05:6", "-o", tmp_path / "h")
+    assert r.exit_code == 0
+    notes = json.loads((tmp_path / "h" / "summary.json").read_text())["notes"]
+    assert any("contact temperature reaches" in n for n in notes) and "°C" in r.output
+    r = cli("predict", "traction", SCENE, "--creepage", "0:0.05:6", "-o", tmp_path / "n")
+    notes = json.loads((tmp_path / "n" / "summary.json").read_text())["notes"]
+    assert not any("reaches" in n for n in notes)  # the documented scene: 20-200 degC
+
+
+def _pcs_rows(text: str) -> tuple[list[str], int, list[str]]:
+    lines = text.split("\n")
+    h = next(i for i, ln in enumerate(lines) if ln.startswith("Step Time (s)"))
+    return lines, h, lines[h].split("\t")
+
+
+def test_blank_coefficient_cell_is_filled_from_its_own_row(tmp_path):
+    from torlab.parsers.pcs import read_pcs
+    from torlab.reduce.mtm import reduce_pcs
+
+    text = (ROOT / "sample_data" / "mtm" / "mtm_TOR-A_5uL.txt").read_bytes().decode()
+    text = text.replace("\r\n", "\n")
+    lines, h, head = _pcs_rows(text)
+    tc = [j for j, c in enumerate(head) if c.startswith("Traction Coeff")]
+    tf, bl = head.index("Traction Force (N)"), head.index("Ball Load (N)")
+    cells = lines[h + 5].split("\t")
+    for j in tc:
+        cells[j] = ""
+    lines[h + 5] = "\t".join(cells)
+    f = tmp_path / "blank.txt"
+    f.write_text("\n".join(lines))
+    red = reduce_pcs(*read_pcs(f))
+    timed = red.curves["timed"]
+    assert len(timed) == 1260  # no row lost, no row blanked
+    row = timed.loc[timed["line"] == h + 6].iloc[0]
+    assert row["traction_coefficient"] == pytest.approx(float(cells[tf]) / float(cells[bl]))
+    others = timed.loc[timed["line"] != h + 6, "traction_coefficient"]
+    assert others.notna().all()
+
+
+def test_zero_ball_load_is_reported_or_refused(cli, tmp_path):
+    text = (ROOT / "sample_data" / "mtm" / "mtm_TOR-A_5uL.txt").read_bytes().decode()
+    lines, h, head = _pcs_rows(text.replace("\r\n", "\n"))
+    tc = [j for j, c in enumerate(head) if c.startswith("Traction Coeff")]
+    bl = head.index("Ball Load (N)")
+    for blank_coeff in (False, True):
+        out = list(lines)
+        for i in range(h + 1, len(out)):
+            cells = out[i].split("\t")
+            if len(cells) == len(head):
+                cells[bl] = "0"
+                for j in tc if blank_coeff else ():
+                    cells[j] = ""
+                out[i] = "\t".join(cells)
+        f = tmp_path / f"load0_{blank_coeff}.txt"
+        f.write_text("\n".join(out))
+        r = cli("mtm", "reduce", f, "-o", tmp_path / f"o{blank_coeff}")
+        if blank_coeff:
+            assert r.exit_code == 2
+            assert "Ball Load" in error_lines(r)[0] and str(f) in error_lines(r)[0]
+        else:
+            assert r.exit_code == 0
+            assert "Ball Load is zero or negative in 1260 of 1260 rows" in r.output
+
+
+def test_viscometer_with_the_wrong_position_sign_warns(cli, tmp_path):
+    src = (ROOT / "sample_data" / "visc" / "visc_ester_25C.txt").read_text().split("\n")
+    src.insert(1, "# position_sign: -1")  # this LVDT already reads positive downward
+    f = tmp_path / "v.txt"
+    f.write_text("\n".join(src))
+    ref = ROOT / "sample_data" / "visc" / "visc_reference_25C.txt"
+    r = cli("visc", "reduce", f, "--reference", ref, "-o", tmp_path / "o")
+    assert r.exit_code == 0
+    warn = [ln for ln in error_lines(r) if ln.startswith("warning:")]
+    assert len(warn) == 1 and "position_sign is -1" in warn[0]
+    r = cli("visc", "reduce", ROOT / "sample_data" / "visc" / "visc_ester_25C.txt",
+            "--reference", ref, "-o", tmp_path / "ok")
+    assert r.exit_code == 0 and not [ln for ln in error_lines(r) if ln.startswith("warning:")]
+
+
+def test_product_name_cannot_escape_the_output_folder(tmp_path):
+    from torlab.protocols.runner import run_protocol
+
+    (tmp_path / "w").mkdir()
+    p = _small_protocol(tmp_path / "w")
+    for f in (tmp_path / "w").glob("hpt_*.txt"):
+        f.write_text(f.read_text().replace("# product: OFM1", "# product: ../../x <img src=x>"))
+    p.write_text(p.read_text() + "fits:\n  hpt_layers:\n    amounts: [4 uL]\n"
+                 "    temperature_coefficients: false\n")
+    before = set(tmp_path.rglob("*"))
+    run_protocol(p, tmp_path / "w" / "out")
+    new = set(tmp_path.rglob("*")) - before
+    assert all((tmp_path / "w" / "out") in q.parents or q == tmp_path / "w" / "out" for q in new)
+    assert "<img" not in (tmp_path / "w" / "out" / "report.md").read_text()

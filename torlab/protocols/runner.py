@@ -615,6 +615,7 @@ class _Run:
     def _traction(self) -> Any:
         import pandas as pd
 
+        from torlab.model.plausible import result_notes
         from torlab.model.predict import classify_trend, predict_traction
         from torlab.reports.traction import TractionCurve, traction_section
 
@@ -665,6 +666,7 @@ class _Run:
             speed = sc.kinematics.speed if v is None else v
             if many:
                 label += f" @ {speed:.3g} m/s"
+            self.notes += [f"traction {label}: {n}" for n in result_notes(pred.table)]
             curves.append(TractionCurve(
                 label=label, kind="model", table=pred.table, trend=pred.trend,
                 source=" + ".join([*(x.path for x in c.scene), *c.params]).replace(
@@ -705,6 +707,10 @@ class _Run:
 
                 pred = self.cache.get_or_compute("stribeck", compute, scene=sd, speed=v,
                                                  creepage=xi)
+                from torlab.model.plausible import result_notes
+
+                self.notes += [f"Stribeck {c.label.replace('{set}', setname)}: {n}"
+                               for n in result_notes(pred.table)]
                 curves.append(StribeckCurve(
                     label=c.label.replace("{set}", setname), table=pred.table, creepage=xi,
                     measured=meas, measured_label="" if c.measured is None else
