@@ -94,7 +94,8 @@ def open_regular(path: str | os.PathLike[str]) -> Any:
         Missing, a folder, a device, FIFO or socket, or unreadable.
     """
     p = os.fspath(path)
-    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0)
+    nonblock = getattr(os, "O_NONBLOCK", 0)
+    flags = os.O_RDONLY | nonblock | getattr(os, "O_BINARY", 0)
     try:
         fd = os.open(p, flags)
     except FileNotFoundError:
@@ -110,7 +111,7 @@ def open_regular(path: str | os.PathLike[str]) -> Any:
         if not stat.S_ISREG(st.st_mode):
             raise TorlabInputError("not a regular file (a device, FIFO or socket); give a file",
                                    path=p)
-        if hasattr(os, "set_blocking"):
+        if nonblock:
             os.set_blocking(fd, True)
         return os.fdopen(fd, "rb")
     except BaseException:
@@ -560,6 +561,10 @@ class OutputDir:
         file cannot be moved, the folder is kept, renamed so that it is visible.
         """
         t = self._real
+        if old.is_symlink():  # -o named a link: drop the link, never touch what it points to
+            with contextlib.suppress(OSError):
+                old.unlink()
+            return
         if (old / MANIFEST).is_file() and t.is_dir():
             try:
                 for rel in _foreign_files(old):

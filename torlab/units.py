@@ -337,6 +337,9 @@ RANGES: dict[str, Range] = {
                             low_open=False, display="um/MPa"),
     "displacement_rate": Range("velocity", 1e-15, 1.0, 1e-9, 1e-3, "a displacement rate",
                                low_open=False, display="um/s"),
+    "creepage": Range("dimensionless", -2.0, 2.0, -0.5, 0.5,
+                      "a creepage (SRR as a fraction; |SRR| <= 2 when both surfaces move "
+                      "forward)", low_open=False),
     "displacement_window": Range("length", 0.0, 0.01, 1e-6, 1e-3,
                                  "an HPT averaging window (displacement)", display="um"),
     "ball_radius": Range("length", 1e-6, 1.0, 5e-4, 0.05, "a ball radius", low_open=False,

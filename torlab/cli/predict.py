@@ -56,7 +56,7 @@ def traction_cmd(
 
     files = require_files(scene, "scene")
     sc = load_scene(*files)
-    xi = parse_values(creepage, "dimensionless", "--creepage")
+    xi = parse_values(creepage, "dimensionless", "--creepage", "creepage")
     dest = OutputDir(out, force=force, inputs=files, command=command_line())
     with dest:
         pred = predict_traction(sc, xi)
@@ -119,13 +119,13 @@ def stribeck_cmd(
     if sc.lubricant is None:
         raise TorlabInputError("a Stribeck curve needs a lubricated scene (lubricant: section)",
                                path=files[0], key="lubricant")
-    v = parse_values(speed, "velocity", "--speed")
+    v = parse_values(speed, "velocity", "--speed", "speed")
     if log and ":" in speed and "," not in speed:
         if v[0] <= 0:
             raise TorlabInputError("log-spaced speeds must start above 0 (or use --linear)",
                                    key="--speed")
         v = np.geomspace(v[0], v[-1], v.size)
-    xi = parse_values(creepage, "dimensionless", "--creepage")
+    xi = parse_values(creepage, "dimensionless", "--creepage", "creepage")
     if xi.size != 1:
         raise TorlabInputError("give one creepage", key="--creepage")
     dest = OutputDir(out, force=force, inputs=files, command=command_line())
