@@ -425,7 +425,8 @@ def test_leftovers_of_killed_runs_are_removed_and_hidden_results_restored(tmp_pa
     (tmp_path / ".out.staging-99999999-abc").mkdir()
     (tmp_path / ".out.staging-99999999-abc" / "half.csv").write_text("x")
     (tmp_path / ".out.trash-1-2").mkdir()
-    d = OutputDir(out, force=True)
+    with pytest.warns(TorlabWarning, match="restored the earlier results"):
+        d = OutputDir(out, force=True)
     assert (out / "a.txt").read_text() == "earlier"
     assert any("restored" in n for n in d.notes)
     d.abort()
@@ -447,7 +448,8 @@ def test_commit_replaces_and_keeps_files_written_during_the_run(tmp_path, monkey
     d.write_text("data/a.csv", "new")
     (out / "notes.txt").write_text("mine")          # the user writes into OUT meanwhile
     (out / "data" / "mine.csv").write_text("mine too")
-    d.commit()
+    with pytest.warns(TorlabWarning, match="written into the output folder during the run"):
+        d.commit()
     assert (out / "data" / "a.csv").read_text() == "new" and not (out / "report.md").exists()
     assert (out / "notes.txt").read_text() == "mine"
     assert (out / "data" / "mine.csv").read_text() == "mine too"

@@ -415,11 +415,20 @@ class OutputDir:
             newest = olds.pop()
             with _writing(self.target):
                 os.replace(newest, t)
-            self.notes.append(f"restored the earlier results of {self.target} from an "
-                              "interrupted run")
+            self._note(f"restored the earlier results of {self.target} from an interrupted "
+                       "run")
         for e in entries:
             if e.name.startswith((pre + "staging-", pre + "trash-")) or e in olds:
                 self._retire(e)
+
+    def _note(self, text: str) -> None:
+        """Record ``text`` in :attr:`notes` and issue it as a TorlabWarning (one CLI line)."""
+        import warnings
+
+        from torlab.errors import TorlabWarning
+
+        self.notes.append(text)
+        warnings.warn(TorlabWarning(text), stacklevel=3)
 
     # -- staging ------------------------------------------------------------
     @property
@@ -575,14 +584,14 @@ class OutputDir:
                         k += 1
                     dst.parent.mkdir(parents=True, exist_ok=True)
                     os.replace(old / rel, dst)
-                    self.notes.append(f"kept {dst.relative_to(t).as_posix()}, written into the "
-                                      "output folder during the run")
+                    self._note(f"kept {dst.relative_to(t).as_posix()} in {self.target}: it was "
+                               "written into the output folder during the run")
             except OSError:
                 keep = t.with_name(f"{t.name}.earlier-{time.strftime('%Y%m%d-%H%M%S')}")
                 with contextlib.suppress(OSError):
                     os.replace(old, keep)
-                    self.notes.append(f"could not move files written during the run into "
-                                      f"{self.target}; the earlier folder is kept as {keep}")
+                    self._note(f"could not move files written during the run into "
+                               f"{self.target}; the earlier folder is kept as {keep}")
                     return
         _remove_tree(old)
 
