@@ -12,6 +12,14 @@ DATA = Path(__file__).resolve().parent / "data"
 REAL_PCS = ROOT.parent / "shared" / "real-data" / "pcs"
 
 
+def pytest_configure(config):
+    """Keep the cache's HMAC key (torlab.protocols.cache) out of the tester's home folder."""
+    import os
+    import tempfile
+
+    os.environ.setdefault("TORLAB_CONFIG_DIR", tempfile.mkdtemp(prefix="torlab-test-config-"))
+
+
 @pytest.fixture
 def runner():
     from typer.testing import CliRunner

@@ -504,7 +504,7 @@ def test_rerun_reuses_cache_and_refuses_overwrite(tmp_path):
     r3 = run_protocol(p, out, force=True)
     assert (r3.cache_hits, r3.cache_misses) == (4, 1)
     assert r3.summary["inputs"]["hpt_OFM1_8uL_25C.txt"] == sha(f)
-    assert len(list((out / ".cache").glob("*.pkl"))) == 5   # the stale entry was dropped
+    assert len(list((out / ".cache").glob("*.tlc"))) == 5   # the stale entry was dropped
 
 
 def test_missing_output_option(tmp_path, cli):

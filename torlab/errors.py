@@ -24,9 +24,12 @@ __all__ = [
     "ConvergenceError",
     "FitError",
     "NumericalError",
+    "OutputBusyError",
     "OutputExistsError",
+    "OutputWriteError",
     "TorlabError",
     "TorlabInputError",
+    "TorlabWarning",
     "ValidationErrors",
 ]
 
@@ -89,6 +92,18 @@ class OutputExistsError(TorlabInputError):
     """An output folder already holds results and ``--force`` was not given."""
 
 
+class OutputBusyError(TorlabInputError):
+    """Another torlab process is writing to the same output folder (its lock is held)."""
+
+
+class OutputWriteError(TorlabInputError):
+    """The output folder cannot be written (read-only, no permission, disk full).
+
+    An environment problem the user can act on, so it shares the exit code 2 of
+    input errors.
+    """
+
+
 class ValidationErrors(TorlabInputError):
     """Several input problems found at once (scene and protocol validation).
 
@@ -140,3 +155,27 @@ class ConvergenceError(NumericalError):
 
 class FitError(NumericalError):
     """A parameter fit failed or the data cannot determine the parameters."""
+
+
+class TorlabWarning(UserWarning):
+    """A value torlab accepts but a user should look at (possible but unusual).
+
+    Issued with :func:`warnings.warn`; the CLI prints each as one line
+    ``warning: <file>:<line>: <key>: <message>``.  Carries the same location
+    as :class:`TorlabError`.
+    """
+
+    def __init__(self, message: str, *, path: str | os.PathLike[str] | None = None,
+                 line: int | None = None, key: str | None = None) -> None:
+        self.message = message
+        self.path = None if path is None else os.fspath(path)
+        self.line = line
+        self.key = key
+        super().__init__(self.__str__())
+
+    def __str__(self) -> str:
+        loc = "" if self.path is None else (self.path if self.line is None
+                                            else f"{self.path}:{self.line}")
+        if not loc and self.line is not None:
+            loc = f"line {self.line}"
+        return ": ".join([p for p in (loc, self.key) if p] + [self.message])

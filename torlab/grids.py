@@ -9,12 +9,13 @@ from torlab.errors import TorlabInputError
 __all__ = ["parse_values"]
 
 
-def parse_values(spec: str, kind: str, option: str) -> Any:
+def parse_values(spec: str, kind: str, option: str, quantity: str | None = None) -> Any:
     """Parse ``start:stop:num`` (inclusive, like ``numpy.linspace``) or a comma list.
 
     Plain numbers are SI; each value may carry its own unit
     (``"10 mm/s:2 m/s:50"``, ``"0.1 %,1 %"``).  ``kind`` is a
-    :data:`torlab.units.KINDS` key.
+    :data:`torlab.units.KINDS` key; with ``quantity`` (a
+    :data:`torlab.units.RANGES` key) every value is range-checked.
 
     Returns
     -------
@@ -41,8 +42,16 @@ def parse_values(spec: str, kind: str, option: str) -> Any:
                                    key=option) from None
         if num < 1 or num > 100_000:
             raise TorlabInputError(f"{spec!r}: count must be between 1 and 100000", key=option)
-        return np.linspace(start, stop, num)
-    vals = [to_si(v, kind, where=option) for v in s.split(",") if v.strip()]
-    if not vals:
-        raise TorlabInputError(f"{spec!r}: no values", key=option)
-    return np.asarray(vals, dtype=float)
+        vals = [start, stop]
+        out = np.linspace(start, stop, num)
+    else:
+        vals = [to_si(v, kind, where=option) for v in s.split(",") if v.strip()]
+        if not vals:
+            raise TorlabInputError(f"{spec!r}: no values", key=option)
+        out = np.asarray(vals, dtype=float)
+    if quantity is not None:
+        from torlab.units import check_range
+
+        for v in vals:
+            check_range(quantity, v, where=option)
+    return out

@@ -1,13 +1,30 @@
-"""Writing results safely: atomic, never over earlier results, never over inputs.
+"""Writing results safely: atomic, locked, never over earlier results, never over inputs.
 
-:class:`OutputDir` is how every torlab command writes.  Files go to a hidden
-staging folder next to the target; :meth:`OutputDir.commit` swaps it into place
-in one rename, so a crash or an error leaves either the earlier results or the
-new ones, never a mix.  A target that already holds files is refused unless
-``force=True``, and even then only if every file in it was written by torlab
-(listed in its ``torlab-manifest.json``): ``--force`` never deletes a user's
-own files.  A target that contains one of the command's *input* files is always
-refused.
+:class:`OutputDir` is how every torlab command writes.  Its guarantees:
+
+* **One writer.**  A lock file next to the target (``.OUT.lock``, an OS file
+  lock released when the process ends, even by ``kill -9``) is taken when the
+  :class:`OutputDir` is created; a second run into the same folder is refused
+  (:class:`~torlab.errors.OutputBusyError`, exit code 2).
+* **Atomic.**  Files go to a hidden staging folder next to the target
+  (``.OUT.staging-<pid>-...``); :meth:`OutputDir.commit` swaps it into place.
+  On Linux the swap is one ``renameat2(RENAME_EXCHANGE)`` system call; elsewhere
+  it is two renames (target -> ``.OUT.old-...``, staging -> target), and a
+  process killed between them leaves the earlier results complete in
+  ``.OUT.old-...``, which the next torlab command writing to ``OUT`` puts back.
+  A crash or an error therefore leaves either the earlier results or the new
+  ones, never a mix and never neither.
+* **Leftovers are cleaned.**  Staging folders of killed runs are removed by the
+  next run into the same folder (under the lock, so none of them is in use).
+* **Never over other files.**  A target that already holds files is refused
+  unless ``force=True``, and even then only if every file in it was written by
+  torlab (listed in its ``torlab-manifest.json``): ``--force`` never deletes a
+  user's own files.  A file a user puts into the folder *while* the run works
+  is moved into the new results at the commit.  A target that contains one of
+  the command's *input* files is always refused.
+* **Clear errors.**  A folder that cannot be written (read-only, no permission,
+  disk full) is a :class:`~torlab.errors.OutputWriteError` naming the path
+  (exit code 2), and nothing is left behind.
 
 Example
 -------
@@ -18,31 +35,88 @@ Example
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import hashlib
 import json
 import os
+import re
 import shutil
+import stat
+import sys
 import tempfile
 import time
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
 from torlab import __version__
-from torlab.errors import OutputExistsError, TorlabInputError
+from torlab.errors import OutputBusyError, OutputExistsError, OutputWriteError, TorlabInputError
 
-__all__ = ["MANIFEST", "OutputDir", "atomic_write_bytes", "atomic_write_text", "sha256_file"]
+__all__ = [
+    "MANIFEST",
+    "OutputDir",
+    "atomic_write_bytes",
+    "atomic_write_text",
+    "safe_name",
+    "sha256_file",
+]
 
 MANIFEST = "torlab-manifest.json"
 
 
 def sha256_file(path: str | os.PathLike[str], chunk: int = 1 << 20) -> str:
-    """Hex SHA-256 of a file's bytes."""
+    """Hex SHA-256 of a regular file's bytes.
+
+    Raises
+    ------
+    TorlabInputError
+        ``path`` is not a regular file (a FIFO or a device such as ``/dev/zero``
+        would block or never end).
+    """
     h = hashlib.sha256()
-    with open(path, "rb") as f:
+    with open_regular(path) as f:
         while b := f.read(chunk):
             h.update(b)
     return h.hexdigest()
+
+
+def open_regular(path: str | os.PathLike[str]) -> Any:
+    """Open ``path`` for binary reading, refusing anything that is not a regular file.
+
+    The file is opened without blocking (a FIFO with no writer would otherwise
+    hang the open) and checked with ``fstat`` on the open descriptor, so a path
+    swapped between a check and the open cannot slip through.
+
+    Raises
+    ------
+    TorlabInputError
+        Missing, a folder, a device, FIFO or socket, or unreadable.
+    """
+    p = os.fspath(path)
+    nonblock = getattr(os, "O_NONBLOCK", 0)
+    flags = os.O_RDONLY | nonblock | getattr(os, "O_BINARY", 0)
+    try:
+        fd = os.open(p, flags)
+    except FileNotFoundError:
+        raise TorlabInputError("file not found", path=p) from None
+    except IsADirectoryError:
+        raise TorlabInputError("is a folder, expected a file", path=p) from None
+    except OSError as e:
+        raise TorlabInputError(f"cannot read ({e.strerror})", path=p) from None
+    try:
+        st = os.fstat(fd)
+        if stat.S_ISDIR(st.st_mode):
+            raise TorlabInputError("is a folder, expected a file", path=p)
+        if not stat.S_ISREG(st.st_mode):
+            raise TorlabInputError("not a regular file (a device, FIFO or socket); give a file",
+                                   path=p)
+        if nonblock:
+            os.set_blocking(fd, True)
+        return os.fdopen(fd, "rb")
+    except BaseException:
+        os.close(fd)
+        raise
 
 
 def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
@@ -66,6 +140,164 @@ def atomic_write_text(path: str | os.PathLike[str], text: str) -> None:
     atomic_write_bytes(path, text.encode("utf-8"))
 
 
+_UNSAFE = re.compile(r"[^A-Za-z0-9._+=@,-]+")
+
+
+def safe_name(text: str, *, max_len: int = 80) -> str:
+    """A file-name part made from user text (a product name, a label).
+
+    Path separators, ``..``, leading dots, spaces and control characters become
+    ``_``, so a product called ``../../x`` cannot name a file outside the output
+    folder; an empty result becomes ``_``.
+    """
+    s = _UNSAFE.sub("_", str(text)).strip("._") or "_"
+    return s[:max_len]
+
+
+# ---------------------------------------------------------------------------- write errors
+_ENV_ERRNOS = {errno.ENOSPC: "no space left on the device",
+               errno.EDQUOT: "disk quota exceeded",
+               errno.EROFS: "read-only file system",
+               errno.EACCES: "permission denied",
+               errno.EPERM: "operation not permitted",
+               errno.EFBIG: "file too large for this file system or limit"}
+
+
+@contextlib.contextmanager
+def _writing(where: str | os.PathLike[str]) -> Iterator[None]:
+    """Turn an operating-system write failure into an :class:`OutputWriteError`."""
+    try:
+        yield
+    except OSError as e:
+        if isinstance(e, (FileNotFoundError, IsADirectoryError, NotADirectoryError)) and \
+                e.errno not in _ENV_ERRNOS:
+            raise OutputWriteError(f"cannot write the results ({e.strerror}); was the output "
+                                   "folder moved or changed during the run?", path=where) from None
+        reason = _ENV_ERRNOS.get(e.errno or 0, e.strerror or type(e).__name__)
+        raise OutputWriteError(f"cannot write the results: {reason}", path=where) from None
+
+
+# ---------------------------------------------------------------------------- lock
+class _Lock:
+    """An exclusive, non-blocking OS lock on a lock file (released when the process dies)."""
+
+    def __init__(self, path: Path, target: Path) -> None:
+        self.path = path
+        self.target = target
+        self.fd: int | None = None
+
+    def acquire(self) -> None:
+        for _ in range(20):
+            with _writing(self.target):
+                fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+            if not _try_lock(fd):
+                holder = _read_pid(fd)
+                os.close(fd)
+                who = f" (pid {holder})" if holder else ""
+                raise OutputBusyError(
+                    f"another torlab run{who} is writing to this output folder; wait for it to "
+                    "finish or choose another -o", path=self.target)
+            try:  # the holder we waited for may have removed the file: lock the current one
+                same = os.path.samestat(os.fstat(fd), os.stat(self.path))
+            except FileNotFoundError:
+                same = False
+            if not same:
+                os.close(fd)
+                continue
+            os.ftruncate(fd, 0)
+            os.write(fd, f"{os.getpid()}\n".encode())
+            self.fd = fd
+            return
+        raise OutputBusyError("could not lock the output folder (its lock file keeps "
+                              "changing)", path=self.target)
+
+    def release(self) -> None:
+        if self.fd is None:
+            return
+        fd, self.fd = self.fd, None
+        with contextlib.suppress(OSError):
+            os.unlink(self.path)
+        with contextlib.suppress(OSError):
+            os.close(fd)  # closing releases the lock
+
+    def __del__(self) -> None:
+        self.release()
+
+
+def _try_lock(fd: int) -> bool:
+    try:
+        import fcntl
+    except ImportError:  # Windows
+        import msvcrt
+
+        try:
+            msvcrt.locking(fd, msvcrt.LK_NBLCK, 1)
+        except OSError:
+            return False
+        return True
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError as e:
+        if e.errno in (errno.EAGAIN, errno.EACCES, errno.EWOULDBLOCK):
+            return False
+        raise
+    return True
+
+
+def _read_pid(fd: int) -> int | None:
+    try:
+        return int(os.pread(fd, 32, 0).split()[0])
+    except (OSError, ValueError, IndexError, AttributeError):
+        return None
+
+
+# ---------------------------------------------------------------------------- atomic swap
+def _exchange(a: Path, b: Path) -> bool:
+    """Atomically swap two paths (Linux ``renameat2(RENAME_EXCHANGE)``); False if unsupported."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        fn = libc.renameat2
+    except (OSError, AttributeError):
+        return False
+    fn.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint]
+    at_fdcwd, rename_exchange = -100, 2
+    rc = fn(at_fdcwd, os.fsencode(a), at_fdcwd, os.fsencode(b), rename_exchange)
+    if rc == 0:
+        return True
+    err = ctypes.get_errno()
+    if err in (errno.EINVAL, errno.ENOSYS, errno.ENOTSUP, errno.EOPNOTSUPP):
+        return False  # file system or kernel without the flag: two renames instead
+    raise OSError(err, os.strerror(err), os.fspath(a))
+
+
+def _remove_tree(p: Path) -> None:
+    """Delete a folder of ours: renamed to a ``trash`` name first, so that a half-deleted
+    folder can never be mistaken for complete results."""
+    trash = p.with_name(re.sub(r"\.(old|staging)-", ".trash-", p.name, count=1))
+    if trash != p:
+        try:
+            os.replace(p, trash)
+            p = trash
+        except OSError:
+            pass
+
+    def writable(fn: Any, path: str, exc: Any) -> None:  # a read-only folder of ours
+        with contextlib.suppress(OSError):
+            os.chmod(os.path.dirname(path), 0o700)
+            os.chmod(path, 0o700)
+            fn(path)
+
+    if sys.version_info >= (3, 12):
+        shutil.rmtree(p, onexc=writable)
+    else:
+        shutil.rmtree(p, onerror=writable)
+
+
+# ---------------------------------------------------------------------------- the folder
 class OutputDir:
     """A results folder written atomically; see the module docstring.
 
@@ -80,8 +312,19 @@ class OutputDir:
     command
         Command line recorded in the manifest.
     keep
-        Names (relative paths) of files or folders in an existing ``target``
-        to carry over into the new results (e.g. a cache), if present.
+        Names (relative paths) of folders or files in an existing ``target`` to
+        carry over into the new results (e.g. a cache).  Only regular files are
+        copied (no symbolic links, devices or FIFOs); what they contain is for
+        their reader to check -- the folder may come from someone else.
+
+    Raises
+    ------
+    OutputBusyError
+        Another process is writing to ``target``.
+    OutputExistsError
+        ``target`` holds results (without ``force``) or files torlab did not write.
+    OutputWriteError
+        The place cannot be written.
     """
 
     def __init__(
@@ -94,20 +337,33 @@ class OutputDir:
         keep: Iterable[str] = (),
     ) -> None:
         self.target = Path(target)
+        self._real = self.target.resolve()
         self.force = force
         self.command = command
         self.inputs = [Path(p) for p in inputs]
         self.keep = list(keep)
         self.files: list[str] = []
+        self.notes: list[str] = []
         self._staging: Path | None = None
-        self._check_target()
-
-    # -- checks -------------------------------------------------------------
-    def _check_target(self) -> None:
         t = self.target
         if t.exists() and not t.is_dir():
             raise TorlabInputError("output path exists and is not a folder", path=t)
-        tres = t.resolve()
+        self._check_inputs()
+        parent = self._real.parent
+        with _writing(parent):
+            parent.mkdir(parents=True, exist_ok=True)
+        self._lock = _Lock(parent / f".{self._real.name}.lock", t)
+        self._lock.acquire()
+        try:
+            self._recover()
+            self._check_target()
+        except BaseException:
+            self._lock.release()
+            raise
+
+    # -- checks -------------------------------------------------------------
+    def _check_inputs(self) -> None:
+        tres = self._real
         for inp in self.inputs:
             try:
                 inp.resolve().relative_to(tres)
@@ -115,50 +371,77 @@ class OutputDir:
                 continue
             raise TorlabInputError(
                 f"output folder contains the input file {inp}; choose another -o so raw data "
-                "are never touched", path=t)
+                "are never touched", path=self.target)
+
+    def _check_target(self) -> None:
+        t = self.target
+        if t.exists() and not t.is_dir():
+            raise TorlabInputError("output path exists and is not a folder", path=t)
         if not t.exists():
             return
-        entries = [e.name for e in t.iterdir()]
-        if not entries:
+        try:
+            empty = next(t.iterdir(), None) is None
+        except OSError as e:
+            raise OutputWriteError(f"cannot read the output folder ({e.strerror})",
+                                   path=t) from None
+        if empty:
             return
         if not self.force:
             raise OutputExistsError(
                 "output folder already holds results; use --force to replace them or choose "
                 "another -o", path=t)
-        owned = self._owned(t)
-        foreign = sorted(set(entries) - owned - {MANIFEST})
+        foreign = _foreign_files(t)
         if foreign:
             more = "" if len(foreign) <= 3 else f" and {len(foreign) - 3} more"
             raise OutputExistsError(
                 "--force only replaces torlab's own results, but the folder also holds "
                 f"{', '.join(foreign[:3])}{more}; move them or choose another -o", path=t)
 
-    @staticmethod
-    def _owned(t: Path) -> set[str]:
-        man = t / MANIFEST
-        if not man.exists():
-            return set()
+    def _recover(self) -> None:
+        """Put back results hidden by an interrupted commit; delete killed runs' leftovers.
+
+        Runs under the lock, so no other process is using any of these folders.
+        """
+        t = self._real
+        pre = f".{t.name}."
         try:
-            files = json.loads(man.read_text(encoding="utf-8")).get("files", [])
-        except (OSError, ValueError):
-            return set()
-        return {str(f).split("/", 1)[0] for f in files}
+            entries = [e for e in t.parent.iterdir() if e.name.startswith(pre)
+                       and e.is_dir() and not e.is_symlink()]
+        except OSError:
+            return
+        olds = sorted((e for e in entries if e.name.startswith(pre + "old-")),
+                      key=lambda e: e.stat().st_mtime_ns)
+        if olds and not t.exists():
+            newest = olds.pop()
+            with _writing(self.target):
+                os.replace(newest, t)
+            self._note(f"restored the earlier results of {self.target} from an interrupted "
+                       "run")
+        for e in entries:
+            if e.name.startswith((pre + "staging-", pre + "trash-")) or e in olds:
+                self._retire(e)
+
+    def _note(self, text: str) -> None:
+        """Record ``text`` in :attr:`notes` and issue it as a TorlabWarning (one CLI line)."""
+        import warnings
+
+        from torlab.errors import TorlabWarning
+
+        self.notes.append(text)
+        warnings.warn(TorlabWarning(text), stacklevel=3)
 
     # -- staging ------------------------------------------------------------
     @property
     def staging(self) -> Path:
         """Folder files are written to before :meth:`commit`."""
         if self._staging is None:
-            parent = self.target.resolve().parent
-            parent.mkdir(parents=True, exist_ok=True)
-            self._staging = Path(tempfile.mkdtemp(prefix=f".{self.target.name}.staging-", dir=parent))
-            if self.target.exists():
-                for name in self.keep:
-                    src = self.target / name
-                    if src.is_dir():
-                        shutil.copytree(src, self._staging / name)
-                    elif src.exists():
-                        shutil.copy2(src, self._staging / name)
+            t = self._real
+            with _writing(t.parent):
+                self._staging = Path(tempfile.mkdtemp(
+                    prefix=f".{t.name}.staging-{os.getpid()}-", dir=t.parent))
+                if t.exists():
+                    for name in self.keep:
+                        _copy_regular(t / name, self._staging / name)
         return self._staging
 
     def path(self, name: str) -> Path:
@@ -167,7 +450,8 @@ class OutputDir:
         if rel.is_absolute() or ".." in rel.parts:
             raise ValueError(f"output names must be relative paths inside the folder: {name!r}")
         p = self.staging / rel
-        p.parent.mkdir(parents=True, exist_ok=True)
+        with _writing(self.target / rel):
+            p.parent.mkdir(parents=True, exist_ok=True)
         if rel.as_posix() not in self.files:
             self.files.append(rel.as_posix())
         return p
@@ -179,13 +463,15 @@ class OutputDir:
     def write_text(self, name: str, text: str) -> Path:
         """Write a UTF-8 text file."""
         p = self.path(name)
-        p.write_text(text, encoding="utf-8")
+        with _writing(self.final_path(name)):
+            p.write_text(text, encoding="utf-8")
         return self.final_path(name)
 
     def write_bytes(self, name: str, data: bytes) -> Path:
         """Write a binary file."""
         p = self.path(name)
-        p.write_bytes(data)
+        with _writing(self.final_path(name)):
+            p.write_bytes(data)
         return self.final_path(name)
 
     def write_json(self, name: str, obj: Any) -> Path:
@@ -212,7 +498,8 @@ class OutputDir:
         if bad:
             raise ValueError(f"refusing to write non-finite values to {name}: columns {bad}")
         p = self.path(name)
-        df.to_csv(p, index=False, float_format=float_format, lineterminator="\n")
+        with _writing(self.final_path(name)):
+            df.to_csv(p, index=False, float_format=float_format, lineterminator="\n")
         return self.final_path(name)
 
     def save_figure(self, name: str, fig: Any, **kw: Any) -> Path:
@@ -222,13 +509,26 @@ class OutputDir:
         p = self.path(name)
         kw.setdefault("dpi", 150)
         kw.setdefault("bbox_inches", "tight")
-        fig.savefig(p, **kw)
-        plt.close(fig)
+        try:
+            with _writing(self.final_path(name)):
+                fig.savefig(p, **kw)
+        finally:
+            plt.close(fig)
         return self.final_path(name)
 
     # -- commit -------------------------------------------------------------
     def commit(self) -> Path:
-        """Write the manifest and move the results into place atomically."""
+        """Write the manifest and move the results into place atomically; release the lock."""
+        try:
+            with _writing(self.target):
+                return self._commit()
+        except BaseException:
+            self.abort()
+            raise
+        finally:
+            self._lock.release()
+
+    def _commit(self) -> Path:
         st = self.staging
         for name in self.keep:
             if (st / name).exists() and name not in self.files:
@@ -241,27 +541,70 @@ class OutputDir:
             "files": sorted(self.files),
         }
         (st / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
-        t = self.target
-        old = None
-        if t.exists():
+        t = self._real
+        if not t.exists():
+            os.replace(st, t)
+            self._staging = None
+            return self.target
+        if _exchange(st, t):
+            old = st  # the staging path now holds the earlier results
+        else:
             old = t.with_name(f".{t.name}.old-{os.getpid()}-{time.monotonic_ns()}")
             os.replace(t, old)
-        try:
-            os.replace(st, t)
-        except BaseException:
-            if old is not None:
+            try:
+                os.replace(st, t)
+            except BaseException:
                 os.replace(old, t)
-            raise
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
+                raise
         self._staging = None
-        return t
+        self._retire(old)
+        return self.target
+
+    def _retire(self, old: Path) -> None:
+        """Delete a replaced or left-over folder, first moving any user file in it into the results.
+
+        A folder with a manifest is a complete earlier result (or a finished
+        staging folder): files in it that its manifest does not list were put
+        there by someone else (e.g. during the run) and move into the target.
+        A folder without a manifest is a killed run's partial staging.  If a
+        file cannot be moved, the folder is kept, renamed so that it is visible.
+        """
+        t = self._real
+        if old.is_symlink():  # -o named a link: drop the link, never touch what it points to
+            with contextlib.suppress(OSError):
+                old.unlink()
+            return
+        if (old / MANIFEST).is_file() and t.is_dir():
+            try:
+                for rel in _foreign_files(old):
+                    dst = t / rel
+                    k = 1
+                    while dst.exists() or dst.is_symlink():
+                        dst = (t / rel).with_name(f"{Path(rel).name}.kept-{k}")
+                        k += 1
+                    dst.parent.mkdir(parents=True, exist_ok=True)
+                    os.replace(old / rel, dst)
+                    self._note(f"kept {dst.relative_to(t).as_posix()} in {self.target}: it was "
+                               "written into the output folder during the run")
+            except OSError:
+                keep = t.with_name(f"{t.name}.earlier-{time.strftime('%Y%m%d-%H%M%S')}")
+                with contextlib.suppress(OSError):
+                    os.replace(old, keep)
+                    self._note(f"could not move files written during the run into "
+                               f"{self.target}; the earlier folder is kept as {keep}")
+                    return
+        _remove_tree(old)
 
     def abort(self) -> None:
-        """Discard the staged files; the target is left as it was."""
+        """Discard the staged files; the target is left as it was; release the lock."""
         if self._staging is not None:
             shutil.rmtree(self._staging, ignore_errors=True)
             self._staging = None
+        self._lock.release()
+
+    def close(self) -> None:
+        """Give up without writing (same as :meth:`abort`)."""
+        self.abort()
 
     def __enter__(self) -> OutputDir:
         return self
@@ -271,6 +614,67 @@ class OutputDir:
             self.commit()
         else:
             self.abort()
+
+
+# ---------------------------------------------------------------------------- helpers
+def _manifest_files(t: Path) -> set[str]:
+    man = t / MANIFEST
+    if not man.is_file() or man.is_symlink():
+        return set()
+    try:
+        if man.stat().st_size > 64 << 20:
+            return set()
+        files = json.loads(man.read_text(encoding="utf-8")).get("files", [])
+    except (OSError, ValueError, AttributeError):
+        return set()
+    if not isinstance(files, list):
+        return set()
+    return {str(f).strip("/") for f in files if isinstance(f, str)}
+
+
+def _foreign_files(t: Path) -> list[str]:
+    """Relative paths under ``t`` not written by torlab (not in its manifest), sorted.
+
+    A listed folder (e.g. ``.cache``) covers everything in it; a file in a
+    listed file's folder that is not itself listed is foreign.
+    """
+    owned = _manifest_files(t)
+    out: list[str] = []
+
+    def walk(d: Path, rel: str) -> None:
+        try:
+            entries = sorted(os.scandir(d), key=lambda e: e.name)
+        except OSError:
+            return
+        for e in entries:
+            r = f"{rel}{e.name}"
+            if r == MANIFEST or r in owned:
+                continue
+            if e.is_dir(follow_symlinks=False) and any(o.startswith(r + "/") for o in owned):
+                walk(Path(e.path), r + "/")
+            else:
+                out.append(r)
+
+    walk(t, "")
+    return out
+
+
+def _copy_regular(src: Path, dst: Path, *, max_bytes: int = 1 << 30, depth: int = 8) -> None:
+    """Copy regular files (a file, or a folder's tree) from ``src``; links and devices skipped."""
+    if depth < 0:
+        return
+    try:
+        st = src.lstat()
+    except OSError:
+        return
+    if stat.S_ISREG(st.st_mode):
+        if st.st_size <= max_bytes:
+            dst.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(src, dst, follow_symlinks=False)
+        return
+    if stat.S_ISDIR(st.st_mode):
+        for e in os.scandir(src):
+            _copy_regular(Path(e.path), dst / e.name, max_bytes=max_bytes, depth=depth - 1)
 
 
 def _json_default(o: Any) -> Any:

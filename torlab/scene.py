@@ -177,7 +177,7 @@ class Thermal(_Section):
     heat_capacity: HeatCapacity = Field(default=450.0, gt=0)
     partition: Dimensionless = Field(default=1.0, gt=0, le=1)
     slip_velocity: Literal["rigid", "local"] = "rigid"
-    tolerance: Annotated[float, _q("temperature")] = Field(default=0.1, gt=0)
+    tolerance: Annotated[float, _q("temperature_difference")] = Field(default=0.1, gt=0)
     max_iterations: int = Field(default=200, ge=1, le=100_000)
 
 
@@ -344,7 +344,7 @@ def scene_from_dict(data: Any, *, origin: dict[tuple, tuple[str | None, int | No
     if data.get("thermal") in ("off", "none", None):
         data.pop("thermal", None)
     try:
-        return Scene.model_validate(data)
+        scene = Scene.model_validate(data)
     except ValidationError as ve:
         problems = []
         for err in ve.errors():
@@ -359,6 +359,50 @@ def scene_from_dict(data: Any, *, origin: dict[tuple, tuple[str | None, int | No
             problems.append(TorlabInputError(_message(err), path=file, line=line, key=key))
         problems.sort(key=lambda e: (e.path or "", e.line or 0))
         raise ValidationErrors(problems) from None
+    _check_ranges(scene, origin, path)
+    return scene
+
+
+#: scene key -> plausible-range quantity of torlab.units.RANGES (docs/scenes.md)
+SCENE_RANGES: dict[tuple[str, str], str] = {
+    ("contact", "load"): "load",
+    **{("contact", k): "radius" for k in ("r1x", "r1y", "r2x", "r2y")},
+    ("contact", "a"): "semi_axis", ("contact", "b"): "semi_axis",
+    ("materials", "E1"): "modulus", ("materials", "E2"): "modulus",
+    ("kinematics", "speed"): "speed", ("kinematics", "ambient_temperature"): "temperature",
+    ("thermal", "conductivity"): "conductivity", ("thermal", "density"): "density",
+    ("thermal", "heat_capacity"): "heat_capacity",
+    ("thermal", "tolerance"): "temperature_difference",
+    ("boundary", "L_mue"): "layer_length", ("boundary", "L_mup"): "layer_length",
+    ("boundary", "mu_c1_T"): "temperature_coefficient",
+    ("boundary", "mu_c2_T"): "temperature_coefficient",
+    ("lubricant", "eta0"): "viscosity", ("lubricant", "alpha"): "pressure_viscosity",
+    ("lubricant", "tau0"): "stress",
+    ("roughness", "sigma"): "roughness", ("roughness", "beta"): "asperity_radius",
+    ("roughness", "density"): "asperity_density", ("roughness", "hardness"): "stress",
+}
+
+
+def _check_ranges(scene: Scene, origin: dict, path: str | None) -> None:
+    """Every quantity against :data:`torlab.units.RANGES`: impossible values are errors
+    (all listed at once), unusual ones a :class:`~torlab.errors.TorlabWarning` each."""
+    from torlab.units import check_range
+
+    problems = []
+    for (section, key), quantity in SCENE_RANGES.items():
+        sec = getattr(scene, section)
+        v = None if sec is None else getattr(sec, key)
+        if v is None:
+            continue
+        file, line = _origin_of((section, key), origin, path)
+        try:
+            check_range(quantity, float(v), where=f"{section}.{key}", path=file, line=line,
+                        allow_inf=quantity == "radius")
+        except TorlabInputError as e:
+            problems.append(e)
+    if problems:
+        problems.sort(key=lambda e: (e.path or "", e.line or 0))
+        raise ValidationErrors(problems)
 
 
 _MISSING = object()

@@ -5,13 +5,22 @@ typer at import time; numerical and plotting libraries are imported inside the
 command functions, so ``torlab --help`` starts fast.
 
 Error policy (see :mod:`torlab.errors`): a user error prints one line
-``error: <file>:<line>: <key>: <message>`` on stderr and exits with code 2; a
-numerical failure exits with code 3; ``--debug`` shows the traceback instead.
+``error: <file>:<line>: <key>: <message>`` on stderr and exits with code 2; so
+does an environment error (a folder that cannot be written, a full disk); a
+numerical failure exits with code 3; exit code 1 means a bug in torlab.
+``--debug`` (anywhere on the command line) shows the traceback instead.
+
+Warnings: torlab's own (:class:`~torlab.errors.TorlabWarning`, and warnings
+issued from torlab's code) print as one line ``warning: ...`` each, once.
+Warnings of the numerical libraries (numpy's "invalid value encountered" and
+the like) are not shown: a result they would spoil is refused by torlab's own
+checks (no NaN reaches a result file); ``--debug`` shows them.
 """
 
 from __future__ import annotations
 
 import sys
+import warnings
 from collections.abc import Sequence
 from typing import Annotated, Any
 
@@ -23,11 +32,44 @@ from torlab.errors import TorlabError, ValidationErrors
 
 __all__ = ["app", "main"]
 
-_STATE: dict[str, Any] = {"debug": False, "argv": None}
+_STATE: dict[str, Any] = {"debug": False, "argv": None, "warnings": [], "hidden_warnings": []}
 
 
 def _err(line: str) -> None:
-    typer.echo(f"error: {line}", err=True)
+    typer.echo(f"error: {_one_line(line)}", err=True)
+
+
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split("\n")).strip()
+
+
+def _split_debug(argv: list[str]) -> tuple[list[str], bool]:
+    """Remove ``--debug`` wherever it is (before a ``--`` end-of-options marker)."""
+    end = argv.index("--") if "--" in argv else len(argv)
+    head = [a for a in argv[:end] if a != "--debug"]
+    return head + argv[end:], len(head) != end
+
+
+def _show_warning(message: Any, category: type, filename: str, lineno: int, file: Any = None,
+                  line: str | None = None) -> None:
+    """Print torlab's warnings as one line each (once); keep library warnings for --debug."""
+    import os
+
+    from torlab.errors import TorlabWarning
+
+    text = _one_line(str(message))
+    pkg = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    ours = issubclass(category, TorlabWarning) or (
+        issubclass(category, UserWarning) and os.path.abspath(filename).startswith(pkg + os.sep))
+    if ours:
+        if text not in _STATE["warnings"]:
+            _STATE["warnings"].append(text)
+            typer.echo(f"warning: {text}", err=True)
+        return
+    _STATE["hidden_warnings"].append((category.__name__, text, filename, lineno))
+    if _STATE["debug"]:
+        typer.echo(warnings.formatwarning(message, category, filename, lineno, line).rstrip(),
+                   err=True)
 
 
 class _TorlabGroup(TyperGroup):
@@ -37,12 +79,15 @@ class _TorlabGroup(TyperGroup):
              complete_var: str | None = None, standalone_mode: bool = True,
              **extra: Any) -> Any:
         argv = list(sys.argv[1:] if args is None else args)
-        debug = "--debug" in argv
-        _STATE["debug"] = debug
         _STATE["argv"] = argv
+        argv, debug = _split_debug(argv)
+        _STATE.update(debug=debug, warnings=[], hidden_warnings=[])
         try:
-            rv = super().main(argv, prog_name or "torlab", complete_var,
-                              standalone_mode=False, **extra)
+            with warnings.catch_warnings():
+                warnings.simplefilter("always")
+                warnings.showwarning = _show_warning
+                rv = super().main(argv, prog_name or "torlab", complete_var,
+                                  standalone_mode=False, **extra)
         except (typer.Exit, typer.Abort) as e:
             code = getattr(e, "exit_code", 1)
             if standalone_mode:
@@ -62,6 +107,15 @@ class _TorlabGroup(TyperGroup):
         except KeyboardInterrupt:
             _err("interrupted")
             return _exit(130, standalone_mode)
+        except (OSError, MemoryError) as e:  # the environment: permissions, disk, memory
+            if debug:
+                raise
+            if isinstance(e, MemoryError):
+                _err("not enough memory for this input (MemoryError)")
+            else:
+                where = f"{e.filename}: " if getattr(e, "filename", None) else ""
+                _err(f"{where}{e.strerror or e}")
+            return _exit(2, standalone_mode)
         except Exception as e:
             if hasattr(e, "format_message") and hasattr(e, "exit_code"):  # click usage errors
                 if debug:
@@ -109,11 +163,13 @@ def _version(value: bool) -> None:
 def _root(
     version: Annotated[bool, typer.Option("--version", callback=_version, is_eager=True,
                                           help="Print the version and exit.")] = False,
-    debug: Annotated[bool, typer.Option("--debug", help="Show tracebacks for errors.")] = False,
+    debug: Annotated[bool, typer.Option("--debug", help="Show tracebacks for errors and the "
+                                        "numerical libraries' warnings (accepted anywhere on "
+                                        "the command line).")] = False,
 ) -> None:
     """torlab: HPT, MTM/ETM/EHD2, optical tribometer and viscometer data; the thesis's
     boundary + EHL friction model; fits; protocols and reports."""
-    _STATE["debug"] = debug
+    _STATE["debug"] = _STATE["debug"] or debug
 
 
 #: command modules, each with ``register(app)``

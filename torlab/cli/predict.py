@@ -62,7 +62,7 @@ def traction_cmd(
 
     files = require_files(scene, "scene")
     sc = load_scene(*files)
-    xi = parse_values(creepage, "dimensionless", "--creepage")
+    xi = parse_values(creepage, "dimensionless", "--creepage", "creepage")
     eta = float(parse_values(lateral, "dimensionless", "--lateral")[0])
     phi = float(parse_values(spin, "inverse_length", "--spin")[0])
     dest = OutputDir(out, force=force, inputs=files, command=command_line())
@@ -88,6 +88,9 @@ def traction_cmd(
     c.print(f"max |mu| = {mu.max():.4f} at creepage {pred.table['creepage'][mu.idxmax()]:.4g}")
     if t["trend"] == "not saturated":
         c.print("trend after saturation: not saturated (the curve does not level off in this range)")
+    elif t.get("trend_from_creepage") is None:  # e.g. 'too few points' after saturation
+        c.print(f"trend after saturation (H4.1): {t['trend']} (saturated at creepage "
+                f"{t['saturation_creepage']:.4g}; give more creepages beyond it to read a trend)")
     else:
         c.print(f"trend after saturation (H4.1): [bold]{t['trend']}[/bold] (saturated at "
                 f"creepage {t['saturation_creepage']:.4g}; from {t['trend_from_creepage']:.4g} "
@@ -129,13 +132,13 @@ def stribeck_cmd(
     if sc.lubricant is None:
         raise TorlabInputError("a Stribeck curve needs a lubricated scene (lubricant: section)",
                                path=files[0], key="lubricant")
-    v = parse_values(speed, "velocity", "--speed")
+    v = parse_values(speed, "velocity", "--speed", "speed")
     if log and ":" in speed and "," not in speed:
         if v[0] <= 0:
             raise TorlabInputError("log-spaced speeds must start above 0 (or use --linear)",
                                    key="--speed")
         v = np.geomspace(v[0], v[-1], v.size)
-    xi = parse_values(creepage, "dimensionless", "--creepage")
+    xi = parse_values(creepage, "dimensionless", "--creepage", "creepage")
     if xi.size != 1:
         raise TorlabInputError("give one creepage", key="--creepage")
     dest = OutputDir(out, force=force, inputs=files, command=command_line())

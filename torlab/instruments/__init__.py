@@ -280,6 +280,9 @@ def expand_inputs(items: Iterable[str | os.PathLike[str]], what: str = "input",
             if not found:
                 raise TorlabInputError(f"no file matches the pattern {str(it)!r}", path=str(it))
             src = f"pattern {str(it)!r}"
+        elif p.exists():
+            raise TorlabInputError(f"not a regular file (a device, FIFO or socket); give the "
+                                   f"{what} file", path=p)
         else:
             raise TorlabInputError(f"{what} file not found", path=p)
         chosen = [q for q in found if keep is None or keep(q)]

@@ -238,7 +238,9 @@ def e_strip(theta: np.ndarray, r: np.ndarray) -> np.ndarray:
     """
     theta, r = np.broadcast_arrays(np.asarray(theta, dtype=float), np.asarray(r, dtype=float))
     out = np.empty(theta.shape)
-    closed = (r < 0.5) & (theta > r)
+    # r = 0 (no elastic layer, L_mue = 0): e = 1 - cos(theta), also at theta = 0 where the
+    # quadrature's integrand would be 0/0
+    closed = (r < 0.5) & ((theta > r) | (r <= 0))
     if closed.any():
         th, rr = theta[closed], r[closed]
         res = 2.0 * np.sin(0.5 * th) ** 2  # 1 - cos(theta) without cancellation

@@ -363,7 +363,10 @@ def predict_stribeck(scene: Any, speed: Any, creepage: float) -> StribeckPredict
     modelled = _modelled(mc, regimes, bool(need.any()), loop)
     if mc.asperity is None:
         modelled.append("lambda: not defined (smooth surfaces), column left empty")
-    notes = list(mc.contact.notes) + _ehl_notes(mu_e[np.isfinite(mu_e)], mc.lubricant)
+    from torlab.model.plausible import result_notes
+
+    notes = list(mc.contact.notes) + _ehl_notes(mu_e[np.isfinite(mu_e)], mc.lubricant) \
+        + result_notes(table)
     summary = {
         "torlab_version": __version__, "scene": scene.name, "creepage": xi,
         "contact": mc.contact.summary(), "modelled": modelled, "notes": notes,

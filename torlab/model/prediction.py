@@ -140,6 +140,7 @@ def _temperature_note(loop: str, scene: Any) -> str:
 def _summary(scene: Any, contact: ContactModel, modelled: list[str], trend: dict[str, Any],
              table: Any) -> dict[str, Any]:
     from torlab import __version__
+    from torlab.model.plausible import result_notes
 
     mu = table["mu"].to_numpy()
     s = {
@@ -147,7 +148,7 @@ def _summary(scene: Any, contact: ContactModel, modelled: list[str], trend: dict
         "scene": scene.name,
         "contact": contact.summary(),
         "modelled": modelled,
-        "notes": list(contact.notes),
+        "notes": list(contact.notes) + result_notes(table),
         "mu_max": float(np.max(np.abs(mu))) if len(mu) else None,
         "trend_after_saturation": trend,
     }

@@ -27,10 +27,14 @@ from torlab.errors import TorlabInputError
 _NUMBER_FIELD = re.compile(r"[+-]?(?:(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|inf(?:inity)?|nan)",
                            re.IGNORECASE)
 
-__all__ = ["LogMetadata", "PathOrBuffer", "detect_delimiter", "header_key", "number_field", "parse_log_columns",
-           "parse_numeric_rows", "read_log_header", "read_text", "sign_value", "split_unit"]
+__all__ = ["LogMetadata", "PathOrBuffer", "detect_delimiter", "header_key", "number_field",
+           "parse_log_columns", "parse_numeric_rows", "read_log_header", "read_text",
+           "refuse_below_absolute_zero", "sign_value", "split_unit"]
 
 PathOrBuffer = str | os.PathLike[str] | IO[str] | IO[bytes]
+
+#: largest text input read (bytes); a path must be a regular file (no FIFO or device)
+MAX_TEXT_BYTES = 1 << 30
 
 
 def number_field(f: str, *, path: Any, line: int, column: str, shown: str | None = None
@@ -63,19 +67,25 @@ def read_text(src: PathOrBuffer, *, name: str | None = None) -> tuple[str, str]:
     Raises
     ------
     TorlabInputError
-        File missing, a folder, or unreadable.
+        File missing, a folder, not a regular file (a FIFO or ``/dev/zero``
+        would block or never end), larger than :data:`MAX_TEXT_BYTES`, or
+        unreadable.
     """
     if isinstance(src, (str, os.PathLike)):
+        from torlab.outputs import open_regular
+
         p = Path(src)
         display = name or str(p)
         try:
-            raw = p.read_bytes()
-        except FileNotFoundError:
-            raise TorlabInputError("file not found", path=display) from None
-        except IsADirectoryError:
-            raise TorlabInputError("is a folder, expected a file", path=display) from None
+            with open_regular(p) as f:
+                raw = f.read(MAX_TEXT_BYTES + 1)
+        except TorlabInputError as e:
+            raise TorlabInputError(e.message, path=display) from None
         except OSError as e:
             raise TorlabInputError(f"cannot read ({e.strerror})", path=display) from None
+        if len(raw) > MAX_TEXT_BYTES:
+            raise TorlabInputError(f"larger than {MAX_TEXT_BYTES >> 20} MiB; torlab reads "
+                                   "instrument logs up to that size", path=display)
     else:
         display = name or getattr(src, "name", None) or "<buffer>"
         raw = src.read()
@@ -369,3 +379,22 @@ def parse_log_columns(header: str, columns: dict[str, tuple[Any, ...]], display:
                                    line=line)
         found[nm] = (j, unit)
     return found
+
+
+def refuse_below_absolute_zero(df: Any, display: str) -> None:
+    """A temperature column (``*_C``) below -273.15 degC is an error naming the line.
+
+    Temperature columns are converted to degC from any unit (K, degF); a value
+    below absolute zero is a wrong unit or a broken cell, never a measurement.
+    """
+    for c in df.columns:
+        if not str(c).endswith("_C"):
+            continue
+        v = df[c].to_numpy(dtype=float)
+        bad = v < -273.15 - 1e-9
+        if bad.any():
+            i = int(np.argmax(bad))
+            line = int(df["line"].iloc[i]) if "line" in df else None
+            raise TorlabInputError(f"{v[i]:g} degC is below absolute zero (-273.15 degC); "
+                                   "check the value and the column's unit", path=display,
+                                   line=line, key=str(c))

@@ -47,6 +47,7 @@ from torlab.parsers._text import (
     parse_numeric_rows,
     read_log_header,
     read_text,
+    refuse_below_absolute_zero,
     split_unit,
 )
 
@@ -87,6 +88,14 @@ METADATA_KEYS: dict[str, str] = {
     "operator": "text",
     "date": "text",
     "notes": "text",
+}
+
+#: header key -> plausible-range quantity (torlab.units.RANGES); amounts by their kind
+HEADER_RANGES: dict[str, str] = {
+    "product_density": "density", "temperature": "temperature", "r1": "annulus_radius",
+    "r2": "annulus_radius", "arm_length": "arm_length", "normal_stress_set": "stress",
+    "displacement_rate_set": "displacement_rate", "rig_compliance": "rig_compliance",
+    "volume": "amount_volume", "mass": "amount_mass",
 }
 
 
@@ -145,10 +154,10 @@ class HptMetadata(LogMetadata):
 
 def _set_meta(meta: HptMetadata, key: str, value: str, *, path: str, line: int | None,
               source: str = "header") -> None:
-    from torlab.units import parse_unit_factor, to_si
+    from torlab.units import _NUMBER, check_range, parse_unit_factor, to_si
 
     key = key.strip()
-    value = value.strip()
+    value = str(value).strip()
     kind = header_key(meta, key, value, METADATA_KEYS, path, line, source)
     if kind is None:
         return
@@ -156,8 +165,6 @@ def _set_meta(meta: HptMetadata, key: str, value: str, *, path: str, line: int |
         setattr(meta, key, value)
         return
     if kind == "amount":
-        from torlab.units import _NUMBER
-
         m = _NUMBER.match(value)
         unit = m.group("unit") if m else ""
         for amount_kind in ("volume", "mass"):
@@ -168,6 +175,7 @@ def _set_meta(meta: HptMetadata, key: str, value: str, *, path: str, line: int |
             if not unit:
                 raise TorlabInputError("applied_amount needs a unit (e.g. '4 uL' or '2 mg')",
                                        path=path, line=line, key=key)
+            check_range(HEADER_RANGES[amount_kind], si, where=key, path=path, line=line)
             meta.applied_amount = si
             meta.applied_amount_kind = amount_kind
             meta.applied_amount_unit = unit
@@ -177,7 +185,23 @@ def _set_meta(meta: HptMetadata, key: str, value: str, *, path: str, line: int |
             parse_unit_factor(unit, "volume", where=key, path=path, line=line)  # raises a clear error
         raise TorlabInputError(f"{value!r} is not an amount (write e.g. '4 uL' or '2 mg')",
                                path=path, line=line, key=key)
-    setattr(meta, key, to_si(value, kind, where=key, path=path, line=line))
+    m = _NUMBER.match(value)
+    if m and not m.group("unit") and kind not in ("dimensionless",):
+        from torlab.units import _example
+
+        raise TorlabInputError(f"needs a unit (e.g. {_example(kind)}); a plain number "
+                               f"would be taken as SI ({value} {_si_unit(kind)})", path=path,
+                               line=line, key=key)
+    si = to_si(value, kind, where=key, path=path, line=line)
+    if key in HEADER_RANGES:
+        check_range(HEADER_RANGES[key], si, where=key, path=path, line=line)
+    setattr(meta, key, si)
+
+
+def _si_unit(kind: str) -> str:
+    from torlab.units import KINDS
+
+    return KINDS[kind][1]
 
 
 def read_hpt_map(path: PathOrBuffer) -> dict[str, Any]:
@@ -328,6 +352,7 @@ def read_hpt(src: PathOrBuffer, mapping: PathOrBuffer | dict[str, Any] | None = 
                                f"{meta.r1 * 1e3:g} mm, r2 = {meta.r2 * 1e3:g} mm)", path=display,  # type: ignore[operator]
                                line=meta.lines.get("r2"))
     _check_rows(df, meta, display)
+    refuse_below_absolute_zero(df, display)
     return df, meta
 
 

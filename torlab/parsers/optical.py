@@ -171,7 +171,17 @@ def _set_meta(meta: OpticalMetadata, key: str, value: str, path: str, line: int)
     if kind == "sign":
         meta.friction_sign = sign_value(value, key, path, line)
         return
-    setattr(meta, key, to_si(value, kind, where=key, path=path, line=line))
+    v = to_si(value, kind, where=key, path=path, line=line)
+    if key in _HEADER_RANGES:
+        from torlab.units import check_range
+
+        check_range(_HEADER_RANGES[key], v, where=key, path=path, line=line)
+    setattr(meta, key, v)
+
+
+#: header key -> plausible-range quantity (torlab.units.RANGES)
+_HEADER_RANGES = {"ball_radius": "ball_radius", "temperature": "temperature",
+                  "lubricant_viscosity": "viscosity"}
 
 
 def open_optical(src: PathOrBuffer, *, name: str | None = None) -> OpticalSource:
@@ -204,8 +214,13 @@ def open_optical(src: PathOrBuffer, *, name: str | None = None) -> OpticalSource
             raise TorlabInputError(f"cannot read ({e.strerror})", path=display) from None
         if os.path.isdir(path):
             raise TorlabInputError("is a folder, expected a file", path=display)
-        with open(path, "rb") as f:
-            head = f.read(min(size, 1 << 16))
+        from torlab.outputs import open_regular
+
+        try:
+            with open_regular(path) as f:
+                head = f.read(min(size, 1 << 16))
+        except TorlabInputError as e:
+            raise TorlabInputError(e.message, path=display) from None
         if b"\x00" in head[:4096]:
             raise TorlabInputError("binary file, expected text", path=display)
         head_text, _ = read_text(io.BytesIO(head), name=display)

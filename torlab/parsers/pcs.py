@@ -74,7 +74,13 @@ from typing import Any
 import numpy as np
 
 from torlab.errors import TorlabInputError
-from torlab.parsers._text import PathOrBuffer, number_field, read_text, split_unit
+from torlab.parsers._text import (
+    PathOrBuffer,
+    number_field,
+    read_text,
+    refuse_below_absolute_zero,
+    split_unit,
+)
 
 __all__ = [
     "INSTRUMENTS",
@@ -530,6 +536,7 @@ def read_pcs(src: PathOrBuffer, *, instrument: str | None = None,
     _detect(lines, meta, instrument, display)
     blocks = _split(lines, meta, display)
     df = _tables(blocks, meta, display)
+    refuse_below_absolute_zero(df, display)
     _coefficient_convention(df, meta)
     expected = meta.steps_completed
     if expected is not None and expected != len(meta.steps):

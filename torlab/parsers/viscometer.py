@@ -44,6 +44,7 @@ from torlab.parsers._text import (
     parse_numeric_rows,
     read_log_header,
     read_text,
+    refuse_below_absolute_zero,
     sign_value,
 )
 
@@ -182,7 +183,16 @@ def _set_meta(meta: ViscometerMetadata, key: str, value: str, path: str, line: i
     v = to_si(value, kind, where=key, path=path, line=line)
     if kind in ("density", "viscosity", "length") and v <= 0:
         raise TorlabInputError(f"must be positive, got {value!r}", path=path, line=line, key=key)
+    if key in _HEADER_RANGES:
+        from torlab.units import check_range
+
+        check_range(_HEADER_RANGES[key], v, where=key, path=path, line=line)
     setattr(meta, key, v)
+
+
+#: header key -> plausible-range quantity (torlab.units.RANGES)
+_HEADER_RANGES = {"liquid_density": "density", "body_density": "density",
+                  "reference_viscosity": "viscosity", "temperature": "temperature"}
 
 
 def read_viscometer(src: PathOrBuffer, *, name: str | None = None) -> tuple[Any, ViscometerMetadata]:
@@ -272,4 +282,5 @@ def read_viscometer(src: PathOrBuffer, *, name: str | None = None) -> tuple[Any,
             raise TorlabInputError(f"fall must be a whole number >= 0, got {f[i]:g}", path=display,
                                    line=int(line_no[i]), key="fall")
         df["fall"] = df["fall"].astype(np.int64)
+    refuse_below_absolute_zero(df, display)
     return df, meta

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from torlab.errors import FitError, TorlabInputError
+from torlab.outputs import safe_name
 
 __all__ = ["Progress", "RunContext", "finite"]
 
@@ -152,7 +153,7 @@ class RunContext:
                                   "ci95": {k: list(v) for k, v in res.ci95.items()},
                                   "residual_rms": res.residual_norm,
                                   "warnings": list(res.warnings)}
-        self.dest.write_text(f"fits/{name.replace(':', '_')}.yaml",
+        self.dest.write_text(f"fits/{safe_name(name.replace(':', '_'))}.yaml",
                              dump_yaml(finite(res.to_yaml_dict())))
 
     def scenes_for(self, refs: list[Any], params: list[str]) -> list[tuple[str, Any, dict]]:

@@ -61,16 +61,21 @@ PROTOCOL_VERSION = 1
 
 
 # --------------------------------------------------------------------------- quantities
-def _q(kind: str):
-    """Before-validator: a user quantity (number = SI, or string with unit) -> SI float."""
+def _q(kind: str, quantity: str | None = None):
+    """Before-validator: a user quantity (number = SI, or string with unit) -> SI float.
+
+    With ``quantity``, the value is also checked against
+    :data:`torlab.units.RANGES` (impossible: an error; unusual: a warning).
+    """
 
     def conv(v: Any) -> Any:
-        from torlab.units import to_si
+        from torlab.units import check_range, to_si
 
         if v is None:
             return v
         try:
-            return to_si(v, kind)
+            x = to_si(v, kind)
+            return x if quantity is None else check_range(quantity, x)
         except TorlabInputError as e:
             raise ValueError(e.message) from None
 
@@ -79,10 +84,10 @@ def _q(kind: str):
 
 Length = Annotated[float, _q("length")]
 Time = Annotated[float, _q("time")]
-Density = Annotated[float, _q("density")]
-Temperature = Annotated[float, _q("temperature")]
+Density = Annotated[float, _q("density", "density")]
+Temperature = Annotated[float, _q("temperature", "temperature")]
 Velocity = Annotated[float, _q("velocity")]
-Viscosity = Annotated[float, _q("viscosity")]
+Viscosity = Annotated[float, _q("viscosity", "viscosity")]
 Fraction = Annotated[float, _q("dimensionless")]
 
 
@@ -273,7 +278,7 @@ class HptData(_Model):
 
     files: Annotated[list[File], BeforeValidator(_listify)] = Field(min_length=1)
     compliance: str | None = None
-    window: Length = Field(default=20e-6, gt=0)
+    window: Annotated[float, _q("length", "displacement_window")] = Field(default=20e-6, gt=0)
     source: Literal["auto", "motor", "encoder"] = "auto"
     _compliance: tuple[str, Any] | None = PrivateAttr(default=None)
 
@@ -388,7 +393,8 @@ class HptLayerFit(_Model):
 
     amounts: Annotated[list[Amount], BeforeValidator(_listify)] = Field(min_length=1)
     temperature: Temperature = 25.0
-    temperature_tolerance: Annotated[float, _q("temperature")] = Field(default=2.0, gt=0)
+    temperature_tolerance: Annotated[float, _q("temperature_difference",
+                                               "temperature_difference")] = Field(default=2.0, gt=0)
     joint: bool = False
     temperature_coefficients: bool = True
     products: list[str] = []
@@ -546,7 +552,8 @@ class AmountReport(_Model):
     """
 
     temperature: Temperature = 25.0
-    temperature_tolerance: Annotated[float, _q("temperature")] = Field(default=2.0, gt=0)
+    temperature_tolerance: Annotated[float, _q("temperature_difference",
+                                               "temperature_difference")] = Field(default=2.0, gt=0)
     band: Band = (0.15, 0.25)
     threshold: Fraction = Field(default=0.15, gt=0)
     basis: Literal["mass", "amount"] = "mass"

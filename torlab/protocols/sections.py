@@ -15,6 +15,8 @@ from typing import Any
 import numpy as np
 
 from torlab.errors import TorlabInputError
+from torlab.model.plausible import result_notes
+from torlab.outputs import safe_name
 from torlab.protocols.context import RunContext, finite
 
 __all__ = ["build_sections"]
@@ -140,6 +142,7 @@ def traction(ctx: RunContext) -> Any:
         pred = ctx.predict("traction", sdv, creepage=xi, trend_tolerance=cfg.trend_tolerance)
         speed = sc.kinematics.speed if v is None else v
         label = c.label.replace("{set}", setname) + (f" @ {speed:.3g} m/s" if many else "")
+        ctx.notes += [f"traction {label}: {n}" for n in result_notes(pred.table)]
         one_set = len(set(ctx.param_sets)) <= 1 or "hpt:*" not in c.params
         curves.append(TractionCurve(
             label=label, kind="model", table=pred.table, trend=pred.trend,
@@ -182,6 +185,8 @@ def stribeck(ctx: RunContext) -> Any:
             continue
         for setname, _sc, sd in ctx.scenes_for(c.scene, c.params):
             pred = ctx.predict("stribeck", sd, speed=v, creepage=xi)
+            ctx.notes += [f"Stribeck {c.label.replace('{set}', setname)}: {n}"
+                          for n in result_notes(pred.table)]
             curves.append(StribeckCurve(
                 label=c.label.replace("{set}", setname), table=pred.table, creepage=xi,
                 measured=meas, measured_label="" if c.measured is None else
@@ -237,7 +242,7 @@ def fits_section(ctx: RunContext) -> Any:
 
     from torlab.reports.html import Figure, Section, Table
 
-    figs = [Figure(f"fit_{name.replace(':', '_')}", res.plot(),
+    figs = [Figure(f"fit_{safe_name(name.replace(':', '_'))}", res.plot(),
                    f"{name}: data against the fitted model, residuals")
             for name, res in ctx.fit_results]
     warn = [f"{name}: {w}" for name, res in ctx.fit_results for w in res.warnings]

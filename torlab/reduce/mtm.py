@@ -311,26 +311,56 @@ def time_test_metrics(
     )
 
 
-def mu_series(df: Any) -> tuple[np.ndarray | None, str]:
+def mu_series(df: Any, meta: Any = None) -> tuple[np.ndarray | None, str]:
     """The signed traction coefficient of PCS rows and where it comes from.
 
-    In order: the coefficient column (signed, see
+    Row by row, the first available of: the coefficient column (signed, see
     :func:`torlab.parsers.pcs.coefficient_column`); ``Traction Force / Ball
     Load``; ``Traction Force 1 / Ball Load`` (EHD2 film steps, which log only
-    that force).  ``(None, "")`` when none is available.
+    that force).  A blank coefficient cell is filled from the forces of its own
+    row, so one blank cell never blanks other rows.  A row whose Ball Load is
+    zero or negative gets no coefficient from the forces; with ``meta`` given,
+    such rows are reported in ``meta.warnings`` with their lines.  ``(None, "")``
+    when no row has a coefficient source.
     """
+    n = len(df)
+    mu = np.full(n, np.nan)
+    parts: list[str] = []
     col, src = coefficient_column(df)
-    if col and df[col].notna().any():
-        return df[col].to_numpy(dtype=float), src
+    if col:
+        c = df[col].to_numpy(dtype=float)
+        have = np.isfinite(c)
+        mu[have] = c[have]
+        if have.any():
+            parts.append(src)
     if "ball_load_N" in df:
         w = df["ball_load_N"].to_numpy(dtype=float)
+        zero = np.isfinite(w) & (w <= 0)
         for fcol, label in (("traction_force_N", "Traction Force / Ball Load"),
                             ("traction_force_1_N", "Traction Force 1 / Ball Load")):
-            if fcol in df and df[fcol].notna().any():
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    mu = np.where(w > 0, df[fcol].to_numpy(dtype=float) / w, np.nan)
-                return mu, label
-    return None, ""
+            if fcol not in df:
+                continue
+            f = df[fcol].to_numpy(dtype=float)
+            fill = ~np.isfinite(mu) & np.isfinite(f) & np.isfinite(w) & (w > 0)
+            if fill.any():
+                mu[fill] = f[fill] / w[fill]
+                parts.append(label if not parts else f"{label} ({int(fill.sum())} rows)")
+        if zero.any() and meta is not None:
+            kept = "the coefficient column is kept as written" if col and \
+                np.isfinite(mu[zero]).all() else "no coefficient from the forces there"
+            meta.warnings.append(f"Ball Load is zero or negative in {int(zero.sum())} of {n} "
+                                 f"rows ({_lines(df, zero)}): {kept}")
+    if not parts:
+        return None, ""
+    return mu, " + ".join(parts)
+
+
+def _lines(df: Any, sel: np.ndarray) -> str:
+    """``lines a-b`` (or ``line a``) of the selected rows, for messages."""
+    if "line" not in df:
+        return f"{int(sel.sum())} rows"
+    ln = df["line"].to_numpy()[sel]
+    return f"line {ln[0]}" if len(ln) == 1 else f"lines {ln.min()}-{ln.max()}"
 
 
 @dataclass
@@ -452,12 +482,13 @@ def reduce_pcs(df: Any, meta: PcsMetadata, *, time_tests: bool = True,
 
     if len(df) == 0:
         raise TorlabInputError("no data rows in any step (nothing to reduce)", path=meta.source)
-    mu, src = mu_series(df)
+    mu, src = mu_series(df, meta)
     has_film = "film_thickness_m" in df and df["film_thickness_m"].notna().any()
-    if mu is None and not has_film:
+    if (mu is None or not np.isfinite(mu).any()) and not has_film:
         raise TorlabInputError("no traction coefficient, traction force or film thickness in any "
-                               "step: no traction, Stribeck, timed or film curve to reduce",
-                               path=meta.source)
+                               "step: no traction, Stribeck, timed or film curve to reduce (every "
+                               "Traction Coeff cell is blank and Traction Force / Ball Load cannot "
+                               "be formed: no force or a zero Ball Load)", path=meta.source)
     if after_application is None and time_test_options.get("application_time") is not None:
         after_application = True
     step_no = df["step"].to_numpy()
@@ -523,6 +554,12 @@ def reduce_pcs(df: Any, meta: PcsMetadata, *, time_tests: bool = True,
             notes.append(f"{kind} steps: no {'x' if not x else 'y'} column, no curve")
             continue
         keep = cdf[x].notna() & cdf[y].notna()
+        if not keep.all():
+            lost = ~keep.to_numpy()
+            meta.warnings.append(f"{kind} steps: {int(lost.sum())} of {len(cdf)} rows have no "
+                                 f"{y} or no {x} and are left out ({_lines(cdf, lost)})")
+        if not keep.any():
+            continue
         curves[kind] = cdf.loc[keep].reset_index(drop=True)
         curve_x[kind], curve_y[kind] = x, y
     steps = pd.DataFrame(rows)

@@ -155,12 +155,17 @@ def _nan(fn: Any, v: np.ndarray) -> float:
     return float(fn(v)) if v.size else float("nan")
 
 
+#: largest |traction coefficient| accepted from a log; beyond it a load or force cell is wrong
+MU_MAX = 10.0
+
+
 # ---------------------------------------------------------------------- the streaming reducer
 class _Accumulator:
     """Keeps the trailing window of the current condition; finalises each condition."""
 
     def __init__(self, window: float, names: list[str], mu_mode: str, ball_radius: float | None,
-                 sign: float) -> None:
+                 sign: float, source: str = "") -> None:
+        self.source = source
         self.window = window
         self.names = names
         self.mu_mode = mu_mode
@@ -237,6 +242,13 @@ class _Accumulator:
         else:
             mu = None
         if mu is not None:
+            bad = ~(np.abs(mu) <= MU_MAX)
+            if bad.any():
+                i = int(np.argmax(bad))
+                raise TorlabInputError(
+                    f"traction coefficient {mu[i]:.4g} (from a normal load of {w[i]:.4g} N) is not a "
+                    f"friction coefficient (|mu| <= {MU_MAX:g}); check the load and force columns",
+                    path=self.source or None, line=int(buf["line"][sel][i]))
             row["traction_coefficient"] = float(np.mean(mu))
             row["traction_coefficient_sd"] = float(np.std(mu, ddof=1)) if mu.size > 1 else 0.0
         if "film_thickness_m" in buf:
@@ -319,7 +331,8 @@ def reduce_optical_log(src: PathOrBuffer, *, window: float = DEFAULT_WINDOW_S,
     meta = osrc.meta
     mode = "force" if "friction_force_N" in osrc.names else \
         "torque" if "torque_N_m" in osrc.names else "none"
-    acc = _Accumulator(window, osrc.names, mode, meta.ball_radius, meta.friction_sign)
+    acc = _Accumulator(window, osrc.names, mode, meta.ball_radius, meta.friction_sign,
+                       source=meta.source)
     state: dict[str, Any] = {}
     rows = 0
     for chunk in iter_optical_arrays(osrc, chunksize=chunksize):
@@ -516,7 +529,7 @@ def reduce_ehd2(df: Any, meta: Any, *, test: str | None = None, sym_rel: float =
         raise TorlabInputError("no FILM step with data rows in this PCS file (the optical "
                                "reduction reads EHD2 film steps)", path=meta.source)
     sub = df.loc[sel]
-    mu, src = mu_series(sub)
+    mu, src = mu_series(sub, meta)
     out: dict[str, Any] = {"condition": np.arange(1, int(sel.sum()) + 1),
                            "step": sub["step"].to_numpy()}
     for c, nm in (("rolling_speed_m_s", "rolling_speed_m_s"), ("srr", "srr"),

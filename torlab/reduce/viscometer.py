@@ -364,6 +364,7 @@ def _falls_of(df: Any, meta: ViscometerMetadata, tol: float) -> list[Fall]:
                   if f[a] > 0]
     else:
         ranges = find_falls(t, x)
+        _check_direction(t, x, ranges, meta)
     if not ranges:
         raise TorlabInputError("no fall found in the position trace (a fall must travel at least "
                                f"{MIN_TRAVEL_FRACTION:.0%} of the position range; or number the "
@@ -390,6 +391,46 @@ def _falls_of(df: Any, meta: ViscometerMetadata, tol: float) -> list[Fall]:
             temperature_C=float(np.mean(temp[s0:s1])) if temp is not None else float("nan"),
             first_line=int(line[a]), last_line=int(line[b - 1])))
     return out
+
+
+def _moving_time(t: np.ndarray, x: np.ndarray, a: int, b: int) -> float:
+    """Time a leg ``[a, b)`` takes between 10 % and 90 % of its travel (rests excluded)."""
+    xs = x[a:b]
+    lo, hi = xs.min(), xs.max()
+    mv = np.nonzero((xs > lo + 0.1 * (hi - lo)) & (xs < lo + 0.9 * (hi - lo)))[0]
+    return float(t[a + mv[-1]] - t[a + mv[0]]) if mv.size > 1 else 0.0
+
+
+#: falls that take less than this fraction of the opposite legs' time suggest a flipped sign
+RETURN_RATIO = 0.5
+
+
+def _check_direction(t: np.ndarray, x: np.ndarray, ranges: list[tuple[int, int]],
+                     meta: ViscometerMetadata) -> None:
+    """Warn when the legs taken as falls are much quicker than the legs the other way.
+
+    A body sinking under gravity through a viscous liquid is slower than the
+    mechanical return to the top; when the detected falls take less than
+    :data:`RETURN_RATIO` of the opposite legs' time (10-90 % of the travel,
+    medians), the position probably reads the other way: the "falls" are the
+    returns and every viscosity would be wrong (``position_sign``).
+    """
+    import warnings
+
+    from torlab.errors import TorlabWarning
+
+    back = find_falls(t, -x)
+    if len(ranges) < 2 or len(back) < 2:
+        return
+    d_fall = float(np.median([_moving_time(t, x, a, b) for a, b in ranges]))
+    d_back = float(np.median([_moving_time(t, -x, a, b) for a, b in back]))
+    if d_back > 0 and d_fall < RETURN_RATIO * d_back:
+        warnings.warn(TorlabWarning(
+            f"the legs taken as falls move for {d_fall:.3g} s (median), the legs the other way "
+            f"for {d_back:.3g} s: a body sinking through the liquid is normally slower than its "
+            f"return, so the position may read the other way (position_sign is "
+            f"{meta.position_sign:+g} in this log; the viscosities assume the falls are right)",
+            path=meta.source), stacklevel=3)
 
 
 def _steps(pressures: np.ndarray, rel: float = 0.02, abs_pa: float = 1e6) -> np.ndarray:

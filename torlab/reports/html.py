@@ -159,33 +159,75 @@ def render_html(title: str, intro: list[str], sections: list[Section],
     return "\n".join(out) + "\n"
 
 
+_MD_SPECIAL = str.maketrans({"\\": "\\\\", "`": "\\`", "[": "\\[", "]": "\\]",
+                             "|": "\\|", "<": "&lt;", ">": "&gt;", "&": "&amp;", "\n": " ",
+                             "\r": " "})
+
+
+def md_escape(text: Any) -> str:
+    """Text from data (log headers, labels, file names) made inert in Markdown.
+
+    Raw HTML (``<img onerror=...>``) becomes entities, as ``html.escape`` does for
+    ``report.html``; the Markdown characters that make links, images, code spans
+    and table cells are backslash-escaped (emphasis is harmless and left as
+    written, so ``mu_c1`` stays readable), and line breaks become spaces so a
+    value cannot start a heading or leave a table row.
+    """
+    return str(text).translate(_MD_SPECIAL)
+
+
+def _md_code(text: Any) -> str:
+    """Inline code for text from data (backticks cannot close it early)."""
+    s = " ".join(str(text).split())
+    n = 1
+    while "`" * n in s:
+        n += 1
+    fence = "`" * n
+    pad = " " if s.startswith("`") or s.endswith("`") else ""
+    return f"{fence}{pad}{s}{pad}{fence}" if s else "—"
+
+
+def _md_link(path: str) -> str:
+    """A link target for a file the report wrote (spaces and parentheses encoded)."""
+    from urllib.parse import quote
+
+    return quote(path, safe="/._-")
+
+
 def render_markdown(title: str, intro: list[str], sections: list[Section],
                     provenance: dict[str, Any]) -> str:
-    """``report.md``: the same content, figures and tables linked as files."""
-    out = [f"# {title}", ""]
+    """``report.md``: the same content, figures and tables linked as files.
+
+    Every piece of text is escaped with :func:`md_escape` (the HTML report
+    escapes the same text with ``html.escape``).
+    """
+    e = md_escape
+    out = [f"# {e(title)}", ""]
     for p in intro:
-        out += [p, ""]
+        out += [e(p), ""]
     for s in sections:
-        out += [f"## {s.title}", ""]
+        out += [f"## {e(s.title)}", ""]
         for p in s.paragraphs:
-            out += [p, ""]
+            out += [e(p), ""]
         for n in s.notes:
-            out += [f"> note: {n}", ""]
+            out += [f"> note: {e(n)}", ""]
         for t in s.tables:
-            out += [f"**{t.caption}** ([{s.key}/{t.name}.csv]({s.key}/{t.name}.csv))", ""]
+            csv = f"{s.key}/{t.name}.csv"
+            out += [f"**{e(t.caption)}** ([{e(csv)}]({_md_link(csv)}))", ""]
             if not t.inline:
                 continue
             heads, rows = _rows(t)
-            out.append("| " + " | ".join(heads) + " |")
+            out.append("| " + " | ".join(e(h) for h in heads) + " |")
             out.append("|" + "|".join("---" for _ in heads) + "|")
-            out += ["| " + " | ".join(c.replace("|", "\\|") for c in r) + " |" for r in rows]
+            out += ["| " + " | ".join(e(c) for c in r) + " |" for r in rows]
             out.append("")
         for f in s.figures:
-            out += [f"![{f.caption}]({s.key}/{f.name}.png)", "",
-                    f"*{f.caption}* ([SVG]({s.key}/{f.name}.svg))", ""]
-    out += ["## Provenance", "", f"- torlab {provenance.get('torlab_version', '')}",
-            f"- protocol `{provenance.get('protocol_file', '')}` (SHA-256 "
-            f"`{provenance.get('protocol_sha256', '')}`)", ""]
+            png, svg = f"{s.key}/{f.name}.png", f"{s.key}/{f.name}.svg"
+            out += [f"![{e(f.caption)}]({_md_link(png)})", "",
+                    f"*{e(f.caption)}* ([SVG]({_md_link(svg)}))", ""]
+    out += ["## Provenance", "", f"- torlab {e(provenance.get('torlab_version', ''))}",
+            f"- protocol {_md_code(provenance.get('protocol_file', ''))} (SHA-256 "
+            f"{_md_code(provenance.get('protocol_sha256', ''))})", ""]
     out += ["| input file | SHA-256 |", "|---|---|"]
-    out += [f"| {k} | `{v}` |" for k, v in provenance.get("inputs", {}).items()]
+    out += [f"| {e(k)} | {_md_code(v)} |" for k, v in provenance.get("inputs", {}).items()]
     return "\n".join(out) + "\n"

@@ -1,0 +1,487 @@
+"""A seeded corpus of bad inputs for every reader, scene and protocol, run through the CLI.
+
+:func:`build_corpus` derives the cases at test time from the sample data, the files in
+``tests/data`` and, where present, the real PCS exports (never copied into the repository):
+truncation, byte flips, changed delimiters, BOM / CRLF / CR / Latin-1, NaN / inf / empty
+cells, huge and negative values, time going backwards, duplicated header lines, unit
+swaps, binary files, FIFOs, folders, devices; for YAML (scenes, protocols, column maps):
+changed values and units, deleted and duplicated lines, alias bombs, recursive aliases,
+deep nesting.  :func:`run_case` runs one case in-process through typer's ``CliRunner``
+with a per-case time limit and classifies the outcome; ``tests/test_fuzz_corpus.py``
+asserts that no case ends in a traceback, exit code 1, a hang or a raw warning.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+import random
+import re
+import signal
+import sys
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT / "tests" / "data"
+SAMPLE = ROOT / "sample_data"
+REAL_PCS = ROOT.parent / "shared" / "real-data" / "pcs"
+SCENES = ROOT / "protocols" / "scenes"
+
+#: per-case time limit (s): a case running longer is a hang
+TIME_LIMIT = 60
+
+
+@dataclass
+class Case:
+    """One corpus case: a reader, a mutation, and the file content (or a special path)."""
+
+    reader: str
+    source: str
+    mutation: str
+    data: bytes | None = None
+    special: str | None = None  # fifo, folder, device, missing, symlink-device
+    extra: dict[str, bytes] = field(default_factory=dict)  # companion files by name
+
+    @property
+    def name(self) -> str:
+        return f"{self.reader}:{self.source}:{self.mutation}"
+
+
+@dataclass
+class Outcome:
+    """What a case did."""
+
+    case: Case
+    exit_code: int | None
+    kind: str  # ok, input_error, numerical_error, bug, traceback, hang, leaked_warning
+    detail: str = ""
+    hidden_warnings: int = 0
+
+
+# ----------------------------------------------------------------------------- sources
+def _small_optical() -> bytes:
+    import numpy as np
+
+    from torlab.synth.optical import OpticalCondition, OpticalTest, write_optical_log
+
+    conds = tuple(OpticalCondition(0.5, s, 90.0, 0.6) for s in (-0.02, 0.0, 0.02))
+    buf = io.StringIO()
+    write_optical_log(buf, OpticalTest("f", "traction", "rough", "water", conds),
+                      lambda U, s: 0.05 * np.tanh(np.asarray(s) / 0.01),
+                      lambda U: 30e-9 * np.asarray(U) ** 0.67, seed=1)
+    return buf.getvalue().encode()
+
+
+def _head(path: Path, n: int) -> bytes:
+    lines = path.read_bytes().split(b"\n")
+    return b"\n".join(lines[:n]) + b"\n"
+
+
+def sources() -> dict[str, list[tuple[str, bytes]]]:
+    """Reader -> [(source name, bytes)] of valid inputs to mutate."""
+    hpt = [("hand.txt", (DATA / "hpt" / "hand.txt").read_bytes()),
+           ("hpt_OFM1_4uL_25C", (SAMPLE / "hpt" / "hpt_OFM1_4uL_25C.txt").read_bytes())]
+    pcs = [(p.name, p.read_bytes()) for p in sorted((DATA / "pcs").glob("*_quirks.txt"))
+           if not p.name.startswith("ehd2")]
+    pcs.append(("mtm_TOR-A_5uL", (SAMPLE / "mtm" / "mtm_TOR-A_5uL.txt").read_bytes()))
+    ehd2 = [("ehd2_quirks.txt", (DATA / "pcs" / "ehd2_quirks.txt").read_bytes())]
+    if REAL_PCS.is_dir():
+        for name, n in (("demo_5.txt", None), ("ETM_slim_mapper.txt", 3000)):
+            p = REAL_PCS / name
+            if p.is_file():
+                pcs.append((f"real:{name}", p.read_bytes() if n is None else _head(p, n)))
+        if (REAL_PCS / "demo_3.txt").is_file():
+            ehd2.append(("real:demo_3.txt", (REAL_PCS / "demo_3.txt").read_bytes()))
+    optical = [("small_traction", _small_optical()),
+               ("setpoints_torque_crlf", (DATA / "optical" / "setpoints_torque_crlf.csv")
+                .read_bytes()),
+               ("film_thickness_smooth", _head(SAMPLE / "optical" / "film_thickness_smooth.csv",
+                                               700))]
+    visc = [("fall_column_crlf", (DATA / "visc" / "fall_column_crlf.txt").read_bytes()),
+            ("visc_ester_head", _head(SAMPLE / "visc" / "visc_ester_25C.txt", 1500))]
+    scene = [(p.name, p.read_bytes()) for p in sorted(SCENES.glob("*.yaml"))]
+    return {"hpt": hpt, "pcs": pcs, "ehd2": ehd2, "optical": optical, "visc": visc,
+            "scene": scene, "protocol": [("small.yaml", PROTOCOL.encode())],
+            "hpt_map": [("rig2.yaml", HPT_MAP.encode())]}
+
+
+PROTOCOL = """\
+version: 1
+name: fuzz
+title: "fuzz protocol"
+products:
+  OFM1: {label: "oil-based FM 1", density: 930 kg/m^3}
+data:
+  hpt:
+    files: [hpt_*.txt]
+    window: 20 um
+fits:
+  hpt_layers:
+    amounts: [4 uL]
+    temperature: 25 degC
+    temperature_tolerance: 2 K
+    temperature_coefficients: false
+reports:
+  amount:
+    temperature: 25 degC
+    band: [0.15, 0.25]
+    threshold: 0.15
+    curve: interpolation
+  traction:
+    creepage: {from: 0, to: 0.05, points: 6}
+    curves:
+      - label: "{set}"
+        scene: scene.yaml
+        params: ["hpt:*"]
+"""
+
+HPT_MAP = """\
+delimiter: ';'
+decimal: ','
+header_line: 2
+skip_lines_after_header: 1
+columns:
+  time: {name: Zeit, unit: s}
+  normal_force: {name: Fn, unit: kN}
+  torque: {name: M, unit: N*m}
+  encoder_angle: {name: phi_enc, unit: deg}
+  motor_angle: {name: motor_steps, scale: 0.00045 deg}
+metadata:
+  r1: 3 mm
+  r2: 6 mm
+  product: other-rig
+"""
+
+HPT_MAP_CSV = (b"Export of rig 2\nZeit;Fn;M;phi_enc;motor_steps\ns;kN;Nm;deg;counts\n"
+               + b"".join(f"{k},0;63,6172512;{min(50 * k, 100)};{k / 100:.2f};{20 * k}\n"
+                          .replace(".", ",").encode() for k in range(12)))
+
+
+# ----------------------------------------------------------------------------- mutations
+_NUM = re.compile(rb"(?<![\w.])[+-]?\d+(?:\.\d+)?(?:[eE][+-]?\d+)?(?![\w.])")
+UNIT_SWAPS = [(b"[N]", b"[m]"), (b"[kN]", b"[kg]"), (b"[mm]", b"[bar]"), (b"[s]", b"[furlong]"),
+              (b"[deg]", b"[N]"), (b"(N)", b"(mm)"), (b"(mm/s)", b"(kg)"), (b"(%)", b"(Nx)"),
+              (b"[degC]", b"[C]"), (b"degC", b"K"), (b"[MPa]", b"[um]"), (b"mm", b"km"),
+              (b" uL", b" kg"), (b" mm", b""), (b"kN", b"N")]
+HUGE = [b"1e300", b"-1e300", b"1e-300", b"-5", b"0", b"NaN", b"inf", b"-inf", b"", b"1e30"]
+
+
+def _lines(b: bytes) -> list[bytes]:
+    return b.split(b"\n")
+
+
+def _data_lines(ls: list[bytes]) -> list[int]:
+    """Indices of lines that look like data rows (mostly numbers and separators)."""
+    out = []
+    for i, ln in enumerate(ls):
+        s = ln.strip()
+        if s and not s.startswith(b"#") and re.fullmatch(rb"[0-9eE.+\-,;\t ]+", s) \
+                and len(_NUM.findall(s)) >= 2:
+            out.append(i)
+    return out
+
+
+def mutate_text(data: bytes, rng: random.Random) -> list[tuple[str, bytes]]:
+    """Every text mutation of ``data`` once (random positions from ``rng``)."""
+    out: list[tuple[str, bytes]] = []
+    n = len(data)
+    ls = _lines(data)
+    dl = _data_lines(ls)
+    out.append(("truncate", data[: rng.randrange(max(1, n))]))
+    b = bytearray(data)
+    for _ in range(rng.randint(1, 6)):
+        b[rng.randrange(n)] = rng.randrange(256)
+    out.append(("byte_flip", bytes(b)))
+    for a, c in ((b",", b";"), (b"\t", b","), (b",", b"\t")):
+        if a in data:
+            out.append((f"delim_{a!r}->{c!r}", data.replace(a, c)))
+            break
+    out.append(("bom_crlf", b"\xef\xbb\xbf" + data.replace(b"\r\n", b"\n").replace(b"\n", b"\r\n")))
+    out.append(("cr_only", data.replace(b"\r\n", b"\n").replace(b"\n", b"\r")))
+    try:
+        out.append(("latin1", data.decode("utf-8").encode("latin-1", errors="replace")
+                    .replace(b"deg", b"\xb0")))
+    except UnicodeDecodeError:
+        pass
+    if dl:
+        for tag in ("nan_cell", "huge_cell"):
+            i = rng.choice(dl)
+            nums = list(_NUM.finditer(ls[i]))
+            m = rng.choice(nums)
+            v = rng.choice(HUGE[5:9]) if tag == "nan_cell" else rng.choice([*HUGE[:5], b"1e30"])
+            l2 = list(ls)
+            l2[i] = ls[i][: m.start()] + v + ls[i][m.end():]
+            out.append((f"{tag}={v.decode() or 'empty'}", b"\n".join(l2)))
+        if len(dl) > 3:
+            i, j = rng.sample(dl[1:], 2)
+            l2 = list(ls)
+            l2[i], l2[j] = l2[j], l2[i]
+            out.append(("time_backwards", b"\n".join(l2)))
+        l2 = list(ls)
+        i = rng.choice(dl)
+        l2[i] = b",".join([b"1e300"] * 8)
+        out.append(("row_of_huge", b"\n".join(l2)))
+        hdr = dl[0] - 1
+        if hdr >= 0:
+            l2 = list(ls)
+            l2.insert(hdr + 1, ls[hdr])
+            out.append(("duplicated_header", b"\n".join(l2)))
+        l2 = [ln for k, ln in enumerate(ls) if k not in set(dl)]
+        out.append(("no_data_rows", b"\n".join(l2)))
+        k0 = rng.choice(dl)
+        out.append(("deleted_block", b"\n".join(ls[:k0] + ls[k0 + rng.randint(1, 30):])))
+    heads = [i for i, ln in enumerate(ls) if ln.startswith(b"#") and b":" in ln]
+    if heads:
+        i = rng.choice(heads)
+        l2 = list(ls)
+        l2.insert(i + 1, ls[i])
+        out.append(("duplicated_key", b"\n".join(l2)))
+        numeric = [i for i in heads if _NUM.search(ls[i].split(b":", 1)[1])]
+        for v in (b"0", b"-3", b"1e300", b"250", b"20 C", b"-300 degC", b"nan"):
+            if numeric:
+                i = rng.choice(numeric)
+                key = ls[i].split(b":", 1)[0]
+                l2 = list(ls)
+                l2[i] = key + b": " + v
+                out.append((f"header_value={v.decode()}", b"\n".join(l2)))
+    swaps = [(a, c) for a, c in UNIT_SWAPS if a in data]
+    if swaps:
+        a, c = rng.choice(swaps)
+        out.append((f"unit_swap_{a.decode()}->{c.decode() or 'none'}", data.replace(a, c, 1)))
+    out.append(("binary", bytes(rng.randrange(256) for _ in range(2048))))
+    out.append(("nul_inside", data[: n // 2] + b"\x00" + data[n // 2:]))
+    out.append(("empty", b""))
+    out.append(("whitespace", b"  \n\n\t\n"))
+    out.append(("long_line", data[: n // 3] + b"9" * 200_000 + b"\n" + data[n // 3:]))
+    return out
+
+
+YAML_VALUES = ["0", "-1", "1e300", "1e300 m", ".nan", ".inf", "x", "300 K", "20 C", "-300 degC",
+               "[1, 2]", "{a: 1}", "true", '""', "~", "1e-300", "2 K"]
+
+
+def mutate_yaml(data: bytes, rng: random.Random, *, values: int = 8) -> list[tuple[str, bytes]]:
+    """YAML mutations of ``data``: values, units, lines, aliases, nesting, size."""
+    out: list[tuple[str, bytes]] = []
+    ls = _lines(data)
+    kv = [i for i, ln in enumerate(ls) if re.match(rb"^\s*[A-Za-z_][\w]*:\s*\S", ln)
+          and not ln.lstrip().startswith(b"#")]
+    for v in rng.sample(YAML_VALUES, min(values, len(YAML_VALUES))):
+        i = rng.choice(kv)
+        key = ls[i].split(b":", 1)[0]
+        l2 = list(ls)
+        l2[i] = key + b": " + v.encode()
+        out.append((f"value[{key.strip().decode()}]={v}", b"\n".join(l2)))
+    units = [(b" kN", b" km"), (b" mm", b" kg"), (b" GPa", b" s"), (b" degC", b" C"),
+             (b" m/s", b" m/s^2"), (b" mPa*s", b" Pa"), (b" um", b""), (b" uL", b" N")]
+    for a, c in units:
+        if a in data:
+            out.append((f"unit{a.decode()}->{c.decode() or 'none'}", data.replace(a, c, 1)))
+    i = rng.choice(kv)
+    out.append(("deleted_line", b"\n".join(ls[:i] + ls[i + 1:])))
+    out.append(("duplicated_line", b"\n".join([*ls[:i + 1], ls[i], *ls[i + 1:]])))
+    out.append(("unknown_key", data + b"\nsurprise: 1\n"))
+    out.append(("tab_indent", data.replace(b"\n  ", b"\n\t", 1)))
+    out.append(("truncate", data[: rng.randrange(max(1, len(data)))]))
+    b = bytearray(data)
+    for _ in range(3):
+        b[rng.randrange(len(b))] = rng.randrange(256)
+    out.append(("byte_flip", bytes(b)))
+    bomb = b"a: &a [x,x,x,x,x,x,x,x,x]\n" + b"".join(
+        f"{c}: &{c} [{', '.join([f'*{p}'] * 9)}]\n".encode()
+        for p, c in zip("abcdefgh", "bcdefghi", strict=True))
+    out.append(("alias_bomb", bomb))
+    out.append(("alias_bomb_appended", data + b"\n" + bomb.replace(b"a:", b"zz_a:", 1)))
+    out.append(("recursive_alias", b"contact: &c\n  load: [*c]\n" + data))
+    out.append(("deep_nesting", b"a: " + b"[" * 5000 + b"]" * 5000 + b"\n"))
+    out.append(("huge_document", b"x: [" + b"1, " * 1_500_000 + b"1]\n"))
+    out.append(("long_integer", data + b"\nzz: " + b"9" * 6000 + b"\n"))
+    out.append(("not_a_mapping", b"- 1\n- 2\n"))
+    out.append(("two_documents", data + b"\n---\n" + data))
+    return out
+
+
+# ----------------------------------------------------------------------------- the corpus
+def build_corpus(seed: int = 20240613) -> list[Case]:
+    """The fixed-seed corpus (same cases on every run)."""
+    rng = random.Random(seed)
+    cases: list[Case] = []
+    src = sources()
+    for reader in ("hpt", "pcs", "ehd2", "optical", "visc"):
+        for name, data in src[reader]:
+            for mut, b in mutate_text(data, rng):
+                cases.append(Case(reader, name, mut, b))
+    for name, data in src["hpt"][1:2]:  # a sample log: long enough to fit
+        for mut, b in mutate_text(data, rng)[::3]:
+            cases.append(Case("fit_hpt", name, mut, b))
+    for name, data in src["scene"]:
+        for mut, b in mutate_yaml(data, rng):
+            cases.append(Case("scene", name, mut, b))
+        if b"lubricant:" in data:
+            for mut, b in mutate_yaml(data, rng, values=4)[:5]:
+                cases.append(Case("scene_stribeck", name, mut, b))
+    scene = (SCENES / "wheel_rail_tab54.yaml").read_bytes()
+    # the documented scene without L_mue/L_mup (their defaults) and with thermal:
+    nolayer = b"\n".join(ln for ln in scene.split(b"\n") if b"L_mu" not in ln)
+    cases.append(Case("scene", "wheel_rail_tab54.yaml", "no_L_mue_L_mup", nolayer))
+    for name, data in src["protocol"]:
+        for mut, b in mutate_yaml(data, rng, values=6):
+            cases.append(Case("protocol", name, mut, b, extra={"scene.yaml": scene}))
+        cases.append(Case("protocol", name, "as_written", data, extra={"scene.yaml": scene}))
+        cases.append(Case("protocol", name, "product_../../x", data,
+                          extra={"scene.yaml": scene, "__product__": b"../../x <img src=x>"}))
+        bomb = dict(mutate_yaml(scene, random.Random(1)))["alias_bomb_appended"]
+        cases.append(Case("protocol", name, "scene_alias_bomb", data, extra={"scene.yaml": bomb}))
+    for name, data in src["hpt_map"]:
+        for mut, b in mutate_yaml(data, rng, values=5):
+            cases.append(Case("hpt_map", name, mut, b))
+    for reader in ("hpt", "pcs", "optical", "visc", "scene", "protocol"):
+        for special in ("fifo", "folder", "device", "missing", "symlink_device"):
+            cases.append(Case(reader, "-", special, special=special))
+    return cases
+
+
+# ----------------------------------------------------------------------------- running
+class _Hang(BaseException):
+    """Raised by the alarm when a case exceeds :data:`TIME_LIMIT`."""
+
+
+def _alarm(signum: int, frame: object) -> None:
+    raise _Hang()
+
+
+def _place(case: Case, work: Path) -> Path:
+    """Write the case's input into ``work`` and return its path."""
+    suffix = {"scene": ".yaml", "scene_stribeck": ".yaml", "protocol": ".yaml", "hpt_map": ".yaml", "optical": ".csv"}.get(
+        case.reader, ".txt")
+    p = work / f"input{suffix}"
+    if case.special == "fifo":
+        os.mkfifo(p)
+    elif case.special == "folder":
+        p.mkdir()
+        (p / "inside.txt").write_text("x")
+    elif case.special == "device":
+        p = Path("/dev/zero")
+    elif case.special == "missing":
+        p = work / "does-not-exist.txt"
+    elif case.special == "symlink_device":
+        p.symlink_to("/dev/zero")
+    else:
+        p.write_bytes(case.data or b"")
+    return p
+
+
+def command(case: Case, work: Path) -> list[str]:
+    """The CLI arguments of a case (its input placed in ``work``)."""
+    p = _place(case, work)
+    out = str(work / "out")
+    r = case.reader
+    if r == "hpt":
+        return ["hpt", "reduce", str(p), "-o", out]
+    if r == "pcs":
+        return ["mtm", "reduce", str(p), "-o", out]
+    if r in ("ehd2", "optical"):
+        return ["optical", "reduce", str(p), "-o", out]
+    if r == "visc":
+        ref = SAMPLE / "visc" / "visc_reference_25C.txt"
+        return ["visc", "reduce", str(p), "--reference", str(ref), "-o", out]
+    if r == "scene":
+        return ["predict", "traction", str(p), "--creepage", "0:0.05:6", "-o", out]
+    if r == "scene_stribeck":
+        return ["predict", "stribeck", str(p), "--speed", "0.01:2:6", "--creepage", "0.02",
+                "-o", out]
+    if r == "fit_hpt":
+        return ["fit", "hpt", str(p), "-o", out]
+    if r == "hpt_map":
+        csv = work / "rig2.csv"
+        csv.write_bytes(HPT_MAP_CSV)
+        return ["hpt", "reduce", str(csv), "--map", str(p), "-o", out]
+    if r == "protocol":
+        product = case.extra.get("__product__")
+        for f in sorted((SAMPLE / "hpt").glob("hpt_OFM1_*uL_25C.txt"))[:4]:
+            b = f.read_bytes()
+            if product is not None:
+                b = b.replace(b"# product: OFM1", b"# product: " + product)
+            (work / f.name).write_bytes(b)
+        for k, v in case.extra.items():
+            if not k.startswith("__"):
+                (work / k).write_bytes(v)
+        return ["run", str(p), "-o", out]
+    raise ValueError(r)
+
+
+_STDERR_OK = ("error: ", "warning: ")
+
+
+def run_case(case: Case, work: Path, runner: object) -> Outcome:
+    """Run one case through the CLI in-process and classify what happened."""
+    from torlab.cli import _STATE, app
+
+    work.mkdir(parents=True, exist_ok=True)
+    args = command(case, work)
+    old = signal.signal(signal.SIGALRM, _alarm)
+    signal.alarm(TIME_LIMIT)
+    try:
+        res = runner.invoke(app, args)
+    except _Hang:
+        return Outcome(case, None, "hang", f"over {TIME_LIMIT} s")
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+    hidden = len(_STATE.get("hidden_warnings", []))
+    out = res.output or ""
+    err = getattr(res, "stderr", "") or ""
+    code = res.exit_code
+    if res.exception is not None and not isinstance(res.exception, SystemExit):
+        import traceback
+
+        tb = "".join(traceback.format_exception(res.exception)).splitlines()[-3:]
+        return Outcome(case, code, "traceback", " | ".join(tb), hidden)
+    if "Traceback (most recent call last)" in out + err:
+        return Outcome(case, code, "traceback", err[-300:], hidden)
+    bad = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith(_STDERR_OK)]
+    if bad:
+        return Outcome(case, code, "leaked_warning", bad[0][:200], hidden)
+    if code == 1:
+        return Outcome(case, code, "bug", err.strip()[-300:], hidden)
+    if code in (2, 3):
+        first = [ln for ln in err.splitlines() if ln.startswith("error: ")]
+        if not first:
+            return Outcome(case, code, "bug", "exit code without an error line", hidden)
+        return Outcome(case, code, "input_error" if code == 2 else "numerical_error",
+                       first[0][:200], hidden)
+    if code == 0:
+        return Outcome(case, code, "ok", "", hidden)
+    return Outcome(case, code, "bug", f"exit code {code}", hidden)
+
+
+def run_corpus(cases: list[Case], base: Path, runner: object,
+               progress: Callable[[int, Outcome], None] | None = None) -> list[Outcome]:
+    """Run every case in its own folder under ``base``."""
+    outs = []
+    for k, c in enumerate(cases):
+        o = run_case(c, base / f"c{k:04d}", runner)
+        outs.append(o)
+        if progress is not None:
+            progress(k, o)
+    return outs
+
+
+if __name__ == "__main__":  # python tests/fuzz_corpus.py [filter]: run and print the outcomes
+    import collections
+    import tempfile
+
+    from typer.testing import CliRunner
+
+    sys.path.insert(0, str(ROOT / "tests"))
+    flt = sys.argv[1] if len(sys.argv) > 1 else ""
+    cases = [c for c in build_corpus() if flt in c.name]
+    with tempfile.TemporaryDirectory() as d, contextlib.redirect_stderr(sys.stderr):
+        def show(k: int, o: Outcome) -> None:
+            if o.kind not in ("ok", "input_error", "numerical_error"):
+                print(f"{k:4d} {o.kind:15s} {o.case.name}: {o.detail}", flush=True)
+        outs = run_corpus(cases, Path(d), CliRunner(), show)
+    print(len(outs), collections.Counter(o.kind for o in outs))
