@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from torlab.errors import FitError, TorlabInputError
+from torlab.fit._noise import estimate_variance_function
 from torlab.fit.result import FitResult, covariance_from_jacobian
 
 __all__ = ["fit_layer_traction", "traction_model"]
@@ -41,6 +42,10 @@ __all__ = ["fit_layer_traction", "traction_model"]
 NAMES = ("mu_c1", "mu_c2", "L_mue", "L_mup")
 _SCALE = {"mu_c1": 1.0, "mu_c2": 1.0, "L_mue": 1e-6, "L_mup": 1e-6}
 _BOUNDS = {"mu_c1": (1e-4, 3.0), "mu_c2": (1e-4, 3.0), "L_mue": (1e-4, 1e3), "L_mup": (1e-3, 1e4)}
+#: proportional share of the residual variance below which the noise counts as constant
+PHI_NEGLIGIBLE = 0.05
+#: weighted refits at most (feasible generalised least squares)
+MAX_REWEIGHT = 3
 
 
 def traction_model(scene: Any) -> Any:
@@ -188,32 +193,70 @@ def fit_layer_traction(scene: Any, creepage: Any, mu: Any, *, fixed: dict[str, f
     def resid(x: np.ndarray) -> np.ndarray:
         return evaluate(params(x)) - y
 
-    try:
-        sol = least_squares(resid, xs, bounds=(lo, hi), x_scale="jac", method="trf",
-                            diff_step=1e-4, xtol=1e-6, ftol=1e-8, max_nfev=max_nfev)
-    except (ValueError, np.linalg.LinAlgError) as e:
-        raise FitError(f"traction fit failed: {e}") from None
-    if sol.status <= 0:
-        raise FitError(f"traction fit did not converge within {max_nfev} evaluations "
-                       f"({sol.message})")
-    p = params(sol.x)
+    def solve(x_start: np.ndarray, w: np.ndarray | None, nfev_budget: int) -> Any:
+        sw = None if w is None else 1.0 / np.sqrt(w)
+        fun = resid if sw is None else (lambda x: resid(x) * sw)
+        try:
+            sol = least_squares(fun, x_start, bounds=(lo, hi), x_scale="jac", method="trf",
+                                diff_step=1e-4, xtol=1e-6, ftol=1e-8, max_nfev=nfev_budget)
+        except (ValueError, np.linalg.LinAlgError) as e:
+            raise FitError(f"traction fit failed: {e}") from None
+        if sol.status <= 0:
+            raise FitError(f"traction fit did not converge within {max_nfev} evaluations "
+                           f"({sol.message})")
+        return sol
+
+    sol = solve(xs, None, max_nfev)
+    # --- noise that grows with the signal: variance function, then weighted least squares ---
+    # (the residuals r are unweighted; sol.fun and sol.jac are of the weighted problem)
     r = sol.fun
-    J = sol.jac / sc[None, :]
-    cov, _s = covariance_from_jacobian(J, r, len(free))
-    dof = xi.size - len(free)
+    vf = estimate_variance_function(r, np.abs(y + r), _leverage(sol.jac))
+    w = None
+    for _ in range(MAX_REWEIGHT if vf.significant and vf.phi > PHI_NEGLIGIBLE else 0):
+        w = vf.weights(np.abs(y + r))
+        sol = solve(sol.x, w, max(max_nfev - nfev[0], 4 * len(free) + 8))
+        r = sol.fun * np.sqrt(w)
+        new = estimate_variance_function(r, np.abs(y + r), _leverage(sol.jac))
+        done = abs(new.phi - vf.phi) < 0.05
+        vf = new
+        if done:
+            break
+    if w is not None and vf.phi <= PHI_NEGLIGIBLE:
+        w = None  # the reweighting found the noise constant after all
+        sol = solve(sol.x, None, max(max_nfev - nfev[0], 4 * len(free) + 8))
+        r = sol.fun
+    p = params(sol.x)
+    cov, _s = covariance_from_jacobian(sol.jac / sc[None, :], sol.fun, len(free))
+    # one more degree of freedom spent on the variance function's shape
+    dof = xi.size - len(free) - (1 if w is not None else 0)
     y_model = y + r
     data = pd.DataFrame({"creepage": xi, "mu_measured": y, "mu_model": y_model, "residual": -r})
-    meta = {"method": "bounded least squares (trf) of FASTSIM + layer (torlab predict's model)",
+    if w is not None:
+        data["residual_sd_relative"] = np.sqrt(w)
+    meta = {"method": "bounded least squares (trf) of FASTSIM + layer (torlab predict's model)"
+                      + ("" if w is None else "; weighted by a variance function estimated from "
+                         "the residuals (noise growing with mu)"),
             "scene": getattr(scene, "name", ""),
             "model": "dry: Hertz + FASTSIM" if scene.lubricant is None else "mixed (predict_traction)",
-            "creepage_range": [float(np.min(xi)), float(np.max(xi))]}
+            "creepage_range": [float(np.min(xi)), float(np.max(xi))],
+            "noise_model": vf.describe() if w is not None else
+            "constant (the variance function's proportional share is negligible)",
+            "noise_proportional_share": float(vf.phi)}
     res = FitResult.from_covariance(
         "layer_traction", tuple(free), np.array([p[n] for n in free]), cov, dof=dof,
+        log_scale=tuple(free),
         residual_norm=float(np.sqrt(np.mean(r * r))), n_points=int(xi.size), warnings=[],
         data=data, meta=meta, fixed={k: float(v) for k, v in fixed.items()}, residual_unit="-",
         n_evaluations=int(nfev[0]), x_column="creepage", y_column="mu_measured")
     res.warnings.extend(_warnings(res, xi))
     return res
+
+
+def _leverage(jac: np.ndarray) -> np.ndarray:
+    """Diagonal of the hat matrix ``J (J^T J)^-1 J^T`` (0 where singular)."""
+    q, rr = np.linalg.qr(jac)
+    ok = np.abs(np.diag(rr)) > 1e-12 * max(float(np.max(np.abs(np.diag(rr)), initial=0.0)), 1e-300)
+    return np.sum(q[:, ok] ** 2, axis=1)
 
 
 def _warnings(res: FitResult, xi: np.ndarray) -> list[str]:
