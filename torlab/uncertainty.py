@@ -54,12 +54,15 @@ model is sampled.  ``k + 3`` evaluations for the linear band of a model with
 
 Contributions
 -------------
-``contributions[output][name]`` is the fraction of the output's variance that
-the parameter explains alone: the squared correlation between the output and
-the parameter (``(C G^T)_j^2 / (C_jj var)`` in the linear method, the sample
-correlation in the sampling method).  With correlated parameters the
-fractions need not add up to 1; each says how much the band would shrink if
-that parameter were known exactly.
+``contributions[output][name]`` is the parameter's share of the output's
+variance, its covariances with the other parameters split evenly:
+``S_j = g_j (C g)_j / var`` with ``g`` the output's gradient (linear method);
+in the sampling method ``g`` is the slope of the multiple linear regression of
+the output on the drawn parameters, so the shares add up to the part of the
+variance that is linear in the parameters (``R^2 <= 1``).  The shares add up
+to 1 in the linear method; a negative share means the parameter's correlation
+with the others partly cancels their effect (a fit that determines a
+combination of parameters better than each one).
 
 Degrees of freedom
 ------------------
@@ -263,7 +266,8 @@ class Propagation:
     lower, upper
         Band edges per output.
     contributions
-        ``{output: {parameter: fraction of variance explained}}`` (arrays like the output).
+        ``{output: {parameter: share of the variance}}`` (arrays like the output; see
+        the module docstring).
     nonlinearity
         The check's ``eta`` (NaN when not computed).
     n_evaluations
@@ -313,7 +317,8 @@ class Propagation:
 
         The share of a parameter is its contribution averaged over the output's
         points, weighted by their variance (so the widest part of the band counts
-        most); parameters below ``min_share`` are left out.
+        most); parameters below ``min_share`` are left out.  Shares below zero
+        (a parameter that offsets others through its correlation) never dominate.
         """
         key = self._key(output)
         var = np.nan_to_num(np.asarray(self.sd[key], dtype=float) ** 2)
@@ -715,8 +720,8 @@ def _linear_from_design(dist: ParameterDistribution, h: np.ndarray, f0: dict[str
         g = G[key].reshape(k, -1)
         cg = cov @ g  # (k, t)
         with np.errstate(divide="ignore", invalid="ignore"):
-            c = cg**2 / (np.diag(cov)[:, None] * var.reshape(1, -1))
-        c = np.where(np.isfinite(c), np.clip(c, 0.0, 1.0), 0.0)
+            c = g * cg / var.reshape(1, -1)
+        c = np.where(np.isfinite(c), c, 0.0)
         contrib[key] = {n: c[i].reshape(v0.shape) for i, n in enumerate(names)}
         flat_s = s.reshape(-1)
         floor = max(_SD_FLOOR * float(np.max(flat_s, initial=0.0)), 1e-300)
@@ -778,14 +783,21 @@ def _sampling_result(dist: ParameterDistribution, draws: np.ndarray,
         sd[key] = s.reshape(v0.shape)
         lower[key] = lo.reshape(v0.shape)
         upper[key] = hi.reshape(v0.shape)
-        xc = x - np.nanmean(x, axis=0)
-        sx = np.sqrt(np.nanmean(xc**2, axis=0))
-        cc = {}
-        for i, n in enumerate(names):
+        # shares from the multiple regression of the output on the drawn parameters
+        live = sth > 0
+        shares = np.zeros((len(names), x.shape[1]))
+        if np.any(live) and np.any(ok) and m > live.sum() + 1:
+            xc = x[:, ok] - x[:, ok].mean(axis=0)
+            d = dth[:, live]
+            sxy = d.T @ xc / m  # (k_live, t)
+            beta = np.linalg.lstsq(d.T @ d / m, sxy, rcond=None)[0]
+            vx = np.mean(xc**2, axis=0)
             with np.errstate(divide="ignore", invalid="ignore"):
-                r = np.nanmean(xc * dth[:, i:i + 1], axis=0) / (sx * sth[i])
-            cc[n] = np.where(np.isfinite(r), r**2, 0.0).reshape(v0.shape)
-        contrib[key] = cc
+                sh = beta * sxy / vx
+            sub = np.zeros((live.sum(), x.shape[1]))
+            sub[:, ok] = np.where(np.isfinite(sh), sh, 0.0)
+            shares[live] = sub
+        contrib[key] = {n: shares[i].reshape(v0.shape) for i, n in enumerate(names)}
     res = Propagation(method="sampling", confidence=confidence, center=center, sd=sd,
                       lower=lower, upper=upper, contributions=contrib, nonlinearity=eta,
                       n_evaluations=m + n_failed, names=names, n_failed=n_failed)

@@ -75,7 +75,8 @@ def traction_model(scene: Any) -> Any:
 
     def g(params: dict[str, float], xi: np.ndarray) -> np.ndarray:
         b = scene.boundary.model_copy(update={k: float(v) for k, v in params.items()})
-        return predict_traction(scene.model_copy(update={"boundary": b}), xi).table["mu"].to_numpy()
+        return predict_traction(scene.model_copy(update={"boundary": b}), xi,
+                                band=False).table["mu"].to_numpy()
 
     g.contact = build_contact(scene)  # type: ignore[attr-defined]
     return g
