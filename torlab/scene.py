@@ -18,6 +18,7 @@ reported all at once, each naming the file, line and key
 
 from __future__ import annotations
 
+import copy
 import math
 import os
 from collections.abc import Sequence
@@ -359,13 +360,14 @@ class FitProvenance(BaseModel):
 
     model_config = ConfigDict(extra="allow", frozen=True)
 
-    covariance: FitCovariance | list[FitCovariance] | None = None
+    #: one block per parameter file (a single mapping in a file is read as one block)
+    covariance: Annotated[list[FitCovariance] | None, BeforeValidator(
+        lambda v: [v] if isinstance(v, dict) else v)] = None
 
     @property
     def covariances(self) -> list[FitCovariance]:
         """The covariance blocks, in file order (empty without any)."""
-        c = self.covariance
-        return [] if c is None else list(c) if isinstance(c, list) else [c]
+        return list(self.covariance or [])
 
     def _as_dict(self) -> dict[str, Any]:
         return self.model_dump(exclude_none=True)
@@ -537,7 +539,7 @@ def load_scene(*paths: str | os.PathLike[str] | Sequence[str]) -> Scene:
             origin[()] = (doc.path, 1)
         fit = doc.data.get("fit")
         if isinstance(fit, dict) and fit.get("covariance") is not None:
-            c = fit["covariance"]
+            c = copy.deepcopy(fit["covariance"])  # merging later files changes it in place
             covariances.extend(c if isinstance(c, list) else [c])
         _merge(merged, doc.data, origin, file_origin)
     if len(covariances) > 1:
