@@ -255,3 +255,18 @@ def test_temperature_quick_rows():
     off = rows["temperature ignored (isothermal limits)"]
     # with mu_T = -0.002 1/K and a flash temperature of ~200 K the limits drop by tens of per cent
     assert off.error > 0.05 > 100 * default[0].error
+
+
+def test_bands_quick_rows():
+    """The band benchmark measures the plain curve, the default band and both methods in one
+    run; the default is linearised for the HPT-fitted wheel-rail scene (k + 2 = 6 model
+    evaluations: four steps and two probes), and its edges agree with the sampled reference
+    within a half-width."""
+    from torlab.bench import bands
+
+    rows = {r.variant.split(" (")[0]: r for r in bands.run(quick=True)}
+    assert set(rows) == {"plain curve", "band, automatic choice", "band, linear",
+                         "band, sampling"}
+    d = rows["band, automatic choice"]
+    assert d.default and "(linear)" in d.variant and d.extra["model_evaluations"] == 6
+    assert 0 < d.error < 1.0

@@ -159,11 +159,13 @@ def _outputs(table: Any, names: tuple[str, ...]) -> dict[str, np.ndarray]:
 
 
 def traction_band(scene: Any, creepage: np.ndarray, table: Any, su: SceneUncertainty, *,
-                  seed: int = 0) -> Propagation:
+                  seed: int = 0, **options: Any) -> Propagation:
     """Band of a traction curve (``table`` is the curve at the estimate).
 
     A dry scene evaluates FASTSIM directly with the layer replaced; a
     lubricated one the whole mixed model (``predict_traction(..., band=False)``).
+    ``options`` go to :func:`torlab.uncertainty.propagate` (``method``,
+    ``n_samples`` ...).
     """
     from torlab.model.fastsim import boundary_traction
     from torlab.model.predict import fastsim_grid, fastsim_problem, predict_traction
@@ -188,7 +190,7 @@ def traction_band(scene: Any, creepage: np.ndarray, table: Any, su: SceneUncerta
             t = predict_traction(_with_params(scene, p), xi, band=False).table
             return _outputs(t, outs)
 
-    return propagate(model, su.dist, f0=f0, seed=seed)
+    return propagate(model, su.dist, f0=f0, seed=seed, **options)
 
 
 def stribeck_band(scene: Any, speed: np.ndarray, creepage: float, table: Any,
