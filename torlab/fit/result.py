@@ -395,9 +395,11 @@ def log_interval(value: float, se: float, tq: float) -> tuple[float, float]:
     """
     if not (value > 0):
         return (float(value - tq * se), float(value + tq * se))
-    if not math.isfinite(se):
-        return (0.0, math.inf)
     r = tq * se / value
+    if not math.isfinite(r):
+        return (0.0, math.inf)
+    if r > 700.0:  # beyond exp's range: no upper bound
+        return (float(value * math.exp(-r)), math.inf)
     return (float(value * math.exp(-r)), float(value * math.exp(r)))
 
 

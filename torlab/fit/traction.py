@@ -227,9 +227,24 @@ def fit_layer_traction(scene: Any, creepage: Any, mu: Any, *, fixed: dict[str, f
         sol = solve(sol.x, None, max(max_nfev - nfev[0], 4 * len(free) + 8))
         r = sol.fun
     p = params(sol.x)
-    cov, _s = covariance_from_jacobian(sol.jac / sc[None, :], sol.fun, len(free))
+    # a parameter that ends on a bound of the search range: a length at its lower end (the
+    # curve prefers no layer flexibility / an immediate hardening) is fixed there, the reduced
+    # model; any other is not determined (the optimiser ran off along a direction the data
+    # do not constrain)
+    active = dict(zip(free, sol.active_mask, strict=True))
+    at_zero = [n for n in free if n.startswith("L_") and active[n] < 0]
+    at_bound = [n for n in free if active[n] != 0 and n not in at_zero]
+    keep = [i for i, n in enumerate(free) if n not in at_zero]
+    names_fit = [free[i] for i in keep]
+    if not names_fit:
+        raise FitError("traction fit: every free parameter ended on a bound of its range")
+    cov, _s = covariance_from_jacobian(sol.jac[:, keep] / sc[None, keep], sol.fun, len(keep))
+    for n in at_bound:
+        i = names_fit.index(n)
+        cov[i, :] = np.inf
+        cov[:, i] = np.inf
     # one more degree of freedom spent on the variance function's shape
-    dof = xi.size - len(free) - (1 if w is not None else 0)
+    dof = xi.size - len(keep) - (1 if w is not None else 0)
     y_model = y + r
     data = pd.DataFrame({"creepage": xi, "mu_measured": y, "mu_model": y_model, "residual": -r})
     if w is not None:
@@ -243,13 +258,29 @@ def fit_layer_traction(scene: Any, creepage: Any, mu: Any, *, fixed: dict[str, f
             "noise_model": vf.describe() if w is not None else
             "constant (the variance function's proportional share is negligible)",
             "noise_proportional_share": float(vf.phi)}
+    fixed = {**fixed, **{n: p[n] for n in at_zero}}
     res = FitResult.from_covariance(
-        "layer_traction", tuple(free), np.array([p[n] for n in free]), cov, dof=dof,
-        log_scale=tuple(free),
+        "layer_traction", tuple(names_fit), np.array([p[n] for n in names_fit]), cov, dof=dof,
+        log_scale=tuple(names_fit),
         residual_norm=float(np.sqrt(np.mean(r * r))), n_points=int(xi.size), warnings=[],
         data=data, meta=meta, fixed={k: float(v) for k, v in fixed.items()}, residual_unit="-",
         n_evaluations=int(nfev[0]), x_column="creepage", y_column="mu_measured")
-    res.warnings.extend(_warnings(res, xi))
+    for n in at_zero:
+        res.warnings.append(f"{n} at the lower end of its range ({p[n]:.3g} m): the curve is "
+                            "consistent with 0, so it is fixed there (its one-sided uncertainty "
+                            "is not carried into predictions)")
+    for n in at_bound:
+        res.warnings.append(f"{n} not determined: the fit ended on the bound of its search range "
+                            f"({res.params[n]:.3g}); the curve does not constrain it (fix it with "
+                            "a value from an HPT fit); predictions from this fit get no band "
+                            "until it is fixed")
+    res.warnings.extend(_warnings(res, xi, skip=set(at_bound)))
+    if at_zero or at_bound:
+        ms = res.meta.setdefault("model_selection", {})
+        ms.update({n: {"decision": "fixed at the lower end of its range (the curve prefers 0)"}
+                   for n in at_zero})
+        ms.update({n: {"decision": "not determined (ended on a bound): no band until fixed"}
+                   for n in at_bound})
     return res
 
 
@@ -260,14 +291,30 @@ def _leverage(jac: np.ndarray) -> np.ndarray:
     return np.sum(q[:, ok] ** 2, axis=1)
 
 
-def _warnings(res: FitResult, xi: np.ndarray) -> list[str]:
+def _warnings(res: FitResult, xi: np.ndarray, skip: set[str] | None = None) -> list[str]:
+    """What the curve does not determine, and what is done about it (``meta["model_selection"]``)."""
     w = []
+    choice: dict[str, Any] = {}
     for n in res.names:
+        if n in (skip or ()):
+            continue
         v, se = res.params[n], res.stderr[n]
         if not math.isfinite(se):
-            w.append(f"{n} not determined by this curve (fix it with a value from an HPT fit)")
+            w.append(f"{n} not determined by this curve (fix it with a value from an HPT fit); "
+                     "predictions from this fit get no band until it is fixed")
+            choice[n] = {"decision": "not determined: no band until fixed"}
         elif v != 0 and se > 0.5 * abs(v):
-            w.append(f"{n} poorly determined (standard error {se / abs(v):.0%}); consider fixing it")
+            lo, hi = res.ci95[n]
+            unit = "µm" if n.startswith("L_") else ""
+            f = 1e6 if unit else 1.0
+            w.append(f"{n} poorly determined (standard error {se / abs(v):.0%}, 95 % interval "
+                     f"{lo * f:.3g}–{hi * f:.3g}{' ' + unit if unit else ''} on a log scale): kept, "
+                     "and its uncertainty is carried into predictions; fix it (--fix) from an "
+                     "HPT fit to narrow them")
+            choice[n] = {"decision": "kept; its uncertainty is carried into predictions",
+                         "relative_standard_error": se / abs(v), "ci95": [lo, hi]}
+    if choice:
+        res.meta.setdefault("model_selection", {}).update(choice)
     if "mu_c1" in res.names and "mu_c2" in res.names:
         d = res.params["mu_c1"] - res.params["mu_c2"]
         i, j = res.names.index("mu_c1"), res.names.index("mu_c2")
