@@ -40,7 +40,8 @@ After the linear step the model is evaluated at the parameter sets that put
 the band where it is widest: along the first (and, when it explains less than
 90 %, the second) principal direction of the parameter space in the output
 variance (each output point normalised by its own standard deviation), at
-``-t`` standard deviations (the lower 95 % edge when ``t = 1.96``).  The
+``-t`` standard deviations (the lower 95 % edge: ``t = 1.96``, or Student's
+quantile for the smallest degrees of freedom of the fits).  The
 nonlinearity is
 
 ``eta = max over outputs |f(probe) - linear prediction| / (t sd)``,
@@ -506,7 +507,7 @@ def propagate(model: Model, dist: ParameterDistribution, *, confidence: float = 
             j += 1
         else:
             steps.append(f0)
-    tq_guess = _quantile(confidence, math.inf)
+    tq_guess = _quantile(confidence, _min_dof(dist))
     dirs = _probe_directions(dist, h, f0, steps) if method == "auto" else []
     probes: list[dict[str, np.ndarray]] = []
     if dirs:
@@ -552,6 +553,11 @@ def _quantile(confidence: float, nu: Any) -> Any:
     out = np.where(np.isfinite(nu), student.ppf(q, np.where(np.isfinite(nu), np.maximum(nu, 1.0),
                                                             1.0)), norm.ppf(q))
     return float(out) if out.ndim == 0 else out
+
+
+def _min_dof(dist: ParameterDistribution) -> float:
+    """The smallest degrees of freedom of the blocks (where the probes go: the widest quantile)."""
+    return min(dof for _, dof in dist.blocks_or_default)
 
 
 def _as_outputs(x: Any) -> dict[str, np.ndarray]:
@@ -725,7 +731,7 @@ def _linear_from_design(dist: ParameterDistribution, h: np.ndarray, f0: dict[str
         contrib[key] = {n: c[i].reshape(v0.shape) for i, n in enumerate(names)}
         flat_s = s.reshape(-1)
         floor = max(_SD_FLOOR * float(np.max(flat_s, initial=0.0)), 1e-300)
-        tq0 = _quantile(confidence, math.inf)
+        tq0 = _quantile(confidence, _min_dof(dist))
         for dvec, pr in zip(dirs, probes, strict=True):
             lin = v0 - tq0 * np.tensordot(dvec, G[key], axes=(0, 0))
             err = np.abs(pr[key] - lin).reshape(-1)
