@@ -315,3 +315,60 @@ def test_crossing_probabilities_against_monte_carlo():
     assert ev["p_below_at_largest"] == pytest.approx(np.mean(f_max < 0.15), abs=0.01)
     assert ev["verdict"] == ("crosses within the tested amounts" if ev["p_inside"] >= 0.9
                              else "undetermined")
+
+
+def test_prediction_with_band_pickles_for_the_protocol_cache(tmp_path):
+    import pickle
+
+    dry = _dry_scene_file(tmp_path)
+    sc = load_scene(dry)
+    mu = traction_model(sc)(TRUTH, XI_FIT) * (1 + 0.01 * np.random.default_rng(1).standard_normal(
+        XI_FIT.size))
+    res = fit_layer_traction(sc, XI_FIT, mu)
+    pred = predict_traction(load_scene(dry, _params_file(tmp_path, res)), [0.002, 0.01, 0.04])
+    back = pickle.loads(pickle.dumps(pred))
+    np.testing.assert_array_equal(back.table["mu_high95"], pred.table["mu_high95"])
+    assert back.band.method == pred.band.method
+
+
+def test_cli_fit_film_then_predict_stribeck_with_bands(cli, tmp_path):
+    from torlab.model.contact import build_contact
+    from torlab.model.ehl import hc_piezo
+
+    scene = SCENES / "mtm_paper_b.yaml"
+    sc = load_scene(scene)
+    c = build_contact(sc)
+    v = np.geomspace(0.05, 2.0, 15)
+    h = hc_piezo(v, sc.contact.load, c.E_star, c.rx, sc.lubricant.eta0, 18e-9,
+                 c.patch.b / c.patch.a) * np.exp(0.03 * np.random.default_rng(2).standard_normal(15))
+    pd.DataFrame({"speed_m_s": v, "film_thickness_m": h}).to_csv(tmp_path / "film.csv",
+                                                                   index=False)
+    r = cli("fit", "film", tmp_path / "film.csv", "--scene", scene, "-o", tmp_path / "fit")
+    assert r.exit_code == 0, r.output
+    r = cli("predict", "stribeck", scene, tmp_path / "fit" / "params.yaml", "--speed",
+            "0.01:2:12", "-o", tmp_path / "pred")
+    assert r.exit_code == 0, r.output
+    t = pd.read_csv(tmp_path / "pred" / "stribeck.csv")
+    for col in ("mu_low95", "mu_high95", "film_thickness_low95_m", "film_thickness_high95_m"):
+        assert col in t and t[col].notna().all(), col
+    assert np.all(t["film_thickness_low95_m"] < t["film_thickness_m"])
+    assert np.all(t["film_thickness_m"] < t["film_thickness_high95_m"])
+    s = json.loads((tmp_path / "pred" / "summary.json").read_text())
+    assert s["band"]["parameters"] == ["alpha"]
+    assert s["band"]["dominant"]["film_thickness_m"][0]["parameter"] == "alpha"
+
+
+def test_uncertainty_reaching_a_model_failure_gives_no_band_and_the_reason():
+    """Temperature coefficients known only to +-0.01 1/K with one degree of freedom (three
+    temperatures): their 95 % range includes self-amplifying heating in the Tab. 5.4 thermal
+    scene, where the tau-T loop has no steady state.  No band is drawn; the summary says why."""
+    sc = load_scene(SCENES / "wheel_rail_tab54.yaml")
+    d = sc.model_dump(exclude_none=True)
+    d["boundary"].update(mu_c1_T=5e-4, mu_c2_T=5e-4)
+    d = _with_covariance(d, ["mu_c1_T", "mu_c2_T"], [5e-4, 5e-4], [[1e-4, 0.0], [0.0, 1e-4]],
+                         dof=1.0)
+    pred = predict_traction(scene_from_dict(d), np.linspace(0.002, 0.05, 8))
+    assert pred.band is None and "mu_low95" not in pred.table
+    note = pred.summary["band"]["notes"][0]
+    assert note.startswith("no band:") and "failed for" in note and "runaway" in note, note
+    assert pred.trend["probabilities"] is None

@@ -297,6 +297,13 @@ class Propagation:
     # (linear) or at the draws (sampling), with the parameter offsets in theta
     _design: dict[str, Any] = field(default_factory=dict, repr=False)
 
+    def __getstate__(self) -> dict[str, Any]:
+        """Picklable (the protocol cache): the model function is not kept, so a derived
+        quantity of an unpickled propagation is linear (or uses its stored draws)."""
+        state = dict(self.__dict__)
+        state["_design"] = {k: v for k, v in self._design.items() if k != "model"}
+        return state
+
     # -- access -----------------------------------------------------------------------------
     def _key(self, output: str | None) -> str:
         if output is None:
@@ -484,36 +491,45 @@ def propagate(model: Model, dist: ParameterDistribution, *, confidence: float = 
         res._design.update(design_base)
         return res
     if method == "sampling":
-        draws = _draws(dist, n_samples, seed)
-        samples, failed = _evaluate_many(model, dist, draws, vectorized)
-        res = _sampling_from_draws(dist, draws[~failed], samples, f0, confidence, math.nan,
-                                   dist.names, int(failed.sum()), tol=nonlinearity_tol)
+        res = _sample(model, dist, f0, confidence, n_samples, seed, vectorized,
+                      nonlinearity_tol, math.nan, design_base)
         res.n_evaluations += n_eval
-        res._design.update({**design_base, **res._design})
         return res
     # --- linear: forward steps of one standard deviation ------------------------------------
+    from torlab.errors import NumericalError
+
     k = len(dist.names)
     h = sd_t
     live = np.flatnonzero(h > 0)
     thetas = np.repeat(theta0[None, :], live.size, axis=0)
     thetas[np.arange(live.size), live] += h[live]
-    step_out = _evaluate_rows(model, dist, thetas, vectorized)
-    n_eval += live.size
-    steps: list[dict[str, np.ndarray]] = []
-    j = 0
-    for i in range(k):
-        if h[i] > 0:
-            steps.append(step_out[j])
-            j += 1
-        else:
-            steps.append(f0)
-    tq_guess = _quantile(confidence, _min_dof(dist))
-    dirs = _probe_directions(dist, h, f0, steps) if method == "auto" else []
-    probes: list[dict[str, np.ndarray]] = []
-    if dirs:
-        pth = np.array([theta0 - tq_guess * dvec for dvec in dirs])
-        probes = _evaluate_rows(model, dist, pth, vectorized)
-        n_eval += len(dirs)
+    try:
+        step_out = _evaluate_rows(model, dist, thetas, vectorized)
+        n_eval += live.size
+        steps: list[dict[str, np.ndarray]] = []
+        j = 0
+        for i in range(k):
+            if h[i] > 0:
+                steps.append(step_out[j])
+                j += 1
+            else:
+                steps.append(f0)
+        tq_guess = _quantile(confidence, _min_dof(dist))
+        dirs = _probe_directions(dist, h, f0, steps) if method == "auto" else []
+        probes: list[dict[str, np.ndarray]] = []
+        if dirs:
+            pth = np.array([theta0 - tq_guess * dvec for dvec in dirs])
+            probes = _evaluate_rows(model, dist, pth, vectorized)
+            n_eval += len(dirs)
+    except NumericalError as e:
+        if method == "linear":
+            raise
+        # the model has no solution one step (or one band edge) away: not linear there
+        out = _sample(model, dist, f0, confidence, n_samples, seed, vectorized, nonlinearity_tol,
+                      math.inf, design_base)
+        out.n_evaluations += n_eval
+        out.notes.insert(0, f"sampled: the model failed at a linearisation point ({e})")
+        return out
     res = _linear_from_design(dist, h, f0, steps, dirs, probes, confidence, nonlinearity_tol,
                               n_eval, dist.names)
     res._design.update(design_base)
@@ -522,14 +538,22 @@ def propagate(model: Model, dist: ParameterDistribution, *, confidence: float = 
             res.notes.insert(0, f"linearised: nonlinearity {res.nonlinearity:.3g} <= "
                                 f"{nonlinearity_tol:g}")
         return res
-    draws = _draws(dist, n_samples, seed)
-    samples, failed = _evaluate_many(model, dist, draws, vectorized)
-    out = _sampling_from_draws(dist, draws[~failed], samples, f0, confidence, res.nonlinearity,
-                               dist.names, int(failed.sum()), tol=nonlinearity_tol)
+    out = _sample(model, dist, f0, confidence, n_samples, seed, vectorized, nonlinearity_tol,
+                  res.nonlinearity, design_base)
     out.n_evaluations += n_eval
     out.notes.insert(0, f"sampled: nonlinearity {res.nonlinearity:.3g} > {nonlinearity_tol:g} "
                         "(the linear band edge would be off by more than that share of the "
                         "band's half-width)")
+    return out
+
+
+def _sample(model: Model, dist: ParameterDistribution, f0: dict[str, np.ndarray],
+            confidence: float, n_samples: int, seed: int, vectorized: bool, tol: float,
+            eta: float, design_base: dict[str, Any]) -> Propagation:
+    draws = _draws(dist, n_samples, seed)
+    samples, failed = _evaluate_many(model, dist, draws, vectorized)
+    out = _sampling_from_draws(dist, draws[~failed], samples, f0, confidence, eta,
+                               dist.names, int(failed.sum()), tol=tol)
     out._design.update({**design_base, **out._design})
     return out
 
@@ -598,13 +622,17 @@ def _evaluate_many(model: Model, dist: ParameterDistribution, thetas: np.ndarray
             bad = ~np.all(np.isfinite(v.reshape(m, -1)) | np.isnan(v.reshape(m, -1)), axis=1)
             failed |= bad
         stacked = {k: v[~failed] for k, v in out.items()}
-    else:
+    first = ""
+    if not vectorized:
         rows = []
         for i in range(m):
             try:
                 rows.append(_as_outputs(model(dist.params(thetas[i]))))
-            except (NumericalError, TorlabInputError, FloatingPointError, ValueError):
+            except (NumericalError, TorlabInputError, FloatingPointError, ValueError) as e:
                 failed[i] = True
+                first = first or str(e)
+                if failed.sum() > 0.05 * m:
+                    break  # too many already: no need to evaluate the rest
         if not rows:
             stacked = {}
         else:
@@ -614,7 +642,7 @@ def _evaluate_many(model: Model, dist: ParameterDistribution, thetas: np.ndarray
 
         raise NE(f"uncertainty propagation: the model failed for {int(failed.sum())} of {m} "
                  "parameter draws; the fit's uncertainty reaches parameters where the model "
-                 "does not hold")
+                 "does not hold" + (f" (first: {first})" if first else ""))
     return stacked, failed
 
 

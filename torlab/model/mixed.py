@@ -376,6 +376,7 @@ def predict_stribeck(scene: Any, speed: Any, creepage: float, *, band: bool = Tr
     pred = StribeckPrediction(table=table, contact=mc.contact, creepage=xi, modelled=modelled,
                               summary=summary)
     if band:
+        from torlab.errors import NumericalError
         from torlab.model.bands import (
             add_band_columns,
             band_summary,
@@ -385,7 +386,11 @@ def predict_stribeck(scene: Any, speed: Any, creepage: float, *, band: bool = Tr
 
         su = scene_uncertainty(scene)
         if su.dist is not None:
-            pred.band = stribeck_band(scene, v, xi, table, su, seed=seed)
+            try:
+                pred.band = stribeck_band(scene, v, xi, table, su, seed=seed)
+            except NumericalError as e:  # the uncertainty reaches where the model fails
+                su.notes.insert(0, f"no band: {e}")
+        if pred.band is not None:
             add_band_columns(table, pred.band)
             modelled.append(f"uncertainty: 95 % band from the fit's covariance "
                             f"({pred.band.method} propagation of {', '.join(pred.band.names)})")

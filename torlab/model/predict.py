@@ -300,11 +300,20 @@ def _attach_band(scene: Any, pred: TractionPrediction, tolerance: float, thresho
     if su.dist is None:
         pred.summary["band"] = band_summary(None, su)
         return
+    from torlab.errors import NumericalError
+
     xi = pred.table["creepage"].to_numpy(dtype=float)
-    pred.band = traction_band(scene, xi, pred.table, su, seed=seed)
+    try:
+        band = traction_band(scene, xi, pred.table, su, seed=seed)
+        trend = classify_trend(xi, pred.table["mu"].to_numpy(dtype=float), tolerance=tolerance,
+                               threshold=threshold, uncertainty=band)
+    except NumericalError as e:
+        # the fit's uncertainty reaches parameters where the model has no solution
+        su.notes.insert(0, f"no band: {e}")
+        pred.summary["band"] = band_summary(None, su)
+        return
+    pred.band, pred.trend = band, trend
     add_band_columns(pred.table, pred.band)
-    pred.trend = classify_trend(xi, pred.table["mu"].to_numpy(dtype=float), tolerance=tolerance,
-                                threshold=threshold, uncertainty=pred.band)
     pred.summary["band"] = band_summary(pred.band, su)
     pred.summary["trend_after_saturation"] = pred.trend
     pred.modelled.append(f"uncertainty: 95 % band from the fit's covariance "
