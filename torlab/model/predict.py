@@ -9,7 +9,9 @@ modelled:
   sharing, FASTSIM only where the asperities carry load).
 
 The traction-curve trend after saturation (thesis H4.1) is classified by
-:func:`classify_trend`.
+:func:`classify_trend`.  A scene that carries a fit's covariance (``fit:
+covariance:`` from ``torlab fit``) gets a 95 % band and a trend with the
+probability of each class (:mod:`torlab.model.bands`, :mod:`torlab.uncertainty`).
 """
 
 from __future__ import annotations
