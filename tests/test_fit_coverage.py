@@ -58,7 +58,7 @@ def _traction_setup():
 def test_traction_fit_coverage(noise):
     """Constant: 0.003 absolute (1 % of the plateau); proportional: 2 % of mu, which makes the
     first points ~75 times more precise than the plateau (where ordinary least squares with one
-    variance covered mu_c2 and L_mup 86 % of the time)."""
+    variance covered mu_c2 and L_mup 86 % of the time, 100 seeds)."""
     sc, mu0 = _traction_setup()
 
     def fit(rng):

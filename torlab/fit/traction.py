@@ -35,7 +35,7 @@ import numpy as np
 
 from torlab.errors import FitError, TorlabInputError
 from torlab.fit._noise import estimate_variance_function
-from torlab.fit.result import FitResult, covariance_from_jacobian
+from torlab.fit.result import FitResult, _scaled_inverse, covariance_from_jacobian
 
 __all__ = ["fit_layer_traction", "traction_model"]
 
@@ -238,7 +238,7 @@ def fit_layer_traction(scene: Any, creepage: Any, mu: Any, *, fixed: dict[str, f
     names_fit = [free[i] for i in keep]
     if not names_fit:
         raise FitError("traction fit: every free parameter ended on a bound of its range")
-    cov, _s = covariance_from_jacobian(sol.jac[:, keep] / sc[None, keep], sol.fun, len(keep))
+    cov = _covariance(sol.jac[:, keep] / sc[None, keep], sol.fun, len(keep))
     for n in at_bound:
         i = names_fit.index(n)
         cov[i, :] = np.inf
@@ -282,6 +282,29 @@ def fit_layer_traction(scene: Any, creepage: Any, mu: Any, *, fixed: dict[str, f
         ms.update({n: {"decision": "not determined (ended on a bound): no band until fixed"}
                    for n in at_bound})
     return res
+
+
+def _covariance(J: np.ndarray, r: np.ndarray, k: int) -> np.ndarray:
+    """Covariance of the (weighted) least-squares estimate: model-based, no narrower than HC3.
+
+    ``s^2 (J^T J)^-1`` trusts the variance function (or the constant noise) it was
+    weighted with; the HC3 sandwich ``B sum_i J_i J_i^T r_i^2/(1 - h_ii)^2 B``
+    (MacKinnon & White 1985, J. Econometrics 29, 305) does not, but scatters more.
+    Each parameter's variance is the larger of the two, the correlations are the
+    model-based ones: over 200 seeds of constant and of proportional noise this
+    took the coverage from 91-95 % to 94.5-97 % (docs/fit.md).
+    """
+    model, _s = covariance_from_jacobian(J, r, k)
+    bread = _scaled_inverse(J.T @ J)
+    if not np.all(np.isfinite(bread)):
+        return model
+    h = np.clip(_leverage(J), 0.0, 0.99)
+    g = J * (np.asarray(r, dtype=float) / (1.0 - h))[:, None]
+    hc3 = bread @ (g.T @ g) @ bread
+    with np.errstate(divide="ignore", invalid="ignore"):
+        f = np.sqrt(np.maximum(np.diag(hc3) / np.diag(model), 1.0))
+    f = np.where(np.isfinite(f), f, 1.0)
+    return model * np.outer(f, f)
 
 
 def _leverage(jac: np.ndarray) -> np.ndarray:
