@@ -147,3 +147,27 @@ def test_a_model_that_fails_for_many_draws_is_a_numerical_error():
 
     with pytest.raises(NumericalError, match="failed for"):
         propagate(fragile, d, method="sampling", n_samples=200)
+
+
+def test_fit_result_distribution_round_trip_matches_the_ols_closed_form():
+    """A film fit's covariance (written in SI with the prefactor on a log scale) read back as a
+    distribution gives, for ln h = ln C + n ln v, exactly the ordinary least-squares band
+    s^2 [1, x] (X^T X)^-1 [1, x]^T computed here with numpy."""
+    from torlab.fit.film import fit_film_thickness
+
+    v = np.geomspace(0.05, 2.0, 12)
+    lnh = np.log(40e-9) + 0.67 * np.log(v) + 0.03 * np.random.default_rng(3).standard_normal(12)
+    res = fit_film_thickness(v, np.exp(lnh))
+    assert res.meta["noise_model"].startswith("constant")
+    dist = res.distribution()
+    assert set(dist.log_scale) == {"film_prefactor"}
+    x = np.log(np.array([0.02, 0.3, 5.0]))
+    band = propagate(lambda p: np.log(p["film_prefactor"]) + p["speed_exponent"] * x, dist)
+    X = np.column_stack((np.ones(v.size), np.log(v)))
+    _, rss, *_ = np.linalg.lstsq(X, lnh, rcond=None)
+    C = rss[0] / (v.size - 2) * np.linalg.inv(X.T @ X)
+    A = np.column_stack((np.ones(x.size), x))
+    np.testing.assert_allclose(band.sd["value"], np.sqrt(np.einsum("ij,jk,ik->i", A, C, A)),
+                               rtol=1e-6)
+    half = student.ppf(0.975, v.size - 2) * band.sd["value"]
+    np.testing.assert_allclose(band.high() - band.center["value"], half, rtol=1e-9)
