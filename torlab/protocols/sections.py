@@ -171,6 +171,8 @@ def traction(ctx: RunContext) -> Any:
         speed = sc.kinematics.speed if v is None else v
         label = c.label.replace("{set}", setname) + (f" @ {speed:.3g} m/s" if many else "")
         ctx.notes += [f"traction {label}: {n}" for n in result_notes(pred.table)]
+        ctx.notes += [f"traction {label}: {n}" for n in _extrapolation(
+            ctx, pred.table, [p.replace("hpt:*", f"hpt:{setname}") for p in c.params])]
         one_set = len(set(ctx.param_sets)) <= 1 or "hpt:*" not in c.params
         curves.append(TractionCurve(
             label=label, kind="model", table=pred.table, trend=pred.trend,
@@ -183,6 +185,23 @@ def traction(ctx: RunContext) -> Any:
         if sc.boundary is not None:
             curves[-1].boundary = sc.boundary.model_dump()
     return traction_section(curves + measured, cfg)
+
+
+def _extrapolation(ctx: RunContext, table: Any, sets: list[str]) -> list[str]:
+    """A note when the contact is hotter than the runs its temperature coefficients rest on."""
+    if "max_temperature_C" not in table:
+        return []
+    tmax = float(table["max_temperature_C"].max())
+    out = []
+    for name, res in ctx.fit_results:
+        if res.kind != "temperature" or name.replace("hpt-T:", "hpt:", 1) not in sets:
+            continue
+        tested = max(res.meta.get("temperatures_C") or [float("inf")])
+        if tmax > tested + 1.0:
+            out.append(f"the contact reaches {tmax:.0f} °C, beyond the highest test temperature "
+                       f"of {name} ({tested:.0f} °C): its exponential temperature law is "
+                       "extrapolated there")
+    return out
 
 
 def _measured_stribeck(ctx: RunContext, path: Any) -> Any:

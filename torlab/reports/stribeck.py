@@ -160,7 +160,7 @@ def stribeck_section(curves: list[StribeckCurve]) -> Section:
     show = {"curve": ("curve", ""), "creepage": ("creepage", ".3g"), "μ min": ("mu_min", ".4f"),
             "μ max": ("mu_max", ".4f"), "boundary→mixed (m/s)": ("boundary_to_mixed_m_s", ".3g"),
             "mixed→full film (m/s)": ("mixed_to_full_film_m_s", ".3g"),
-            "RMS meas.−model": ("rms_measured_minus_model", ".4f"), "regimes": ("regimes", "")}
+            "RMS meas.−model": ("rms_measured_minus_model", ".2g"), "regimes": ("regimes", "")}
     show = {k: v for k, v in show.items() if v[0] in table.columns}
     summary = {"curves": {r["curve"]: {k: _nan_none(v) for k, v in r.items() if k != "curve"}
                           for r in rows}}
@@ -217,7 +217,7 @@ def _stribeck_sentence(r: dict[str, Any], c: StribeckCurve) -> str:
     out += f"; {_band_words(c.band)}"
     if r.get("rms_measured_minus_model") is not None and "n_measured" in r:
         out += (f". Measured: {r['n_measured']} points, RMS measured − model "
-                f"{r['rms_measured_minus_model']:.4f}")
+                f"{r['rms_measured_minus_model']:.2g}")
         if "measured_in_band" in r:
             out += (f", {r['measured_in_band']} of them inside the model's band (the band holds "
                     "the parameters' uncertainty only, not the measurement's scatter)")

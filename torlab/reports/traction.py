@@ -115,7 +115,7 @@ def traction_section(curves: list[TractionCurve], cfg: Any) -> Section:
                      "relative_change_low95": _nanf(t.get("relative_change_low95")),
                      "relative_change_high95": _nanf(t.get("relative_change_high95")),
                      "band_method": c.band.get("method", "") if c.kind == "model" else "",
-                     "band_dominant": _dominant_text(c.band) if c.kind == "model" else "",
+                     "band_dominated_by": _dominant_text(c.band) if c.kind == "model" else "",
                      "mu_c1": c.boundary.get("mu_c1", float("nan")),
                      "mu_c2": c.boundary.get("mu_c2", float("nan")),
                      "L_mue_m": c.boundary.get("L_mue", float("nan")),
@@ -137,7 +137,7 @@ def traction_section(curves: list[TractionCurve], cfg: Any) -> Section:
             "P(negative)": ("p_negative", ".3f"), "P(neutral)": ("p_neutral", ".3f"),
             "P(positive)": ("p_positive", ".3f"),
             "relative change": ("relative_change", "+.4f"),
-            "points": ("points_in_trend", "d"), "band dominated by": ("band_dominant", "")}
+            "points": ("points_in_trend", "d"), "band dominated by": ("band_dominated_by", "")}
     paragraphs = [
         "Traction coefficient against creepage (= SRR as a fraction): modelled curves "
         "(Hertz + FASTSIM with the third-body layer; film and asperity load sharing for "
