@@ -153,7 +153,7 @@ def test_a1_film_near_eq531(shipped_run):
 
 
 def test_a2_smooth_stribeck_very_low(shipped_run):
-    out, res = shipped_run("paper_a")
+    out, _res = shipped_run("paper_a")
     import pandas as pd
 
     d = pd.read_csv(out / "stribeck" / "curves.csv")
@@ -222,7 +222,7 @@ def test_b4_tor_a_over_lubricates_at_the_higher_amount(shipped_run):
 def test_b5_hpt_commercial_low_custom_in_band(shipped_run):
     f = _sum(shipped_run, "paper_b")["fits"]
     lo_c, hi_c = f["hpt:custom"]["ci95"]["mu_c2"]
-    lo_a, hi_a = f["hpt:TOR-A"]["ci95"]["mu_c2"]
+    _lo_a, hi_a = f["hpt:TOR-A"]["ci95"]["mu_c2"]
     assert 0.15 <= lo_c and hi_c <= 0.25
     assert hi_a < 0.15
     _shows("B5", f"{f['hpt:custom']['params']['mu_c2']:.3f}",
@@ -258,7 +258,7 @@ def test_c1_dry_friction_about_half(shipped_run):
 
 def test_c2_temperature_lowers_dry_friction(shipped_run):
     s = _c(shipped_run)
-    lo, hi = s["fits"]["hpt-T:dry"]["ci95"]["mu_c2_T"]
+    _lo, hi = s["fits"]["hpt-T:dry"]["ci95"]["mu_c2_T"]
     assert hi < 0
     fw = s["data"]["hpt"]["f_window"]
     hot = np.mean([v for k, v in fw.items() if k.startswith("hpt_dry_185C")])
@@ -270,7 +270,7 @@ PRODUCTS = ("OFM1", "OFM2", "SFM", "WFM-dry", "WFM-wet")
 
 def test_c3_products_suppress_the_temperature_effect(shipped_run):
     f = _c(shipped_run)["fits"]
-    dry_lo, dry_hi = f["hpt-T:dry"]["ci95"]["mu_c2_T"]
+    _dry_lo, dry_hi = f["hpt-T:dry"]["ci95"]["mu_c2_T"]
     dry = f["hpt-T:dry"]["params"]["mu_c2_T"]
     worst = 0.0
     for p in PRODUCTS:
