@@ -9,7 +9,7 @@ change (and review the diff before committing).
 Accuracy is checked against references the code does not produce: the
 generating truth of the synthetic sample data (``sample_data/*/truth.yaml`` and
 the product laws of :mod:`torlab.synth.hpt`), SHA-256 computed here with
-hashlib, and the analytic stand-in truth of the optical logs.
+hashlib, and the model truth of the optical logs (sample_data/optical/truth.yaml).
 """
 
 from __future__ import annotations
