@@ -76,6 +76,10 @@ def _initial_drop(ctx: RunContext, idp: Any) -> dict[str, Any]:
         pred = ctx.predict("traction", sdv, creepage=np.array([xi]), cache_kind="initial_drop_v3")
         row = pred.table.iloc[0]
         model["mu"][label] = float(abs(row["mu"]))
+        if "mu_low95" in pred.table:  # the band of the fitted layer's and viscosity law's uncertainty
+            lo, hi = sorted((abs(float(row["mu_low95"])), abs(float(row["mu_high95"]))))
+            model.setdefault("mu_low95", {})[label] = lo
+            model.setdefault("mu_high95", {})[label] = hi
         model["load_share"][label] = float(row.get("load_share_asperity", 1.0))
         model["modelled"][label] = list(pred.modelled)
         model["creepage"][label] = xi

@@ -80,6 +80,8 @@ def time_test_section(reductions: list[tuple[str, Any]], cfg: Any,
                 row["recovered_verdict"] = ev.get("recovered_verdict", "")
             if model is not None:
                 row["model_initial_mu"] = model["mu"].get(label, float("nan"))
+                row["model_initial_mu_low95"] = model.get("mu_low95", {}).get(label, float("nan"))
+                row["model_initial_mu_high95"] = model.get("mu_high95", {}).get(label, float("nan"))
                 row["model_creepage"] = model["creepage"].get(label, float("nan"))
             rows.append(row)
         if red.time_tests:
@@ -154,6 +156,7 @@ def time_test_section(reductions: list[tuple[str, Any]], cfg: Any,
             for c in ("application_time_s", "minimum", "recovered", "recovery_time_s",
                       "mean_after_recovery", "sd_after_recovery", "plateau",
                       "time_below_threshold_s", "in_band", "model_initial_mu",
+                      "model_initial_mu_low95", "model_initial_mu_high95",
                       "mean_after_recovery_se", "mean_after_recovery_low95",
                       "mean_after_recovery_high95", "p_in_band", "in_band_verdict",
                       "minimum_low95", "minimum_high95", "recovery_time_low95",
@@ -255,6 +258,12 @@ def _initial_drop_comparison(rows: list[dict[str, Any]], model: dict[str, Any]) 
     ratios = [r["minimum"] / r["model_initial_mu"] for r in rows
               if math.isfinite(r.get("model_initial_mu", float("nan")))
               and r.get("model_initial_mu", 0) > 0 and math.isfinite(r["minimum"])]
+    bands = [(r["model_initial_mu_low95"], r["model_initial_mu_high95"]) for r in rows
+             if math.isfinite(r.get("model_initial_mu_low95", float("nan")))]
+    if bands:
+        out.append(f"The modelled coefficient's 95 % band from the fitted layer's and viscosity "
+                   f"law's uncertainty: {min(b[0] for b in bands):.3g}–"
+                   f"{max(b[1] for b in bands):.3g} over the tests.")
     if ratios:
         lo, hi = min(ratios), max(ratios)
         if lo > 2.0 or hi < 0.5:
