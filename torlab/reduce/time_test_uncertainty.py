@@ -6,9 +6,8 @@ one noisy record.  :func:`time_test_uncertainty` says how well that record
 determines them:
 
 * **Mean after recovery** (the figure Paper B reports): its standard error from
-  the samples after recovery with their autocorrelation (the Newey-West
-  sandwich of a mean, Bartlett kernel, bandwidth by Andrews' AR(1) plug-in
-  rule: Andrews 1991, Econometrica 59, 817), a Student-t 95 % interval, and the
+  the samples after recovery with their autocorrelation (:func:`hac_mean`: batch
+  means, ten consecutive batches), a Student-t 95 % interval, and the
   probability that the mean lies in the optimal band.  A coefficient that
   wanders slowly (a 20 s fluctuation) makes neighbouring samples alike, and the
   plain ``sd / sqrt(n)`` would be several times too small.
@@ -33,45 +32,47 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["TIME_TEST_PROBABILITY", "hac_mean", "time_test_uncertainty"]
+__all__ = ["MEAN_BATCHES", "TIME_TEST_PROBABILITY", "hac_mean", "time_test_uncertainty"]
 
 #: probability a time-test verdict (recovered, in the band) needs to be called
 TIME_TEST_PROBABILITY = 0.9
 
 
-def hac_mean(y: np.ndarray) -> tuple[float, float, float]:
+#: batches of the mean's standard error (non-overlapping batch means)
+MEAN_BATCHES = 10
+
+
+def hac_mean(y: np.ndarray, batches: int = MEAN_BATCHES) -> tuple[float, float, float]:
     """Mean of an autocorrelated series, its standard error and degrees of freedom.
 
-    Newey-West (Bartlett kernel) long-run variance with Andrews' (1991) AR(1)
-    plug-in bandwidth ``1.1447 (alpha n)^(1/3)``,
-    ``alpha = 4 rho^2 / ((1 - rho)^2 (1 + rho)^2)``.  The degrees of freedom
-    of the Student-t interval are the effective sample size minus one,
-    ``n sd^2 / (n se^2) - 1`` (at least 1).
+    Non-overlapping batch means: the series is cut into ``batches`` equal
+    consecutive pieces, and the spread of their means gives the standard error
+    of the overall mean, ``sd(batch means) / sqrt(batches)``, with Student t on
+    ``batches - 1`` degrees of freedom (Schmeiser 1982, Operations Research 30,
+    556).  It holds whatever the correlation, as long as a batch is several
+    correlation times long (90 s batches of a 15-minute record against a 20 s
+    fluctuation); a kernel (Newey-West) estimate was far too optimistic for a
+    coefficient that wanders slowly under white noise (its 95 % interval held
+    the mean of 400 simulated records in 63 % of them, batch means in 94 %;
+    docs/uncertainty.md).  A short series gets fewer batches (two samples each
+    at least).
 
     Returns
     -------
     mean, se, dof
-        ``se`` NaN with fewer than 3 samples.
+        ``se`` NaN with fewer than 4 samples.
     """
-    from torlab.fit.result import hac_covariance
-
     y = np.asarray(y, dtype=float)
     n = y.size
     m = float(np.mean(y)) if n else float("nan")
-    if n < 3:
+    if n < 4:
         return m, float("nan"), float("nan")
-    e = y - m
-    den = float(e[:-1] @ e[:-1])
-    rho = float(e[1:] @ e[:-1]) / den if den > 0 else 0.0
-    rho = min(max(rho, -0.97), 0.97)
-    alpha = 4 * rho * rho / ((1 - rho) ** 2 * (1 + rho) ** 2)
-    lags = int(min(n - 2, max(1, math.ceil(1.1447 * (alpha * n) ** (1 / 3)))))
-    var = float(hac_covariance(np.ones((n, 1)), e, lags)[0, 0])
-    var = max(var, float(e @ e) / (n - 1) / n)  # never below the independent-sample value
-    se = math.sqrt(var)
-    sd2 = float(e @ e) / (n - 1)
-    dof = max(1.0, n * sd2 / (n * var) - 1.0) if var > 0 else float(n - 1)
-    return m, se, dof
+    b = int(max(2, min(batches, n // 2)))
+    L = n // b
+    means = y[n - b * L:].reshape(b, L).mean(axis=1)  # the last b*L samples: whole batches
+    se = float(np.std(means, ddof=1) / math.sqrt(b))
+    se = max(se, float(np.std(y, ddof=1) / math.sqrt(n)))  # never below independent samples
+    return m, se, float(b - 1)
 
 
 def _block_length(r: np.ndarray, minimum: int) -> int:

@@ -134,7 +134,7 @@ def time_test_section(reductions: list[tuple[str, Any]], cfg: Any,
             "Evidence: every figure comes with a 95 % interval and every verdict with its "
             f"probability; a verdict is called at a probability of at least {prob:g}, else "
             "'undetermined'. The mean after recovery's interval is Student t on its "
-            "autocorrelation-corrected standard error (Newey-West); the other intervals and "
+            "autocorrelation-robust standard error (batch means); the other intervals and "
             f"P(recovered) come from a block bootstrap ({ev0.get('replicates', 0)} replicates) "
             "of the record's scatter about its running median. They hold "
             f"{ev0.get('basis', 'the record own noise')}: repeated tests measure that.")
