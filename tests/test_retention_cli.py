@@ -124,7 +124,7 @@ def test_fit_removal_from_hpt_parameter_files_equals_from_logs(fitted, cli, tmp_
         r = cli("fit", "hpt", f, "--compliance", COMPLIANCE, "-o", d)
         assert r.exit_code == 0, r.output
         pfiles.append(str(d / "params.yaml"))
-    r = cli("fit", "removal", *TESTS, *sum((["--hpt", p] for p in pfiles), []),
+    r = cli("fit", "removal", *TESTS, *[a for p in pfiles for a in ("--hpt", p)],
             "-o", tmp_path / "from_params")
     assert r.exit_code == 0, r.output
     a = json.loads((out / "summary.json").read_text())
@@ -230,8 +230,12 @@ def _bad(r, *words: str) -> str:
 
 def test_time_test_without_application_marker(cli, tmp_path):
     from torlab.model.removal import RemovalLaw
-    from torlab.synth.retention import RetentionTestSpec, export_text, simulate_retention_test
-    from torlab.synth.retention import true_layer
+    from torlab.synth.retention import (
+        RetentionTestSpec,
+        export_text,
+        simulate_retention_test,
+        true_layer,
+    )
 
     law = RemovalLaw(1, 1e-6)
     spec = RetentionTestSpec("flat", 1.0, application_time_s=0.0, mu_film=0.13, seed=3)
