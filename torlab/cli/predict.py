@@ -33,6 +33,12 @@ def _print_modelled(modelled: list[str], notes: list[str]) -> None:
         c.print(f"[yellow]note:[/yellow] {n}")
 
 
+_SWEEP_HELP = ("Simulate the curve as recorded during a slip sweep of this duration ('60 s') "
+               "while product is removed; needs a 'torlab fit removal' params.yaml among the "
+               "files and --amount ('4 uL', '4 mg', '100000 mg/m^2'); the running band as in "
+               "'predict retention'.")
+
+
 @app.command("traction")
 def traction_cmd(
     scene: ScenesArg,
@@ -44,18 +50,12 @@ def traction_cmd(
                                          "non-zero: creep forces in three creepages.")] = "0",
     spin: Annotated[str, typer.Option(help="Spin (1/m, units allowed: '0.5 1/m') of every "
                                       "point; non-zero: creep forces in three creepages.")] = "0",
-    sweep: Annotated[str | None, typer.Option(help="Simulate the curve as recorded during a "
-                                              "slip sweep of this duration ('60 s') while "
-                                              "product is removed; needs a 'torlab fit "
-                                              "removal' params.yaml and --amount.")] = None,
-    amount: Annotated[str | None, typer.Option(help="With --sweep: the applied amount ('4 uL', "
-                                               "'4 mg', '100000 mg/m^2').")] = None,
-    band_length: Annotated[str | None, typer.Option(help="With --sweep: rail length a volume "
-                                                    "or mass covers ('20 mm').")] = None,
-    track_radius: Annotated[str | None, typer.Option(help="With --sweep: disc track radius "
-                                                     "(a pass per revolution).")] = None,
-    pass_interval: Annotated[str | None, typer.Option(help="With --sweep on a rail: time "
-                                                      "between passes ('0.5 s').")] = None,
+    sweep: Annotated[str | None, typer.Option(help=_SWEEP_HELP)] = None,
+    amount: Annotated[str | None, typer.Option(help="With --sweep: the applied amount.")] = None,
+    band_length: Annotated[str | None, typer.Option(help="With --sweep: rail length.")] = None,
+    track_radius: Annotated[str | None, typer.Option(help="With --sweep: disc track.")] = None,
+    pass_interval: Annotated[str | None, typer.Option(help="With --sweep: time between "
+                                                      "passes on a rail.")] = None,
     force: ForceOpt = False,
 ) -> None:
     """Traction curve mu(creepage) at the scene's speed.
@@ -65,9 +65,7 @@ def traction_cmd(
     (mu against creepage with the layer's limits mu_c1, mu_c2) and summary.json
     (what was modelled, the trend after saturation, thesis H4.1).  With --lateral or
     --spin (dry scenes): lateral, spin_1_m, Fx_N, Fy_N, Mz_Nm, mu_x, mu_y too (mu = mu_x).
-    With --sweep (a removal params.yaml among the files, --amount): the curve recorded while
-    the creepage ramps over that time and product is removed, beside the steady curve at
-    the applied amount, and whether removal turns it positive (thesis H4.1; sweep.csv).
+    --sweep: the curve recorded while product is removed, beside the steady one (H4.1).
     """
     from torlab.cli._common import parse_values
     from torlab.model.predict import predict_traction
