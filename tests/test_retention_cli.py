@@ -132,6 +132,27 @@ def test_fit_removal_from_hpt_parameter_files_equals_from_logs(fitted, cli, tmp_
     assert b["params"]["k1"] == pytest.approx(a["params"]["k1"], rel=1e-6)
 
 
+def test_python_api_matches_the_commands(fitted, tmp_path):
+    """torlab.fit_removal with the layer as an object, and predict_retention from the result in
+    memory or from its parameter file, give the command's numbers."""
+    import torlab
+    from torlab.fit.removal import load_retention
+
+    out, _ = fitted
+    rp = load_retention(out / "params.yaml")
+    res = torlab.fit_removal(TESTS, rp.layer, density="930 kg/m^3")
+    cli_k1 = json.loads((out / "summary.json").read_text())["params"]["k1"]
+    assert res.params["k1"] == pytest.approx(cli_k1, rel=1e-9)
+    res.to_params(tmp_path / "removal.yaml")
+    kw = {"creepage": "1 %", "n_draws": 50, "passes": 400}
+    a = torlab.predict_retention(TAB54, res, "100000 mg/m^2", **kw)
+    b = torlab.predict_retention(TAB54, tmp_path / "removal.yaml", "100000 mg/m^2", **kw)
+    assert a.table["mu"].to_numpy() == pytest.approx(b.table["mu"].to_numpy(), rel=1e-12)
+    assert a.table["mu_high95"].to_numpy() == pytest.approx(b.table["mu_high95"].to_numpy(),
+                                                            rel=1e-12)
+    assert a.table["passes"].iloc[-1] == 400.0
+
+
 # --------------------------------------------------------------------------- predict retention
 def test_predict_retention_outputs_and_crossings(fitted, cli, tmp_path):
     out, _ = fitted
@@ -182,6 +203,24 @@ def test_predict_retention_cycles_on_a_disc(fitted, cli, tmp_path):
     # one revolution of a 0.5 m track at the scene's 10 m/s
     assert t["time_s"].to_numpy() == pytest.approx(t["passes"].to_numpy() * 2 * math.pi * 0.5
                                                    / 10.0)
+
+
+def test_predict_retention_on_the_mtm_disc_matches_the_generator(fitted, cli, tmp_path):
+    """1 uL on the MTM disc track: the initial amount and the revolution time of the virtual
+    time test (truth.yaml, written by the generator's own integration)."""
+    out, _ = fitted
+    run = _truth()["runs"][0]
+    r = cli("predict", "retention", ROOT / "protocols" / "scenes" / "mtm_paper_b.yaml",
+            out / "params.yaml", "--amount", "1 uL", "--creepage", "2 %", "--track-radius",
+            f"{_truth()['track_radius_m']!r} m", "--draws", "0", "-o", tmp_path / "p")
+    assert r.exit_code == 0, r.output
+    s = json.loads((tmp_path / "p" / "summary.json").read_text())
+    assert s["initial_amount_mg_m2"] == pytest.approx(run["initial_amount_mg_m2"], rel=1e-6)
+    assert s["running_band"]["width_m"] == pytest.approx(run["band_width_m"], rel=1e-9)
+    t = pd.read_csv(tmp_path / "p" / "retention.csv")
+    assert t["time_s"].to_numpy() == pytest.approx(t["passes"].to_numpy()
+                                                   * run["disc_revolution_s"], rel=1e-9)
+    assert any("lubricant film: not modelled" in m for m in s["modelled"])
 
 
 # --------------------------------------------------------------------------- sweep

@@ -285,7 +285,7 @@ def retention_section(product: str, fit: Any, layer: Any, pred: Any, sweep: Any 
         f"Removal law chosen by the small-sample Akaike criterion: {law} (Akaike weight "
         f"{weight:.2f}); {pars}.",
         f"Prediction on '{s['scene']}' at creepage {100 * s['creepage']:.3g} %: applied "
-        f"{s['applied']} -> {s['initial_amount_mg_m2']:.4g} mg/m² in the band "
+        f"{s['applied']}, i.e. {s['initial_amount_mg_m2']:.4g} mg/m² in the band "
         f"({s['initial_amount_from']}); μ from {s['mu_initial']:.3f} to the dry {s['mu_dry']:.3f}. "
         f"Band {s['band'][0]:g}–{s['band'][1]:g}: entered after "
         f"{crossing_text(s['passes_to_enter_band'])}, left after "
