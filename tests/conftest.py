@@ -55,3 +55,23 @@ def real_pcs_file(name: str) -> Path:
     if not p.exists():
         pytest.skip(f"real PCS data not available ({p})")
     return p
+
+
+@pytest.fixture(scope="session")
+def shipped_run(tmp_path_factory):
+    """Run a shipped protocol (``protocols/<name>.yaml``) once per session: ``(out, RunResult)``.
+
+    The protocol regression tests and the thesis validation table read the same runs.
+    """
+    from torlab.protocols.runner import run_protocol
+
+    runs: dict[str, tuple[Path, object]] = {}
+
+    def get(name: str):
+        if name not in runs:
+            out = tmp_path_factory.mktemp(name) / "out"
+            runs[name] = (out, run_protocol(ROOT / "protocols" / f"{name}.yaml", out,
+                                            command=f"test {name}"))
+        return runs[name]
+
+    return get

@@ -49,7 +49,7 @@ def test_model_without_compliance_is_the_layer_law():
 
 @pytest.mark.skipif(not (HPT / "truth.yaml").exists(), reason="sample data absent")
 @pytest.mark.parametrize("file", ["hpt_OFM1_4uL_25C.txt", "hpt_SFM_8mg_25C.txt",
-                                  "hpt_OFM2_4uL_80C.txt"])
+                                  "hpt_OFM2_4uL_105C.txt"])
 def test_sample_run_recovers_truth_within_intervals(file):
     """The shipped logs (rig compliance from the measured dry-run curve) give intervals
     that contain the generating parameters (at raised temperature: mu_ci exp(mu_ci_T dT))."""

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import math
 
 import numpy as np
 import pytest
@@ -176,9 +177,15 @@ VISC = ROOT / "sample_data" / "visc"
 
 
 def test_cli_fit_traction_dry_feeds_predict(cli, tmp_path):
-    # the dry optical log's generating law is mu = 0.25 tanh(SRR / 0.01) (truth.yaml): the
-    # fitted layer, fed to predict, must reproduce that plateau and the slope through zero
+    # the dry optical log is generated from the model with a known layer (truth.yaml): the
+    # fitted layer, fed to predict, must reproduce the true plateau and the slope near zero
+    from torlab.model.predict import predict_traction
+
     scene = ROOT / "protocols" / "scenes" / "optical_paper_a_dry.yaml"
+    layer = load_yaml(OPT / "truth.yaml").data["layer"]
+    sc = load_scene(scene)
+    true_mu = predict_traction(sc.model_copy(update={"boundary": sc.boundary.model_copy(
+        update=layer)}), np.array([0.002, 0.1]), band=False).table["mu"].to_numpy()
     out = tmp_path / "fit"
     r = cli("fit", "traction", scene, OPT / "dry_traction_rough.csv", "-o", out)
     assert r.exit_code == 0, r.output
@@ -190,8 +197,8 @@ def test_cli_fit_traction_dry_feeds_predict(cli, tmp_path):
     import pandas as pd
 
     mu = pd.read_csv(tmp_path / "pred" / "traction.csv")["mu"].to_numpy()
-    assert mu[1] == pytest.approx(0.25, abs=0.006)
-    assert mu[0] == pytest.approx(0.25 * np.tanh(0.2), abs=0.015)
+    assert mu[1] == pytest.approx(true_mu[1], abs=0.003)
+    assert mu[0] == pytest.approx(true_mu[0], abs=0.01)
 
 
 def test_cli_fit_visc_from_reduced_output(cli, tmp_path):
@@ -211,7 +218,7 @@ def test_cli_fit_visc_from_reduced_output(cli, tmp_path):
 
 
 def test_cli_fit_temperature_runs_and_reports_uncertainty(cli, tmp_path):
-    logs = [HPT / f"hpt_OFM1_4uL_{t}C.txt" for t in (25, 50, 80)]
+    logs = [HPT / f"hpt_OFM1_4uL_{t}C.txt" for t in (25, 65, 105)]
     out = tmp_path / "fit"
     r = cli("fit", "temperature", *logs, "--compliance", HPT / "rig_compliance.csv", "-o", out)
     assert r.exit_code == 0, r.output
@@ -234,3 +241,34 @@ def test_cli_fit_temperature_runs_and_reports_uncertainty(cli, tmp_path):
         assert tab.loc[name, "status"] == "fixed" and tab.loc[name, "value"] == 0.0
     assert "not resolved" in r.output and "fixed to 0" in r.output
     assert load_yaml(out / "params.yaml").data["boundary"] == {"mu_c1_T": 0.0, "mu_c2_T": 0.0}
+    # --selection none keeps both with their whole uncertainty, in the covariance predictions use
+    r = cli("fit", "temperature", *logs, "--compliance", HPT / "rig_compliance.csv",
+            "--selection", "none", "-o", tmp_path / "none")
+    assert r.exit_code == 0, r.output
+    d = load_yaml(tmp_path / "none" / "params.yaml").data
+    assert set(d["boundary"]) == {"mu_c1_T", "mu_c2_T"} and d["boundary"]["mu_c2_T"] != 0.0
+    cov = d["fit"]["covariance"]
+    assert {"mu_c1_T", "mu_c2_T"} <= set(cov["names"]) and d["fit"]["fixed"] == {}
+    i = cov["names"].index("mu_c2_T")
+    assert math.sqrt(cov["matrix"][i][i]) == pytest.approx(
+        d["fit"]["parameters"]["mu_c2_T"]["stderr"], rel=1e-9)
+    assert "kept, and its uncertainty is carried into predictions" in r.output
+    r = cli("fit", "temperature", *logs, "--selection", "lr2", "-o", tmp_path / "bad")
+    assert r.exit_code == 2 and "--selection" in r.output
+
+
+def test_cli_fit_temperature_resolves_with_the_campaign(cli, tmp_path):
+    """The shipped Paper C design (14 runs at 25-185 degC) resolves OFM1's mu_c1_T (truth
+    -4e-4 1/K, sample_data/hpt/truth.yaml): the test keeps it and its interval holds the truth."""
+    logs = sorted(HPT.glob("hpt_OFM1_4uL_*C*.txt"))
+    assert len(logs) == 14
+    out = tmp_path / "fit"
+    r = cli("fit", "temperature", *logs, "--compliance", HPT / "rig_compliance.csv", "-o", out)
+    assert r.exit_code == 0, r.output
+    import json
+
+    sm = json.loads((out / "summary.json").read_text())
+    sel = sm["meta"]["model_selection"]["mu_c1_T"]
+    assert sel["decision"] == "kept" and sel["p_value"] < 0.05
+    lo, hi = sm["ci95"]["mu_c1_T"]
+    assert lo <= -4e-4 <= hi < 0

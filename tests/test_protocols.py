@@ -9,7 +9,7 @@ change (and review the diff before committing).
 Accuracy is checked against references the code does not produce: the
 generating truth of the synthetic sample data (``sample_data/*/truth.yaml`` and
 the product laws of :mod:`torlab.synth.hpt`), SHA-256 computed here with
-hashlib, and the analytic stand-in truth of the optical logs.
+hashlib, and the model truth of the optical logs (sample_data/optical/truth.yaml).
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ import shutil
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 import yaml
 
@@ -37,12 +38,6 @@ COMPARED = ("protocol", "data", "fits", "reports")
 
 
 # --------------------------------------------------------------------------- helpers
-def _run(name: str, out: Path):
-    from torlab.protocols.runner import run_protocol
-
-    return run_protocol(PROTOCOLS / f"{name}.yaml", out, command=f"test {name}")
-
-
 def _diff(expected: Any, got: Any, path: str, rtol: float, atol: float, out: list[str]) -> None:
     if isinstance(expected, dict) and isinstance(got, dict):
         for k in expected:
@@ -85,21 +80,18 @@ def compare_summary(name: str, summary: dict[str, Any]) -> list[str]:
 
 
 @pytest.fixture(scope="module")
-def paper_a(tmp_path_factory):
-    out = tmp_path_factory.mktemp("pa") / "out"
-    return out, _run("paper_a", out)
+def paper_a(shipped_run):
+    return shipped_run("paper_a")
 
 
 @pytest.fixture(scope="module")
-def paper_b(tmp_path_factory):
-    out = tmp_path_factory.mktemp("pb") / "out"
-    return out, _run("paper_b", out)
+def paper_b(shipped_run):
+    return shipped_run("paper_b")
 
 
 @pytest.fixture(scope="module")
-def paper_c(tmp_path_factory):
-    out = tmp_path_factory.mktemp("pc") / "out"
-    return out, _run("paper_c", out)
+def paper_c(shipped_run):
+    return shipped_run("paper_c")
 
 
 # --------------------------------------------------------------------------- validation
@@ -294,10 +286,14 @@ def test_paper_c_amount_against_truth(paper_c):
     _out, res = paper_c
     amt = res.summary["reports"]["amount"]
     truth = yaml.safe_load((ROOT / "sample_data/hpt/truth.yaml").read_text())
-    # every 25 degC run's f (window before the maximum) against the generating value
-    f_true = {f"{r['product'] + ('-' + r['condition'] if r['condition'] else '')} "
-              f"{r['applied_amount']:g} {r['applied_amount_unit']}": r["friction_at_max_displacement"]
-              for r in truth["runs"] if r["applied_amount_unit"] and r["temperature_C"] == 25.0}
+    # every 25 degC run's f (window before the maximum) against the generating value; repeats
+    # of one amount are told apart by their file
+    runs = [r for r in truth["runs"] if r["applied_amount_unit"] and r["temperature_C"] == 25.0]
+    keys = [f"{r['product'] + ('-' + r['condition'] if r['condition'] else '')} "
+            f"{r['applied_amount']:g} {r['applied_amount_unit']}" for r in runs]
+    f_true = {k if keys.count(k) == 1 else f"{k} ({r['file']})": r["friction_at_max_displacement"]
+              for k, r in zip(keys, runs, strict=True)}
+    assert len(f_true) == len(runs) > 25
     assert set(amt["f_by_run"]) == set(f_true)
     for k, f in amt["f_by_run"].items():
         assert abs(f - f_true[k]) < 0.01, k
@@ -320,16 +316,20 @@ def test_paper_c_layers_and_traction(paper_c):
     out, res = paper_c
     s = res.summary
     truth = yaml.safe_load((ROOT / "sample_data/hpt/truth.yaml").read_text())
-    gen = {r["product"] + ("-" + r["condition"] if r["condition"] else ""): r["boundary"]
-           for r in truth["runs"] if r["temperature_C"] == 25.0 and
-           r["applied_amount"] in (4, None)}
-    for prod, b in gen.items():
+    # the layer is fitted to the product's 25 degC runs at 4 uL (mg) jointly: the mean of theirs
+    gen: dict[str, list[float]] = {}
+    for r in truth["runs"]:
+        if r["temperature_C"] == 25.0 and r["applied_amount"] in (4, None):
+            prod = r["product"] + ("-" + r["condition"] if r["condition"] else "")
+            gen.setdefault(prod, []).append(r["boundary"]["mu_c2"])
+    assert min(len(v) for v in gen.values()) == 4
+    for prod, m2 in gen.items():
         fit = s["fits"][f"hpt:{prod}"]["params"]
-        assert abs(fit["mu_c2"] - b["mu_c2"]) < 0.02, prod
+        assert abs(fit["mu_c2"] - sum(m2) / len(m2)) < 0.01, prod
     curves = s["reports"]["traction"]["curves"]
     assert {c.split(" (")[0] for c in curves} == set(gen)
     for v in curves.values():
-        assert v["trend"] in ("negative", "neutral", "positive", "not saturated")
+        assert v["trend"] in ("negative", "neutral", "positive", "not saturated", "undetermined")
         assert 0 < v["mu_max"] < 1
     # every fitted layer is written as a parameter file torlab predict reads
     from torlab.scene import load_scene
@@ -383,9 +383,16 @@ def test_paper_b_inputs_fitted(paper_b):
     vt = yaml.safe_load((ROOT / "sample_data/visc/truth.yaml").read_text())
     z = next(r["run"]["Z"] for r in vt["runs"] if r["file"] == "visc_ester_25C.txt")
     assert s["fits"]["lubricant:ester"]["params"]["Z"] == pytest.approx(z, abs=0.02)
-    ht = yaml.safe_load((ROOT / "sample_data/hpt/truth.yaml").read_text())
-    b = next(r["boundary"] for r in ht["runs"] if r["file"] == "hpt_OFM1_4uL_25C.txt")
-    assert s["fits"]["hpt:OFM1"]["params"]["mu_c2"] == pytest.approx(b["mu_c2"], abs=0.02)
+    # the HPT layers of Paper B: the custom lubricant and TOR A at 8 uL to 0.1 mm, two runs each
+    ht = yaml.safe_load((ROOT / "sample_data/hpt_paper_b/truth.yaml").read_text())
+    for prod in ("custom", "TOR-A"):
+        runs = [r for r in ht["runs"] if r["product"] == prod]
+        assert len(runs) == 2 and all(r["displacement_max_m"] == pytest.approx(1e-4) and
+                                      r["applied_amount"] == 8 for r in runs)
+        m2 = sum(r["boundary"]["mu_c2"] for r in runs) / 2
+        assert s["fits"][f"hpt:{prod}"]["params"]["mu_c2"] == pytest.approx(m2, abs=0.01)
+    # the initial-drop model uses the custom lubricant's layer
+    assert s["reports"]["time_test"]["compositions"]["base medium 5 uL"]["model_initial_mu"] > 0
     lub = yaml.safe_load((out / "fits/lubricant_ester.yaml").read_text())["lubricant"]
     assert lub["viscosity"] == "roelands"
 
@@ -396,16 +403,23 @@ def test_paper_b_expected_summary(paper_b):
 
 
 # --------------------------------------------------------------------------- Paper A
-def test_paper_a_against_stand_in_truth(paper_a):
-    """Film law h = 40 nm U^0.67 and dry traction 0.25 tanh(SRR/0.01) of the optical logs."""
+def test_paper_a_against_model_truth(paper_a):
+    """The optical logs are generated from torlab's model (sample_data/optical/truth.yaml):
+    the film, the fitted dry layer and the measured Stribeck points against that truth."""
     out, res = paper_a
     s = res.summary
-    film = s["fits"]["film:smooth ball"]["params"]
-    assert film["speed_exponent"] == pytest.approx(0.67, abs=0.02)
-    assert film["film_prefactor"] == pytest.approx(40e-9, rel=0.05)
-    assert s["fits"]["traction:dry"]["params"]["mu_c2"] == pytest.approx(0.25, abs=0.01)
+    truth = yaml.safe_load((ROOT / "sample_data/optical/truth.yaml").read_text())
+    tests = {t["test"] + ":" + t["surface"]: t for t in truth["tests"]}
+    # measured film against the model's film at the same speeds: the ratio is 1 within noise
+    ratio = s["reports"]["film"]["measured_to_model"]["smooth ball"]
+    assert ratio["ratio_low95"] < 1.0 < ratio["ratio_high95"]
+    assert abs(ratio["ratio"] - 1) < 0.05
+    # the dry layer's saturated coefficient is the generating one
+    layer = truth["layer"]
+    assert s["fits"]["traction:dry"]["params"]["mu_c2"] == pytest.approx(layer["mu_c2"], abs=0.005)
     tr = s["reports"]["traction"]["curves"]
-    assert tr["measured dry_traction_rough.csv"]["mu_max"] == pytest.approx(0.25, abs=0.005)
+    dry_true = max(abs(c["traction_coefficient"]) for c in tests["dry_traction:rough"]["conditions"])
+    assert tr["measured dry_traction_rough.csv"]["mu_max"] == pytest.approx(dry_true, abs=0.005)
     # lubricated traction falls with rolling speed, measured and modelled (Stribeck, Paper A)
     meas = [v["mu_max"] for k, v in tr.items() if k.startswith("measured traction_rough")]
     assert meas == sorted(meas, reverse=True) and len(meas) == 5
@@ -413,14 +427,16 @@ def test_paper_a_against_stand_in_truth(paper_a):
     for lab in ("smooth ball", "rough ball"):
         assert st[lab]["n_measured"] == 12
         assert st[lab]["creepage"] == pytest.approx(0.05, abs=0.002)
-    # measured Stribeck points against the generating law at SRR 5 %
+    # measured Stribeck points against the generating truth at the set conditions
     import pandas as pd
 
     d = pd.read_csv(out / "stribeck/curves.csv")
-    m = d[(d["curve"] == "rough ball") & (d["kind"] == "measured")]
-    U = m["speed_m_s"].to_numpy()
-    law = (0.02 + 0.08 / (1 + (U / 0.3) ** 1.5)) * math.tanh(5.0)
-    assert abs(m["mu"].to_numpy() - law).max() < 0.01
+    for lab, key in (("rough ball", "stribeck:rough"), ("smooth ball", "stribeck:smooth")):
+        m = d[(d["curve"] == lab) & (d["kind"] == "measured")].sort_values("speed_m_s")
+        cond = sorted(tests[key]["conditions"], key=lambda c: c["rolling_speed_m_s"])
+        want = np.abs([c["traction_coefficient"] for c in cond])
+        # force noise 0.02 N on 90 N averaged over the 4 s window, speeds within 0.2 %
+        assert np.max(np.abs(m["mu"].to_numpy() - want)) < 0.002, lab
 
 
 def test_paper_a_expected_summary(paper_a):

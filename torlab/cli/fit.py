@@ -224,22 +224,31 @@ def temperature_cmd(
                                                    "constant).")] = None,
     reference_temperature: Annotated[str, typer.Option(help="Reference temperature of the "
                                                        "intercepts.")] = "25 degC",
+    selection: Annotated[str, typer.Option(
+        help="'test': a coefficient the likelihood-ratio test against 0 does not resolve (5 %) "
+             "is fixed to 0; 'none': every coefficient is kept and its uncertainty carried "
+             "into predictions.", case_sensitive=False)] = "test",
     force: ForceOpt = False,
 ) -> None:
     """Temperature coefficients mu_c1_T, mu_c2_T (thesis Eqs. 5.26-5.27) from one layer fit
-    per run: ln mu_ci against T."""
+    per run: ln mu_ci against T; each coefficient kept or fixed to 0 (--selection)."""
+    from torlab.errors import TorlabInputError
     from torlab.fit.layer import fit_layers_hpt
     from torlab.fit.temperature import fit_temperature_coefficients
     from torlab.outputs import OutputDir
     from torlab.units import to_si
 
+    sel = selection.strip().lower()
+    if sel not in ("test", "none"):
+        raise TorlabInputError(f"--selection must be 'test' or 'none', not {selection!r}",
+                               key="--selection")
     files = require_files(inputs, "HPT", keep=is_hpt_input)
     extra: list[Path] = []
     comp = _compliance(compliance, extra)
     Tref = to_si(reference_temperature, "temperature", where="--reference-temperature")
     curves = _prepare_hpt(hpt_items(files, comp), comp)
     fits = fit_layers_hpt(curves)
-    res = fit_temperature_coefficients(fits, reference_temperature_C=Tref)
+    res = fit_temperature_coefficients(fits, reference_temperature_C=Tref, selection=sel)
     dest = OutputDir(out, force=force, inputs=[*files, *extra], command=command_line())
     with dest:
         write_fit(dest, res, title="Temperature coefficients of the layer")

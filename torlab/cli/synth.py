@@ -29,14 +29,28 @@ def _write(out: object, force: bool, seed: int, writer: object, what: str) -> No
 @app.command("hpt")
 def synth_hpt(
     out: OutOpt,
-    seed: Annotated[int, typer.Option(help="Random seed (the same seed gives the same files).")] = 2022,
+    seed: Annotated[int | None, typer.Option(
+        help="Random seed (the same seed gives the same files); default 2022 (Paper C), "
+             "2023 (Paper B).")] = None,
+    campaign: Annotated[str, typer.Option(
+        help="paper_c: OFM1, OFM2, WFM (wet/dry), SFM at 1-16 uL (mg) and at 25-185 degC, dry "
+             "reference; paper_b: the custom TOR lubricant and TOR A at 8 uL to 0.1 mm.",
+        case_sensitive=False)] = "paper_c",
     force: ForceOpt = False,
 ) -> None:
-    """Virtual Paper C campaign: HPT logs of OFM1, OFM2, WFM (wet/dry), SFM at 1-16 uL (mg),
-    raised-temperature runs, a dry reference, the rig compliance curve and truth.yaml."""
+    """Virtual HPT campaign of Paper C (default) or Paper B: raw logs, the rig compliance
+    curve and truth.yaml."""
+    from functools import partial
+
+    from torlab.errors import TorlabInputError
     from torlab.synth.hpt import write_hpt_sample_data
 
-    _write(out, force, seed, write_hpt_sample_data,
+    camp = campaign.strip().lower()
+    if camp not in ("paper_c", "paper_b"):
+        raise TorlabInputError(f"--campaign must be paper_c or paper_b, not {campaign!r}",
+                               key="--campaign")
+    _write(out, force, seed if seed is not None else 2022 if camp == "paper_c" else 2023,
+           partial(write_hpt_sample_data, campaign=camp),
            "synthetic HPT logs, rig_compliance.csv and truth.yaml")
 
 

@@ -64,9 +64,10 @@ def fit_temperature_coefficients(fits_or_curves: Any, temperatures_K: Any = None
     reference_temperature_C
         ``T_ref`` of the intercepts ``mu_c1_Tref``, ``mu_c2_Tref``.
     selection
-        ``"lr"``: a coefficient that the likelihood-ratio test (the F-test of
-        the line against a constant) does not resolve at ``selection_level``
-        is fixed to 0 (written as 0, listed in :attr:`FitResult.fixed`);
+        ``"lr"`` (or its synonym ``"test"``, the CLI's name): a coefficient
+        that the likelihood-ratio test (the F-test of the line against a
+        constant) does not resolve at ``selection_level`` is fixed to 0
+        (written as 0, listed in :attr:`FitResult.fixed`);
         ``"none"``: every coefficient is kept with its uncertainty, which the
         predictions carry.  Either way ``meta["model_selection"]`` and the
         warnings state the test, the p-value and the decision.
@@ -93,9 +94,11 @@ def fit_temperature_coefficients(fits_or_curves: Any, temperatures_K: Any = None
 
     from torlab.fit.layer import fit_layer_hpt
 
+    if selection == "test":
+        selection = "lr"
     if selection not in ("lr", "none"):
-        raise TorlabInputError(f"selection must be 'lr' or 'none', not {selection!r}",
-                               key="selection")
+        raise TorlabInputError(f"selection must be 'test' (or 'lr') or 'none', not "
+                               f"{selection!r}", key="selection")
     items = list(fits_or_curves)
     fits = [it if isinstance(it, FitResult) else fit_layer_hpt(it) for it in items]
     if temperatures_K is None:
@@ -148,7 +151,7 @@ def fit_temperature_coefficients(fits_or_curves: Any, temperatures_K: Any = None
             "statistic": float(fstat) if math.isfinite(fstat) else None, "p_value": pval,
             "level": selection_level, "estimate_1_per_K": b, "ci95_full_model": [lo, hi]}
         if not resolved:
-            what = ("fixed to 0 in the parameter file (selection='none' keeps it and carries its "
+            what = ("fixed to 0 in the parameter file (selection 'none' keeps it and carries its "
                     "uncertainty into predictions)" if selection != "none" else
                     "kept, and its uncertainty is carried into predictions")
             warnings.append(

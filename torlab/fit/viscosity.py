@@ -14,7 +14,12 @@ equations "to estimate the pressure-viscosity coefficients".
   ``s^2 (J^T J)^-1`` at the solution, t-intervals with ``n - k`` degrees of freedom.
 
 Residuals are in ``ln eta`` (relative errors, the natural scale of a viscosity
-spanning decades).  The results carry ``warnings`` when the data cannot
+spanning decades).  The joint covariance of the fitted parameters is kept (the
+Barus ``ln eta0``-``alpha`` estimates are strongly correlated: the intercept is
+an extrapolation to p = 0) and written to ``params.yaml`` (``fit: covariance:``)
+so predictions carry it (:mod:`torlab.model.bands`); for Roelands it also holds
+the derived ``alpha*`` the Hamrock-Dowson film law uses, with its covariances
+by the delta method.  The results carry ``warnings`` when the data cannot
 determine a parameter well (Z from pressures all below 100 MPa, where Roelands
 and Barus hardly differ; a relative standard error above 50 %); fewer points
 than parameters + 1 is an error (no residual degree of freedom for an
@@ -31,7 +36,13 @@ import numpy as np
 
 from torlab.errors import FitError, TorlabInputError
 from torlab.fit.result import FitResult, student_t
-from torlab.model.viscosity import log_eta_barus, log_eta_roelands, roelands_alpha0
+from torlab.model.viscosity import (
+    ROELANDS_C,
+    ROELANDS_P0_INV,
+    log_eta_barus,
+    log_eta_roelands,
+    roelands_alpha0,
+)
 from torlab.threads import small_problem
 
 __all__ = ["ViscosityFit", "fit_barus", "fit_optional", "fit_roelands", "fit_viscosity"]
@@ -106,8 +117,14 @@ class ViscosityFit(FitResult):
     def build(cls, *, law: str, eta0: float, eta0_se_log: float, eta0_source: str, alpha: float,
               alpha_se: float, confidence: float, dof: int, p: np.ndarray, eta: np.ndarray,
               residuals: np.ndarray, temperature_C: float | None, warnings: list[str],
-              Z: float = _NAN, Z_se: float = _NAN) -> ViscosityFit:
-        """The result from the estimates and their standard errors (intervals from Student t)."""
+              Z: float = _NAN, Z_se: float = _NAN, cov_log: Any = None) -> ViscosityFit:
+        """The result from the estimates and their standard errors (intervals from Student t).
+
+        ``cov_log`` is the covariance of the free parameters on the fit's own
+        scale (``ln eta0`` for the viscosity, ``alpha`` or ``Z`` as they are),
+        in the order ``eta0, alpha, Z`` of those that are free; it becomes
+        :attr:`covariance` in natural units (``var eta0 = eta0^2 var ln eta0``).
+        """
         import pandas as pd
 
         res = np.asarray(residuals, dtype=float)
@@ -131,6 +148,17 @@ class ViscosityFit(FitResult):
         fixed = {k: vals[k] for k in ("eta0", "alpha") if not free[k]}
         corr = np.full((len(names), len(names)), np.nan)
         np.fill_diagonal(corr, 1.0)
+        cov = None
+        if cov_log is not None:
+            c = np.asarray(cov_log, dtype=float).reshape(len(names), len(names))
+            if np.all(np.isfinite(c)):
+                scale = np.array([eta0 if k == "eta0" else 1.0 for k in names])
+                cov = c * np.outer(scale, scale)
+                sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+                with np.errstate(invalid="ignore", divide="ignore"):
+                    corr = cov / np.outer(sd, sd)
+                corr[~np.isfinite(corr)] = np.nan
+                np.fill_diagonal(corr, 1.0)
         model = eta * np.exp(-res)
         data = pd.DataFrame({"pressure_Pa": p, "viscosity_measured_Pa_s": eta,
                              "viscosity_model_Pa_s": model, "residual_ln_eta": res})
@@ -142,6 +170,7 @@ class ViscosityFit(FitResult):
             meta={"law": law, "eta0_source": eta0_source, "temperature_C": temperature_C,
                   "lubricant_extra": {"viscosity": law}},
             fixed=fixed, residual_unit="ln(Pa*s)", dof=int(dof), x_column="pressure_Pa",
+            covariance=cov, log_scale=("eta0",) if "eta0" in names and cov is not None else (),
             y_column="viscosity_measured_Pa_s", law=law, eta0=eta0, eta0_ci=eta0_ci,
             eta0_source=eta0_source, alpha=alpha, alpha_se=alpha_se,
             alpha_ci=ci(alpha, alpha_se, t_c) if law == "barus" else (alpha, alpha), Z=Z,
@@ -158,18 +187,46 @@ class ViscosityFit(FitResult):
     def to_scene_dict(self) -> dict[str, Any]:
         """The scene contract's ``lubricant:`` keys (``eta0``, ``viscosity``, ``alpha``, ``Z``).
 
-        Quantities are strings with units (``"65.1 mPa*s"``, ``"14.9 1/GPa"``);
+        Quantities are strings with units (``"65.1234567 mPa*s"``, ``"14.9 1/GPa"``),
+        written with 12 significant digits so that the scene's values are the
+        estimates the covariance belongs to (a band needs them equal to 1e-9);
         for Roelands ``alpha`` is the equivalent initial coefficient ``alpha*``
         (the Hamrock-Dowson G needs one).
         """
         d: dict[str, Any] = {
-            "eta0": f"{self.eta0 * 1e3:.6g} mPa*s",
+            "eta0": f"{self.eta0 * 1e3:.12g} mPa*s",
             "viscosity": self.law,
-            "alpha": f"{self.alpha * 1e9:.6g} 1/GPa",
+            "alpha": f"{self.alpha * 1e9:.12g} 1/GPa",
         }
         if self.law == "roelands":
-            d["Z"] = float(f"{self.Z:.6g}")
+            d["Z"] = float(f"{self.Z:.12g}")
         return {"lubricant": d}
+
+    def covariance_section(self) -> dict[str, Any] | None:
+        """The ``fit: covariance:`` block; for Roelands with the derived ``alpha*``.
+
+        ``alpha* = (ln eta0 + 9.67) 5.1e-9 Z`` (:func:`roelands_alpha0`) is what
+        the scene's piezo-viscous film law uses; its variance and covariances
+        with ``eta0`` and ``Z`` follow by the delta method, so the block is
+        singular (rank of the free parameters) but positive semi-definite.
+        """
+        cs = super().covariance_section()
+        if cs is None or self.law != "roelands" or "alpha" in cs["names"]:
+            return cs
+        names = list(cs["names"])
+        c = np.asarray(cs["matrix"], dtype=float)
+        g = np.array([ROELANDS_P0_INV * self.Z / self.eta0 if n == "eta0" else
+                      (math.log(self.eta0) + ROELANDS_C) * ROELANDS_P0_INV if n == "Z" else 0.0
+                      for n in names])
+        cg = c @ g
+        full = np.zeros((len(names) + 1, len(names) + 1))
+        full[:-1, :-1] = c
+        full[:-1, -1] = full[-1, :-1] = cg
+        full[-1, -1] = float(g @ cg)
+        cs["names"] = [*names, "alpha"]
+        cs["values"] = [*cs["values"], float(self.alpha)]
+        cs["matrix"] = [[float(x) for x in row] for row in full]
+        return cs
 
     def row(self) -> dict[str, Any]:
         """One flat row (SI units) for ``fit.csv``."""
@@ -291,10 +348,12 @@ def fit_barus(p: Any, eta: Any, *, confidence: float = 0.95,
                 warnings.append(f"ln eta is curved against p (quadratic term t = {tstat:.3g}): "
                                 "the Barus law does not describe these data over the whole range; "
                                 "alpha is a secant (compare the Roelands fit)")
+    # ln eta0 (the intercept) and alpha: cov = s^2 (X^T X)^-1, off-diagonal -s^2 pbar / Sxx
+    cov_log = np.array([[se_a * se_a, -s * s * pm / sxx], [-s * s * pm / sxx, se_alpha * se_alpha]])
     return ViscosityFit.build(
         law="barus", eta0=math.exp(a), eta0_se_log=se_a, eta0_source="fitted", alpha=alpha,
         alpha_se=se_alpha, confidence=confidence, dof=dof, p=p, eta=eta, residuals=res,
-        temperature_C=temperature_C, warnings=warnings)
+        temperature_C=temperature_C, warnings=warnings, cov_log=cov_log)
 
 
 @small_problem  # one BLAS thread: small matrices (torlab.threads)
@@ -405,10 +464,13 @@ def fit_roelands(p: Any, eta: Any, *, eta0: float | None = None, fit_eta0: bool 
     if np.isfinite(z_se) and Z != 0 and z_se > 0.5 * abs(Z):
         warnings.append(f"Z is poorly determined (standard error {z_se / abs(Z):.0%})")
     a0 = float(roelands_alpha0(math.exp(le), Z))
+    # free parameters in the result's order (eta0, Z): x = (Z, ln eta0) reordered
+    cov_log = cov[::-1, ::-1] if free_eta0 else cov
     return ViscosityFit.build(
         law="roelands", eta0=math.exp(le), eta0_se_log=le_se, eta0_source=source, alpha=a0,
         alpha_se=float("nan"), Z=Z, Z_se=z_se, confidence=confidence, dof=dof, p=p, eta=e,
-        residuals=np.asarray(res, dtype=float), temperature_C=temperature_C, warnings=warnings)
+        residuals=np.asarray(res, dtype=float), temperature_C=temperature_C, warnings=warnings,
+        cov_log=cov_log)
 
 
 def fit_viscosity(p: Any, eta: Any, law: str = "barus", **kw: Any) -> ViscosityFit:

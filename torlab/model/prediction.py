@@ -227,7 +227,9 @@ def classify_trend(creepage: np.ndarray, mu: np.ndarray, *, saturation: float = 
         out["basis"] = (f"the scatter of the {xs.size} points about the trend line "
                         f"(Student t, {dof} degrees of freedom)")
     elif measured:
+        # two points give a line but no scatter: a measured trend without evidence is not called
         out["basis"] = "two points in the trend window: no scatter to judge the trend by"
+        out["trend"] = "undetermined"
     if probs is not None:
         p = {c: float(v) for c, v in zip(TREND_CLASSES, probs, strict=True)}
         out["probabilities"] = p

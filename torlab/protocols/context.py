@@ -19,7 +19,7 @@ import numpy as np
 from torlab.errors import FitError, TorlabInputError
 from torlab.outputs import safe_name
 
-__all__ = ["Progress", "RunContext", "finite"]
+__all__ = ["Progress", "RunContext", "add_covariance", "finite"]
 
 
 def finite(v: Any) -> Any:
@@ -141,10 +141,16 @@ class RunContext:
 
     def add_fit(self, name: str, res: Any, scene_dict: dict[str, Any], *,
                 keep_set: bool = True) -> None:
-        """Record a fitted parameter set: table rows, summary, ``fits/<name>.yaml``."""
+        """Record a fitted parameter set: table rows, summary, ``fits/<name>.yaml``.
+
+        The kept set carries the fit's covariance (``fit: covariance:``, first,
+        before any block already in ``scene_dict`` such as the temperature
+        fit's), so the predictions that use it draw bands (:mod:`torlab.model.bands`).
+        """
         from torlab.yamlio import dump_yaml
 
         if keep_set:
+            add_covariance(scene_dict, res, first=True)
             self.param_sets[name] = scene_dict
         for r in res.table().to_dict("records"):
             self.fit_rows.append({"set": name, "kind": res.kind, **r})
@@ -153,8 +159,30 @@ class RunContext:
                                   "ci95": {k: list(v) for k, v in res.ci95.items()},
                                   "residual_rms": res.residual_norm,
                                   "warnings": list(res.warnings)}
+        if res.meta.get("model_selection"):
+            self.fit_summary[name]["model_selection"] = res.meta["model_selection"]
         self.dest.write_text(f"fits/{safe_name(name.replace(':', '_'))}.yaml",
                              dump_yaml(finite(res.to_yaml_dict())))
+
+    def selection_choices(self, sets: list[str]) -> list[str]:
+        """The model-selection choices of the fits behind parameter sets, one line each.
+
+        ``hpt:<product>`` includes its temperature fit (``hpt-T:<product>``):
+        a coefficient fixed to 0 there is exact in every prediction that uses
+        the set, which the report must say next to the prediction's verdict.
+        """
+        names = [n for s in sets for n in (s, s.replace("hpt:", "hpt-T:", 1))]
+        out = []
+        for name, res in self.fit_results:
+            if name not in names:
+                continue
+            for par, ch in (res.meta.get("model_selection") or {}).items():
+                if not isinstance(ch, dict):
+                    continue
+                p = ch.get("p_value")
+                test = f" ({ch.get('test', 'test')}: p = {p:.2g})" if p is not None else ""
+                out.append(f"{name}: {par} {ch.get('decision', '')}{test}")
+        return out
 
     def scenes_for(self, refs: list[Any], params: list[str]) -> list[tuple[str, Any, dict]]:
         """``(set name, Scene, scene dict)`` for scene files with parameter sets applied.
@@ -173,12 +201,16 @@ class RunContext:
         out = []
         for prod in star:
             sd = deep_merge({}, base)
+            blocks = _covariances(sd)
             for ps in params:
                 name = f"hpt:{prod}" if ps == "hpt:*" else ps
                 if name not in self.param_sets:
                     raise FitError(f"parameter set {name!r} was not fitted (see the fits: "
                                    "section and the notes above)")
+                blocks += _covariances(self.param_sets[name])
                 deep_merge(sd, self.param_sets[name])
+            if blocks:  # every set's blocks are kept (independent fits), as load_scene does
+                sd["fit"]["covariance"] = blocks
             try:
                 sc = scene_from_dict(sd, path=str(files[0]))
             except TorlabInputError as e:
@@ -188,7 +220,11 @@ class RunContext:
         return out
 
     def predict(self, kind: str, scene: dict[str, Any], **kw: Any) -> Any:
-        """A cached prediction: ``kind`` ``traction`` or ``stribeck`` of a scene dict."""
+        """A cached prediction: ``kind`` ``traction`` or ``stribeck`` of a scene dict.
+
+        A scene with fit covariances gets its 95 % band and, for traction, the
+        trend with class probabilities (``trend_tolerance``, ``trend_probability``).
+        """
         def compute() -> Any:
             from torlab.scene import scene_from_dict
 
@@ -196,10 +232,39 @@ class RunContext:
             if kind == "traction":
                 from torlab.model.predict import predict_traction
 
-                return predict_traction(sc, kw["creepage"],
-                                        trend_tolerance=kw.get("trend_tolerance", 0.01))
-            from torlab.model.mixed import predict_stribeck
+                pred = predict_traction(sc, kw["creepage"],
+                                        trend_tolerance=kw.get("trend_tolerance", 0.01),
+                                        trend_threshold=kw.get("trend_probability", 0.9))
+            else:
+                from torlab.model.mixed import predict_stribeck
 
-            return predict_stribeck(sc, kw["speed"], kw["creepage"])
+                pred = predict_stribeck(sc, kw["speed"], kw["creepage"])
+            band = getattr(pred, "band", None)
+            if band is not None:  # the model function is not data: the cache keeps the design
+                band._design.pop("model", None)
+            return pred
 
         return self.cache.get_or_compute(kw.pop("cache_kind", kind), compute, scene=scene, **kw)
+
+
+def add_covariance(scene_dict: dict[str, Any], res: Any, *, first: bool = False) -> None:
+    """Put a fit's ``fit: covariance:`` block into a parameter-set dict (a list of blocks)."""
+    cs = res.covariance_section() if hasattr(res, "covariance_section") else None
+    if cs is None:
+        return
+    blocks = scene_dict.setdefault("fit", {}).setdefault("covariance", [])
+    if first:
+        blocks.insert(0, cs)
+    else:
+        blocks.append(cs)
+
+
+def _covariances(d: dict[str, Any]) -> list[Any]:
+    """The covariance blocks of a scene or parameter-set dict (a copy, as a list)."""
+    import copy
+
+    fit = d.get("fit")
+    c = fit.get("covariance") if isinstance(fit, dict) else None
+    if c is None:
+        return []
+    return copy.deepcopy(c if isinstance(c, list) else [c])

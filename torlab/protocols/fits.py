@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from torlab.errors import TorlabInputError
-from torlab.protocols.context import RunContext
+from torlab.protocols.context import RunContext, add_covariance
 
 __all__ = ["fit_all", "measured_traction"]
 
@@ -87,8 +87,14 @@ def fit_hpt_layers(ctx: RunContext) -> None:
         others = [r for r in runs if all(r is not x for x in at_t)
                   and r.meta.temperature is not None]
         if cfg.temperature_coefficients and others:
-            _temperature(ctx, cfg, label, at_t[:1] + sorted(others, key=lambda r: r.meta.temperature),
+            # every run of the layer's amounts: those at the fit temperature (all of them
+            # when fitted jointly: repeats) and those at the other temperatures
+            _temperature(ctx, cfg, label, at_t + sorted(others, key=lambda r: r.meta.temperature),
                          scene_dict)
+        elif cfg.temperature_coefficients and any("thermal" in sd for sd in ctx.lp.scenes.values()):
+            ctx.notes.append(f"fits.hpt_layers: {label} has no run at another temperature: its "
+                             "temperature coefficients are not measured (the scene's values "
+                             "are used as exact)")
         ctx.add_fit(f"hpt:{label}", res, scene_dict)
 
 
@@ -101,11 +107,14 @@ def _temperature(ctx: RunContext, cfg: Any, label: str, curves: list[Any],
                else cfg.temperature + 273.15 for c in curves]
     tres = ctx.cache.get_or_compute(
         "fit_temperature",
-        lambda: fit_temperature_coefficients([c.detail for c in curves], temps_K),
-        runs=[ctx.keys[id(c)] for c in curves], temps=temps_K)
+        lambda: fit_temperature_coefficients([c.detail for c in curves], temps_K,
+                                             selection=cfg.selection),
+        runs=[ctx.keys[id(c)] for c in curves], temps=temps_K, selection=cfg.selection)
     tb = tres.to_scene_dict().get("boundary", {})
     scene_dict.setdefault("boundary", {}).update(
         {k: v for k, v in tb.items() if k in ("mu_c1_T", "mu_c2_T")})
+    # the coefficients' covariance (with the intercepts') travels with the layer's set
+    add_covariance(scene_dict, tres)
     ctx.add_fit(f"hpt-T:{label}", tres, tres.to_scene_dict(), keep_set=False)
 
 
@@ -157,4 +166,5 @@ def fit_lubricant(ctx: RunContext, lf: Any) -> None:
     ctx.fit_summary[name] = {"kind": "viscosity", "law": lf.law,
                              "params": {k: v for k, v in row.items()
                                         if isinstance(v, (int, float))},
+                             "correlation": ft.correlation.tolist(),
                              "warnings": list(ft.warnings)}

@@ -400,6 +400,9 @@ class HptLayerFit(_Model):
                                                "temperature_difference")] = Field(default=2.0, gt=0)
     joint: bool = False
     temperature_coefficients: bool = True
+    #: a temperature coefficient the likelihood-ratio test does not resolve: fixed to 0
+    #: (``test``) or kept with its uncertainty for the bands (``none``)
+    selection: Literal["test", "none"] = "test"
     products: list[str] = []
 
 
@@ -510,6 +513,8 @@ class TractionReport(_Model):
 
     creepage: Creepages = Field(default_factory=lambda: [i * 0.001 for i in range(51)])
     trend_tolerance: Fraction = Field(default=0.01, gt=0)
+    #: probability a trend class needs to be called (else "undetermined")
+    trend_probability: Fraction = Field(default=0.9, gt=0.5, lt=1)
     band: Band | None = None
     curves: list[CurveSpec] = Field(min_length=1)
 
@@ -562,6 +567,8 @@ class AmountReport(_Model):
     basis: Literal["mass", "amount"] = "mass"
     curve: Literal["logistic", "interpolation"] = "logistic"
     confidence: Fraction = Field(default=0.95, gt=0, lt=1)
+    #: probability a verdict (crossing within the tested amounts ...) needs to be called
+    probability: Fraction = Field(default=0.9, gt=0.5, lt=1)
     products: list[str] = []
 
     @model_validator(mode="after")
@@ -588,6 +595,10 @@ class TimeTestReport(_Model):
     """``reports.time_test``: time tests after application (Paper B, thesis Fig. 5.9)."""
 
     band: Band = (0.15, 0.25)
+    #: probability a verdict (recovered, mean after recovery in the band) needs to be called
+    probability: Fraction = Field(default=0.9, gt=0.5, lt=1)
+    #: block-bootstrap replicates for the intervals of the time-test figures (0: none)
+    replicates: int = Field(default=200, ge=0, le=5000)
     initial_drop: InitialDrop | None = None
 
 

@@ -76,6 +76,10 @@ def _initial_drop(ctx: RunContext, idp: Any) -> dict[str, Any]:
         pred = ctx.predict("traction", sdv, creepage=np.array([xi]), cache_kind="initial_drop_v3")
         row = pred.table.iloc[0]
         model["mu"][label] = float(abs(row["mu"]))
+        if "mu_low95" in pred.table:  # the band of the fitted layer's and viscosity law's uncertainty
+            lo, hi = sorted((abs(float(row["mu_low95"])), abs(float(row["mu_high95"]))))
+            model.setdefault("mu_low95", {})[label] = lo
+            model.setdefault("mu_high95", {})[label] = hi
         model["load_share"][label] = float(row.get("load_share_asperity", 1.0))
         model["modelled"][label] = list(pred.modelled)
         model["creepage"][label] = xi
@@ -88,7 +92,33 @@ def time_test(ctx: RunContext) -> Any:
 
     cfg = ctx.p.reports.time_test
     model = _initial_drop(ctx, cfg.initial_drop) if cfg.initial_drop is not None else None
-    return time_test_section([(lab, r.detail) for lab, r in ctx.labelled("mtm")], cfg, model)
+    return time_test_section([(lab, r.detail) for lab, r in ctx.labelled("mtm")], cfg, model,
+                             _time_test_evidence(ctx, cfg))
+
+
+def _time_test_evidence(ctx: RunContext, cfg: Any) -> dict[tuple[str, int], dict[str, Any]]:
+    """``(label, step)`` -> intervals and verdict probabilities of its time-test figures."""
+    from torlab.reduce.time_test_uncertainty import time_test_uncertainty
+
+    opts = {k: v for k, v in ctx.p.data.mtm.time_test.options().items()
+            if k != "application_time"}
+    out = {}
+    for label, red in ctx.prog.track(ctx.labelled("mtm"), "time tests: intervals"):
+        d = red.detail.curves.get("timed")
+        for tt in red.detail.time_tests:
+            if d is None:
+                continue
+            sel = d["step"].to_numpy() == tt.step
+            t = d.loc[sel, "step_time_s"].to_numpy(dtype=float)
+            m = d.loc[sel, "traction_coefficient"].to_numpy(dtype=float)
+            out[(label, tt.step)] = ctx.cache.get_or_compute(
+                "time_test_evidence",
+                lambda t=t, m=m, tt=tt: time_test_uncertainty(
+                    t, m, tt, opts, band=tuple(cfg.band), replicates=cfg.replicates,
+                    probability=cfg.probability),
+                red=ctx.keys.get(id(red), red.source), step=tt.step, options=opts,
+                band=list(cfg.band), replicates=cfg.replicates, probability=cfg.probability)
+    return out
 
 
 def _measured_curves(ctx: RunContext, ci: int, c: Any) -> list[Any]:
@@ -109,7 +139,8 @@ def _measured_curves(ctx: RunContext, ci: int, c: Any) -> list[Any]:
         out.append(TractionCurve(
             label=f"measured {lab}" if c.scene else c.label + at, kind="measured",
             table=pd.DataFrame({"creepage": cv.x, "mu": cv.y}),
-            trend=classify_trend(cv.x, cv.y, tolerance=cfg.trend_tolerance),
+            trend=classify_trend(cv.x, cv.y, tolerance=cfg.trend_tolerance,
+                                 threshold=cfg.trend_probability, measured=True),
             source=str(c.measured.path), speed_m_s=v,
             group=f"{ci}:{v:.3g}" if v is not None and c.speeds == "measured" else f"{ci}:"))
     return out
@@ -139,20 +170,42 @@ def traction(ctx: RunContext) -> Any:
             jobs += [(ci, c, setname, sc, sd, v, len(speeds) > 1) for v in speeds]
     for ci, c, setname, sc, sd, v, many in ctx.prog.track(jobs, "traction: predicting curves"):
         sdv = sd if v is None else dict(sd, kinematics={**sd.get("kinematics", {}), "speed": v})
-        pred = ctx.predict("traction", sdv, creepage=xi, trend_tolerance=cfg.trend_tolerance)
+        pred = ctx.predict("traction", sdv, creepage=xi, trend_tolerance=cfg.trend_tolerance,
+                           trend_probability=cfg.trend_probability)
         speed = sc.kinematics.speed if v is None else v
         label = c.label.replace("{set}", setname) + (f" @ {speed:.3g} m/s" if many else "")
         ctx.notes += [f"traction {label}: {n}" for n in result_notes(pred.table)]
+        ctx.notes += [f"traction {label}: {n}" for n in _extrapolation(
+            ctx, pred.table, [p.replace("hpt:*", f"hpt:{setname}") for p in c.params])]
         one_set = len(set(ctx.param_sets)) <= 1 or "hpt:*" not in c.params
         curves.append(TractionCurve(
             label=label, kind="model", table=pred.table, trend=pred.trend,
             source=" + ".join([*(x.path for x in c.scene), *c.params]).replace(
                 "hpt:*", f"hpt:{setname}"), speed_m_s=speed, modelled=pred.modelled,
             group=f"{ci}:{speed:.3g}" if c.speeds == "measured" else
-            (f"{ci}:" if one_set else f"{ci}:{setname}")))
+            (f"{ci}:" if one_set else f"{ci}:{setname}"), band=pred.summary.get("band", {}),
+            choices=ctx.selection_choices([p.replace("hpt:*", f"hpt:{setname}")
+                                           for p in c.params])))
         if sc.boundary is not None:
             curves[-1].boundary = sc.boundary.model_dump()
     return traction_section(curves + measured, cfg)
+
+
+def _extrapolation(ctx: RunContext, table: Any, sets: list[str]) -> list[str]:
+    """A note when the contact is hotter than the runs its temperature coefficients rest on."""
+    if "max_temperature_C" not in table:
+        return []
+    tmax = float(table["max_temperature_C"].max())
+    out = []
+    for name, res in ctx.fit_results:
+        if res.kind != "temperature" or name.replace("hpt-T:", "hpt:", 1) not in sets:
+            continue
+        tested = max(res.meta.get("temperatures_C") or [float("inf")])
+        if tmax > tested + 1.0:
+            out.append(f"the contact reaches {tmax:.0f} °C, beyond the highest test temperature "
+                       f"of {name} ({tested:.0f} °C): its exponential temperature law is "
+                       "extrapolated there")
+    return out
 
 
 def _measured_stribeck(ctx: RunContext, path: Any) -> Any:
@@ -192,7 +245,7 @@ def stribeck(ctx: RunContext) -> Any:
                 measured=meas, measured_label="" if c.measured is None else
                 c.measured.path.rsplit("/", 1)[-1] + " (measured)",
                 source=" + ".join([*(x.path for x in c.scene), *c.params]),
-                modelled=pred.modelled))
+                modelled=pred.modelled, band=pred.summary.get("band", {})))
     return stribeck_section(curves)
 
 
@@ -335,13 +388,55 @@ def fits_section(ctx: RunContext) -> Any:
     show = {"set": ("set", ""), "parameter": ("parameter", ""), "value": ("value", ".5g"),
             "stderr": ("stderr", ".3g"), "95 % low": ("ci95_low", ".5g"),
             "95 % high": ("ci95_high", ".5g"), "unit": ("unit", ""), "status": ("status", "")}
-    return Section(
-        key="fits", title="Fitted parameter sets", paragraphs=[
-            "Parameters identified from the protocol's data (torlab.fit): the HPT layers "
-            "(thesis Eqs. 5.24-5.29) per product, temperature coefficients, layers from "
-            "measured traction curves and viscosity laws; each set is also written as a "
-            "scene parameter file in fits/ for 'torlab predict'."],
-        figures=figs, tables=[Table("parameters", pd.DataFrame(ctx.fit_rows), "Fitted parameters",
-                                    show, allow_missing=("value", "stderr", "ci95_low",
-                                                         "ci95_high"))],
-        summary=finite(ctx.fit_summary), notes=warn)
+    sel = _selection_rows(ctx)
+    paragraphs = [
+        "Parameters identified from the protocol's data (torlab.fit): the HPT layers "
+        "(thesis Eqs. 5.24-5.29) per product, temperature coefficients, layers from "
+        "measured traction curves and viscosity laws; each set is also written as a "
+        "scene parameter file in fits/ for 'torlab predict', with the covariance of its "
+        "estimates (fit: covariance:), which the predictions above propagate into their bands.",
+    ]
+    if sel:
+        fixed = [r for r in sel if r["decision"].startswith("fixed")]
+        kept = [r for r in sel if not r["decision"].startswith("fixed")]
+        paragraphs.append(
+            "Model selection (what the data do not resolve, and what was done): "
+            f"{len(fixed)} parameter(s) fixed, {len(kept)} kept with their uncertainty "
+            "(table 'model_selection'). A fixed value is exact in every prediction that uses "
+            "the set; a kept one widens its band.")
+        for r in sel:
+            test = f" ({r['test']}, p = {r['p_value']:.2g})" if r["p_value"] == r["p_value"] else ""
+            paragraphs.append(f"{r['set']}: {r['parameter']} {r['decision']}{test}.")
+    tables = [Table("parameters", pd.DataFrame(ctx.fit_rows), "Fitted parameters", show,
+                    allow_missing=("value", "stderr", "ci95_low", "ci95_high"))]
+    if sel:
+        tables.append(Table(
+            "model_selection", pd.DataFrame(sel), "Model selection per fit", {
+                "set": ("set", ""), "parameter": ("parameter", ""), "decision": ("decision", ""),
+                "test": ("test", ""), "p": ("p_value", ".3g"), "estimate": ("estimate", ".3g"),
+                "95 % low (full model)": ("ci95_low_full", ".3g"),
+                "95 % high (full model)": ("ci95_high_full", ".3g")},
+            allow_missing=("test", "p_value", "estimate", "ci95_low_full", "ci95_high_full")))
+    summary = finite(ctx.fit_summary)
+    summary["model_selection"] = finite(sel)
+    return Section(key="fits", title="Fitted parameter sets", paragraphs=paragraphs,
+                   figures=figs, tables=tables, summary=summary, notes=warn)
+
+
+def _selection_rows(ctx: RunContext) -> list[dict[str, Any]]:
+    """One row per model-selection choice of the run's fits (``meta["model_selection"]``)."""
+    nan = float("nan")
+    rows = []
+    for name, res in ctx.fit_results:
+        for par, ch in (res.meta.get("model_selection") or {}).items():
+            if not isinstance(ch, dict):
+                continue
+            ci = ch.get("ci95_full_model") or ch.get("ci95") or [nan, nan]
+            est = ch.get("estimate_1_per_K")
+            rows.append({"set": name, "parameter": par, "decision": str(ch.get("decision", "")),
+                         "test": str(ch.get("test", "")),
+                         "p_value": nan if ch.get("p_value") is None else float(ch["p_value"]),
+                         "estimate": nan if est is None else float(est),
+                         "ci95_low_full": nan if ci[0] is None else float(ci[0]),
+                         "ci95_high_full": nan if ci[1] is None else float(ci[1])})
+    return rows

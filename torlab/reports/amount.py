@@ -43,7 +43,7 @@ from torlab.reports.html import Figure, Section, Table
 from torlab.reports.plotting import subplots
 
 __all__ = ["CROSSING_PROBABILITY", "CrossingFit", "amount_section", "amount_series",
-           "crossing_probabilities", "fit_crossings", "logistic"]
+           "crossing_probabilities", "fit_crossings", "logistic", "mass_homogeneity"]
 
 UL = 1e-9  # m^3 per µl
 MG = 1e-6  # kg per mg
@@ -450,6 +450,86 @@ def _intervals(fits: list[_Crossing], jacs: dict[str, Any], ss: float, dof: int,
             cf.notes.append(f"{cf.product}: no residual degrees of freedom, no interval")
 
 
+def _f_by_run(series: Any) -> dict[str, float]:
+    """f of every run, keyed by product and amount (and the file, for repeats)."""
+    keys = [f"{r.product} {r.applied_amount:g} {r.applied_amount_unit}" for r in series.itertuples()]
+    out = {}
+    for k, r in zip(keys, series.itertuples(), strict=True):
+        out[k if keys.count(k) == 1 else f"{k} ({r.file})"] = float(r.f)
+    return out
+
+
+def _pooled_scatter(fits: list[CrossingFit]) -> tuple[float, int]:
+    """Run-to-run scatter of f pooled over the products' logistic fits: (sd, dof)."""
+    ss, dof = 0.0, 0
+    for cf in fits:
+        if cf.method == "logistic" and cf.data is not None and cf.cov is not None:
+            r = cf.data["residual"].to_numpy(dtype=float)
+            ss += float(r @ r)
+            dof += r.size - 4
+    return (math.sqrt(ss / dof), dof) if dof > 0 else (_NAN, 0)
+
+
+def _status_evidence(series: Any, cf: CrossingFit, thr: float, pooled: tuple[float, int],
+                     prob: float) -> dict[str, Any]:
+    """The probability behind "above (below) the threshold at every amount".
+
+    At the amount where the series comes closest to the threshold (the mean of
+    its repeats), the probability that the true f is on the reported side,
+    from the pooled run-to-run scatter (Student t).  NaN without a pooled scatter
+    or for a crossing product.
+    """
+    from scipy.stats import t as student
+
+    out: dict[str, Any] = {"p_status": _NAN, "status_verdict": ""}
+    s, dof = pooled
+    if cf.status == "crosses" or not (math.isfinite(s) and s > 0 and dof > 0):
+        return out
+    g = series[series["product"] == cf.product].groupby("applied_amount")["f"]
+    mean, n = g.mean(), g.count()
+    above = cf.status.startswith("above")
+    i = mean.idxmin() if above else mean.idxmax()
+    z = (float(mean[i]) - thr) / (s / math.sqrt(float(n[i])))
+    p = float(student.cdf(z if above else -z, dof))
+    out["p_status"] = p
+    out["status_verdict"] = cf.status if p >= prob else "undetermined"
+    return out
+
+
+def mass_homogeneity(rows: list[dict[str, Any]], tq: float) -> dict[str, Any] | None:
+    """Do the products cross the threshold at one applied mass? (thesis H3.2)
+
+    The log crossing masses with their delta-method standard errors (the
+    intervals' half-widths in ``ln A*`` over their quantile ``tq``) against their
+    weighted mean: ``chi2 = sum((m_i - m)^2 / se_i^2)`` on ``k - 1`` degrees of
+    freedom.  None with fewer than two products with a crossing interval.
+    """
+    from scipy.stats import chi2 as chi2dist
+    from scipy.stats import norm
+
+    z = float(norm.ppf(0.975))
+    ms, ses, names = [], [], []
+    for r in rows:
+        lo, hi, m = r.get("crossing_mass_low_mg"), r.get("crossing_mass_high_mg"),             r.get("crossing_mass_mg")
+        if not all(isinstance(v, float) and math.isfinite(v) and v > 0 for v in (lo, hi, m)):
+            continue
+        ms.append(math.log(m))
+        ses.append((math.log(hi) - math.log(lo)) / (2 * tq))
+        names.append(r["product"])
+    if len(ms) < 2:
+        return None
+    m, se = np.array(ms), np.array(ses)
+    w = 1 / se**2
+    mbar = float(np.sum(w * m) / np.sum(w))
+    sebar = float(1 / math.sqrt(np.sum(w)))
+    c2 = float(np.sum(w * (m - mbar) ** 2))
+    k = len(ms)
+    return {"products": names, "chi2": c2, "dof": k - 1, "p_value": float(chi2dist.sf(c2, k - 1)),
+            "mass_mg": math.exp(mbar), "mass_low_mg": math.exp(mbar - z * sebar),
+            "mass_high_mg": math.exp(mbar + z * sebar),
+            "ratio_largest_to_smallest": math.exp(float(m.max() - m.min()))}
+
+
 def _mass_factor(series: Any, product: str) -> float:
     """mg per unit of the product's applied amount (NaN without a density)."""
     g = series[series["product"] == product]
@@ -479,8 +559,10 @@ def amount_section(series: Any, cfg: Any) -> Section:
             f"reports.amount: no HPT run with an applied amount at {cfg.temperature:g} ± "
             f"{cfg.temperature_tolerance:g} °C", key="reports.amount")
     band, thr = tuple(cfg.band), cfg.threshold
+    prob = getattr(cfg, "probability", CROSSING_PROBABILITY)
     fits = fit_crossings(series, threshold=thr, band=band, curve=cfg.curve,
-                         confidence=cfg.confidence)
+                         confidence=cfg.confidence, probability=prob)
+    pooled = _pooled_scatter(fits)
     rows, key = [], {}
     notes: list[str] = []
     for cf in fits:
@@ -498,6 +580,7 @@ def amount_section(series: Any, cfg: Any) -> Section:
             "p_crossing_in_range": cf.p_inside, "p_below_at_largest": cf.p_below_at_largest,
             "p_above_at_smallest": cf.p_above_at_smallest, "crossing_verdict": cf.verdict,
         }
+        row.update(_status_evidence(series, cf, thr, pooled, prob))
         for n in ("f_low", "f_high", "k", "c"):
             row[f"logistic_{n}"] = cf.params.get(n, float("nan"))
         rows.append(row)
@@ -523,7 +606,14 @@ def amount_section(series: Any, cfg: Any) -> Section:
     ]
     for r in rows:
         if r["status"] != "crosses" or not math.isfinite(r["crossing_amount"]):
-            paragraphs.append(f"{r['product']}: {r['status']} (no crossing reported).")
+            ev = ""
+            if math.isfinite(r.get("p_status", _NAN)):
+                ev = (f" Evidence: at its lowest-friction amount the series is "
+                      f"{'above' if r['status'].startswith('above') else 'below'} the threshold "
+                      f"with probability {r['p_status']:.3f} (pooled run-to-run scatter "
+                      f"{pooled[0]:.3g}, Student t on {pooled[1]} degrees of freedom; verdict "
+                      f"called at ≥ {prob:g}: {r['status_verdict']}).")
+            paragraphs.append(f"{r['product']}: {r['status']} (no crossing reported).{ev}")
             continue
         iv = "" if not math.isfinite(r["crossing_amount_low"]) else \
             f" [{r['crossing_amount_low']:.3g}, {r['crossing_amount_high']:.3g}]"
@@ -531,11 +621,24 @@ def amount_section(series: Any, cfg: Any) -> Section:
         ev = ""
         if math.isfinite(r["p_crossing_in_range"]):
             ev = (f" Probability that the crossing lies within the tested amounts "
-                  f"{r['p_crossing_in_range']:.3f} (verdict, called at ≥ {CROSSING_PROBABILITY:g}: "
+                  f"{r['p_crossing_in_range']:.3f} (verdict, called at ≥ {prob:g}: "
                   f"{r['crossing_verdict']}); friction below the threshold at the largest amount "
                   f"with probability {r['p_below_at_largest']:.3f}.")
         paragraphs.append(f"{r['product']}: f falls below {thr:g} at {r['crossing_amount']:.3g}"
                           f"{iv} {r['amount_unit']}{ms} ({r['method']}).{ev}")
+    from scipy.stats import t as student
+
+    tq = float(student.ppf(0.5 + cfg.confidence / 2, pooled[1])) if pooled[1] > 0 else _NAN
+    same = mass_homogeneity(rows, tq) if math.isfinite(tq) else None
+    if same is not None:
+        paragraphs.append(
+            f"Same mass for every product (thesis H3.2)? The crossing masses of "
+            f"{', '.join(same['products'])} against one common mass: χ² = {same['chi2']:.3g} on "
+            f"{same['dof']} degrees of freedom, p = {same['p_value']:.3g} "
+            f"({'consistent with one mass' if same['p_value'] >= 0.05 else 'different masses'} "
+            f"at the 5 % level; common mass {same['mass_mg']:.3g} mg, 95 % interval "
+            f"[{same['mass_low_mg']:.3g}, {same['mass_high_mg']:.3g}] mg; the crossings share "
+            "the pooled scatter, which the test neglects).")
     figs = [Figure("amount_applied", _figure(series, fits, cfg, mass=False),
                    "Friction f against the applied amount (µl for liquids, mg for solids) with "
                    "the fitted curves, the optimal band and the threshold crossings"),]
@@ -560,10 +663,11 @@ def amount_section(series: Any, cfg: Any) -> Section:
                    "f": ("f", ".4f"), "sd": ("f_sd", ".4f"), "file": ("file", "")}
     summary = {
         "temperature_C": cfg.temperature, "band": list(band), "threshold": thr,
-        "curve": cfg.curve, "confidence": cfg.confidence, "n_runs": len(series),
-        "products": key,
-        "f_by_run": {f"{r.product} {r.applied_amount:g} {r.applied_amount_unit}": float(r.f)
-                     for r in series.itertuples()},
+        "curve": cfg.curve, "confidence": cfg.confidence, "probability": prob,
+        "n_runs": len(series), "products": key,
+        "pooled_scatter": {"sd": pooled[0], "dof": pooled[1]},
+        "mass_homogeneity": same,
+        "f_by_run": _f_by_run(series),
     }
     return Section(
         key="amount", title="Amount dependency (Paper C)", paragraphs=paragraphs, figures=figs,

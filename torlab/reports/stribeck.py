@@ -23,7 +23,7 @@ import numpy as np
 from torlab.reports.html import Figure, Section, Table
 from torlab.reports.plotting import subplots
 
-__all__ = ["StribeckCurve", "film_section", "stribeck_section"]
+__all__ = ["FILM_RATIO_MIN_NM", "StribeckCurve", "film_ratio", "film_section", "stribeck_section"]
 
 
 @dataclass
@@ -37,6 +37,7 @@ class StribeckCurve:
     measured_label: str = ""
     source: str = ""
     modelled: list[str] = field(default_factory=list)
+    band: dict[str, Any] = field(default_factory=dict)  # the prediction's band summary
 
 
 def _lambda_at(table: Any, speed: np.ndarray) -> np.ndarray:
@@ -118,9 +119,15 @@ def stribeck_section(curves: list[StribeckCurve]) -> Section:
             row["measured_mu_max"] = float(mm.max())
             lam = _lambda_at(c.table, mv) if c.table is not None else np.full(mv.shape, np.nan)
             if c.table is not None:
-                model_at = np.interp(np.log(mv), np.log(c.table["speed_m_s"].clip(lower=1e-300)),
-                                     c.table["mu"].abs())
+                lsp = np.log(c.table["speed_m_s"].clip(lower=1e-300))
+                model_at = np.interp(np.log(mv), lsp, c.table["mu"].abs())
                 row["rms_measured_minus_model"] = float(np.sqrt(np.mean((mm - model_at) ** 2)))
+                if "mu_low95" in c.table:
+                    lo = np.interp(np.log(mv), lsp, c.table[["mu_low95", "mu_high95"]].abs()
+                                   .min(axis=1))
+                    hi = np.interp(np.log(mv), lsp, c.table[["mu_low95", "mu_high95"]].abs()
+                                   .max(axis=1))
+                    row["measured_in_band"] = int(np.sum((mm >= lo) & (mm <= hi)))
             if np.isfinite(lam).any():
                 ax_l.plot(lam, mm, "o", ms=4, mfc="none", color=color,
                           label=f"{c.measured_label or c.label} (measured, Λ of the model)")
@@ -153,7 +160,7 @@ def stribeck_section(curves: list[StribeckCurve]) -> Section:
     show = {"curve": ("curve", ""), "creepage": ("creepage", ".3g"), "μ min": ("mu_min", ".4f"),
             "μ max": ("mu_max", ".4f"), "boundary→mixed (m/s)": ("boundary_to_mixed_m_s", ".3g"),
             "mixed→full film (m/s)": ("mixed_to_full_film_m_s", ".3g"),
-            "RMS meas.−model": ("rms_measured_minus_model", ".4f"), "regimes": ("regimes", "")}
+            "RMS meas.−model": ("rms_measured_minus_model", ".2g"), "regimes": ("regimes", "")}
     show = {k: v for k, v in show.items() if v[0] in table.columns}
     summary = {"curves": {r["curve"]: {k: _nan_none(v) for k, v in r.items() if k != "curve"}
                           for r in rows}}
@@ -164,6 +171,9 @@ def stribeck_section(curves: list[StribeckCurve]) -> Section:
         "the load they carry), film parameter Λ = h/σ and asperity load share F_BL/F; "
         "regimes boundary / mixed / full film shaded. Measured points are placed on the Λ "
         "axis at the model's Λ for their speed."]
+    for r, c in zip(rows, curves, strict=True):
+        paragraphs.append(_stribeck_sentence(r, c))
+    summary["bands"] = {c.label: _band_entry(c.band) for c in curves if c.table is not None}
     optional = tuple(c for c in table.columns if c not in ("curve", "source", "regimes"))
     tables = [Table("stribeck_summary", table, "Per curve: range, regime transitions, "
                     "measured against model", show, allow_missing=optional)]
@@ -174,6 +184,44 @@ def stribeck_section(curves: list[StribeckCurve]) -> Section:
                             inline=False))
     return Section(key="stribeck", title="Stribeck curves", paragraphs=paragraphs, figures=figs,
                    tables=tables, summary=summary, notes=notes)
+
+
+def _band_entry(band: dict[str, Any]) -> dict[str, Any] | None:
+    keep = ("method", "confidence", "nonlinearity", "n_evaluations", "parameters", "dominant",
+            "notes")
+    return {k: band[k] for k in keep if k in band} if band else None
+
+
+def _band_words(band: dict[str, Any], output: str = "mu") -> str:
+    """The band's method and the parameters dominating it, in words."""
+    m = band.get("method", "") if band else ""
+    if m in ("linear", "sampling"):
+        dom = (band.get("dominant") or {}).get(output) or []
+        d = ", ".join(f"{x['parameter']} {100 * x['share']:.0f} %" for x in dom)
+        return (f"95 % band by {m} propagation of {', '.join(band.get('parameters', []))}"
+                + (f", dominated by {d}" if d else ""))
+    if m == "none":
+        return "no band (the fitted parameters have zero variance)"
+    why = "; ".join(n for n in (band or {}).get("notes", []) if n.startswith("no band"))
+    return why or "no band (no fit covariance: the parameters are taken as exact)"
+
+
+def _stribeck_sentence(r: dict[str, Any], c: StribeckCurve) -> str:
+    if c.table is None:
+        return f"{c.label}: measured only."
+    out = f"{c.label}: modelled μ {r['mu_min']:.4f}–{r['mu_max']:.4f}"
+    if "mu_low95" in c.table:
+        lo = c.table[["mu_low95", "mu_high95"]].abs().min(axis=1)
+        hi = c.table[["mu_low95", "mu_high95"]].abs().max(axis=1)
+        out += f" (band {float(lo.min()):.4f}–{float(hi.max()):.4f})"
+    out += f"; {_band_words(c.band)}"
+    if r.get("rms_measured_minus_model") is not None and "n_measured" in r:
+        out += (f". Measured: {r['n_measured']} points, RMS measured − model "
+                f"{r['rms_measured_minus_model']:.2g}")
+        if "measured_in_band" in r:
+            out += (f", {r['measured_in_band']} of them inside the model's band (the band holds "
+                    "the parameters' uncertainty only, not the measurement's scatter)")
+    return out + "."
 
 
 def film_section(measured: list[tuple[str, Any]], models: list[tuple[str, Any]],
@@ -220,15 +268,67 @@ def film_section(measured: list[tuple[str, Any]], models: list[tuple[str, Any]],
     table = pd.DataFrame(rows)
     summary = {"fits": {r["curve"]: {k: _nan_none(v) if isinstance(v, float) else v
                                      for k, v in r.items() if k != "curve"} for r in rows}}
+    paragraphs = [
+        "Central film thickness against rolling speed: measured (optical interferometry), "
+        "modelled hc (Eq. 5.31 iso-viscous or 5.32 Hamrock–Dowson) and the fitted power law."]
+    ratios = {}
+    for (label, d), (mlabel, t) in zip(measured, models, strict=False):
+        rr = film_ratio(d, t)
+        if rr is None:
+            continue
+        ratios[label] = rr
+        paragraphs.append(
+            f"{label}: measured / modelled film ({mlabel}) {rr['ratio']:.3g}, 95 % interval "
+            f"[{rr['ratio_low95']:.3g}, {rr['ratio_high95']:.3g}] (geometric mean over "
+            f"{rr['n_points']} speeds from {rr['min_speed_m_s']:.3g} m/s, where the film is at "
+            f"least {FILM_RATIO_MIN_NM:g} nm; Student t on the log ratios).")
+    if ratios:
+        summary["measured_to_model"] = ratios
+    for label, fr in fits:
+        for w in fr.warnings:
+            paragraphs.append(f"{label}: {w}.")
     tables = []
     if len(table):
         tables.append(Table("film_fits", table, "Fitted film-thickness power law h = C U^n",
                             allow_missing=tuple(c for c in table.columns if c != "curve")))
-    return Section(key="film", title="Film thickness", paragraphs=[
-        "Central film thickness against rolling speed: measured (optical interferometry), "
-        "modelled hc (Eq. 5.31 iso-viscous or 5.32 Hamrock–Dowson) and the fitted power law."],
-        figures=[Figure("film", fig, "Film thickness against rolling speed (log–log)")],
-        tables=tables, summary=summary)
+    return Section(key="film", title="Film thickness", paragraphs=paragraphs,
+                   figures=[Figure("film", fig, "Film thickness against rolling speed (log–log)")],
+                   tables=tables, summary=summary)
+
+
+#: films thinner than this (nm) are left out of the measured/model ratio: an
+#: interferometer's nanometre of scatter would dominate them
+FILM_RATIO_MIN_NM = 2.0
+
+
+def film_ratio(measured: Any, model: Any) -> dict[str, Any] | None:
+    """Measured over modelled film thickness: geometric mean and its 95 % interval.
+
+    The model's ``film_thickness_m`` is interpolated (log-log) to the measured
+    speeds; points below :data:`FILM_RATIO_MIN_NM` or outside the modelled
+    speed range are left out.  The interval is Student t on the log ratios
+    (``n - 1`` degrees of freedom).  None with fewer than three points.
+    """
+    from scipy.stats import t as student
+
+    v = measured["rolling_speed_m_s"].to_numpy(dtype=float)
+    h = measured["film_thickness_m"].to_numpy(dtype=float)
+    mv = model["speed_m_s"].to_numpy(dtype=float)
+    mh = model["film_thickness_m"].to_numpy(dtype=float)
+    ok_m = (mv > 0) & (mh > 0)
+    if ok_m.sum() < 2:
+        return None
+    lv, lh = np.log(mv[ok_m]), np.log(mh[ok_m])
+    ok = (v > 0) & (h > FILM_RATIO_MIN_NM * 1e-9) & (v >= mv[ok_m].min()) & (v <= mv[ok_m].max())
+    if ok.sum() < 3:
+        return None
+    lr = np.log(h[ok]) - np.interp(np.log(v[ok]), lv, lh)
+    n = int(lr.size)
+    m, se = float(lr.mean()), float(lr.std(ddof=1) / math.sqrt(n))
+    tq = float(student.ppf(0.975, n - 1))
+    return {"ratio": math.exp(m), "ratio_low95": math.exp(m - tq * se),
+            "ratio_high95": math.exp(m + tq * se), "n_points": n,
+            "min_speed_m_s": float(v[ok].min())}
 
 
 def _safe(s: str) -> str:

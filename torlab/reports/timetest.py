@@ -24,7 +24,8 @@ __all__ = ["time_test_section"]
 
 
 def time_test_section(reductions: list[tuple[str, Any]], cfg: Any,
-                      model: dict[str, Any] | None = None) -> Section:
+                      model: dict[str, Any] | None = None,
+                      evidence: dict[tuple[str, int], dict[str, Any]] | None = None) -> Section:
     """The time-test report.
 
     Parameters
@@ -36,6 +37,11 @@ def time_test_section(reductions: list[tuple[str, Any]], cfg: Any,
     model
         Initial-drop model: ``{"mu": {label: mu}, "creepage": {label: xi},
         "scene": name, "params": [...]}`` or None.
+    evidence
+        ``(label, step)`` -> intervals and verdict probabilities of the figures
+        (:func:`torlab.reduce.time_test_uncertainty.time_test_uncertainty`);
+        the verdicts "recovered" and "in band" are then called only at the
+        protocol's ``probability``.
     """
     import pandas as pd
 
@@ -45,8 +51,11 @@ def time_test_section(reductions: list[tuple[str, Any]], cfg: Any,
     rows = []
     figs: list[Figure] = []
     band = tuple(cfg.band)
+    evidence = evidence or {}
+    prob = getattr(cfg, "probability", 0.9)
     for label, red in reductions:
         for t in red.time_tests:
+            ev = evidence.get((label, t.step), {})
             row = {"composition": label, "file": red.label, "step": t.step,
                    "application_time_s": t.application_time_s,
                    "application_source": t.application_source,
@@ -60,8 +69,19 @@ def time_test_section(reductions: list[tuple[str, Any]], cfg: Any,
                    "in_band": "" if not t.recovered else
                    ("yes" if band[0] <= t.mean_after_recovery <= band[1] else "no"),
                    "notes": "; ".join(t.notes)}
+            for k in ("mean_after_recovery_se", "mean_after_recovery_low95",
+                      "mean_after_recovery_high95", "p_in_band", "minimum_low95",
+                      "minimum_high95", "recovery_time_low95", "recovery_time_high95",
+                      "time_below_threshold_low95", "time_below_threshold_high95",
+                      "p_recovered"):
+                row[k] = ev.get(k, float("nan"))
+            if ev:
+                row["in_band_verdict"] = ev.get("in_band_verdict", "") if t.recovered else ""
+                row["recovered_verdict"] = ev.get("recovered_verdict", "")
             if model is not None:
                 row["model_initial_mu"] = model["mu"].get(label, float("nan"))
+                row["model_initial_mu_low95"] = model.get("mu_low95", {}).get(label, float("nan"))
+                row["model_initial_mu_high95"] = model.get("mu_high95", {}).get(label, float("nan"))
                 row["model_creepage"] = model["creepage"].get(label, float("nan"))
             rows.append(row)
         if red.time_tests:
@@ -83,6 +103,22 @@ def time_test_section(reductions: list[tuple[str, Any]], cfg: Any,
             "sd": ("sd_after_recovery", ".4f"),
             f"time μ<{rows[0]['threshold']:g} (s)": ("time_below_threshold_s", ".0f"),
             "in band": ("in_band", "")}
+    if evidence:
+        show = {"composition": ("composition", ""),
+                "application (s)": ("application_time_s", ".0f"),
+                "minimum": ("minimum", ".4f"), "min 95 %": ("minimum_low95", ".4f"),
+                "min 95 % high": ("minimum_high95", ".4f"),
+                "recovery (s)": ("recovery_time_s", ".0f"),
+                "rec. 95 % low": ("recovery_time_low95", ".0f"),
+                "rec. 95 % high": ("recovery_time_high95", ".0f"),
+                "P(recovered)": ("p_recovered", ".3f"),
+                "mean after recovery": ("mean_after_recovery", ".4f"),
+                "mean 95 % low": ("mean_after_recovery_low95", ".4f"),
+                "mean 95 % high": ("mean_after_recovery_high95", ".4f"),
+                f"time μ<{rows[0]['threshold']:g} (s)": ("time_below_threshold_s", ".0f"),
+                "time 95 % low": ("time_below_threshold_low95", ".0f"),
+                "time 95 % high": ("time_below_threshold_high95", ".0f"),
+                "P(in band)": ("p_in_band", ".3f"), "in band": ("in_band_verdict", "")}
     if model is not None:
         show["model μ (initial drop)"] = ("model_initial_mu", ".4f")
     paragraphs = [
@@ -92,6 +128,18 @@ def time_test_section(reductions: list[tuple[str, Any]], cfg: Any,
         "recovery (the figure Paper B reports) and the time below the low-adhesion threshold.",
         f"Optimal band {band[0]:g}–{band[1]:g}.",
     ]
+    if evidence:
+        ev0 = next(iter(evidence.values()))
+        paragraphs.append(
+            "Evidence: every figure comes with a 95 % interval and every verdict with its "
+            f"probability; a verdict is called at a probability of at least {prob:g}, else "
+            "'undetermined'. The mean after recovery's interval is Student t on its "
+            "autocorrelation-robust standard error (batch means); the other intervals and "
+            f"P(recovered) come from a block bootstrap ({ev0.get('replicates', 0)} replicates) "
+            "of the record's scatter about its running median. They hold "
+            f"{ev0.get('basis', 'the record own noise')}: repeated tests measure that.")
+        for r in rows:
+            paragraphs.append(_evidence_sentence(r, band, prob))
     if model is not None:
         paragraphs.append(
             f"Initial drop: coefficient of the lubricated contact modelled on scene "
@@ -107,8 +155,16 @@ def time_test_section(reductions: list[tuple[str, Any]], cfg: Any,
             c: (None if isinstance(r[c], float) and not math.isfinite(r[c]) else r[c])
             for c in ("application_time_s", "minimum", "recovered", "recovery_time_s",
                       "mean_after_recovery", "sd_after_recovery", "plateau",
-                      "time_below_threshold_s", "in_band", "model_initial_mu")
+                      "time_below_threshold_s", "in_band", "model_initial_mu",
+                      "model_initial_mu_low95", "model_initial_mu_high95",
+                      "mean_after_recovery_se", "mean_after_recovery_low95",
+                      "mean_after_recovery_high95", "p_in_band", "in_band_verdict",
+                      "minimum_low95", "minimum_high95", "recovery_time_low95",
+                      "recovery_time_high95", "time_below_threshold_low95",
+                      "time_below_threshold_high95", "p_recovered", "recovered_verdict")
             if c in r}
+    if evidence:
+        summary["probability"] = prob
     optional = tuple(c for c in table.columns if c not in ("composition", "file", "step"))
     return Section(key="time_test", title="Time tests after application (Paper B)",
                    paragraphs=paragraphs, figures=figs,
@@ -119,6 +175,38 @@ def time_test_section(reductions: list[tuple[str, Any]], cfg: Any,
 
 def _safe(s: str) -> str:
     return "".join(c if c.isalnum() or c in "-_." else "_" for c in s)
+
+
+def _iv(r: dict[str, Any], key: str, fmt: str) -> str:
+    lo, hi = r.get(f"{key}_low95", float("nan")), r.get(f"{key}_high95", float("nan"))
+    if not (isinstance(lo, float) and math.isfinite(lo) and math.isfinite(hi)):
+        return ""
+    return f" [{lo:{fmt}}, {hi:{fmt}}]"
+
+
+def _evidence_sentence(r: dict[str, Any], band: tuple[float, float], prob: float) -> str:
+    """One composition's figures with their intervals and verdicts with probabilities."""
+    out = [f"{r['composition']}: minimum {r['minimum']:.4f}{_iv(r, 'minimum', '.4f')}"]
+    thr = r["threshold"]
+    out.append(f"time below {thr:g} {r['time_below_threshold_s']:.0f} s"
+               f"{_iv(r, 'time_below_threshold', '.0f')} s")
+    p_rec = r.get("p_recovered", float("nan"))
+    verdict = r.get("recovered_verdict", "")
+    if math.isfinite(p_rec):
+        out.append(f"{verdict or 'recovery'} (P(recovered) = {p_rec:.2f})")
+    if r["recovered"] == "yes" and math.isfinite(r["recovery_time_s"]):
+        out.append(f"time to recover {r['recovery_time_s']:.0f} s{_iv(r, 'recovery_time', '.0f')} s")
+        p_in = r.get("p_in_band", float("nan"))
+        mean = (f"mean after recovery {r['mean_after_recovery']:.4f}"
+                f"{_iv(r, 'mean_after_recovery', '.4f')}")
+        if math.isfinite(p_in):
+            v = r.get("in_band_verdict", "")
+            mean += (f", {v} {band[0]:g}–{band[1]:g} (P(in band) = {p_in:.2f})"
+                     if v != "undetermined" else
+                     f", in the band {band[0]:g}–{band[1]:g}: undetermined (P = {p_in:.2f} < "
+                     f"{prob:g} either way)")
+        out.append(mean)
+    return "; ".join(out) + "."
 
 
 def _overlay(reductions: list[tuple[str, Any]], cfg: Any, model: dict[str, Any] | None) -> Any:
@@ -170,6 +258,12 @@ def _initial_drop_comparison(rows: list[dict[str, Any]], model: dict[str, Any]) 
     ratios = [r["minimum"] / r["model_initial_mu"] for r in rows
               if math.isfinite(r.get("model_initial_mu", float("nan")))
               and r.get("model_initial_mu", 0) > 0 and math.isfinite(r["minimum"])]
+    bands = [(r["model_initial_mu_low95"], r["model_initial_mu_high95"]) for r in rows
+             if math.isfinite(r.get("model_initial_mu_low95", float("nan")))]
+    if bands:
+        out.append(f"The modelled coefficient's 95 % band from the fitted layer's and viscosity "
+                   f"law's uncertainty: {min(b[0] for b in bands):.3g}–"
+                   f"{max(b[1] for b in bands):.3g} over the tests.")
     if ratios:
         lo, hi = min(ratios), max(ratios)
         if lo > 2.0 or hi < 0.5:

@@ -46,6 +46,14 @@ class TractionCurve:
     group
         Curves of one group (a modelled curve and the measured points at its
         speed) share a colour.
+    band
+        The prediction's band summary (``summary["band"]`` of
+        :func:`~torlab.model.predict.predict_traction`: method, dominant
+        parameters, notes); empty for measured curves.
+    choices
+        Model-selection choices of the fits behind a modelled curve (a
+        coefficient fixed to 0 is exact in the prediction): the verdict is
+        conditional on them, and the report says so.
     """
 
     label: str
@@ -57,6 +65,8 @@ class TractionCurve:
     boundary: dict[str, float] = field(default_factory=dict)
     modelled: list[str] = field(default_factory=list)
     group: str = ""
+    band: dict[str, Any] = field(default_factory=dict)
+    choices: list[str] = field(default_factory=list)
 
 
 def _f(v: Any) -> Any:
@@ -78,25 +88,40 @@ def traction_section(curves: list[TractionCurve], cfg: Any) -> Section:
     import pandas as pd
 
     fig = _figure(curves, cfg)
+    threshold = getattr(cfg, "trend_probability", 0.9)
     rows, long = [], []
     for c in curves:
         t = c.trend
         mu = np.abs(c.table["mu"].to_numpy(dtype=float))
         xi = c.table["creepage"].to_numpy(dtype=float)
         i = int(np.argmax(mu))
+        probs = t.get("probabilities") or {}
+        lo, hi = _mu_band(c.table, i)
         rows.append({"curve": c.label, "kind": c.kind, "source": c.source,
                      "speed_m_s": c.speed_m_s if c.speed_m_s is not None else float("nan"),
-                     "mu_max": float(mu[i]), "creepage_at_mu_max": float(xi[i]),
+                     "mu_max": float(mu[i]), "mu_max_low95": lo, "mu_max_high95": hi,
+                     "creepage_at_mu_max": float(xi[i]),
                      "mu_at_max_creepage": float(mu[int(np.argmax(np.abs(xi)))]),
-                     "trend": t["trend"],
+                     "trend": t["trend"], "trend_point": t.get("trend_point", t["trend"]),
+                     "p_negative": _nanf(probs.get("negative")),
+                     "p_neutral": _nanf(probs.get("neutral")),
+                     "p_positive": _nanf(probs.get("positive")),
+                     "trend_probability_threshold": t.get("probability_threshold", threshold),
+                     "trend_basis": t.get("basis", ""),
                      "points_in_trend": int(np.sum(np.abs(xi) >= t["trend_from_creepage"]))
                      if t.get("trend_from_creepage") is not None else 0,
                      "saturation_creepage": _nanf(t.get("saturation_creepage")),
                      "relative_change": _nanf(t.get("relative_change")),
+                     "relative_change_low95": _nanf(t.get("relative_change_low95")),
+                     "relative_change_high95": _nanf(t.get("relative_change_high95")),
+                     "band_method": c.band.get("method", "") if c.kind == "model" else "",
+                     "band_dominated_by": _dominant_text(c.band) if c.kind == "model" else "",
                      "mu_c1": c.boundary.get("mu_c1", float("nan")),
                      "mu_c2": c.boundary.get("mu_c2", float("nan")),
                      "L_mue_m": c.boundary.get("L_mue", float("nan")),
-                     "L_mup_m": c.boundary.get("L_mup", float("nan"))})
+                     "L_mup_m": c.boundary.get("L_mup", float("nan")),
+                     "mu_c1_T_per_K": c.boundary.get("mu_c1_T", float("nan")),
+                     "mu_c2_T_per_K": c.boundary.get("mu_c2_T", float("nan"))})
         d = c.table.copy()
         d.insert(0, "curve", c.label)
         d.insert(1, "kind", c.kind)
@@ -106,11 +131,13 @@ def traction_section(curves: list[TractionCurve], cfg: Any) -> Section:
     curves_df = curves_df[[c for c in curves_df.columns if curves_df[c].dtype == object
                            or curves_df[c].notna().any()]]
     show = {"curve": ("curve", ""), "kind": ("kind", ""), "speed (m/s)": ("speed_m_s", ".3g"),
-            "μ max": ("mu_max", ".4f"), "at creepage": ("creepage_at_mu_max", ".4g"),
-            "trend after saturation": ("trend", ""), "saturated at": ("saturation_creepage", ".3g"),
-            "relative change": ("relative_change", "+.3f"),
-            "points": ("points_in_trend", "d"), "μ_c1": ("mu_c1", ".4g"),
-            "μ_c2": ("mu_c2", ".4g")}
+            "μ max": ("mu_max", ".4f"), "95 % low": ("mu_max_low95", ".4f"),
+            "95 % high": ("mu_max_high95", ".4f"), "at creepage": ("creepage_at_mu_max", ".4g"),
+            "trend after saturation": ("trend", ""),
+            "P(negative)": ("p_negative", ".3f"), "P(neutral)": ("p_neutral", ".3f"),
+            "P(positive)": ("p_positive", ".3f"),
+            "relative change": ("relative_change", "+.4f"),
+            "points": ("points_in_trend", "d"), "band dominated by": ("band_dominated_by", "")}
     paragraphs = [
         "Traction coefficient against creepage (= SRR as a fraction): modelled curves "
         "(Hertz + FASTSIM with the third-body layer; film and asperity load sharing for "
@@ -121,14 +148,24 @@ def traction_section(curves: list[TractionCurve], cfg: Any) -> Section:
         "'points' is how many points that line rests on: with fewer than three in the second "
         "half (sparse measured curves) the line spans the whole range after saturation and "
         "the knee of the curve can tilt it.",
+        f"Evidence: a modelled curve whose parameters come from fits carries their "
+        f"uncertainty (the fits' covariances propagated through the model: the 95 % band "
+        f"columns mu_low95/mu_high95 in curves.csv); a measured curve, the scatter of its "
+        f"points about the trend line. Each class gets its probability, and a class is called "
+        f"only when its probability is at least {threshold:g}; otherwise the trend is "
+        f"'undetermined' and the probabilities say how it leans.",
     ]
-    for r in rows:
-        paragraphs.append(f"{r['curve']} ({r['kind']}): max μ {r['mu_max']:.4f}, trend "
-                          f"{r['trend']}.")
+    for r, c in zip(rows, curves, strict=True):
+        paragraphs.append(_curve_sentence(r, c))
     notes = sorted({m for c in curves for m in c.modelled if "not modelled" in m})
-    summary = {"trend_tolerance": cfg.trend_tolerance,
-               "curves": {r["curve"]: {k: _f(v) for k, v in r.items() if k != "curve"}
-                          for r in rows}}
+    notes += [f"traction {c.label}: {n}" for c in curves for n in c.band.get("notes", [])
+              if n.startswith("no band") or "taken as exact" in n]
+    summary = {"trend_tolerance": cfg.trend_tolerance, "trend_probability": threshold,
+               "curves": {r["curve"]: {**{k: _f(v) for k, v in r.items() if k != "curve"},
+                                       "probabilities": c.trend.get("probabilities"),
+                                       "band": _band_summary(c.band),
+                                       "model_selection": list(c.choices)}
+                          for r, c in zip(rows, curves, strict=True)}}
     optional = tuple(c for c in table.columns
                      if c not in ("curve", "kind", "source", "trend", "points_in_trend"))
     return Section(
@@ -146,6 +183,86 @@ def traction_section(curves: list[TractionCurve], cfg: Any) -> Section:
 
 def _nanf(v: Any) -> float:
     return float(v) if v is not None else float("nan")
+
+
+def _mu_band(table: Any, i: int) -> tuple[float, float]:
+    """The 95 % band of |mu| at row ``i`` (NaN without a band)."""
+    if "mu_low95" not in table or "mu_high95" not in table:
+        return float("nan"), float("nan")
+    lo = float(table["mu_low95"].iloc[i])
+    hi = float(table["mu_high95"].iloc[i])
+    if float(table["mu"].iloc[i]) < 0:  # |mu| of a negative creepage: the band flips
+        lo, hi = -hi, -lo
+    return lo, hi
+
+
+def _dominant_text(band: dict[str, Any], output: str = "mu") -> str:
+    """``"mu_c2 62 %, L_mup 30 %"``: the parameters that dominate a band."""
+    dom = (band.get("dominant") or {}).get(output) or []
+    return ", ".join(f"{d['parameter']} {100 * d['share']:.0f} %" for d in dom)
+
+
+def _band_summary(band: dict[str, Any]) -> dict[str, Any] | None:
+    """The band entry of a curve for ``summary.json`` (method, check, dominant, notes)."""
+    if not band:
+        return None
+    keep = ("method", "confidence", "nonlinearity", "n_evaluations", "parameters", "dominant",
+            "notes")
+    return {k: band[k] for k in keep if k in band}
+
+
+def _pct(v: float) -> str:
+    return f"{100 * v:+.2f} %"
+
+
+def _curve_sentence(r: dict[str, Any], c: TractionCurve) -> str:
+    """One curve's verdict with its evidence, in words."""
+    mu = f"max μ {r['mu_max']:.4f}"
+    if math.isfinite(r["mu_max_low95"]):
+        mu += f" [{r['mu_max_low95']:.4f}, {r['mu_max_high95']:.4f}]"
+    t = c.trend
+    probs = t.get("probabilities")
+    trend = t["trend"]
+    if probs:
+        pr = ", ".join(f"{k} {v:.2f}" for k, v in probs.items())
+        iv = ""
+        if t.get("relative_change_low95") is not None and t.get("relative_change") is not None:
+            iv = (f"; relative change {_pct(t['relative_change'])}, 95 % interval "
+                  f"[{_pct(t['relative_change_low95'])}, {_pct(t['relative_change_high95'])}]")
+        if trend == "undetermined":
+            verdict = (f"trend after saturation undetermined: no class reaches probability "
+                       f"{t['probability_threshold']:g} ({pr}{iv})")
+        else:
+            verdict = (f"trend after saturation {trend} with probability {probs[trend]:.2f} "
+                       f"({pr}{iv})")
+        verdict += f"; probabilities from {t.get('basis', 'the uncertainty')}"
+    elif trend in ("negative", "neutral", "positive"):
+        why = t.get("basis") or "no uncertainty given"
+        verdict = (f"trend after saturation {trend} for the curve itself, without a "
+                   f"probability ({why})")
+        if r["kind"] == "model":
+            verdict += ": its parameters carry no covariance"
+        if r["relative_change"] == r["relative_change"]:
+            verdict += f"; relative change {_pct(r['relative_change'])}"
+    else:
+        verdict = f"trend after saturation: {trend}"
+    out = f"{r['curve']} ({r['kind']}): {mu}; {verdict}."
+    if c.kind == "model" and c.band:
+        m = c.band.get("method", "")
+        if m in ("linear", "sampling"):
+            dom = _dominant_text(c.band)
+            out += (f" Band: {m} propagation of {', '.join(c.band.get('parameters', []))}"
+                    + (f"; dominated by {dom}." if dom else "."))
+        elif m == "none":
+            out += " Band: none (the fitted parameters have zero variance)."
+        else:
+            why = "; ".join(n for n in c.band.get("notes", []) if n.startswith("no band"))
+            out += f" No band ({why or 'no fit covariance'})."
+    fixed = [ch for ch in c.choices if "fixed" in ch]
+    if fixed:
+        out += (" Conditional on the fits' model selection (fixed values are exact in the "
+                "prediction): " + "; ".join(fixed) + ".")
+    return out
 
 
 def _figure(curves: list[TractionCurve], cfg: Any) -> Any:

@@ -33,11 +33,15 @@ from torlab.model.layer import LayerParams, hpt_tau
 from torlab.reduce.hpt import annulus_area, effective_radius
 
 __all__ = [
+    "PAPER_B_PRODUCTS",
+    "PAPER_C_RUNS",
     "PRODUCTS",
+    "WET_RUNS",
     "HptNoise",
     "HptRig",
     "HptRunSpec",
     "ProductLaw",
+    "paper_b_design",
     "paper_c_design",
     "rig_compliance_u",
     "simulate_hpt",
@@ -116,21 +120,43 @@ class ProductLaw:
         return amount * 1e-9 * (self.density_kg_m3 or 1000.0) * 1e6  # uL -> m^3 -> kg -> mg
 
 
-#: the product laws of the virtual experiment (documented in docs/sample-data.md)
+#: the product laws of the virtual Paper C experiment (documented in docs/sample-data.md).
+#: The temperature coefficients encode the thesis's finding (chapter 6, H4.1): the dry
+#: contact's friction falls with temperature (-0.0025/-0.0035 1/K), the products suppress
+#: that (a seventh of it or less, never an increase), so that every product's modelled
+#: wheel-rail traction curve is neutral after saturation.
 PRODUCTS: dict[str, ProductLaw] = {
     "OFM1": ProductLaw("OFM1", "oil-based TOR lubricant (ester, organic thickener, NLGI 0)", "uL",
                        930.0, 0.30, 0.06, 6.0, 2.5, 0.62, 8e-6, 18e-6, -0.0004, -0.0003),
     "OFM2": ProductLaw("OFM2", "oil-based TOR lubricant (ester, inorganic thickener, NLGI 00)", "uL",
-                       950.0, 0.28, 0.05, 6.0, 2.0, 0.60, 10e-6, 22e-6, -0.0004, -0.0002),
+                       950.0, 0.28, 0.05, 6.0, 2.0, 0.60, 10e-6, 22e-6, -0.0005, -0.0005),
     "WFM-dry": ProductLaw("WFM", "water-based friction modifier", "uL", 1100.0, 0.33, 0.05, 6.5,
-                          2.5, 0.55, 7e-6, 25e-6, -0.0003, -0.0002, condition="dry"),
+                          2.5, 0.55, 7e-6, 25e-6, -0.0005, -0.0005, condition="dry"),
     "WFM-wet": ProductLaw("WFM", "water-based friction modifier", "uL", 1100.0, 0.30, 0.24, 8.0,
-                          1.5, 0.58, 9e-6, 25e-6, -0.0003, -0.0002, condition="wet"),
+                          1.5, 0.58, 9e-6, 25e-6, -0.0005, -0.0005, condition="wet"),
     "SFM": ProductLaw("SFM", "solid stick friction modifier, crushed to ~50 um powder", "mg", None,
-                      0.32, 0.06, 6.0, 3.0, 0.65, 6e-6, 30e-6, -0.0002, 0.0001),
+                      0.32, 0.06, 6.0, 3.0, 0.65, 6e-6, 30e-6, -0.0005, -0.0005),
     "dry": ProductLaw("dry", "no product (dry reference after run-in)", "", None, 0.50, 0.50, 1.0,
                       1.0, 0.62, 5e-6, 40e-6, -0.0025, -0.0035),
 }
+
+#: the HPT tests of Paper B (thesis 5.3.2): the custom TOR lubricant (ester oil with
+#: bentonite thickener and Al2O3 friction-modifier particles) and the commercial TOR A, 8 uL,
+#: to 0.1 mm.  The custom composition reaches the optimal band, the commercial one stays
+#: low (chapter 6: "the commercial product causes a low coefficient of adhesion in the
+#: boundary regime. This was not true for custom-made substances").
+PAPER_B_PRODUCTS: dict[str, ProductLaw] = {
+    "custom": ProductLaw("custom", "custom TOR lubricant (synthetic ester oil, bentonite "
+                         "thickener, Al2O3 particles)", "uL", 950.0, 0.20, 0.20, 1.0, 1.0, 0.60,
+                         8e-6, 15e-6, -0.0005, -0.0005),
+    "TOR-A": ProductLaw("TOR-A", "commercial TOR lubricant A (biodegradable, hydrophobic)", "uL",
+                        930.0, 0.10, 0.10, 1.0, 1.0, 0.60, 8e-6, 15e-6, -0.0005, -0.0005),
+}
+
+
+def _law(key: str) -> ProductLaw:
+    """A product law of either campaign by its key."""
+    return PRODUCTS[key] if key in PRODUCTS else PAPER_B_PRODUCTS[key]
 
 
 @dataclass
@@ -152,39 +178,83 @@ class HptRunSpec:
     extra: dict[str, Any] = field(default_factory=dict)
 
 
+#: runs per test temperature (degC) at the temperature amount in the Paper C design: up to
+#: the flash temperatures the wheel-rail prediction of Tab. 5.4 reaches (about 190 degC at
+#: 5 % creepage), so the exponential temperature law is not extrapolated far; more runs at
+#: the ends of the range, where they determine a slope best, and some in between to show
+#: the law is straight in ln mu
+PAPER_C_RUNS: dict[float, int] = {25.0: 4, 65.0: 2, 105.0: 2, 145.0: 2, 185.0: 4}
+#: the water-based FM tested wet cannot be heated beyond about 85 degC (its water boils)
+WET_RUNS: dict[float, int] = {25.0: 4, 40.0: 2, 55.0: 2, 70.0: 2, 85.0: 4}
+
+
 def paper_c_design(seed: int = 2022, amounts: Iterable[float] = (1, 2, 4, 8, 16),
-                   temperatures: Iterable[float] = (50.0, 80.0), scatter: float = 0.03) -> list[HptRunSpec]:
+                   runs: dict[float, int] | None = None, scatter: float = 0.03,
+                   wet_runs: dict[float, int] | None = None,
+                   temperature_amount: float = 4) -> list[HptRunSpec]:
     """The run list of the virtual Paper C campaign.
 
-    Per product law, one run per amount at 25 degC to 400 um; at 4 uL (4 mg)
-    one run per raised temperature to 200 um; a dry reference at each
-    temperature.  Run-to-run scatter multiplies ``mu_c2`` (and ``mu_c1``) by
-    ``1 + scatter * N(0, 1)``.
+    Per product law, one run per amount at 25 degC to 400 um; at
+    ``temperature_amount`` (4 uL or 4 mg) as many runs per temperature as
+    ``runs`` says (:data:`PAPER_C_RUNS`; at 25 degC the amount series' run is
+    the first), raised-temperature runs to 200 um; the dry reference likewise.
+    The wet FM follows ``wet_runs`` (:data:`WET_RUNS`).  Repeats are named
+    ``..._run2``, ``..._run3`` ...  Run-to-run scatter multiplies ``mu_c2`` (and
+    ``mu_c1``) by ``1 + scatter * N(0, 1)``.
+
+    With 14 runs over 25-185 degC a temperature coefficient has a standard
+    error of about ``scatter / 240 K`` (0.00013 1/K at 3 %): enough to tell the
+    products' coefficients (-0.0003 ... -0.0005 1/K) from 0 and from the dry
+    contact's, and to call the wheel-rail trend after saturation (docs/sample-data.md).
     """
+    runs = dict(PAPER_C_RUNS if runs is None else runs)
+    wet_runs = dict(WET_RUNS if wet_runs is None else wet_runs)
     rng = np.random.default_rng(seed)
     specs: list[HptRunSpec] = []
     for key, law in PRODUCTS.items():
         amts: list[float | None] = [None] if key == "dry" else list(amounts)
+        plan = wet_runs if law.condition == "wet" else runs
+        temps = [25.0, *sorted(t for t in plan if t != 25.0)]
         for amt in amts:
-            for T in (25.0, *temperatures):
-                if T != 25.0 and amt not in (None, 4):
+            for T in temps:
+                if T != 25.0 and amt not in (None, temperature_amount):
                     continue
-                mass = 0.0 if amt is None else law.mass_mg(amt)
-                m2 = law.mu_c2(mass) * (1 + scatter * rng.standard_normal())
-                m1 = law.c1_ratio * m2 * (1 + 0.5 * scatter * rng.standard_normal())
-                p = LayerParams(mu_c1=round(m1, 5), mu_c2=round(m2, 5),
-                                L_mue=law.L_mue * (1 + 0.1 * rng.standard_normal()),
-                                L_mup=law.L_mup * (1 + 0.1 * rng.standard_normal()),
-                                mu_c1_T=law.mu_c1_T, mu_c2_T=law.mu_c2_T)
-                p = replace(p, L_mue=round(p.L_mue, 9), L_mup=round(p.L_mup, 9))
-                label = law.name + (f"-{law.condition}" if law.condition else "")
-                amt_s = "" if amt is None else f"_{amt:g}{law.amount_unit}"
-                name = f"hpt_{label}{amt_s}_{T:g}C"
-                specs.append(HptRunSpec(
-                    name=name, law=key, amount=amt, temperature_C=T, params=p,
-                    u_max=400e-6 if T == 25.0 else 200e-6,
-                    seed=int(rng.integers(0, 2**31 - 1))))
+                n = plan.get(T, 1) if amt in (None, temperature_amount) else 1
+                for k in range(1, n + 1):
+                    specs.append(_run_spec(law, key, amt, T, k, scatter, rng))
     return specs
+
+
+def _run_spec(law: ProductLaw, key: str, amt: float | None, T: float, k: int, scatter: float,
+              rng: np.random.Generator, u_max: float | None = None) -> HptRunSpec:
+    """One run drawn around its product law (run ``k`` of a condition)."""
+    mass = 0.0 if amt is None else law.mass_mg(amt)
+    m2 = law.mu_c2(mass) * (1 + scatter * rng.standard_normal())
+    m1 = law.c1_ratio * m2 * (1 + 0.5 * scatter * rng.standard_normal())
+    p = LayerParams(mu_c1=round(m1, 5), mu_c2=round(m2, 5),
+                    L_mue=law.L_mue * (1 + 0.1 * rng.standard_normal()),
+                    L_mup=law.L_mup * (1 + 0.1 * rng.standard_normal()),
+                    mu_c1_T=law.mu_c1_T, mu_c2_T=law.mu_c2_T)
+    p = replace(p, L_mue=round(p.L_mue, 9), L_mup=round(p.L_mup, 9))
+    label = law.name + (f"-{law.condition}" if law.condition else "")
+    amt_s = "" if amt is None else f"_{amt:g}{law.amount_unit}"
+    name = f"hpt_{label}{amt_s}_{T:g}C" + (f"_run{k}" if k > 1 else "")
+    return HptRunSpec(name=name, law=key, amount=amt, temperature_C=T, params=p,
+                      u_max=u_max if u_max is not None else 400e-6 if T == 25.0 else 200e-6,
+                      seed=int(rng.integers(0, 2**31 - 1)))
+
+
+def paper_b_design(seed: int = 2023, amount: float = 8, repeats: int = 2,
+                   scatter: float = 0.03) -> list[HptRunSpec]:
+    """The HPT runs of the virtual Paper B campaign (thesis 5.3.2).
+
+    The custom TOR lubricant and the commercial TOR A (:data:`PAPER_B_PRODUCTS`),
+    ``amount`` uL each (8 uL "to ensure surface coverage"), 750 MPa, 1 um/s, to a
+    maximum shear displacement of 0.1 mm, 25 degC, ``repeats`` runs each.
+    """
+    rng = np.random.default_rng(seed)
+    return [_run_spec(law, key, amount, 25.0, k, scatter, rng, u_max=100e-6)
+            for key, law in PAPER_B_PRODUCTS.items() for k in range(1, repeats + 1)]
 
 
 def simulate_hpt(spec: HptRunSpec, rig: HptRig = HptRig(), noise: HptNoise = HptNoise()) -> dict[str, np.ndarray]:
@@ -249,7 +319,7 @@ def simulate_hpt(spec: HptRunSpec, rig: HptRig = HptRig(), noise: HptNoise = Hpt
 def write_hpt_log(spec: HptRunSpec, channels: dict[str, np.ndarray], rig: HptRig = HptRig(),
                   notes: str = "") -> str:
     """The ``torlab-hpt`` text of a simulated run."""
-    law = PRODUCTS[spec.law]
+    law = _law(spec.law)
     head = [
         "# torlab-hpt 1",
         f"# product: {law.name}",
@@ -303,16 +373,22 @@ def compliance_curve_text(rig: HptRig = HptRig(), seed: int = 7) -> str:
 
 
 def write_hpt_sample_data(out: Any, seed: int = 2022, specs: list[HptRunSpec] | None = None,
-                          rig: HptRig = HptRig(), noise: HptNoise = HptNoise()) -> list[str]:
+                          rig: HptRig = HptRig(), noise: HptNoise = HptNoise(),
+                          campaign: str = "paper_c") -> list[str]:
     """Write the virtual campaign into an :class:`~torlab.outputs.OutputDir`.
 
-    Returns the names of the log files.  ``truth.yaml`` holds every
-    generating parameter; ``rig_compliance.csv`` the rig's compliance curve.
+    ``campaign``: ``"paper_c"`` (:func:`paper_c_design`) or ``"paper_b"``
+    (:func:`paper_b_design`), unless ``specs`` are given.  Returns the names of
+    the log files.  ``truth.yaml`` holds every generating parameter;
+    ``rig_compliance.csv`` the rig's compliance curve.
     """
     from torlab import __version__
     from torlab.yamlio import dump_yaml
 
-    specs = paper_c_design(seed) if specs is None else specs
+    if campaign not in ("paper_c", "paper_b"):
+        raise ValueError(f"unknown campaign {campaign!r} (paper_c, paper_b)")
+    if specs is None:
+        specs = paper_c_design(seed) if campaign == "paper_c" else paper_b_design(seed)
     names = []
     truth_runs = []
     for spec in specs:
@@ -320,7 +396,7 @@ def write_hpt_sample_data(out: Any, seed: int = 2022, specs: list[HptRunSpec] | 
         fname = f"{spec.name}.txt"
         out.write_text(fname, write_hpt_log(spec, ch, rig))
         names.append(fname)
-        law = PRODUCTS[spec.law]
+        law = _law(spec.law)
         tau_end = float(ch["tau_true_Pa"][np.argmax(ch["u_layer_true_m"])])
         truth_runs.append({
             "file": fname,
@@ -338,18 +414,21 @@ def write_hpt_sample_data(out: Any, seed: int = 2022, specs: list[HptRunSpec] | 
         })
     out.write_text("rig_compliance.csv", compliance_curve_text(rig, seed + 1))
     truth = {
-        "description": "SYNTHETIC HPT campaign following Paper C (thesis 5.3.3); generated by "
+        "description": f"SYNTHETIC HPT campaign following Paper {campaign[-1].upper()} (thesis "
+                       f"{'5.3.3' if campaign == 'paper_c' else '5.3.2'}); generated by "
                        "'torlab synth hpt'. boundary: are the layer parameters each run was drawn "
                        "with (reference temperature 25 degC).",
         "torlab_version": __version__,
         "seed": seed,
+        "campaign": campaign,
         "rig": asdict(rig),
         "noise": asdict(noise),
-        "products": {k: asdict(v) for k, v in PRODUCTS.items()},
+        "products": {k: asdict(v) for k, v in (PRODUCTS if campaign == "paper_c"
+                                               else PAPER_B_PRODUCTS).items()},
         "runs": truth_runs,
     }
     out.write_text("truth.yaml", dump_yaml(truth))
-    out.write_text("README.md", _README)
+    out.write_text("README.md", _README if campaign == "paper_c" else _README_B)
     return names
 
 
@@ -360,10 +439,26 @@ virtual experiment, see `torlab/synth/hpt.py` and `docs/sample-data.md`), not me
 
 - `hpt_*.txt`: raw logs in the `torlab-hpt` format (`docs/formats/hpt.md`), following the
   Paper C design: OFM1, OFM2 (oil-based TOR lubricants), WFM (water-based FM, wet and dry),
-  SFM (solid stick powder) at 1-16 uL (mg), 750 MPa, 1 um/s, to 400 um; runs at 50 and
-  80 degC to 200 um; a dry reference.
+  SFM (solid stick powder) at 1-16 uL (mg), 750 MPa, 1 um/s, to 400 um, 25 degC; at 4 uL
+  (4 mg) four runs at 25 degC, two at each of 65, 105 and 145 degC and four at 185 degC to
+  200 um (the wet FM at 40, 55, 70 and 85 degC); the dry reference likewise.
 - `rig_compliance.csv`: the virtual rig's own displacement against shear stress.
 - `truth.yaml`: every generating parameter (layer parameters per run, noise, rig).
 
 Regenerate with `torlab synth hpt -o sample_data/hpt --seed 2022 --force`.
+"""
+
+
+_README_B = """# Synthetic HPT sample data of Paper B
+
+**These files are synthetic.** They were generated by `torlab synth hpt --campaign paper_b`
+(a seeded virtual experiment, see `torlab/synth/hpt.py` and `docs/sample-data.md`), not measured.
+
+- `hpt_*.txt`: raw logs in the `torlab-hpt` format (`docs/formats/hpt.md`), following the
+  Paper B design (thesis 5.3.2): the custom TOR lubricant (ester oil, bentonite, Al2O3) and
+  the commercial TOR A, 8 uL each, 750 MPa, 1 um/s, to 0.1 mm, 25 degC, two runs each.
+- `rig_compliance.csv`: the virtual rig's own displacement against shear stress.
+- `truth.yaml`: every generating parameter (layer parameters per run, noise, rig).
+
+Regenerate with `torlab synth hpt --campaign paper_b -o sample_data/hpt_paper_b --seed 2023 --force`.
 """

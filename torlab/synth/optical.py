@@ -35,11 +35,13 @@ from typing import IO, Any
 import numpy as np
 
 __all__ = [
+    "PAPER_A_LAYER",
     "OpticalCondition",
     "OpticalRig",
     "OpticalTest",
     "demo_truth",
     "hertz_load",
+    "model_truth",
     "paper_a_conditions",
     "simulate_optical_log",
     "write_optical_log",
@@ -169,6 +171,105 @@ def demo_truth(test: OpticalTest) -> tuple[MuFn, HFn | None, str]:
     desc = (f"mu = ({0.02 - low:g} + 0.08/(1 + (U/0.3 m/s)^1.5)) tanh(SRR/0.01); "
             "h = 40 nm (U/1 m/s)^0.67")
     return mu_wet, h, desc
+
+
+#: the third-body layer of the virtual Paper A campaign (steel ball on glass, dry): a low
+#: saturated coefficient, as the thesis reports for the steel-glass pair (chapter 6), reached
+#: at about 2 % creepage on the 0.24 mm contact (sub-micrometre layer lengths)
+PAPER_A_LAYER = {"mu_c1": 0.20, "mu_c2": 0.26, "L_mue": 0.5e-6, "L_mup": 1.5e-6}
+
+
+def model_truth(test: OpticalTest, scene: Any, *, speeds: Any = None,
+                creepages: Any = None) -> tuple[MuFn, HFn | None, str]:
+    """The truth of a Tab. 5.2 test from torlab's own model on ``scene`` (Paper A sample data).
+
+    The coefficient is the model's (:func:`torlab.model.mixed.predict_stribeck`
+    for a lubricated scene: film, asperity load sharing and FASTSIM, Eq. 5.47;
+    FASTSIM alone for a dry one), tabulated on a grid of rolling speed (log) and
+    creepage and interpolated bilinearly (odd in creepage), so the rig's servo
+    transitions see a smooth truth.  The film thickness is the model's central
+    film (``film_thickness_m`` at zero creepage: Eq. 5.31 for the iso-viscous
+    water with the asperities' share of the load), interpolated log-log.
+
+    Parameters
+    ----------
+    test
+        The test (its conditions set the grid's range).
+    scene
+        A validated :class:`~torlab.scene.Scene` (the contact of the test, with
+        the truth layer and, for a lubricated test, the lubricant and roughness).
+    speeds, creepages
+        Grid nodes (default: 40 log-spaced speeds spanning the test's with 30 %
+        margin, 121 creepages from 0 to 20 % beyond the largest |SRR|, half of
+        them below 3 %; the set speeds and |SRR| of the conditions are nodes
+        too, so the truth at a set condition is the model's exactly).
+
+    Returns
+    -------
+    mu_fn, h_fn, description
+    """
+    from torlab.model.mixed import predict_stribeck
+    from torlab.model.predict import predict_traction
+
+    u = np.array([c.rolling_speed_m_s for c in test.conditions], dtype=float)
+    smax = max(0.01, float(np.max(np.abs([c.srr for c in test.conditions]))))
+    if creepages is None:
+        knee = min(0.03, 0.5 * smax)
+        xs = np.unique(np.round(np.concatenate((
+            np.linspace(0.0, knee, 61), np.linspace(knee, 1.2 * smax, 61),
+            np.abs([c.srr for c in test.conditions]))), 12))
+    else:
+        xs = np.asarray(creepages, float)
+    if scene.lubricant is None:
+        mu_s = np.abs(predict_traction(scene, xs, band=False).table["mu"].to_numpy(dtype=float))
+
+        def mu_dry(U: np.ndarray, srr: np.ndarray) -> np.ndarray:
+            srr = np.asarray(srr, dtype=float)
+            return np.sign(srr) * np.interp(np.abs(srr), xs, mu_s) + 0.0 * np.asarray(U)
+
+        return mu_dry, None, (f"torlab model on '{scene.name}': FASTSIM with the layer "
+                              f"{_layer_text(scene)} (dry)")
+    us = np.unique(np.concatenate((np.geomspace(0.7 * u.min(), 1.3 * u.max(), 40), u))) \
+        if speeds is None else np.asarray(speeds, float)
+    grid = np.empty((us.size, xs.size))
+    for j, x in enumerate(xs):
+        grid[:, j] = np.abs(predict_stribeck(scene, us, float(x), band=False)
+                            .table["mu"].to_numpy(dtype=float))
+    film = predict_stribeck(scene, us, 0.0, band=False).table["film_thickness_m"].to_numpy(float)
+    lu, lh = np.log(us), np.log(np.maximum(film, 1e-15))
+
+    def mu_wet(U: np.ndarray, srr: np.ndarray) -> np.ndarray:
+        U = np.clip(np.abs(np.asarray(U, dtype=float)), us[0], us[-1])
+        srr = np.asarray(srr, dtype=float)
+        a = np.clip(np.abs(srr), xs[0], xs[-1])
+        fu = np.interp(np.log(U), lu, np.arange(us.size))
+        fx = np.interp(a, xs, np.arange(xs.size))
+        i = np.clip(np.floor(fu).astype(int), 0, us.size - 2)
+        k = np.clip(np.floor(fx).astype(int), 0, xs.size - 2)
+        wu, wx = fu - i, fx - k
+        v = ((1 - wu) * (1 - wx) * grid[i, k] + wu * (1 - wx) * grid[i + 1, k]
+             + (1 - wu) * wx * grid[i, k + 1] + wu * wx * grid[i + 1, k + 1])
+        return np.sign(srr) * v
+
+    def h(U: np.ndarray) -> np.ndarray:
+        U = np.abs(np.asarray(U, dtype=float))
+        lv = np.log(np.maximum(U, 1e-9))
+        # beyond the grid: the power law of its end intervals
+        out = np.interp(lv, lu, lh)
+        lo, hi = lv < lu[0], lv > lu[-1]
+        out[lo] = lh[0] + (lv[lo] - lu[0]) * (lh[1] - lh[0]) / (lu[1] - lu[0])
+        out[hi] = lh[-1] + (lv[hi] - lu[-1]) * (lh[-1] - lh[-2]) / (lu[-1] - lu[-2])
+        return np.exp(out)
+
+    return mu_wet, h, (f"torlab model on '{scene.name}': mixed lubrication (Eq. 5.47) with the "
+                       f"layer {_layer_text(scene)}, {scene.roughness.model} asperities; film "
+                       "from the model (Eq. 5.31)")
+
+
+def _layer_text(scene: Any) -> str:
+    b = scene.boundary
+    return (f"mu_c1 {b.mu_c1:g}, mu_c2 {b.mu_c2:g}, L_mue {b.L_mue * 1e6:g} um, "
+            f"L_mup {b.L_mup * 1e6:g} um")
 
 
 def _quantise(x: np.ndarray, q: float) -> np.ndarray:
