@@ -381,6 +381,27 @@ def test_temperature_with_spin_lowers_traction_and_converges():
     assert np.all(rh.temperature_iterations >= 2)
 
 
+def test_points_in_one_call_equal_the_points_alone():
+    """Each point leaves the temperature loop when it has converged, and points with and
+    without spin are solved on their own strips: a curve or a table gives each point what
+    it gives alone (before, every point iterated until the slowest had converged, and a
+    point without spin took the spin strips of the others)."""
+    hot = problem(1.12, LayerParams(0.3, 0.45, 10e-6, 20e-6, -0.002, -0.003),
+                  thermal=ThermalParams(), speed=20.0)
+    xi = np.array([1e-4, 2e-3, 5e-3, 0.01, 0.03, 5e-3, 2e-3, 0.02])
+    eta = np.array([0.0, 0.0, 1e-3, 0.0, -2e-3, 0.0, 0.0, 0.0])
+    phi = np.array([0.0, 3.0, 0.0, 0.0, 2.0, -5.0, 0.0, 0.0])
+    batch = creep_forces(hot, xi, eta, phi)
+    assert batch.temperature_loop == "iterated"
+    for i in range(xi.size):
+        one = creep_forces(hot, xi[i], eta[i], phi[i])
+        for k in ("Fx", "Fy", "Mz", "max_temperature_C", "adhesion_fraction"):
+            assert getattr(batch, k)[i] == pytest.approx(float(getattr(one, k)), rel=1e-12,
+                                                         abs=1e-9), (i, k)
+        assert batch.temperature_iterations[i] == one.temperature_iterations
+    assert len(set(batch.temperature_iterations.tolist())) > 1  # different counts per point
+
+
 def test_thermal_runaway_raises_named_error():
     prob = problem(1.12, LayerParams(0.3, 0.45, 10e-6, 20e-6, 0.5, 0.5), thermal=ThermalParams(),
                    speed=30.0)
@@ -404,7 +425,9 @@ def test_hard_cases_finite_and_bounded(layer, ab):
     mu_max = max(layer.mu_c1, layer.mu_c2)
     mag = np.hypot(r.mu_x, r.mu_y)
     assert np.all(np.isfinite(mag)) and np.all(np.isfinite(r.Mz))
-    assert np.all(mag <= mu_max * (1 + 1e-9))
+    # within the strips' quadrature of the load: the 2 x 6 Gauss strips of a point without
+    # spin (those of fastsim.py) integrate it to 8.5e-9, the spin panels to 3e-10
+    assert np.all(mag <= mu_max * (1 + 1e-8))
     assert np.all((r.adhesion_fraction >= -1e-9) & (r.adhesion_fraction <= 1 + 1e-6))
 
 
