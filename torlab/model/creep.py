@@ -136,27 +136,29 @@ class CreepGrid:
     Attributes
     ----------
     n
-        Gauss strips per half contact (``2 n`` strips) without spin.
+        Gauss strips per half contact (``2 n`` strips) without spin: the longitudinal
+        scheme's strips (a scene's ``grid: n``).
     spin_panels, spin_strips
         With spin: equal panels in ``phi`` (``y = b sin phi``) over the contact and
         Gauss strips per panel.  Spin makes the strip forces kink across the
         contact (where the stick/slip pattern of the strips changes), which
         low-order panels integrate better than one high-order rule.
     m
-        Gauss nodes per panel along a strip.
+        Gauss nodes per panel along a strip (a scene's ``grid: m``, default 4 as in the
+        longitudinal scheme).
     elastic_panels, clamp_panels, graded_panels, uniform_panels
         Panels of the elastic zone, the clamped zone, the Voce-graded start of
         the plastic zone and the rest of it.
     yield_table
         Angles per strip of the table that brackets the first yield.
     temperature_nodes
-        Nodes per strip of the temperature grid.
+        Nodes per strip of the temperature grid (a scene's ``grid: temperature_nodes``).
     """
 
     n: int = 6
     spin_panels: int = 8
     spin_strips: int = 4
-    m: int = 3
+    m: int = 4
     elastic_panels: int = 8
     clamp_panels: int = 1
     graded_panels: int = 6
@@ -331,12 +333,14 @@ def creep_problem(scene: Any, contact: Any = None) -> CreepProblem:
 def scene_grid(scene: Any) -> CreepGrid:
     """The creep-force grid of a scene's ``grid:`` section.
 
-    ``n`` (strips per half contact without spin) and ``temperature_nodes`` carry over;
-    the nodes along a strip are the creep scheme's own (:class:`CreepGrid`), whose
-    panels differ from the longitudinal scheme's.
+    The keys mean what they mean for the longitudinal scheme and carry over: ``n``
+    (Gauss strips per half contact, the strips of a point without spin), ``m`` (Gauss
+    nodes per panel along a strip) and ``temperature_nodes``.  The panel counts along a
+    strip and the strips of a point with spin are the creep scheme's own
+    (:class:`CreepGrid`): the scene contract has no keys for them.
     """
     g = scene.grid
-    return CreepGrid(n=g.n, temperature_nodes=g.temperature_nodes)
+    return CreepGrid(n=g.n, m=g.m, temperature_nodes=g.temperature_nodes)
 
 
 def predict_creep(scene: Any, creepage: Any, lateral: float = 0.0, spin: float = 0.0) -> Any:
@@ -592,9 +596,13 @@ class _Lanes:
         st = np.sin(theta) if st is None else st
         return P * (st * st if self.parabolic else st)
 
-    def dpressure(self, theta: np.ndarray) -> np.ndarray:
+    def dpressure(self, theta: np.ndarray, st: np.ndarray | None = None,
+                  ct: np.ndarray | None = None) -> np.ndarray:
         P = self.Pj[..., None] if np.ndim(theta) == 3 else self.Pj
-        return P * (2.0 * np.sin(theta) * np.cos(theta) if self.parabolic else np.cos(theta))
+        ct = np.cos(theta) if ct is None else ct
+        if not self.parabolic:
+            return P * ct
+        return P * 2.0 * (np.sin(theta) if st is None else st) * ct
 
     def slip_path(self, theta: np.ndarray, ct: np.ndarray | None = None) -> np.ndarray:
         """``S = integral_0^X |w| dX'``, the accumulated rigid slip (closed form; cos theta
@@ -665,6 +673,12 @@ class _Lanes:
         f1 = np.exp(lay.mu_c1_T * dT) if lay.mu_c1_T else 1.0
         LK = self.LK[..., None] if np.ndim(theta) == 3 else self.LK
         return self.slip_path(theta, ct) - lay.mu_c1 * f1 * (LK * p + lay.L_mue)
+
+
+def _pick(a: np.ndarray, k: np.ndarray) -> np.ndarray:
+    """``a[..., k]`` per lane: ``a`` (..., K), ``k`` (...) integer."""
+    K = a.shape[-1]
+    return a.reshape(-1, K)[np.arange(k.size), k.ravel()].reshape(k.shape)
 
 
 def _first_root(f_table: np.ndarray, grid: np.ndarray, start: np.ndarray
@@ -755,22 +769,24 @@ class _Solver:
         lo, hi, found = _first_root(f, self.tab, np.zeros((nc, ns)))
         # the stick traction at the bracket's start, then tau_el(theta) = tau_lo + integral of T
         k = np.argmax((f >= 0), axis=-1)
-        km = np.maximum(k - 1, 0)[..., None]
-        tx0 = np.where(k > 0, np.take_along_axis(tx, km, axis=-1)[..., 0], 0.0)
-        ty0 = np.where(k > 0, np.take_along_axis(ty, km, axis=-1)[..., 0], 0.0)
+        km = np.maximum(k - 1, 0)
+        tx0 = np.where(k > 0, _pick(tx, km), 0.0)
+        ty0 = np.where(k > 0, _pick(ty, km), 0.0)
         lo0 = lo.copy()
         xg, wg = _gauss(6)
         last = {}
         # start: regula falsi between the bracketing table values
-        fk = np.take_along_axis(f, k[..., None], axis=-1)[..., 0]
-        fkm = np.where(k > 0, np.take_along_axis(f, km, axis=-1)[..., 0], 0.0)
+        fk = _pick(f, k)
+        fkm = np.where(k > 0, _pick(f, km), 0.0)
         with np.errstate(invalid="ignore", divide="ignore"):
             start = np.where((k > 0) & (fk > fkm), lo + (hi - lo) * (-fkm) / (fk - fkm),
                              0.5 * (lo + hi))
 
         def fdf(th):
             h = (th - lo0)[..., None]
-            Tx, Ty = ln.T(np.concatenate([lo0[..., None] + h * xg, th[..., None]], axis=-1))
+            pts = np.concatenate([lo0[..., None] + h * xg, th[..., None]], axis=-1)
+            sp, cp = np.sin(pts), np.cos(pts)
+            Tx, Ty = ln.T(pts, sp, cp)
             txx = tx0 + np.sum(Tx[..., :-1] * wg, axis=-1) * h[..., 0]
             tyy = ty0 + np.sum(Ty[..., :-1] * wg, axis=-1) * h[..., 0]
             last["tau"] = (th, txx, tyy)
@@ -780,8 +796,8 @@ class _Solver:
             f1 = np.exp(mu1T * dT) if mu1T else 1.0
             with np.errstate(invalid="ignore", divide="ignore"):
                 dm = np.where(m > 0, (txx * Tx1 + tyy * Ty1) / np.where(m > 0, m, 1.0), 0.0)
-            return (m - lay.mu_c1 * ln.pressure(th) * f1,
-                    dm - lay.mu_c1 * ln.dpressure(th) * f1)
+            return (m - lay.mu_c1 * ln.pressure(th, sp[..., -1]) * f1,
+                    dm - lay.mu_c1 * ln.dpressure(th, sp[..., -1], cp[..., -1]) * f1)
 
         th = _newton_bracketed(fdf, lo, hi, found, start=start)
         th = np.where(found, th, math.pi)
@@ -808,9 +824,8 @@ class _Solver:
         mu1T = lay.mu_c1_T
         # start: regula falsi between kappa at the bracket's ends
         kk = np.argmax((kt >= 0) & (self.tab > th_y[..., None]), axis=-1)
-        k_hi = np.take_along_axis(kt, kk[..., None], axis=-1)[..., 0]
-        k_lo = np.where(lo <= th_y, k_y,
-                        np.take_along_axis(kt, np.maximum(kk - 1, 0)[..., None], axis=-1)[..., 0])
+        k_hi = _pick(kt, kk)
+        k_lo = np.where(lo <= th_y, k_y, _pick(kt, np.maximum(kk - 1, 0)))
         with np.errstate(invalid="ignore", divide="ignore"):
             start = np.where(k_hi > k_lo, lo + (hi - lo) * (-k_lo) / (k_hi - k_lo),
                              0.5 * (lo + hi))
@@ -818,9 +833,10 @@ class _Solver:
         def fdf(th):
             dT = 0.0 if dT_grid is None else _interp_uniform(th[..., None], dT_grid)[..., 0]
             f1 = np.exp(mu1T * dT) if mu1T else 1.0
-            k = ln.kappa(th, dT)
-            dk = (ln.rigid_slip(th) * ln.aj * np.sin(th)
-                  - lay.mu_c1 * f1 * ln.LK * ln.dpressure(th))
+            st, ct = np.sin(th), np.cos(th)
+            k = ln.kappa(th, dT, st, ct)
+            dk = (ln.rigid_slip(th, ct) * ln.aj * st
+                  - lay.mu_c1 * f1 * ln.LK * ln.dpressure(th, st, ct))
             return k, dk
 
         lo = np.minimum(lo, hi)
@@ -929,8 +945,8 @@ class _Solver:
         aj = ln.aj[..., None]
         f = np.stack(np.broadcast_arrays(Tx, Ty, ln.rigid_slip(th, ct) * aj[..., None] * st))
         fe = np.stack(np.broadcast_arrays(Tex, Tey, ln.rigid_slip(edges, ce) * aj * se))
-        allp = np.concatenate([fe[..., :-1, None], f, fe[..., 1:, None]], axis=-1)
-        within = (allp @ SmT) * hv
+        # inside each panel: the integration matrix through its start, its Gauss nodes, its end
+        within = (f @ SmT[1:-1] + fe[..., :-1, None] * SmT[0] + fe[..., 1:, None] * SmT[-1]) * hv
         total = np.cumsum((f @ w) * hv[..., 0], axis=-1)
         f0 = np.stack(np.broadcast_arrays(tx0, ty0, S0))
         start = f0[..., None] + np.concatenate([np.zeros((*f0.shape, 1)), total[..., :-1]], axis=-1)
@@ -996,28 +1012,29 @@ def _composite_gauss(panels: int, m: int) -> tuple[np.ndarray, np.ndarray]:
 _SCAN_SIZE = 4096
 
 
-def _moebius_chain(m11: np.ndarray, m12: np.ndarray, m21: np.ndarray, m22: np.ndarray,
-                   A0: np.ndarray, B0: np.ndarray, start: np.ndarray | None = None
+def _moebius_chain(m11: np.ndarray, m12: np.ndarray, m22: np.ndarray, A0: np.ndarray,
+                   B0: np.ndarray, start: np.ndarray | None = None
                    ) -> tuple[np.ndarray, np.ndarray]:
     """``(A, B)`` at nodes 0..M of ``(A, B)_(i+1) = M_i (A, B)_i`` from ``(A0, B0)`` at ``start``.
 
     ``u = A/B`` (a projective pair: only the ratio matters) is carried over step ``i`` by
-    the 2x2 matrix ``M_i`` (arrays (L, M)); ``start`` (L,) is each lane's first node
-    (default 0), before which the pair stays ``(A0, B0)``.  Small problems use a
-    Hillis-Steele prefix product (log2(M) rounds of array operations), large ones a loop
-    over the steps; each product is rescaled so nothing over- or underflows.
+    the 2x2 matrix ``M_i = [[m11, m12], [-m12, m22]]`` (arrays (L, M)); ``start`` (L,) is
+    each lane's first node (default 0), before which the pair stays ``(A0, B0)``.  Small
+    problems use a Hillis-Steele prefix product (log2(M) rounds of array operations), large
+    ones a loop over the steps; each product is rescaled so nothing over- or underflows.
     """
     L, M = m11.shape
     if start is not None:  # identity before the start: the product from node 0 is the chain
         before = np.arange(M)[None, :] < start[:, None]
         m11, m22 = np.where(before, 1.0, m11), np.where(before, 1.0, m22)
-        m12, m21 = np.where(before, 0.0, m12), np.where(before, 0.0, m21)
+        m12 = np.where(before, 0.0, m12)
+    m21 = -m12
     A = np.empty((L, M + 1))
     B = np.empty((L, M + 1))
     A[:, 0], B[:, 0] = A0, B0
     if L * M <= _SCAN_SIZE:
         p11, p12, p21, p22 = (np.array(a, dtype=float) for a in (m11, m12, m21, m22))
-        d = 1
+        d, level = 1, 0
         while d < M:  # P_j <- P_j P_(j-d): the product of the maps from node j-2d+1 to j+1
             a11, a12, a21, a22 = p11[:, d:], p12[:, d:], p21[:, d:], p22[:, d:]
             b11, b12, b21, b22 = p11[:, :-d], p12[:, :-d], p21[:, :-d], p22[:, :-d]
@@ -1025,19 +1042,19 @@ def _moebius_chain(m11: np.ndarray, m12: np.ndarray, m21: np.ndarray, m22: np.nd
             q12 = a11 * b12 + a12 * b22
             q21 = a21 * b11 + a22 * b21
             q22 = a21 * b12 + a22 * b22
-            s = np.maximum(np.maximum(np.abs(q11), np.abs(q12)),
-                           np.maximum(np.abs(q21), np.abs(q22)))
-            s = np.where(s > 0, s, 1.0)
-            p11[:, d:], p12[:, d:], p21[:, d:], p22[:, d:] = q11 / s, q12 / s, q21 / s, q22 / s
-            d *= 2
+            if level % 2:  # every other round: products of at most four rescaled ones
+                s = 1.0 / (np.abs(q11) + np.abs(q12) + np.abs(q21) + np.abs(q22) + 1e-300)
+                q11, q12, q21, q22 = q11 * s, q12 * s, q21 * s, q22 * s
+            p11[:, d:], p12[:, d:], p21[:, d:], p22[:, d:] = q11, q12, q21, q22
+            d, level = 2 * d, level + 1
         A[:, 1:] = p11 * A0[:, None] + p12 * B0[:, None]
         B[:, 1:] = p21 * A0[:, None] + p22 * B0[:, None]
         return A, B
-    s11, s12, s21, s22 = (np.ascontiguousarray(a.T) for a in (m11, m12, m21, m22))
+    s11, s12, s22 = (np.ascontiguousarray(a.T) for a in (m11, m12, m22))
     a, b = np.array(A0, dtype=float), np.array(B0, dtype=float)
     At, Bt = np.empty((M, L)), np.empty((M, L))
     for i in range(M):
-        a, b = s11[i] * a + s12[i] * b, s21[i] * a + s22[i] * b
+        a, b = s11[i] * a + s12[i] * b, s22[i] * b - s12[i] * a
         if i % 4 == 3:
             n = np.abs(a) + np.abs(b)
             n[n == 0] = 1.0
@@ -1129,8 +1146,7 @@ def _march_lanes(pts: np.ndarray, telx: np.ndarray, tely: np.ndarray, gp: np.nda
     hs = 0.5 * Sh
     hk = hs * kh
     m11, m22 = C - hk, C + hk
-    m21 = hs * dbeta
-    m12 = -m21
+    m12 = -hs * dbeta
     DTx, DTy = np.diff(telx, axis=-1), np.diff(tely, axis=-1)
     # the tests compare squares (g >= 0)
     lim2 = ((gp[:, 1:] if kalker else np.minimum(gp[:, :-1], gp[:, 1:])) * (1.0 - 1e-12)) ** 2
@@ -1143,7 +1159,7 @@ def _march_lanes(pts: np.ndarray, telx: np.ndarray, tely: np.ndarray, gp: np.nda
     m0 = mag0 > 0
     dx0 = np.where(m0, telx[:, 0] / np.where(m0, mag0, 1.0), ux[:, 0])
     dy0 = np.where(m0, tely[:, 0] / np.where(m0, mag0, 1.0), uy[:, 0])
-    A, B = _moebius_chain(m11, m12, m21, m22, *_chain_start(dx0, dy0, ux[:, 0], uy[:, 0]))
+    A, B = _moebius_chain(m11, m12, m22, *_chain_start(dx0, dy0, ux[:, 0], uy[:, 0]))
     dx, dy = _chain_direction(A, B, ux, uy)
     tx, ty = gp * dx, gp * dy
     plast = np.ones((L, M1), dtype=bool)
@@ -1176,7 +1192,7 @@ def _march_lanes(pts: np.ndarray, telx: np.ndarray, tely: np.ndarray, gp: np.nda
         # slip from node j in the direction of the trial traction there
         sxj, syj = sx[r, j], sy[r, j]
         mj = np.sqrt(sxj * sxj + syj * syj) + 1e-300
-        A, B = _moebius_chain(m11[lanes], m12[lanes], m21[lanes], m22[lanes],
+        A, B = _moebius_chain(m11[lanes], m12[lanes], m22[lanes],
                               *_chain_start(sxj / mj, syj / mj, ux[lanes, j], uy[lanes, j]),
                               start=j)
         dx, dy = _chain_direction(A, B, ux[sub], uy[sub])
