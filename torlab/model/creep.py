@@ -68,27 +68,44 @@ The numerical scheme
   Newton iteration from the regula-falsi point (bisection whenever a step leaves the
   bracket) converges to 1e-13 rad.  The end of the clamped zone (``kappa`` turning
   positive) is found the same way.
-* Panels: the elastic zone in 8 Gauss panels; the plastic zone in a clamp panel,
-  6 panels graded with the Voce length ``L_mup/|w|`` from the clamp end (as in the
-  longitudinal scheme) and 16 uniform panels, 3 nodes each.  The stick traction and
-  the slip path ``S`` at the nodes are integrated panel by panel from ``T`` (explicit),
+* Elastic zone ``[0, theta_y]``: by parts, its forces need ``T = d tau_el/d theta``
+  (explicit) at Gauss nodes only (8 panels of ``m`` nodes) and the stick traction at
+  the yield point: ``integral tau_el sin = tau_el(theta_y)(1 - cos theta_y) -
+  integral T (1 - cos)``, likewise with ``sin cos`` and ``sin^2/2`` for the moment.
+* Plastic zone: a clamp panel, 6 panels graded with the Voce length ``L_mup/|w|`` from
+  the clamp end (as in the longitudinal scheme) and 16 uniform panels, ``m`` Gauss
+  nodes each (``m = 4``, a scene's ``grid: m``).  The stick traction and the slip path
+  ``S`` at the nodes are integrated panel by panel from ``T`` and ``|w|`` (explicit),
   with each panel's integration matrix through its ends and Gauss nodes.
-* The traction is marched through the nodes of the plastic panels.  The
+* The traction along the plastic zone follows FASTSIM's rules node by node.  The
   magnitude is the explicit limit ``g``.  The direction over a step is the
   exact solution of ``d chi/d theta = -(k sin chi + beta')`` (``chi`` the angle
   between the traction and ``T``, ``k = |T|/g`` averaged over the step,
-  ``beta'`` the turning rate of ``T`` over the step), a Riccati equation solved
-  as a 2x2 linear system and applied as a Moebius map of ``exp(i psi)``: second
+  ``beta'`` the turning rate of ``T`` over the step), a Riccati equation whose
+  solution over a step is a Moebius map of ``u = tan(chi/2)``, a 2x2 matrix: second
   order, and exact in the stiff limit where the traction trails the slip direction
   by ``beta'/k``.  Stick and slip switch at the nodes (FASTSIM's test on the trial
   traction ``tau + Delta tau_el``, the increment exact).
-* Symmetries: ``(-xi, eta, phi)`` reverses ``Fx``, ``(xi, -eta, -phi)`` reverses
-  ``Fy`` and ``Mz``; each distinct triple is solved once (:func:`canonical_creepages`).
+* The march is not a loop over nodes with the stick/slip logic in it
+  (:func:`_march_lanes`): every strip is first taken to slip from its yield point to
+  the trailing edge -- its directions are products of the step matrices, a
+  log-depth prefix product for a few strips, a loop of six array operations per node
+  for many -- and the unloading test is applied at all nodes at once.  Strips where a
+  particle unloads (spin) go on from the first node that fails it: a stick segment is
+  the stick traction shifted by a constant, the next slip segment another product;
+  there are as many such rounds as stick/slip switches on a strip (two or three).
+  The result is the node-by-node march's, to round-off.
+* Points: each distinct triple up to the symmetries (``(-xi, eta, phi)`` reverses
+  ``Fx``, ``(xi, -eta, -phi)`` reverses ``Fy`` and ``Mz``; :func:`canonical_creepages`)
+  is solved once; points with spin and without are solved apart, each group on its own
+  strips, in chunks of about 1024 strips (larger arrays spend their time faulting in
+  fresh memory).  A point's numbers do not depend on the other points of the call.
 * Temperature: as in :mod:`torlab.model.fastsim` (flash temperature on 48
   uniform angles per strip, heat flux ``|tau| |w| v`` with the rigid slip
   ``w``, or zero in stick with ``slip_velocity: local``; an adaptively
-  under-relaxed fixed point to ``thermal.tolerance``, or
-  :class:`~torlab.errors.ConvergenceError`).
+  under-relaxed fixed point per point to ``thermal.tolerance``, a point leaving the
+  iteration when it has converged, or :class:`~torlab.errors.ConvergenceError`
+  naming the point).
 
 :func:`creep_forces_reference` integrates the same model without a grid (an ODE
 per strip with event location, adaptive quadrature across the strips) for tests
@@ -291,9 +308,7 @@ def kalker_weighted_flexibility(prob: CreepProblem, xi: Any, eta: Any, phi: Any)
     L3 = prob.L3 if prob.L3 is not None else prob.L1
     num = np.abs(xi) * prob.L1 + np.abs(eta) * L2 + c * np.abs(phi) * L3
     den = np.sqrt(xi * xi + eta * eta + (c * phi) ** 2)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        out = np.where(den > 0, num / np.where(den > 0, den, 1.0), prob.L1)
-    return out
+    return np.where(den > 0, num / np.where(den > 0, den, 1.0), prob.L1)
 
 
 def creep_problem(scene: Any, contact: Any = None) -> CreepProblem:
@@ -466,11 +481,6 @@ def _G(s: np.ndarray, r: np.ndarray) -> np.ndarray:
     return out
 
 
-def _q(st: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """``sin^2/(sin + r)``, the derivative of ``e(theta; r)``."""
-    return st * st / (st + r) if np.any(r) else st
-
-
 def _e(theta: np.ndarray, r: np.ndarray) -> np.ndarray:
     """``e(theta; r)`` (:func:`torlab.model.fastsim.e_strip`); ``1 - cos`` when ``r = 0``."""
     if not np.any(r):
@@ -535,6 +545,7 @@ class _Lanes:
         L3 = prob.L3 if prob.L3 is not None else L1
         self.L = (L1, L2, L3)
         zero = np.zeros_like(self.Pj)
+        self.has_layer = lay.L_mue > 0
         if lay.L_mue > 0:
             self.r = tuple(lay.L_mue / (Li * self.Pj) for Li in self.L)
         else:
@@ -578,7 +589,7 @@ class _Lanes:
         extra = (None,) * (np.ndim(theta) - 2)
         r1, r2, r3 = (r[(..., *extra)] for r in self.r)
         st = np.sin(theta) if st is None else st
-        layer = bool(np.any(self.r[0]))
+        layer = self.has_layer
         st2 = st * st if layer else None
         q1 = st2 / (st + r1) if layer else st
         q2 = q1 if (self.L[1] == self.L[0]) or not self.lateral or not layer else st2 / (st + r2)
@@ -618,22 +629,24 @@ class _Lanes:
         z1 = eta + phi * x1
         zm = eta + phi * (aj - 0.5 * X)
 
+        wx2 = wx * wx
+
         def absw(z):
-            return np.sqrt(wx * wx + z * z)
+            return np.sqrt(wx2 + z * z)
 
         simpson = X / 6.0 * (absw(z0) + 4.0 * absw(zm) + absw(z1))
-        small = np.abs(phi) * X <= 1e-4 * (wx + np.abs(zm))
-        if not self.spin or np.all(small):
+        if not self.spin:
             return simpson
+        small = np.abs(phi) * X <= 1e-4 * (wx + np.abs(zm))
+        if small.all():
+            return simpson
+        pos = wx > 0
+        wxs = np.where(pos, wx, 1.0)
 
-        def H(z):
-            R = absw(z)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                ash = np.where(wx > 0, wx * wx * np.arcsinh(z / np.where(wx > 0, wx, 1.0)), 0.0)
-            return 0.5 * (z * R + ash)
+        def H(z):  # antiderivative of sqrt(wx^2 + z^2)
+            return 0.5 * (z * absw(z) + np.where(pos, wx2 * np.arcsinh(z / wxs), 0.0))
 
-        with np.errstate(divide="ignore", invalid="ignore"):
-            closed = (H(z0) - H(z1)) / np.where(phi != 0, phi, 1.0)
+        closed = (H(z0) - H(z1)) / np.where(phi != 0, phi, 1.0)
         return np.where(small, simpson, closed)
 
     def rigid_slip(self, theta: np.ndarray, ct: np.ndarray | None = None) -> np.ndarray:
@@ -713,12 +726,11 @@ def _newton_bracketed(f_and_df, lo: np.ndarray, hi: np.ndarray, found: np.ndarra
         neg = f < 0
         lo = np.where(neg, th, lo)
         hi = np.where(neg, hi, th)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            new = th - f / df
+        new = th - f / np.where(df != 0, df, np.nan)  # NaN (no step) where df = 0
         bad = ~np.isfinite(new) | (new < lo) | (new > hi)
         new = np.where(bad, 0.5 * (lo + hi), new)
         new = np.where(found, new, hi)
-        step = np.max(np.abs(new - th), initial=0.0)
+        step = np.abs(new - th).max(initial=0.0)
         th = new
         if step <= 1e-13:
             break
@@ -778,9 +790,9 @@ class _Solver:
         # start: regula falsi between the bracketing table values
         fk = _pick(f, k)
         fkm = np.where(k > 0, _pick(f, km), 0.0)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            start = np.where((k > 0) & (fk > fkm), lo + (hi - lo) * (-fkm) / (fk - fkm),
-                             0.5 * (lo + hi))
+        ok = (k > 0) & (fk > fkm)
+        start = np.where(ok, lo + (hi - lo) * (-fkm) / np.where(ok, fk - fkm, 1.0),
+                         0.5 * (lo + hi))
 
         def fdf(th):
             h = (th - lo0)[..., None]
@@ -794,8 +806,7 @@ class _Solver:
             Tx1, Ty1 = Tx[..., -1], Ty[..., -1]
             dT = 0.0 if dT_grid is None else _interp_uniform(th[..., None], dT_grid)[..., 0]
             f1 = np.exp(mu1T * dT) if mu1T else 1.0
-            with np.errstate(invalid="ignore", divide="ignore"):
-                dm = np.where(m > 0, (txx * Tx1 + tyy * Ty1) / np.where(m > 0, m, 1.0), 0.0)
+            dm = np.where(m > 0, (txx * Tx1 + tyy * Ty1) / np.where(m > 0, m, 1.0), 0.0)
             return (m - lay.mu_c1 * ln.pressure(th, sp[..., -1]) * f1,
                     dm - lay.mu_c1 * ln.dpressure(th, sp[..., -1], cp[..., -1]) * f1)
 
@@ -815,7 +826,7 @@ class _Solver:
             return th_y  # no hardening: the clamp does not change g
         dTy = 0.0 if dT_grid is None else _interp_uniform(th_y[..., None], dT_grid)[..., 0]
         k_y = ln.kappa(th_y, dTy)
-        if np.all(k_y >= 0):
+        if (k_y >= 0).all():
             return th_y  # every strip yields past the clamp (its leading half)
         tab = np.broadcast_to(self.tab, (nc, ns, self.tab.size))
         dTt = 0.0 if dT_grid is None else _interp_uniform(tab, dT_grid)
@@ -826,9 +837,9 @@ class _Solver:
         kk = np.argmax((kt >= 0) & (self.tab > th_y[..., None]), axis=-1)
         k_hi = _pick(kt, kk)
         k_lo = np.where(lo <= th_y, k_y, _pick(kt, np.maximum(kk - 1, 0)))
-        with np.errstate(invalid="ignore", divide="ignore"):
-            start = np.where(k_hi > k_lo, lo + (hi - lo) * (-k_lo) / (k_hi - k_lo),
-                             0.5 * (lo + hi))
+        ok = k_hi > k_lo
+        start = np.where(ok, lo + (hi - lo) * (-k_lo) / np.where(ok, k_hi - k_lo, 1.0),
+                         0.5 * (lo + hi))
 
         def fdf(th):
             dT = 0.0 if dT_grid is None else _interp_uniform(th[..., None], dT_grid)[..., 0]
@@ -850,17 +861,16 @@ class _Solver:
         g, ln, lay = self.grid, self.ln, self.prob.layer
         aj = ln.aj
         w_s = ln.rigid_slip(th_s)
-        with np.errstate(divide="ignore"):
-            ell = np.where(w_s > 0, lay.L_mup / np.where(w_s > 0, w_s, 1.0), 2.0 * aj) \
-                if lay.L_mup > 0 else np.zeros_like(th_s)
+        ell = np.where(w_s > 0, lay.L_mup / np.where(w_s > 0, w_s, 1.0), 2.0 * aj) \
+            if lay.L_mup > 0 else np.zeros_like(th_s)
         Xs = aj * (1.0 - np.cos(th_s))
-        grades = 0.25 * 2.0 ** np.arange(g.graded_panels)
+        grades, uni01, cl01 = _edge_fractions(g.graded_panels, g.uniform_panels, g.clamp_panels)
         Xb = np.minimum(Xs[..., None] + ell[..., None] * grades, 2.0 * aj[..., None])
         thb = np.maximum(np.arccos(np.clip(1.0 - Xb / aj[..., None], -1.0, 1.0)), th_s[..., None])
         # uniform panels over the whole plastic zone, refined by the Voce-graded edges near its
         # start (edges beyond pi collapse into empty panels at the trailing edge)
-        uni = th_s[..., None] + (math.pi - th_s[..., None]) * np.linspace(0, 1, g.uniform_panels + 1)
-        cl = th_y[..., None] + (th_s - th_y)[..., None] * np.linspace(0, 1, g.clamp_panels + 1)
+        uni = th_s[..., None] + (math.pi - th_s[..., None]) * uni01
+        cl = th_y[..., None] + (th_s - th_y)[..., None] * cl01
         edges = np.concatenate([cl, np.sort(np.concatenate([thb, uni[..., 1:]], axis=-1), axis=-1)],
                                axis=-1)
         return edges
@@ -914,10 +924,9 @@ class _Solver:
         Mz = Mz + np.sum((xx * tau_y - y[..., None] * tau_x) * jac, axis=-1)
         stick = stick + np.sum(np.where(plastic, 0.0, ln.pressure(thp, pl["st"])) * jac, axis=-1)
         wstrip = ln.wy * prob.b * ln.cphi
-        with np.errstate(invalid="ignore", divide="ignore"):
-            rho = None if not want_rho else np.where(
-                gvals > 0, np.sqrt(tau_x * tau_x + tau_y * tau_y) / np.where(gvals > 0, gvals, 1.0),
-                1.0)
+        rho = None if not want_rho else np.where(
+            gvals > 0, np.sqrt(tau_x * tau_x + tau_y * tau_y) / np.where(gvals > 0, gvals, 1.0),
+            1.0)
         return _Solution(Fx=np.sum(wstrip * Fx, axis=-1), Fy=np.sum(wstrip * Fy, axis=-1),
                          Mz=np.sum(wstrip * Mz, axis=-1),
                          stick=np.sum(wstrip * stick, axis=-1) / prob.load, th_y=th_y,
@@ -943,12 +952,15 @@ class _Solver:
         Tx, Ty = ln.T(th, st, ct)
         Tex, Tey = ln.T(edges, se, ce)
         aj = ln.aj[..., None]
-        f = np.stack(np.broadcast_arrays(Tx, Ty, ln.rigid_slip(th, ct) * aj[..., None] * st))
-        fe = np.stack(np.broadcast_arrays(Tex, Tey, ln.rigid_slip(edges, ce) * aj * se))
+        f = np.empty((3, *th.shape))
+        f[0], f[1], f[2] = Tx, Ty, ln.rigid_slip(th, ct) * aj[..., None] * st
+        fe = np.empty((3, *edges.shape))
+        fe[0], fe[1], fe[2] = Tex, Tey, ln.rigid_slip(edges, ce) * aj * se
         # inside each panel: the integration matrix through its start, its Gauss nodes, its end
         within = (f @ SmT[1:-1] + fe[..., :-1, None] * SmT[0] + fe[..., 1:, None] * SmT[-1]) * hv
         total = np.cumsum((f @ w) * hv[..., 0], axis=-1)
-        f0 = np.stack(np.broadcast_arrays(tx0, ty0, S0))
+        f0 = np.empty((3, *tx0.shape))
+        f0[0], f0[1], f0[2] = tx0, ty0, S0
         start = f0[..., None] + np.concatenate([np.zeros((*f0.shape, 1)), total[..., :-1]], axis=-1)
         cum = (start[..., None] + within).reshape(*f.shape[:3], -1)
         shape = (*th.shape[:2], -1)
@@ -982,11 +994,10 @@ class _Solver:
             # once (a jump where kappa > 0, as in the longitudinal model)
             mag0 = np.sqrt(txy * txy + tyy * tyy)
             aT0 = np.sqrt(Tyx * Tyx + Tyy * Tyy)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                dx = np.where(mag0 > 0, txy / np.where(mag0 > 0, mag0, 1.0),
-                              np.where(aT0 > 0, Tyx / np.where(aT0 > 0, aT0, 1.0), 1.0))
-                dy = np.where(mag0 > 0, tyy / np.where(mag0 > 0, mag0, 1.0),
-                              np.where(aT0 > 0, Tyy / np.where(aT0 > 0, aT0, 1.0), 0.0))
+            dx = np.where(mag0 > 0, txy / np.where(mag0 > 0, mag0, 1.0),
+                          np.where(aT0 > 0, Tyx / np.where(aT0 > 0, aT0, 1.0), 1.0))
+            dy = np.where(mag0 > 0, tyy / np.where(mag0 > 0, mag0, 1.0),
+                          np.where(aT0 > 0, Tyy / np.where(aT0 > 0, aT0, 1.0), 0.0))
             plast = np.broadcast_to(yielded[..., None], thp.shape)
             g1 = gp[..., 1:]
             return (np.where(plast, g1 * dx[..., None], pl["tx"]),
@@ -997,6 +1008,14 @@ class _Solver:
                                      prob.restick == "kalker")
         return (tx[:, 1:].reshape(thp.shape), ty[:, 1:].reshape(thp.shape),
                 plast[:, 1:].reshape(thp.shape), gp[..., 1:])
+
+
+@cache
+def _edge_fractions(graded: int, uniform: int, clamp: int
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Voce grading factors and the unit edges of the uniform and the clamp panels."""
+    return (0.25 * 2.0 ** np.arange(graded), np.linspace(0.0, 1.0, uniform + 1),
+            np.linspace(0.0, 1.0, clamp + 1))
 
 
 @cache
