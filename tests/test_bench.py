@@ -288,3 +288,18 @@ def test_cli_benchmark_library_call_does_the_commands_work(cli, tmp_path):
     a = pd.read_csv(out / "traction.csv")
     b = pd.read_csv(lib / "traction.csv")
     pd.testing.assert_frame_equal(a, b, check_exact=False, rtol=1e-8)  # OutputDir rounds
+
+
+def test_bands_quick_rows():
+    """The band benchmark measures the plain curve, the default band and both methods in one
+    run; the default is linearised for the HPT-fitted wheel-rail scene (k + 2 = 6 model
+    evaluations: four steps and two probes), and its edges agree with the sampled reference
+    within a half-width."""
+    from torlab.bench import bands
+
+    rows = {r.variant.split(" (")[0]: r for r in bands.run(quick=True)}
+    assert set(rows) == {"plain curve", "band, automatic choice", "band, linear",
+                         "band, sampling"}
+    d = rows["band, automatic choice"]
+    assert d.default and "(linear)" in d.variant and d.extra["model_evaluations"] == 6
+    assert 0 < d.error < 1.0

@@ -18,6 +18,7 @@ reported all at once, each naming the file, line and key
 
 from __future__ import annotations
 
+import copy
 import math
 import os
 from collections.abc import Sequence
@@ -30,6 +31,8 @@ from torlab.errors import TorlabInputError, ValidationErrors
 __all__ = [
     "Boundary",
     "Contact",
+    "FitCovariance",
+    "FitProvenance",
     "Grid",
     "Kinematics",
     "Lubricant",
@@ -284,6 +287,102 @@ class Grid(_Section):
     temperature_nodes: int = Field(default=48, ge=8, le=4000)
 
 
+class FitCovariance(_Section):
+    """``fit: covariance:``: the uncertainty of a fit's parameters (written by ``torlab fit``).
+
+    Predictions draw their bands from it (:mod:`torlab.model.bands`).
+
+    Attributes
+    ----------
+    names
+        Parameter names (the scene's ``boundary:`` / ``lubricant:`` keys where
+        they have one; others are carried but not used by predictions).
+    values
+        The estimates the covariance belongs to (SI).  A scene value that
+        differs (a later file overrides it) is treated as exact.
+    matrix
+        Covariance (SI units), symmetric positive semi-definite.
+    log_scale
+        Positive parameters whose uncertainty is propagated as ``ln p``.
+    dof
+        Residual degrees of freedom of the covariance (Student t; ``.inf`` for normal).
+    not_determined
+        Parameters the fit did not determine (no finite variance): a band that
+        depends on them cannot be drawn.
+    """
+
+    names: list[str] = Field(min_length=1)
+    values: list[float]
+    matrix: list[list[float]]
+    log_scale: list[str] = Field(default_factory=list)
+    dof: float = Field(default=math.inf, gt=0)
+    not_determined: list[str] = Field(default_factory=list)
+
+    @model_validator(mode="after")
+    def _shape(self) -> FitCovariance:
+        import numpy as np
+
+        k = len(self.names)
+        if len(set(self.names)) != k:
+            raise ValueError("covariance names repeat")
+        if len(self.values) != k:
+            raise ValueError(f"{k} names but {len(self.values)} values")
+        if len(self.matrix) != k or any(len(r) != k for r in self.matrix):
+            raise ValueError(f"the covariance matrix must be {k} x {k} (one row per name)")
+        c = np.asarray(self.matrix, dtype=float)
+        if not (np.all(np.isfinite(c)) and all(math.isfinite(v) for v in self.values)):
+            raise ValueError("covariance values and matrix must be finite numbers")
+        scale = max(float(np.max(np.abs(np.diag(c)), initial=0.0)), 1e-300)
+        if not np.allclose(c, c.T, rtol=1e-6, atol=1e-9 * scale):
+            raise ValueError("the covariance matrix is not symmetric")
+        d = np.sqrt(np.clip(np.diag(c), 0.0, None))
+        if np.any(np.diag(c) < 0) or np.linalg.eigvalsh(
+                c / np.outer(np.where(d > 0, d, 1.0), np.where(d > 0, d, 1.0))).min() < -1e-6:
+            raise ValueError("the covariance matrix is not positive semi-definite")
+        bad = [n for n in self.log_scale if n not in self.names]
+        if bad:
+            raise ValueError(f"log_scale names {bad} are not in names")
+        for n in self.log_scale:
+            if not self.values[self.names.index(n)] > 0:
+                raise ValueError(f"{n} is on a log scale but its value is not positive")
+        if set(self.not_determined) & set(self.names):
+            raise ValueError("a parameter is both in names and not_determined")
+        return self
+
+
+class FitProvenance(BaseModel):
+    """``fit:``: provenance written by ``torlab fit`` (free-form) with a validated ``covariance:``.
+
+    Reads like the dict it used to be (``scene.fit["kind"]``).  When several
+    parameter files each bring a covariance, :func:`load_scene` keeps them all
+    (a list, one independent block per file, later files first in precedence).
+    """
+
+    model_config = ConfigDict(extra="allow", frozen=True)
+
+    #: one block per parameter file (a single mapping in a file is read as one block)
+    covariance: Annotated[list[FitCovariance] | None, BeforeValidator(
+        lambda v: [v] if isinstance(v, dict) else v)] = None
+
+    @property
+    def covariances(self) -> list[FitCovariance]:
+        """The covariance blocks, in file order (empty without any)."""
+        return list(self.covariance or [])
+
+    def _as_dict(self) -> dict[str, Any]:
+        return self.model_dump(exclude_none=True)
+
+    def __getitem__(self, key: str) -> Any:
+        return self._as_dict()[key]
+
+    def __contains__(self, key: object) -> bool:
+        return key in self._as_dict()
+
+    def get(self, key: str, default: Any = None) -> Any:
+        """Like ``dict.get``."""
+        return self._as_dict().get(key, default)
+
+
 class Scene(_Section):
     """A whole scene (``docs/model/scene-contract.md``)."""
 
@@ -297,7 +396,7 @@ class Scene(_Section):
     lubricant: Lubricant | None = None
     roughness: Roughness | None = None
     grid: Grid = Grid()
-    fit: dict[str, Any] | None = Field(default=None, description="provenance written by torlab fit")
+    fit: FitProvenance | None = Field(default=None, description="provenance written by torlab fit")
 
     @model_validator(mode="after")
     def _needs(self) -> Scene:
@@ -473,6 +572,7 @@ def load_scene(*paths: str | os.PathLike[str] | Sequence[str]) -> Scene:
         raise TorlabInputError("no scene file given")
     merged: dict = {}
     origin: dict[tuple, tuple[str | None, int | None]] = {}
+    covariances: list[Any] = []  # one per parameter file: independent fits, all kept
     for p in paths:
         doc = load_yaml(p)
         if doc.data is None:
@@ -483,5 +583,11 @@ def load_scene(*paths: str | os.PathLike[str] | Sequence[str]) -> Scene:
         file_origin = {k: (doc.path, ln) for k, ln in doc.lines.lines.items() if k}
         if not origin:
             origin[()] = (doc.path, 1)
+        fit = doc.data.get("fit")
+        if isinstance(fit, dict) and fit.get("covariance") is not None:
+            c = copy.deepcopy(fit["covariance"])  # merging later files changes it in place
+            covariances.extend(c if isinstance(c, list) else [c])
         _merge(merged, doc.data, origin, file_origin)
+    if len(covariances) > 1:
+        merged["fit"]["covariance"] = covariances
     return scene_from_dict(merged, origin=origin, path=os.fspath(paths[0]))

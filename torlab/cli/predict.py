@@ -33,6 +33,31 @@ def _print_modelled(modelled: list[str], notes: list[str]) -> None:
         c.print(f"[yellow]note:[/yellow] {n}")
 
 
+def _print_band(summary: dict) -> None:
+    """The band's method and the parameters that dominate it (or why there is none)."""
+    b = summary.get("band")
+    if not b:
+        return
+    c = console()
+    if b["method"] == "not computed":
+        for n in b["notes"]:
+            c.print(f"[yellow]band:[/yellow] {n}")
+        return
+    nl = b.get("nonlinearity")
+    how = {"linear": "linearised", "sampling": f"sampled ({b.get('n_samples')} draws)",
+           "none": "no parameter uncertainty: the band is the curve"}.get(b["method"], b["method"])
+    c.print(f"95 % band from the fit's covariance: {how}"
+            + (f", nonlinearity {nl:.2g} (limit {b['nonlinearity_tolerance']:g})"
+               if nl is not None else "") + f", {b['n_evaluations']} model evaluations")
+    for out, dom in b.get("dominant", {}).items():
+        if dom:
+            c.print(f"  {out}: dominated by " + ", ".join(
+                f"{d['parameter']} ({100 * d['share']:.0f} %)" for d in dom))
+    for n in b["notes"]:
+        if not n.startswith(("linearised", "sampled")):
+            c.print(f"[yellow]band:[/yellow] {n}")
+
+
 @app.command("traction")
 def traction_cmd(
     scene: ScenesArg,
@@ -53,6 +78,10 @@ def traction_cmd(
     (mu against creepage with the layer's limits mu_c1, mu_c2) and summary.json
     (what was modelled, the trend after saturation, thesis H4.1).  With --lateral or
     --spin (dry scenes): lateral, spin_1_m, Fx_N, Fy_N, Mz_Nm, mu_x, mu_y too (mu = mu_x).
+    When a parameter file from 'torlab fit' carries its covariance, the fit's uncertainty
+    is propagated: mu_low95/mu_high95 (and the film thickness and temperature bands) in
+    the CSV, the band in the figure, the method and the dominant parameters in
+    summary.json, and the trend with the probability of each class.
     """
     from torlab.cli._common import parse_values
     from torlab.model.predict import predict_traction
@@ -73,7 +102,8 @@ def traction_cmd(
             pred = predict_creep(sc, xi, eta, phi)
         else:
             pred = predict_traction(sc, xi)
-        dest.write_csv("traction.csv", pred.table)
+        dest.write_csv("traction.csv", pred.table,
+                       allow_missing=("max_temperature_low95_C", "max_temperature_high95_C"))
         summary = dict(pred.summary, creepage_range=[float(xi.min()), float(xi.max())],
                        n_points=int(xi.size))
         dest.write_json("summary.json", summary)
@@ -82,20 +112,31 @@ def traction_cmd(
                                   title=f"Traction: {sc.name or files[0].stem}")
             dest.save_figure(f"traction.{ext}", fig)
     _print_modelled(pred.modelled, pred.summary.get("notes", []))
+    _print_band(pred.summary)
     t = pred.trend
     c = console()
     mu = pred.table["mu"].abs()
-    c.print(f"max |mu| = {mu.max():.4f} at creepage {pred.table['creepage'][mu.idxmax()]:.4g}")
+    i = mu.idxmax()
+    band = ""
+    if "mu_low95" in pred.table:
+        band = (f" (95 % band {abs(pred.table['mu_low95'][i]):.4f}–"
+                f"{abs(pred.table['mu_high95'][i]):.4f})")
+    c.print(f"max |mu| = {mu.max():.4f}{band} at creepage {pred.table['creepage'][i]:.4g}")
     if t["trend"] == "not saturated":
         c.print("trend after saturation: not saturated (the curve does not level off in this range)")
     elif t.get("trend_from_creepage") is None:  # e.g. 'too few points' after saturation
         c.print(f"trend after saturation (H4.1): {t['trend']} (saturated at creepage "
                 f"{t['saturation_creepage']:.4g}; give more creepages beyond it to read a trend)")
     else:
+        probs = t.get("probabilities")
+        ev = ""
+        if probs:
+            ev = ("; probabilities " + ", ".join(f"{k} {v:.2f}" for k, v in probs.items())
+                  + f" (a class is called at >= {t['probability_threshold']:g})")
         c.print(f"trend after saturation (H4.1): [bold]{t['trend']}[/bold] (saturated at "
                 f"creepage {t['saturation_creepage']:.4g}; from {t['trend_from_creepage']:.4g} "
                 f"to the end mu changes {100 * t['relative_change']:+.2f} %, neutral within "
-                f"±{100 * t['tolerance']:g} %)")
+                f"±{100 * t['tolerance']:g} %{ev})")
     c.print(f"wrote traction.csv, traction.png, traction.svg, summary.json to {out}")
 
 
@@ -116,7 +157,9 @@ def stribeck_cmd(
 
     Writes stribeck.csv (speed_m_s, mu, film_thickness_m, lambda, load_share_asperity,
     mu_ehl, mu_boundary, separation_m, regime), stribeck.png/.svg (mu, Lambda and the
-    asperity load share against speed, regimes shaded) and summary.json.
+    asperity load share against speed, regimes shaded) and summary.json.  With a
+    parameter file that carries its fit covariance: the 95 % bands of mu and the film
+    thickness (mu_low95, mu_high95, film_thickness_low95_m ...) in the CSV and figure.
     """
     import numpy as np
 
@@ -145,13 +188,15 @@ def stribeck_cmd(
     with dest:
         pred = predict_stribeck(sc, v, float(xi[0]))
         dest.write_csv("stribeck.csv", pred.table,
-                       allow_missing=("lambda", "mu_ehl", "mu_boundary", "max_temperature_C"))
+                       allow_missing=("lambda", "mu_ehl", "mu_boundary", "max_temperature_C",
+                                      "max_temperature_low95_C", "max_temperature_high95_C"))
         dest.write_json("summary.json", pred.summary)
         for ext in ("png", "svg"):
             fig = stribeck_figure(pred.table, title=f"Stribeck: {sc.name or files[0].stem}",
                                   creepage=pred.creepage)
             dest.save_figure(f"stribeck.{ext}", fig)
     _print_modelled(pred.modelled, pred.summary.get("notes", []))
+    _print_band(pred.summary)
     s = pred.summary
     console().print(f"mu from {s['mu_min']:.4g} to {s['mu_max']:.4g}; regimes: "
                     + ", ".join(f"{k} ({n} speeds)" for k, n in s["regimes"].items()))

@@ -12,7 +12,14 @@
   reference ``alpha_1``, so ``ln alpha`` is a mean with a Student-t interval.
 
 Intervals are Student-t with ``n - 2`` (exponent) and ``n - 1`` (alpha) degrees
-of freedom from the scatter about the fitted line.
+of freedom from the scatter about the fitted line; the prefactor and ``alpha``
+are positive and get log-scale intervals.  A scatter proportional to ``h`` is
+constant in ``ln h``; one of constant size (the interferometer's nanometres)
+grows as ``1/h`` there and dominates the slow, thin films.  A variance function
+estimated from the residuals (constant plus proportional, maximum likelihood)
+weights the points when a likelihood-ratio test prefers it to constant
+scatter in ``ln h`` (:func:`torlab.fit._noise.linear_least_squares`; one
+degree of freedom less).
 """
 
 from __future__ import annotations
@@ -23,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from torlab.errors import TorlabInputError
+from torlab.fit._noise import linear_least_squares
 from torlab.fit.result import FitResult, student_t
 from torlab.threads import small_problem
 
@@ -85,66 +93,86 @@ def fit_film_thickness(speed_m_s: Any, h_m: Any, *, scene: Any = None,
     if np.ptp(y) < 1e-9:
         raise TorlabInputError("film fit: the film thickness is constant: no speed dependence to fit")
     X = np.column_stack((np.ones_like(x), x))
-    coef, *_ = np.linalg.lstsq(X, y, rcond=None)
-    r = y - X @ coef
+    # noise of constant size in h (nm of the interferometer) is 1/h in ln h
+    lf = linear_least_squares(X, y, lambda lnh: np.exp(-lnh))
+    coef, cov, r = lf.coef, lf.cov, lf.residuals
     n = v.size
-    dof = n - 2
-    s2 = float(r @ r) / dof
-    cov = s2 * np.linalg.inv(X.T @ X)
+    dof = lf.dof
     lnC, nexp = float(coef[0]), float(coef[1])
-    se_n, se_lnC = math.sqrt(cov[1, 1]), math.sqrt(cov[0, 0])
+    se_n = math.sqrt(cov[1, 1])
     tq = student_t(dof)
     names: list[str] = ["speed_exponent", "film_prefactor"]
     params = {"speed_exponent": nexp, "film_prefactor": math.exp(lnC)}
-    stderr = {"speed_exponent": se_n, "film_prefactor": math.exp(lnC) * se_lnC}
-    ci = {"speed_exponent": (nexp - tq * se_n, nexp + tq * se_n),
-          "film_prefactor": (math.exp(lnC - tq * se_lnC), math.exp(lnC + tq * se_lnC))}
-    k = 2
-    corr = np.array([[1.0, cov[0, 1] / math.sqrt(cov[0, 0] * cov[1, 1])],
-                     [cov[0, 1] / math.sqrt(cov[0, 0] * cov[1, 1]), 1.0]])
-    corr = corr[::-1, ::-1]  # order: exponent, prefactor
+    # covariance in the order (exponent, ln C), then natural units for the prefactor
+    cov_t = cov[::-1, ::-1]
     warnings: list[str] = []
-    meta: dict[str, Any] = {"method": "least squares of ln h on ln v (Hamrock-Dowson form, Eq. 5.32)",
+    meta: dict[str, Any] = {"method": "least squares of ln h on ln v (Hamrock-Dowson form, Eq. 5.32)"
+                            + ("" if lf.variance is None else
+                               "; weighted by a variance function estimated from the residuals"),
                             "min_speed_m_s": min_speed, "speed_range_m_s": [float(v.min()),
-                                                                            float(v.max())]}
-    if not (ci["speed_exponent"][0] <= HD_SPEED_EXPONENT <= ci["speed_exponent"][1]):
+                                                                            float(v.max())],
+                            "noise_model": ("constant in ln h (film scatter proportional to h)"
+                                            if lf.variance is None else
+                                            lf.variance.describe() + " (signal: 1/h)")}
+    ci_n = (nexp - tq * se_n, nexp + tq * se_n)
+    if not (ci_n[0] <= HD_SPEED_EXPONENT <= ci_n[1]):
         warnings.append(f"speed exponent {nexp:.3f} differs from Hamrock-Dowson's 0.67 beyond its "
                         "95 % interval: the effective alpha then depends on the speed range")
     h_model = np.exp(X @ coef)
     data = pd.DataFrame({"speed_m_s": v, "film_thickness_measured_m": h,
                          "film_thickness_model_m": h_model, "residual_m": h - h_model,
                          "residual_ln": r})
+    values_t = [nexp, lnC]
     if scene is not None:
-        a_val, a_se_ln, a_dof, d_ln = _effective_alpha(scene, v, h)
+        a_val, a_se_ln, a_dof, d_ln = _effective_alpha(scene, v, h, lf.weights)
         names.append("alpha")
-        tqa = student_t(a_dof)
         params["alpha"] = a_val
-        stderr["alpha"] = a_val * a_se_ln
-        ci["alpha"] = (a_val * math.exp(-tqa * a_se_ln), a_val * math.exp(tqa * a_se_ln))
-        corr = np.pad(corr, ((0, 1), (0, 1)))
-        corr[2, :2] = np.nan
-        corr[:2, 2] = np.nan
-        corr[2, 2] = 1.0
+        # ln alpha = const + mean(d)/0.53 and (n, ln C) are all linear in ln h: under the
+        # line's noise model (Var ln h_i = s^2 w_i) cov(coef, mean d) = s^2 A W 1 / n; the
+        # correlations of that representation scale alpha's own variance
+        wv = lf.weights
+        cross = lf.s2 * (lf.A @ wv)[::-1] / n  # (exponent, ln C)
+        var_mean = lf.s2 * float(np.sum(wv)) / n**2
+        c3 = np.zeros((3, 3))
+        c3[:2, :2] = cov_t
+        c3[2, 2] = a_se_ln**2
+        for i in range(2):
+            den = math.sqrt(cov_t[i, i] * var_mean)
+            corr = float(np.clip(cross[i] / den, -1.0, 1.0)) if den > 0 else 0.0
+            c3[i, 2] = c3[2, i] = corr * math.sqrt(cov_t[i, i]) * a_se_ln
+        cov_t = c3
+        values_t.append(math.log(a_val))
         data["film_thickness_hamrock_dowson_m"] = h * np.exp(-(d_ln - HD_G_EXPONENT
                                                                * math.log(a_val / _ALPHA_REF)))
         meta["lubricant_extra"] = {}
         meta["eta0_Pa_s"] = float(scene.lubricant.eta0)
         meta["alpha_note"] = ("effective alpha: the Hamrock-Dowson G that reproduces the measured "
                               "films with the scene's eta0 (at the test temperature)")
-        k = 3
-    res = FitResult(kind="film", names=tuple(names), params=params, stderr=stderr, ci95=ci,
-                    correlation=corr[:k, :k], residual_norm=float(np.sqrt(np.mean((h - h_model) ** 2))),
-                    n_points=int(n), warnings=warnings, data=data, meta=meta, residual_unit="m",
-                    n_evaluations=1, dof=dof, x_column="speed_m_s",
-                    y_column="film_thickness_measured_m")
+        meta["interval_dof"] = {"speed_exponent": dof, "film_prefactor": dof, "alpha": a_dof}
+    jac = np.exp(values_t)
+    jac[0] = 1.0  # the exponent is on its own scale
+    cov_nat = cov_t * np.outer(jac, jac)
+    pdof = [dof, dof] + ([a_dof] if scene is not None else [])
+    res = FitResult.from_covariance(
+        "film", tuple(names), np.array([params[k] for k in names]), cov_nat, dof=dof,
+        param_dof=pdof, log_scale=("film_prefactor", "alpha"),
+        residual_norm=float(np.sqrt(np.mean((h - h_model) ** 2))), n_points=int(n),
+        warnings=warnings, data=data, meta=meta, residual_unit="m", n_evaluations=1,
+        x_column="speed_m_s", y_column="film_thickness_measured_m")
     return res
 
 
 _ALPHA_REF = 10e-9
 
 
-def _effective_alpha(scene: Any, v: np.ndarray, h: np.ndarray) -> tuple[float, float, int, np.ndarray]:
-    """``alpha`` (1/Pa), the standard error of ``ln alpha``, dof, and the log ratios."""
+def _effective_alpha(scene: Any, v: np.ndarray, h: np.ndarray, weights: np.ndarray | None = None
+                     ) -> tuple[float, float, int, np.ndarray]:
+    """``alpha`` (1/Pa), the standard error of ``ln alpha``, dof, and the log ratios.
+
+    ``weights`` are the relative variances of ``ln h`` (the film line's variance
+    function): the variance of the mean log ratio is ``s^2 sum(w) / n^2`` with
+    ``s^2`` estimated from the scatter about the mean with those weights.
+    """
     from torlab.model.contact import build_contact
     from torlab.model.ehl import hc_piezo
 
@@ -159,8 +187,11 @@ def _effective_alpha(scene: Any, v: np.ndarray, h: np.ndarray) -> tuple[float, f
     h1 = hc_piezo(v, scene.contact.load, c.E_star, c.rx, scene.lubricant.eta0, _ALPHA_REF, D)
     d = np.log(h) - np.log(h1)
     n = d.size
+    w = np.ones(n) if weights is None else np.asarray(weights, dtype=float)
     mean = float(np.mean(d))
-    sd = float(np.std(d, ddof=1))
+    # E[(d_i - mean)^2] = s^2 (w_i (1 - 2/n) + sum(w)/n^2)
+    expect = float(np.sum(w * (1.0 - 2.0 / n) + np.sum(w) / n**2))
+    s2 = float(np.sum((d - mean) ** 2)) / max(expect, 1e-300)
     ln_alpha = math.log(_ALPHA_REF) + mean / HD_G_EXPONENT
-    se_ln = sd / math.sqrt(n) / HD_G_EXPONENT
+    se_ln = math.sqrt(s2 * float(np.sum(w))) / n / HD_G_EXPONENT
     return math.exp(ln_alpha), se_ln, n - 1, d

@@ -395,7 +395,7 @@ def _fit(cs: list[HptCurve]) -> FitResult:
     if len(cs) == 1:
         meta.update(noise_models[0].as_dict())
     result = FitResult.from_covariance(
-        "layer_hpt", LAYER_NAMES, p, cov, dof=dof, param_dof=pdof,
+        "layer_hpt", LAYER_NAMES, p, cov, dof=dof, param_dof=pdof, log_scale=LAYER_NAMES,
         residual_norm=float(np.sqrt(np.mean(all_r**2))), n_points=n, warnings=[],
         data=pd.concat(data_frames, ignore_index=True), meta=meta, residual_unit="Pa",
         n_evaluations=int(sol.nfev), x_column="displacement_m",

@@ -27,6 +27,7 @@ __all__ = [
     "FitResult",
     "covariance_from_jacobian",
     "hac_covariance",
+    "log_interval",
     "student_t",
     "viscosity_result",
 ]
@@ -171,6 +172,15 @@ class FitResult:
         ``meta["interval_dof"]``).
     x_column, y_column
         Names of the abscissa and the measured column of :attr:`data` (figure).
+    covariance
+        ``(k, k)`` covariance of the estimates in SI units (order of :attr:`names`;
+        ``inf`` rows for undetermined parameters), or None where the fit does not
+        give one.  Written to ``params.yaml`` (``fit: covariance:``) so that
+        predictions carry the fit's uncertainty (:mod:`torlab.uncertainty`).
+    log_scale
+        Parameters whose uncertainty is symmetric in ``ln p`` (positive
+        parameters): their intervals are ``p exp(+-t se/p)`` (never negative)
+        and predictions propagate them on that scale.
     """
 
     kind: str
@@ -190,16 +200,20 @@ class FitResult:
     dof: int = 0
     x_column: str = ""
     y_column: str = ""
+    covariance: Any = None
+    log_scale: tuple[str, ...] = ()
 
     # -- construction ---------------------------------------------------------------------
     @classmethod
     def from_covariance(cls, kind: str, names: tuple[str, ...], values: np.ndarray,
                         cov: np.ndarray, *, dof: int, param_dof: Any = None,
-                        **kw: Any) -> FitResult:
+                        log_scale: tuple[str, ...] = (), **kw: Any) -> FitResult:
         """Build a result from estimates and their covariance (Student-t intervals).
 
         ``param_dof`` (one value per parameter, optional) gives each interval
         its own degrees of freedom (Satterthwaite); ``dof`` otherwise.
+        Parameters in ``log_scale`` (positive) get the transformed interval
+        ``p exp(+-t se/p)`` (the delta method on ``ln p``), which is never negative.
         """
         values = np.asarray(values, dtype=float)
         cov = np.asarray(cov, dtype=float)
@@ -215,15 +229,63 @@ class FitResult:
         np.fill_diagonal(corr, 1.0)
         params = {n: float(v) for n, v in zip(names, values, strict=True)}
         stderr = {n: float(s) for n, s in zip(names, se, strict=True)}
-        ci = {n: (float(v - q * s), float(v + q * s))
+        ci = {n: log_interval(v, s, q) if n in log_scale else (float(v - q * s), float(v + q * s))
               for n, v, s, q in zip(names, values, se, tq, strict=True)}
         return cls(kind=kind, names=tuple(names), params=params, stderr=stderr, ci95=ci,
-                   correlation=corr, dof=int(dof), **kw)
+                   correlation=corr, dof=int(dof), covariance=cov.copy(),
+                   log_scale=tuple(n for n in names if n in log_scale), **kw)
 
     # -- outputs ----------------------------------------------------------------------------
     def determined(self, name: str) -> bool:
         """Whether ``name`` has a finite standard error."""
         return math.isfinite(self.stderr.get(name, math.inf))
+
+    def distribution(self, names: Any = None) -> Any:
+        """The estimates' :class:`~torlab.uncertainty.ParameterDistribution` (determined ones).
+
+        ``names`` restricts it (default: every determined parameter).  None
+        when the fit gives no covariance.  The degrees of freedom are the
+        smallest of the parameters' (``meta["interval_dof"]``) or :attr:`dof`.
+        """
+        from torlab.uncertainty import ParameterDistribution
+
+        if self.covariance is None:
+            return None
+        keep = [i for i, n in enumerate(self.names) if self.determined(n)
+                and (names is None or n in names)]
+        if not keep:
+            return None
+        sel = [self.names[i] for i in keep]
+        cov = np.asarray(self.covariance, dtype=float)[np.ix_(keep, keep)]
+        return ParameterDistribution.from_covariance(
+            sel, [self.params[n] for n in sel], cov,
+            log_scale=[n for n in sel if n in self.log_scale], dof=self._block_dof(sel))
+
+    def _block_dof(self, names: Any) -> float:
+        pd = self.meta.get("interval_dof")
+        if isinstance(pd, dict) and pd:
+            return float(min(float(pd.get(n, self.dof)) for n in names))
+        return float(max(self.dof, 1))
+
+    def covariance_section(self) -> dict[str, Any] | None:
+        """The ``fit: covariance:`` block of ``params.yaml`` (validated by :mod:`torlab.scene`).
+
+        ``names``, ``values`` (the estimates it belongs to), ``matrix`` (SI),
+        ``log_scale``, ``dof`` and ``not_determined`` (parameters left out:
+        no finite variance).  None without a covariance.
+        """
+        if self.covariance is None:
+            return None
+        det = [n for n in self.names if self.determined(n)]
+        idx = [self.names.index(n) for n in det]
+        cov = np.asarray(self.covariance, dtype=float)[np.ix_(idx, idx)]
+        if not np.all(np.isfinite(cov)):
+            return None
+        return {"names": det, "values": [float(self.params[n]) for n in det],
+                "matrix": [[float(x) for x in row] for row in cov],
+                "log_scale": [n for n in det if n in self.log_scale],
+                "dof": self._block_dof(det) if det else float(self.dof),
+                "not_determined": [n for n in self.names if n not in det]}
 
     def to_scene_dict(self) -> dict[str, Any]:
         """The scene contract's ``boundary:`` / ``lubricant:`` keys of the fitted values.
@@ -262,6 +324,11 @@ class FitResult:
             "fixed": dict(self.fixed),
             "warnings": list(self.warnings),
         }
+        cs = self.covariance_section()
+        if cs is not None:
+            prov["covariance"] = cs
+        if isinstance(self.meta.get("model_selection"), dict):
+            prov["model_selection"] = self.meta["model_selection"]
         for k, v in self.meta.items():
             if k != "lubricant_extra" and (v is None or isinstance(v, (str, int, float, bool, list))):
                 prov.setdefault(k, v)
@@ -368,9 +435,27 @@ class FitResult:
             "ci95": {k: [_finite_or_none(a), _finite_or_none(b)] for k, (a, b) in self.ci95.items()},
             "correlation": [[_finite_or_none(float(x)) for x in row] for row in self.correlation],
             "fixed": dict(self.fixed),
+            "log_scale": list(self.log_scale),
             "warnings": list(self.warnings),
             "meta": {k: v for k, v in self.meta.items() if k != "lubricant_extra"},
         }
+
+
+def log_interval(value: float, se: float, tq: float) -> tuple[float, float]:
+    """``value exp(+-tq se/value)``: the interval of a positive parameter on the log scale.
+
+    The delta method on ``ln p`` (standard error ``se/p``); it keeps the
+    interval positive and gives the asymmetry of a poorly determined positive
+    parameter.  ``(0, inf)`` when ``se`` is infinite.
+    """
+    if not (value > 0):
+        return (float(value - tq * se), float(value + tq * se))
+    r = tq * se / value
+    if not math.isfinite(r):
+        return (0.0, math.inf)
+    if r > 700.0:  # beyond exp's range: no upper bound
+        return (float(value * math.exp(-r)), math.inf)
+    return (float(value * math.exp(-r)), float(value * math.exp(r)))
 
 
 def _finite_or_none(x: float) -> float | None:

@@ -6,11 +6,25 @@ coefficient ``mu_ci(T) = mu_ci(T_ref) exp(mu_ci_T (T - T_ref))``; with one
 layer fit per run (:func:`torlab.fit.layer.fit_layer_hpt`),
 ``ln mu_ci(T)`` is a straight line in ``T`` whose slope is ``mu_ci_T``.
 
-The line is fitted by ordinary least squares with the scatter of the runs
-about it as the error (run-to-run scatter of a product's layer, a few per cent,
-is far larger than one curve's fitting error, so weighting by the latter would
-be wrong); the intervals are Student-t with ``n - 2`` degrees of freedom, which
-is why at least three temperatures are needed.
+The line is fitted by least squares with the scatter of the runs about it as
+the error (run-to-run scatter of a product's layer, a few per cent, is far
+larger than one curve's fitting error, so weighting by the latter would be
+wrong).  A scatter proportional to ``mu`` is constant in ``ln mu``; one of
+constant size in ``mu`` grows as ``1/mu`` there, and with enough runs a
+variance function estimated from the residuals weights the points
+(:func:`torlab.fit._noise.linear_least_squares`; it is used only when a
+likelihood-ratio test prefers it).  The intervals are Student-t with ``n - 2``
+degrees of freedom, which is why at least three temperatures are needed; the
+intercepts ``mu_ci(T_ref)`` have log-scale intervals.
+
+Three temperatures with a few per cent of scatter rarely resolve a coefficient
+of ``1e-3`` 1/K.  Each coefficient is therefore tested against 0 (likelihood
+ratio of the line against a constant: the F-test, exact for this Gaussian
+linear model): resolved coefficients are kept; the others are fixed to 0 and
+the result says so (``selection="lr"``, the default), or kept with their whole
+uncertainty for the predictions to carry (``selection="none"``).  The two
+lines are fitted to the same runs, so their scatter is correlated; the
+covariance written for the predictions includes that correlation.
 """
 
 from __future__ import annotations
@@ -21,17 +35,22 @@ from typing import Any
 import numpy as np
 
 from torlab.errors import TorlabInputError
+from torlab.fit._noise import linear_least_squares
 from torlab.fit.result import FitResult, student_t
 from torlab.threads import small_problem
 
-__all__ = ["fit_temperature_coefficients"]
+__all__ = ["SELECTION_LEVEL", "fit_temperature_coefficients"]
 
 ZERO_CELSIUS_K = 273.15
+#: significance level of the likelihood-ratio test that keeps a temperature coefficient
+SELECTION_LEVEL = 0.05
 
 
 @small_problem  # one BLAS thread: small matrices (torlab.threads)
 def fit_temperature_coefficients(fits_or_curves: Any, temperatures_K: Any = None, *,
-                                 reference_temperature_C: float = 25.0) -> FitResult:
+                                 reference_temperature_C: float = 25.0,
+                                 selection: str = "lr",
+                                 selection_level: float = SELECTION_LEVEL) -> FitResult:
     """Fit ``mu_c1_T`` and ``mu_c2_T`` (1/K) from layer fits at several temperatures.
 
     Parameters
@@ -44,23 +63,39 @@ def fit_temperature_coefficients(fits_or_curves: Any, temperatures_K: Any = None
         ``meta["temperature_C"]`` (from the log header).
     reference_temperature_C
         ``T_ref`` of the intercepts ``mu_c1_Tref``, ``mu_c2_Tref``.
+    selection
+        ``"lr"``: a coefficient that the likelihood-ratio test (the F-test of
+        the line against a constant) does not resolve at ``selection_level``
+        is fixed to 0 (written as 0, listed in :attr:`FitResult.fixed`);
+        ``"none"``: every coefficient is kept with its uncertainty, which the
+        predictions carry.  Either way ``meta["model_selection"]`` and the
+        warnings state the test, the p-value and the decision.
+    selection_level
+        Significance level of the test (0.05).
 
     Returns
     -------
     FitResult
         ``kind="temperature"``; parameters ``mu_c1_T``, ``mu_c2_T`` (the scene's
-        ``boundary:`` keys) and ``mu_c1_Tref``, ``mu_c2_Tref`` (coefficients at
-        ``T_ref``, reported, not written to the scene).
+        ``boundary:`` keys; in :attr:`~FitResult.fixed` at 0 when not resolved)
+        and ``mu_c1_Tref``, ``mu_c2_Tref`` (coefficients at ``T_ref``, reported,
+        not written to the scene; log-scale intervals).  The covariance is
+        joint: the two lines' scatter is correlated (the same runs).
 
     Raises
     ------
     TorlabInputError
-        Fewer than three distinct temperatures, a missing temperature.
+        Fewer than three distinct temperatures, a missing temperature, an
+        unknown ``selection``.
     """
     import pandas as pd
+    from scipy.stats import f as fdist
 
     from torlab.fit.layer import fit_layer_hpt
 
+    if selection not in ("lr", "none"):
+        raise TorlabInputError(f"selection must be 'lr' or 'none', not {selection!r}",
+                               key="selection")
     items = list(fits_or_curves)
     fits = [it if isinstance(it, FitResult) else fit_layer_hpt(it) for it in items]
     if temperatures_K is None:
@@ -81,56 +116,117 @@ def fit_temperature_coefficients(fits_or_curves: Any, temperatures_K: Any = None
                                f"more temperatures; got {sorted(set(np.round(T_C, 2).tolist()))} degC")
     x = T_C - reference_temperature_C
     X = np.column_stack((np.ones_like(x), x))
-    XtX_inv = np.linalg.inv(X.T @ X)
     n = x.size
-    dof = n - 2
-    tq = student_t(dof)
-    names = ("mu_c1_T", "mu_c2_T", "mu_c1_Tref", "mu_c2_Tref")
-    params: dict[str, float] = {}
-    stderr: dict[str, float] = {}
-    ci: dict[str, tuple[float, float]] = {}
+    fitted: dict[str, Any] = {}
     cols: dict[str, Any] = {"temperature_C": T_C}
-    rms = []
     for key in ("mu_c1", "mu_c2"):
         mu = np.array([f.params[key] for f in fits])
         if np.any(mu <= 0):
             raise TorlabInputError(f"{key} must be positive in every run for ln {key}(T)")
-        y = np.log(mu)
-        coef = XtX_inv @ X.T @ y
-        r = y - X @ coef
-        s2 = float(r @ r) / dof
-        cov = s2 * XtX_inv
-        b, se_b = float(coef[1]), math.sqrt(cov[1, 1])
-        a, se_a = float(coef[0]), math.sqrt(cov[0, 0])
-        params[f"{key}_T"] = b
-        stderr[f"{key}_T"] = se_b
-        ci[f"{key}_T"] = (b - tq * se_b, b + tq * se_b)
-        params[f"{key}_Tref"] = math.exp(a)
-        stderr[f"{key}_Tref"] = math.exp(a) * se_a
-        ci[f"{key}_Tref"] = (math.exp(a - tq * se_a), math.exp(a + tq * se_a))
+        # noise of constant size in mu is 1/mu in ln mu (the variance function's scale)
+        full = linear_least_squares(X, np.log(mu), lambda lnm: np.exp(-lnm))
+        fitted[key] = (mu, full)
         cols[f"{key}_measured"] = mu
-        cols[f"{key}_model"] = np.exp(X @ coef)
-        cols[f"residual_{key}"] = mu - np.exp(X @ coef)
-        rms.append(np.sqrt(np.mean((mu - np.exp(X @ coef)) ** 2)))
-    warnings = []
-    for key in ("mu_c1_T", "mu_c2_T"):
-        lo, hi = ci[key]
-        if lo <= 0 <= hi:
-            warnings.append(f"{key} poorly determined: its 95 % interval [{lo:.2g}, {hi:.2g}] 1/K "
-                            "includes 0 (the run-to-run scatter is larger than the temperature "
-                            "effect over this range)")
-    corr = np.full((4, 4), np.nan)
-    np.fill_diagonal(corr, 1.0)
-    c_ab = XtX_inv[0, 1] / math.sqrt(XtX_inv[0, 0] * XtX_inv[1, 1])
-    corr[0, 2] = corr[2, 0] = c_ab
-    corr[1, 3] = corr[3, 1] = c_ab
+    # --- model selection: keep each coefficient, or fix it to 0 -------------------------
+    selection_info: dict[str, Any] = {}
+    warnings: list[str] = []
+    keep: dict[str, bool] = {}
+    for key in ("mu_c1", "mu_c2"):
+        full = fitted[key][1]
+        b, se_b = float(full.coef[1]), math.sqrt(full.cov[1, 1])
+        tq = student_t(full.dof)
+        lo, hi = b - tq * se_b, b + tq * se_b
+        fstat = (b / se_b) ** 2 if se_b > 0 else math.inf
+        pval = float(fdist.sf(fstat, 1, max(full.dof, 1))) if math.isfinite(fstat) else 0.0
+        resolved = pval < selection_level
+        keep[key] = selection == "none" or resolved
+        decision = ("kept" if resolved else
+                    "kept; its uncertainty is carried into predictions" if selection == "none"
+                    else "fixed to 0")
+        selection_info[f"{key}_T"] = {
+            "decision": decision, "test": f"likelihood ratio (F-test) against {key}_T = 0",
+            "statistic": float(fstat) if math.isfinite(fstat) else None, "p_value": pval,
+            "level": selection_level, "estimate_1_per_K": b, "ci95_full_model": [lo, hi]}
+        if not resolved:
+            what = ("fixed to 0 in the parameter file (selection='none' keeps it and carries its "
+                    "uncertainty into predictions)" if selection != "none" else
+                    "kept, and its uncertainty is carried into predictions")
+            warnings.append(
+                f"{key}_T not resolved by these temperatures: likelihood-ratio test against 0 "
+                f"p = {pval:.2g} >= {selection_level:g} (estimate {b:.2g} 1/K, 95 % interval "
+                f"[{lo:.2g}, {hi:.2g}] includes 0: the run-to-run scatter is larger than the "
+                f"temperature effect over this range); {what}")
+    # --- final estimates: each line with its slope, or its mean ------------------------
+    lines: dict[str, Any] = {}
+    for key in ("mu_c1", "mu_c2"):
+        mu, full = fitted[key]
+        lines[key] = full if keep[key] else linear_least_squares(
+            X[:, :1], np.log(mu), lambda lnm: np.exp(-lnm))
+    names: list[str] = [f"{k}_T" for k in ("mu_c1", "mu_c2") if keep[k]] + \
+        ["mu_c1_Tref", "mu_c2_Tref"]
+    # joint covariance of (ln mu_ci(Tref), mu_ci_T) of both lines: the same runs give both
+    # coefficients, so their scatter is correlated (seemingly unrelated regressions)
+    pos: dict[str, int] = {}
+    blocks = []
+    for key in ("mu_c1", "mu_c2"):
+        ln = lines[key]
+        pos[f"{key}_lnref"] = sum(b.A.shape[0] for b in blocks)
+        if keep[key]:
+            pos[f"{key}_T"] = pos[f"{key}_lnref"] + 1
+        blocks.append(ln)
+    e1 = lines["mu_c1"].residuals / np.sqrt(lines["mu_c1"].weights * lines["mu_c1"].s2)
+    e2 = lines["mu_c2"].residuals / np.sqrt(lines["mu_c2"].weights * lines["mu_c2"].s2)
+    den = math.sqrt(float(e1 @ e1) * float(e2 @ e2))
+    rho = float(e1 @ e2) / den if den > 0 else 0.0
+    sd1 = np.sqrt(lines["mu_c1"].weights * lines["mu_c1"].s2)
+    sd2 = np.sqrt(lines["mu_c2"].weights * lines["mu_c2"].s2)
+    m = sum(b.A.shape[0] for b in blocks)
+    big = np.zeros((m, m))
+    o1 = lines["mu_c1"].A.shape[0]
+    big[:o1, :o1] = lines["mu_c1"].cov
+    big[o1:, o1:] = lines["mu_c2"].cov
+    cross = lines["mu_c1"].A @ np.diag(rho * sd1 * sd2) @ lines["mu_c2"].A.T
+    big[:o1, o1:] = cross
+    big[o1:, :o1] = cross.T
+    order = [pos[f"{k}_T"] for k in ("mu_c1", "mu_c2") if keep[k]] + \
+        [pos["mu_c1_lnref"], pos["mu_c2_lnref"]]
+    values_t = np.concatenate([lines["mu_c1"].coef, lines["mu_c2"].coef])[order]
+    cov_t = big[np.ix_(order, order)]
+    # natural units: mu_ci(Tref) = exp(ln mu_ci(Tref))
+    n_slopes = len(names) - 2
+    values = values_t.copy()
+    values[n_slopes:] = np.exp(values_t[n_slopes:])
+    jac = np.ones(len(names))
+    jac[n_slopes:] = values[n_slopes:]
+    cov = cov_t * np.outer(jac, jac)
+    dof = min(lines["mu_c1"].dof, lines["mu_c2"].dof)
+    rms = []
+    for key in ("mu_c1", "mu_c2"):
+        mu = fitted[key][0]
+        Xk = X if keep[key] else X[:, :1]
+        model = np.exp(Xk @ lines[key].coef)
+        cols[f"{key}_model"] = model
+        cols[f"residual_{key}"] = mu - model
+        rms.append(np.sqrt(np.mean((mu - model) ** 2)))
+    fixed = {f"{k}_T": 0.0 for k in ("mu_c1", "mu_c2") if not keep[k]}
+    noise = {k: (lines[k].variance.describe() if lines[k].variance is not None
+                 else "constant in ln mu (run-to-run scatter proportional to mu)")
+             for k in ("mu_c1", "mu_c2")}
     data = pd.DataFrame(cols)
-    meta = {"method": "least squares of ln mu_ci on T (Eqs. 5.26-5.27), run scatter as the error",
+    meta = {"method": "least squares of ln mu_ci on T (Eqs. 5.26-5.27), run scatter as the error; "
+                      "each coefficient kept or fixed to 0 by a likelihood-ratio test",
             "reference_temperature_C": reference_temperature_C,
             "runs": [str(f.meta.get("source", "")) for f in fits],
             "product": fits[0].meta.get("product"),
-            "temperatures_C": [float(t) for t in T_C]}
-    return FitResult(kind="temperature", names=names, params=params, stderr=stderr, ci95=ci,
-                     correlation=corr, residual_norm=float(np.sqrt(np.mean(np.square(rms)))),
-                     n_points=int(n), warnings=warnings, data=data, meta=meta, residual_unit="-",
-                     n_evaluations=0, dof=dof, x_column="temperature_C", y_column="mu_c2_measured")
+            "temperatures_C": [float(t) for t in T_C],
+            "selection": selection,
+            "model_selection": selection_info,
+            "noise_model": "; ".join(f"{k}: {v}" for k, v in noise.items()),
+            "scatter_correlation_mu_c1_mu_c2": rho}
+    res = FitResult.from_covariance(
+        "temperature", tuple(names), values, cov, dof=dof,
+        log_scale=("mu_c1_Tref", "mu_c2_Tref"),
+        residual_norm=float(np.sqrt(np.mean(np.square(rms)))), n_points=int(n),
+        warnings=warnings, data=data, meta=meta, fixed=fixed, residual_unit="-",
+        n_evaluations=0, x_column="temperature_C", y_column="mu_c2_measured")
+    return res

@@ -34,7 +34,8 @@ from typing import Any
 import numpy as np
 
 from torlab.errors import FitError, TorlabInputError
-from torlab.fit.result import FitResult, covariance_from_jacobian
+from torlab.fit._noise import estimate_variance_function
+from torlab.fit.result import FitResult, _scaled_inverse, covariance_from_jacobian
 from torlab.threads import small_problem
 
 __all__ = ["fit_layer_traction", "layer_values", "traction_model"]
@@ -42,6 +43,10 @@ __all__ = ["fit_layer_traction", "layer_values", "traction_model"]
 NAMES = ("mu_c1", "mu_c2", "L_mue", "L_mup")
 _SCALE = {"mu_c1": 1.0, "mu_c2": 1.0, "L_mue": 1e-6, "L_mup": 1e-6}
 _BOUNDS = {"mu_c1": (1e-4, 3.0), "mu_c2": (1e-4, 3.0), "L_mue": (1e-4, 1e3), "L_mup": (1e-3, 1e4)}
+#: proportional share of the residual variance below which the noise counts as constant
+PHI_NEGLIGIBLE = 0.05
+#: weighted refits at most (feasible generalised least squares)
+MAX_REWEIGHT = 3
 
 
 #: quantity kind of each layer parameter
@@ -91,7 +96,8 @@ def traction_model(scene: Any) -> Any:
 
     def g(params: dict[str, float], xi: np.ndarray) -> np.ndarray:
         b = scene.boundary.model_copy(update={k: float(v) for k, v in params.items()})
-        return predict_traction(scene.model_copy(update={"boundary": b}), xi).table["mu"].to_numpy()
+        return predict_traction(scene.model_copy(update={"boundary": b}), xi,
+                                band=False).table["mu"].to_numpy()
 
     g.contact = build_contact(scene)  # type: ignore[attr-defined]
     return g
@@ -210,42 +216,150 @@ def fit_layer_traction(scene: Any, creepage: Any, mu: Any, *, fixed: dict[str, f
     def resid(x: np.ndarray) -> np.ndarray:
         return evaluate(params(x)) - y
 
-    try:
-        sol = least_squares(resid, xs, bounds=(lo, hi), x_scale="jac", method="trf",
-                            diff_step=1e-4, xtol=1e-6, ftol=1e-8, max_nfev=max_nfev)
-    except (ValueError, np.linalg.LinAlgError) as e:
-        raise FitError(f"traction fit failed: {e}") from None
-    if sol.status <= 0:
-        raise FitError(f"traction fit did not converge within {max_nfev} evaluations "
-                       f"({sol.message})")
-    p = params(sol.x)
+    def solve(x_start: np.ndarray, w: np.ndarray | None, nfev_budget: int) -> Any:
+        sw = None if w is None else 1.0 / np.sqrt(w)
+        fun = resid if sw is None else (lambda x: resid(x) * sw)
+        try:
+            sol = least_squares(fun, x_start, bounds=(lo, hi), x_scale="jac", method="trf",
+                                diff_step=1e-4, xtol=1e-6, ftol=1e-8, max_nfev=nfev_budget)
+        except (ValueError, np.linalg.LinAlgError) as e:
+            raise FitError(f"traction fit failed: {e}") from None
+        if sol.status <= 0:
+            raise FitError(f"traction fit did not converge within {max_nfev} evaluations "
+                           f"({sol.message})")
+        return sol
+
+    sol = solve(xs, None, max_nfev)
+    # --- noise that grows with the signal: variance function, then weighted least squares ---
+    # (the residuals r are unweighted; sol.fun and sol.jac are of the weighted problem)
     r = sol.fun
-    J = sol.jac / sc[None, :]
-    cov, _s = covariance_from_jacobian(J, r, len(free))
-    dof = xi.size - len(free)
+    vf = estimate_variance_function(r, np.abs(y + r), _leverage(sol.jac))
+    w = None
+    for _ in range(MAX_REWEIGHT if vf.significant and vf.phi > PHI_NEGLIGIBLE else 0):
+        w = vf.weights(np.abs(y + r))
+        sol = solve(sol.x, w, max(max_nfev - nfev[0], 4 * len(free) + 8))
+        r = sol.fun * np.sqrt(w)
+        new = estimate_variance_function(r, np.abs(y + r), _leverage(sol.jac))
+        done = abs(new.phi - vf.phi) < 0.05
+        vf = new
+        if done:
+            break
+    if w is not None and vf.phi <= PHI_NEGLIGIBLE:
+        w = None  # the reweighting found the noise constant after all
+        sol = solve(sol.x, None, max(max_nfev - nfev[0], 4 * len(free) + 8))
+        r = sol.fun
+    p = params(sol.x)
+    # a parameter that ends on a bound of the search range: a length at its lower end (the
+    # curve prefers no layer flexibility / an immediate hardening) is fixed there, the reduced
+    # model; any other is not determined (the optimiser ran off along a direction the data
+    # do not constrain)
+    active = dict(zip(free, sol.active_mask, strict=True))
+    at_zero = [n for n in free if n.startswith("L_") and active[n] < 0]
+    at_bound = [n for n in free if active[n] != 0 and n not in at_zero]
+    keep = [i for i, n in enumerate(free) if n not in at_zero]
+    names_fit = [free[i] for i in keep]
+    if not names_fit:
+        raise FitError("traction fit: every free parameter ended on a bound of its range")
+    cov = _covariance(sol.jac[:, keep] / sc[None, keep], sol.fun, len(keep))
+    for n in at_bound:
+        i = names_fit.index(n)
+        cov[i, :] = np.inf
+        cov[:, i] = np.inf
+    # one more degree of freedom spent on the variance function's shape
+    dof = xi.size - len(keep) - (1 if w is not None else 0)
     y_model = y + r
     data = pd.DataFrame({"creepage": xi, "mu_measured": y, "mu_model": y_model, "residual": -r})
-    meta = {"method": "bounded least squares (trf) of FASTSIM + layer (torlab predict's model)",
+    if w is not None:
+        data["residual_sd_relative"] = np.sqrt(w)
+    meta = {"method": "bounded least squares (trf) of FASTSIM + layer (torlab predict's model)"
+                      + ("" if w is None else "; weighted by a variance function estimated from "
+                         "the residuals (noise growing with mu)"),
             "scene": getattr(scene, "name", ""),
             "model": "dry: Hertz + FASTSIM" if scene.lubricant is None else "mixed (predict_traction)",
-            "creepage_range": [float(np.min(xi)), float(np.max(xi))]}
+            "creepage_range": [float(np.min(xi)), float(np.max(xi))],
+            "noise_model": vf.describe() if w is not None else
+            "constant (the variance function's proportional share is negligible)",
+            "noise_proportional_share": float(vf.phi)}
+    fixed = {**fixed, **{n: p[n] for n in at_zero}}
     res = FitResult.from_covariance(
-        "layer_traction", tuple(free), np.array([p[n] for n in free]), cov, dof=dof,
+        "layer_traction", tuple(names_fit), np.array([p[n] for n in names_fit]), cov, dof=dof,
+        log_scale=tuple(names_fit),
         residual_norm=float(np.sqrt(np.mean(r * r))), n_points=int(xi.size), warnings=[],
         data=data, meta=meta, fixed={k: float(v) for k, v in fixed.items()}, residual_unit="-",
         n_evaluations=int(nfev[0]), x_column="creepage", y_column="mu_measured")
-    res.warnings.extend(_warnings(res, xi))
+    for n in at_zero:
+        res.warnings.append(f"{n} at the lower end of its range ({p[n]:.3g} m): the curve is "
+                            "consistent with 0, so it is fixed there (its one-sided uncertainty "
+                            "is not carried into predictions)")
+    for n in at_bound:
+        res.warnings.append(f"{n} not determined: the fit ended on the bound of its search range "
+                            f"({res.params[n]:.3g}); the curve does not constrain it (fix it with "
+                            "a value from an HPT fit); predictions from this fit get no band "
+                            "until it is fixed")
+    res.warnings.extend(_warnings(res, xi, skip=set(at_bound)))
+    if at_zero or at_bound:
+        ms = res.meta.setdefault("model_selection", {})
+        ms.update({n: {"decision": "fixed at the lower end of its range (the curve prefers 0)"}
+                   for n in at_zero})
+        ms.update({n: {"decision": "not determined (ended on a bound): no band until fixed"}
+                   for n in at_bound})
     return res
 
 
-def _warnings(res: FitResult, xi: np.ndarray) -> list[str]:
+def _covariance(J: np.ndarray, r: np.ndarray, k: int) -> np.ndarray:
+    """Covariance of the (weighted) least-squares estimate: model-based, no narrower than HC3.
+
+    ``s^2 (J^T J)^-1`` trusts the variance function (or the constant noise) it was
+    weighted with; the HC3 sandwich ``B sum_i J_i J_i^T r_i^2/(1 - h_ii)^2 B``
+    (MacKinnon & White 1985, J. Econometrics 29, 305) does not, but scatters more.
+    Each parameter's variance is the larger of the two, the correlations are the
+    model-based ones: over 200 seeds of constant and of proportional noise this
+    took the coverage from 91-95 % to 94.5-97 % (docs/fit.md).
+    """
+    model, _s = covariance_from_jacobian(J, r, k)
+    bread = _scaled_inverse(J.T @ J)
+    if not np.all(np.isfinite(bread)):
+        return model
+    h = np.clip(_leverage(J), 0.0, 0.99)
+    g = J * (np.asarray(r, dtype=float) / (1.0 - h))[:, None]
+    hc3 = bread @ (g.T @ g) @ bread
+    with np.errstate(divide="ignore", invalid="ignore"):
+        f = np.sqrt(np.maximum(np.diag(hc3) / np.diag(model), 1.0))
+    f = np.where(np.isfinite(f), f, 1.0)
+    return model * np.outer(f, f)
+
+
+def _leverage(jac: np.ndarray) -> np.ndarray:
+    """Diagonal of the hat matrix ``J (J^T J)^-1 J^T`` (0 where singular)."""
+    q, rr = np.linalg.qr(jac)
+    ok = np.abs(np.diag(rr)) > 1e-12 * max(float(np.max(np.abs(np.diag(rr)), initial=0.0)), 1e-300)
+    return np.sum(q[:, ok] ** 2, axis=1)
+
+
+def _warnings(res: FitResult, xi: np.ndarray, skip: set[str] | None = None) -> list[str]:
+    """What the curve does not determine, and what is done about it (``meta["model_selection"]``)."""
     w = []
+    choice: dict[str, Any] = {}
     for n in res.names:
+        if n in (skip or ()):
+            continue
         v, se = res.params[n], res.stderr[n]
         if not math.isfinite(se):
-            w.append(f"{n} not determined by this curve (fix it with a value from an HPT fit)")
+            w.append(f"{n} not determined by this curve (fix it with a value from an HPT fit); "
+                     "predictions from this fit get no band until it is fixed")
+            choice[n] = {"decision": "not determined: no band until fixed"}
         elif v != 0 and se > 0.5 * abs(v):
-            w.append(f"{n} poorly determined (standard error {se / abs(v):.0%}); consider fixing it")
+            lo, hi = res.ci95[n]
+            unit = "µm" if n.startswith("L_") else ""
+            f = 1e6 if unit else 1.0
+            w.append(f"{n} poorly determined (standard error {se / abs(v):.0%}, 95 % interval "
+                     f"{lo * f:.3g}–{hi * f:.3g}{' ' + unit if unit else ''} on a log scale): kept, "
+                     "and its uncertainty is carried into predictions; fix it (--fix) from an "
+                     "HPT fit to narrow them")
+            choice[n] = {"decision": "kept; its uncertainty is carried into predictions",
+                         "relative_standard_error": se / abs(v), "ci95": [lo, hi]}
+    if choice:
+        res.meta.setdefault("model_selection", {}).update(choice)
     if "mu_c1" in res.names and "mu_c2" in res.names:
         d = res.params["mu_c1"] - res.params["mu_c2"]
         i, j = res.names.index("mu_c1"), res.names.index("mu_c2")

@@ -86,6 +86,9 @@ class StribeckPrediction:
         What was modelled (and what was skipped, why).
     summary
         Key numbers for ``summary.json``.
+    band
+        The :class:`~torlab.uncertainty.Propagation` of the scene's fit
+        covariance (None without one).
     """
 
     table: Any
@@ -93,6 +96,7 @@ class StribeckPrediction:
     creepage: float
     modelled: list[str]
     summary: dict[str, Any] = field(default_factory=dict)
+    band: Any = None
 
 
 def mixed_contact(scene: Any) -> MixedContact:
@@ -288,7 +292,8 @@ def predict_traction_mixed(scene: Any, creepage: Any, *, trend_tolerance: float 
                               summary=summary)
 
 
-def predict_stribeck(scene: Any, speed: Any, creepage: float) -> StribeckPrediction:
+def predict_stribeck(scene: Any, speed: Any, creepage: float, *, band: bool = True,
+                     seed: int = 0) -> StribeckPrediction:
     """Stribeck curve: ``mu`` against rolling speed at one creepage (Eq. 5.47).
 
     The load sharing is solved for all speeds at once (vectorised bracketed root);
@@ -305,6 +310,12 @@ def predict_stribeck(scene: Any, speed: Any, creepage: float) -> StribeckPredict
         Rolling speeds (m/s), >= 0.
     creepage
         Creepage (fraction, SRR/100), any sign.
+    band
+        Propagate the scene's fit covariance into 95 % bands of ``mu``, the film
+        thickness and the temperature (:mod:`torlab.model.bands`; columns
+        ``mu_low95`` ...; ``band`` in the summary).
+    seed
+        Seed of the band's parameter draws (when it samples).
 
     Returns
     -------
@@ -379,5 +390,26 @@ def predict_stribeck(scene: Any, speed: Any, creepage: float) -> StribeckPredict
     if scene.boundary is not None:
         summary["boundary"] = scene.boundary.model_dump()
     summary["lubricant"] = scene.lubricant.model_dump()
-    return StribeckPrediction(table=table, contact=mc.contact, creepage=xi, modelled=modelled,
+    pred = StribeckPrediction(table=table, contact=mc.contact, creepage=xi, modelled=modelled,
                               summary=summary)
+    if band:
+        from torlab.errors import NumericalError
+        from torlab.model.bands import (
+            add_band_columns,
+            band_summary,
+            scene_uncertainty,
+            stribeck_band,
+        )
+
+        su = scene_uncertainty(scene)
+        if su.dist is not None:
+            try:
+                pred.band = stribeck_band(scene, v, xi, table, su, seed=seed)
+            except NumericalError as e:  # the uncertainty reaches where the model fails
+                su.notes.insert(0, f"no band: {e}")
+        if pred.band is not None:
+            add_band_columns(table, pred.band)
+            modelled.append(f"uncertainty: 95 % band from the fit's covariance "
+                            f"({pred.band.method} propagation of {', '.join(pred.band.names)})")
+        summary["band"] = band_summary(pred.band, su)
+    return pred

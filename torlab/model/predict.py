@@ -9,7 +9,9 @@ modelled:
   sharing, FASTSIM only where the asperities carry load).
 
 The traction-curve trend after saturation (thesis H4.1) is classified by
-:func:`classify_trend`.
+:func:`classify_trend`.  A scene that carries a fit's covariance (``fit:
+covariance:`` from ``torlab fit``) gets a 95 % band and a trend with the
+probability of each class (:mod:`torlab.model.bands`, :mod:`torlab.uncertainty`).
 """
 
 from __future__ import annotations
@@ -24,6 +26,9 @@ from torlab.model.fastsim import boundary_traction
 # the pieces traction predictions share live in torlab.model.prediction (torlab.model.mixed
 # uses them too, without importing this module); re-exported here under their old names
 from torlab.model.prediction import (
+    TREND_CLASSES,
+    TREND_PROBABILITY,
+    TREND_TOLERANCE,
     TractionPrediction,
     _summary,
     _temperature_note,
@@ -33,6 +38,9 @@ from torlab.model.prediction import (
 )
 
 __all__ = [
+    "TREND_CLASSES",
+    "TREND_PROBABILITY",
+    "TREND_TOLERANCE",
     "TractionPrediction",
     "classify_trend",
     "fastsim_problem",
@@ -40,7 +48,9 @@ __all__ = [
 ]
 
 
-def predict_traction(scene: Any, creepage: Any, *, trend_tolerance: float = 0.01) -> TractionPrediction:
+def predict_traction(scene: Any, creepage: Any, *, trend_tolerance: float = TREND_TOLERANCE,
+                     trend_threshold: float = TREND_PROBABILITY, band: bool = True,
+                     seed: int = 0) -> TractionPrediction:
     """Predict ``mu`` against creepage for a scene.
 
     Parameters
@@ -50,18 +60,68 @@ def predict_traction(scene: Any, creepage: Any, *, trend_tolerance: float = 0.01
     creepage
         Creepages (fractions; SRR as a fraction), any sign.
     trend_tolerance
-        Relative change after saturation below which the trend is neutral.
+        Relative change after saturation below which the trend is neutral
+        (:data:`TREND_TOLERANCE`).
+    trend_threshold
+        Probability a trend class needs when the scene carries a covariance
+        (:data:`TREND_PROBABILITY`).
+    band
+        Propagate the scene's fit covariance (``fit: covariance:``) into a 95 %
+        band (:mod:`torlab.model.bands`): ``mu_low95``/``mu_high95`` (and the
+        film and temperature bands) in the table, ``band`` in the summary, the
+        trend with its probabilities.  Without a covariance nothing is added
+        but the summary's note.
+    seed
+        Seed of the band's parameter draws (when it samples).
 
     Returns
     -------
     TractionPrediction
     """
-    import pandas as pd
-
     if scene.lubricant is not None:
         from torlab.model.mixed import predict_traction_mixed
 
-        return predict_traction_mixed(scene, creepage, trend_tolerance=trend_tolerance)
+        pred = predict_traction_mixed(scene, creepage, trend_tolerance=trend_tolerance)
+    else:
+        pred = _predict_traction_dry(scene, creepage, trend_tolerance)
+    if band:
+        _attach_band(scene, pred, trend_tolerance, trend_threshold, seed)
+    return pred
+
+
+def _attach_band(scene: Any, pred: TractionPrediction, tolerance: float, threshold: float,
+                 seed: int) -> None:
+    """The band, its summary and the trend with probabilities (:mod:`torlab.model.bands`)."""
+    from torlab.model.bands import add_band_columns, band_summary, scene_uncertainty, traction_band
+
+    su = scene_uncertainty(scene)
+    if su.dist is None:
+        pred.summary["band"] = band_summary(None, su)
+        return
+    from torlab.errors import NumericalError
+
+    xi = pred.table["creepage"].to_numpy(dtype=float)
+    try:
+        band = traction_band(scene, xi, pred.table, su, seed=seed)
+        trend = classify_trend(xi, pred.table["mu"].to_numpy(dtype=float), tolerance=tolerance,
+                               threshold=threshold, uncertainty=band)
+    except NumericalError as e:
+        # the fit's uncertainty reaches parameters where the model has no solution
+        su.notes.insert(0, f"no band: {e}")
+        pred.summary["band"] = band_summary(None, su)
+        return
+    pred.band, pred.trend = band, trend
+    add_band_columns(pred.table, pred.band)
+    pred.summary["band"] = band_summary(pred.band, su)
+    pred.summary["trend_after_saturation"] = pred.trend
+    pred.modelled.append(f"uncertainty: 95 % band from the fit's covariance "
+                         f"({pred.band.method} propagation of {', '.join(pred.band.names)})")
+
+
+def _predict_traction_dry(scene: Any, creepage: Any, trend_tolerance: float
+                          ) -> TractionPrediction:
+    import pandas as pd
+
     xi = np.atleast_1d(np.asarray(creepage, dtype=float))
     if scene.boundary is None:
         from torlab.errors import TorlabInputError

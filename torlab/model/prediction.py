@@ -7,6 +7,7 @@ Used by :mod:`torlab.model.predict` (dry scenes) and :mod:`torlab.model.mixed`
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -16,7 +17,8 @@ from torlab.model.contact import ContactModel, build_contact
 from torlab.model.fastsim import FastsimGrid, FastsimProblem, ThermalParams
 from torlab.model.layer import LayerParams
 
-__all__ = ["TractionPrediction", "classify_trend", "fastsim_grid", "fastsim_problem"]
+__all__ = ["TREND_CLASSES", "TREND_PROBABILITY", "TREND_TOLERANCE", "TractionPrediction",
+           "classify_trend", "fastsim_grid", "fastsim_problem"]
 
 
 @dataclass
@@ -38,6 +40,9 @@ class TractionPrediction:
         Trend after saturation (:func:`classify_trend`).
     summary
         Key numbers for ``summary.json``.
+    band
+        The :class:`~torlab.uncertainty.Propagation` of the scene's fit
+        covariance (None without one).
     """
 
     table: Any
@@ -45,6 +50,7 @@ class TractionPrediction:
     modelled: list[str]
     trend: dict[str, Any]
     summary: dict[str, Any] = field(default_factory=dict)
+    band: Any = None
 
 
 def fastsim_problem(scene: Any, contact: ContactModel | None = None) -> FastsimProblem:
@@ -68,38 +74,99 @@ def fastsim_grid(scene: Any) -> FastsimGrid:
     return FastsimGrid(n=g.n, m=g.m, temperature_nodes=g.temperature_nodes)
 
 
+#: relative change of mu over the trend window (second half of the range after saturation)
+#: within which the trend after saturation is neutral (thesis H4.1); configurable per call,
+#: in protocols as ``reports.traction.trend_tolerance``
+TREND_TOLERANCE = 0.01
+#: probability a trend class needs to be called; below it the trend is ``undetermined``
+TREND_PROBABILITY = 0.9
+#: the trend classes in the order of :meth:`~torlab.uncertainty.Propagation.class_probabilities`
+TREND_CLASSES = ("negative", "neutral", "positive")
+
+
+def _fold(creepage: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Distinct positive ``|creepage|``, the point -> distinct index map, kept points, counts."""
+    x = np.abs(np.asarray(creepage, dtype=float))
+    keep = x > 0
+    xu, inv = np.unique(x[keep], return_inverse=True)
+    return xu, inv, keep, np.bincount(inv, minlength=xu.size)
+
+
+def _relative_change(x: np.ndarray, y: np.ndarray) -> float:
+    """Least-squares line through ``(x, y)``: its change over ``x`` relative to ``y[0]``."""
+    xc = x - x.mean()
+    slope = float(np.sum(xc * (y - y.mean())) / np.sum(xc * xc))
+    return slope * (x[-1] - x[0]) / y[0]
+
+
 def classify_trend(creepage: np.ndarray, mu: np.ndarray, *, saturation: float = 0.95,
-                   tolerance: float = 0.01) -> dict[str, Any]:
-    """Trend of the traction curve after saturation (thesis H4.1, Fig. 2.2).
+                   tolerance: float = TREND_TOLERANCE, threshold: float = TREND_PROBABILITY,
+                   uncertainty: Any = None, output: str = "mu",
+                   measured: bool = False) -> dict[str, Any]:
+    """Trend of the traction curve after saturation (thesis H4.1, Fig. 2.2), with its evidence.
 
     The saturation point is the smallest positive creepage at which ``|mu|``
     reaches ``saturation`` times its maximum over the curve; if it lies in the
     second half of the creepage range the curve has not levelled off
     (``not saturated``).  A straight line is fitted to ``|mu|`` over the second
     half of the range after saturation (so the knee of the curve does not tilt it);
-    its change over that range relative to ``|mu|`` at its start is the trend:
-    ``negative`` below ``-tolerance``, ``positive`` above ``+tolerance``,
-    ``neutral`` between.  Fewer than two points in that second half (a sparse
-    measured curve) give ``too few points`` rather than a line through the knee.
+    its change over that range relative to ``|mu|`` at its start is the trend
+    statistic: ``negative`` below ``-tolerance``, ``positive`` above
+    ``+tolerance``, ``neutral`` between (:data:`TREND_TOLERANCE`, 1 %, by
+    default).  Fewer than two points in that second half (a sparse measured
+    curve) give ``too few points`` rather than a line through the knee.
+
+    With an uncertainty, each class gets its probability and a class is
+    called only when its probability is at least ``threshold``
+    (:data:`TREND_PROBABILITY`, 0.9); otherwise the trend is ``undetermined``
+    and the probabilities say how it leans.  The statistic is evaluated on the
+    window of the curve at the estimate (saturation point and trend window
+    fixed), so it is a smooth function of the curve.
+
+    Parameters
+    ----------
+    creepage, mu
+        The curve (any sign; negative creepages fold onto positive ones).
+    saturation
+        Fraction of the maximum that counts as saturated.
+    tolerance
+        Relative change within which the trend is neutral.
+    threshold
+        Probability needed to call a class.
+    uncertainty
+        A :class:`~torlab.uncertainty.Propagation` of the predicted curve (the
+        parameters' uncertainty, e.g. ``TractionPrediction.band``); its
+        ``output`` is ``mu`` at the same creepages.
+    output
+        Name of ``mu`` among the propagation's outputs.
+    measured
+        A measured curve: the probabilities come from the scatter of the
+        points about the trend line (Student t with ``n - 2`` degrees of
+        freedom; three or more points in the window).
 
     Returns
     -------
     dict
-        ``trend`` (``negative``/``neutral``/``positive``/``not saturated``/
-        ``too few points``),
-        ``saturation_creepage``, ``mu_saturation``, ``trend_from_creepage``,
-        ``slope_per_unit_creepage``, ``relative_change``, ``tolerance``.
+        ``trend`` (``negative``/``neutral``/``positive``/``undetermined``/
+        ``not saturated``/``too few points``), ``trend_point`` (the class of
+        the curve itself), ``probabilities`` (``{class: p}`` or None),
+        ``probability_threshold``, ``basis`` (what the probabilities rest on),
+        ``saturation_creepage``, ``mu_saturation``, ``trend_from_creepage``
+        (None when no window), ``slope_per_unit_creepage``,
+        ``relative_change`` and its ``relative_change_low95`` /
+        ``relative_change_high95``, ``tolerance``, ``saturation_fraction``.
     """
-    x = np.abs(np.asarray(creepage, dtype=float))
-    y = np.abs(np.asarray(mu, dtype=float))
-    keep = x > 0
-    # negative creepages fold onto positive ones: one point per distinct |creepage|
-    x, inv = np.unique(x[keep], return_inverse=True)
-    y = np.bincount(inv, weights=y[keep]) / np.bincount(inv)
-    out: dict[str, Any] = {"tolerance": tolerance, "saturation_fraction": saturation}
+    x, inv, keep, counts = _fold(creepage)
+    y = np.bincount(inv, weights=np.abs(np.asarray(mu, dtype=float))[keep],
+                    minlength=x.size) / np.maximum(counts, 1)
+    out: dict[str, Any] = {"tolerance": tolerance, "saturation_fraction": saturation,
+                           "probability_threshold": threshold, "probabilities": None,
+                           "basis": "the curve alone (no uncertainty given)",
+                           "trend_from_creepage": None, "relative_change_low95": None,
+                           "relative_change_high95": None}
     if len(x) < 3 or y.max() <= 0:
-        out.update(trend="not saturated", saturation_creepage=None, mu_saturation=None,
-                   slope_per_unit_creepage=None, relative_change=None)
+        out.update(trend="not saturated", trend_point="not saturated", saturation_creepage=None,
+                   mu_saturation=None, slope_per_unit_creepage=None, relative_change=None)
         return out
     k = int(np.argmax(y >= saturation * y.max()))
     xs, ys = x[k:], y[k:]
@@ -108,21 +175,64 @@ def classify_trend(creepage: np.ndarray, mu: np.ndarray, *, saturation: float = 
     if len(xs) < 3 or x[k] > 0.5 * x[-1]:
         # a curve that reaches 95 % of its maximum only in the second half of the
         # range has not levelled off (a linear, film-dominated curve reaches it at 95 %)
-        out.update(trend="not saturated", slope_per_unit_creepage=None, relative_change=None)
+        out.update(trend="not saturated", trend_point="not saturated",
+                   slope_per_unit_creepage=None, relative_change=None)
         return out
     # the trend is read on the second half of the post-saturation range, where the
     # approach to saturation itself (a tanh-like knee) no longer tilts the line
     mid = 0.5 * (x[k] + x[-1])
     tail = x >= mid
     if tail.sum() < 2:
-        out.update(trend="too few points", slope_per_unit_creepage=None, relative_change=None)
+        out.update(trend="too few points", trend_point="too few points",
+                   slope_per_unit_creepage=None, relative_change=None)
         return out
     xs, ys = x[tail], y[tail]
     out["trend_from_creepage"] = float(xs[0])
-    slope = float(np.polyfit(xs, ys, 1)[0])
-    change = slope * (xs[-1] - xs[0]) / ys[0]
-    trend = "negative" if change < -tolerance else "positive" if change > tolerance else "neutral"
-    out.update(trend=trend, slope_per_unit_creepage=slope, relative_change=float(change))
+    change = _relative_change(xs, ys)
+    slope = change * ys[0] / (xs[-1] - xs[0])
+    point = "negative" if change < -tolerance else "positive" if change > tolerance else "neutral"
+    out.update(trend=point, trend_point=point, slope_per_unit_creepage=float(slope),
+               relative_change=float(change))
+    probs = None
+    edges = (-tolerance, tolerance)
+    if uncertainty is not None:
+        mu_shape = np.asarray(mu).shape
+
+        def stat(o: dict[str, np.ndarray]) -> float:
+            m = np.abs(np.asarray(o[output], dtype=float).reshape(mu_shape))[keep]
+            yy = np.bincount(inv, weights=m, minlength=x.size) / np.maximum(counts, 1)
+            return _relative_change(xs, yy[tail])
+
+        d = uncertainty.derive(stat)
+        probs = d.class_probabilities(edges)
+        out["relative_change_low95"] = float(np.ravel(d.low())[0])
+        out["relative_change_high95"] = float(np.ravel(d.high())[0])
+        out["basis"] = f"the parameters' uncertainty ({d.method} propagation)"
+    elif measured and xs.size >= 3:
+        from scipy.stats import t as student
+
+        xc = xs - xs.mean()
+        resid = ys - ys.mean() - slope * xc
+        dof = xs.size - 2
+        se_slope = math.sqrt(float(resid @ resid) / dof / float(xc @ xc))
+        se = se_slope * (xs[-1] - xs[0]) / ys[0]
+        if se > 0:
+            cdf = student.cdf((np.array(edges) - change) / se, dof)
+            probs = np.diff(np.concatenate(([0.0], cdf, [1.0])))
+            tq = float(student.ppf(0.975, dof))
+            out["relative_change_low95"] = float(change - tq * se)
+            out["relative_change_high95"] = float(change + tq * se)
+        else:
+            probs = np.array([float(point == c) for c in TREND_CLASSES])
+        out["basis"] = (f"the scatter of the {xs.size} points about the trend line "
+                        f"(Student t, {dof} degrees of freedom)")
+    elif measured:
+        out["basis"] = "two points in the trend window: no scatter to judge the trend by"
+    if probs is not None:
+        p = {c: float(v) for c, v in zip(TREND_CLASSES, probs, strict=True)}
+        out["probabilities"] = p
+        best = max(p, key=p.get)
+        out["trend"] = best if p[best] >= threshold else "undetermined"
     return out
 
 

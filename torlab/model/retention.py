@@ -167,7 +167,7 @@ class RetentionPrediction:
     ----------
     table
         DataFrame: ``passes``, ``amount_mg_m2``, ``mu``, ``mu_low95``,
-        ``mu_high95`` (the issue's columns), then ``energy_J_m2`` (dissipated per
+        ``mu_high95`` (the retention table's contract columns), then ``energy_J_m2`` (dissipated per
         unit band area since the application) and ``time_s`` where a pass
         interval is known (a disc track at the scene's speed, or given).
     summary

@@ -9,7 +9,12 @@ against the applied amount (µl for liquids, mg for solids).  The report gives
 * the optimal band (0.15-0.25 by default, thesis chapter 6) and the
   low-friction threshold (0.15 by default);
 * the amount at which each product's friction falls below the threshold, with
-  a confidence interval.
+  a confidence interval and the evidence for the verdict
+  (:func:`crossing_probabilities`): the probability that the crossing lies
+  inside the tested amounts, that the friction at the largest amount is below
+  the threshold and at the smallest above it.  The verdict "crosses within the
+  tested amounts" is called only when that probability reaches
+  :data:`CROSSING_PROBABILITY` (0.9); otherwise it is "undetermined".
 
 Crossing estimate (``curve: logistic``, the default): per product a
 four-parameter logistic in log amount,
@@ -37,10 +42,13 @@ from torlab.fit.result import FitResult
 from torlab.reports.html import Figure, Section, Table
 from torlab.reports.plotting import subplots
 
-__all__ = ["CrossingFit", "amount_section", "amount_series", "fit_crossings", "logistic"]
+__all__ = ["CROSSING_PROBABILITY", "CrossingFit", "amount_section", "amount_series",
+           "crossing_probabilities", "fit_crossings", "logistic"]
 
 UL = 1e-9  # m^3 per µl
 MG = 1e-6  # kg per mg
+#: probability the crossing must have of lying within the tested amounts to be called
+CROSSING_PROBABILITY = 0.9
 
 
 def logistic(x: np.ndarray, f_low: float, f_high: float, k: float, c: float) -> np.ndarray:
@@ -131,6 +139,10 @@ class _Crossing:
     band_high_amount: float = float("nan")
     notes: list[str] = field(default_factory=list)
     data: Any = None
+    p_inside: float = float("nan")
+    p_below_at_largest: float = float("nan")
+    p_above_at_smallest: float = float("nan")
+    verdict: str = ""
 
 
 _NAN = float("nan")
@@ -160,6 +172,9 @@ class CrossingFit(FitResult):
         Covariance of the logistic parameters (pooled residual variance).
     notes
         What the fit decided (fallbacks to interpolation ...).
+    p_inside, p_below_at_largest, p_above_at_smallest, verdict
+        The evidence of :func:`crossing_probabilities` (NaN / "" without a
+        logistic fit with an interval).
     """
 
     product: str = ""
@@ -173,6 +188,10 @@ class CrossingFit(FitResult):
     band_high_amount: float = _NAN
     cov: Any = None
     notes: list[str] = field(default_factory=list)
+    p_inside: float = _NAN
+    p_below_at_largest: float = _NAN
+    p_above_at_smallest: float = _NAN
+    verdict: str = ""
 
     @property
     def n(self) -> int:
@@ -184,7 +203,9 @@ class CrossingFit(FitResult):
         """The result of a finished :class:`_Crossing`."""
         extra = {k: getattr(c, k) for k in ("product", "unit", "method", "status", "crossing",
                                             "crossing_low", "crossing_high", "band_low_amount",
-                                            "band_high_amount", "notes")}
+                                            "band_high_amount", "notes", "p_inside",
+                                            "p_below_at_largest", "p_above_at_smallest",
+                                            "verdict")}
         meta = {"product": c.product, "method": c.method, "status": c.status,
                 "source": c.product}
         common = {"residual_unit": "-", "x_column": "applied_amount", "y_column": "f_measured",
@@ -221,6 +242,72 @@ def _ln_crossing_grad(p: dict[str, float], level: float) -> np.ndarray:
     return np.array([d_fl, d_fh, d_k, 1.0])
 
 
+def crossing_probabilities(params: dict[str, float], cov: Any, amounts: Any, threshold: float,
+                           dof: float, *, probability: float = CROSSING_PROBABILITY
+                           ) -> dict[str, Any]:
+    """Evidence for a threshold crossing under the logistic fit's uncertainty.
+
+    The log crossing amount is ``ln A* ~ ln A*_hat + se T_dof`` (delta method,
+    Student t with the pooled degrees of freedom, as the interval), the fitted
+    friction at an amount ``f(x) ~ f_hat(x) + se_f(x) T_dof``.
+
+    Parameters
+    ----------
+    params, cov
+        Logistic parameters ``f_low, f_high, k, c`` and their covariance.
+    amounts
+        The tested amounts (any unit, > 0).
+    threshold
+        The low-friction threshold.
+    dof
+        Degrees of freedom of the covariance.
+    probability
+        Probability needed to call the verdict.
+
+    Returns
+    -------
+    dict
+        ``p_inside`` (the crossing lies between the smallest and the largest
+        amount), ``p_below_at_largest``, ``p_above_at_smallest`` and
+        ``verdict``: ``"crosses within the tested amounts"`` when
+        ``p_inside >= probability``, else ``"undetermined"``.
+    """
+    from scipy.special import expit
+    from scipy.stats import t as student
+
+    a = np.asarray(amounts, dtype=float)
+    x_lo, x_hi = math.log(float(a.min())), math.log(float(a.max()))
+    C = np.asarray(cov, dtype=float)
+    fl, fh, k, c = params["f_low"], params["f_high"], params["k"], params["c"]
+
+    def f_and_grad(x: float) -> tuple[float, np.ndarray]:
+        e = float(expit(-k * (x - c)))
+        d = e * (1.0 - e)
+        return fl + (fh - fl) * e, np.array([1.0 - e, e, -(fh - fl) * d * (x - c),
+                                             (fh - fl) * d * k])
+
+    out: dict[str, Any] = {"p_inside": float("nan")}
+    for x, key, below in ((x_hi, "p_below_at_largest", True), (x_lo, "p_above_at_smallest", False)):
+        f, g = f_and_grad(x)
+        se = math.sqrt(max(float(g @ C @ g), 0.0))
+        cdf = float(student.cdf((threshold - f) / se, dof)) if se > 0 else float(f < threshold)
+        out[key] = cdf if below else 1.0 - cdf
+    if fl < threshold < fh:
+        lc = _ln_crossing(params, threshold)
+        gr = _ln_crossing_grad(params, threshold)
+        se = math.sqrt(max(float(gr @ C @ gr), 0.0))
+        if se > 0:
+            out["p_inside"] = float(student.cdf((x_hi - lc) / se, dof)
+                                    - student.cdf((x_lo - lc) / se, dof))
+        else:
+            out["p_inside"] = float(x_lo <= lc <= x_hi)
+    else:
+        out["p_inside"] = 0.0
+    out["verdict"] = ("crosses within the tested amounts" if out["p_inside"] >= probability
+                      else "undetermined")
+    return out
+
+
 def _interp_crossing(x: np.ndarray, f: np.ndarray, level: float) -> float:
     """ln amount where ``f`` first falls below ``level`` (linear in ln amount), NaN if never."""
     for i in range(len(x) - 1):
@@ -230,12 +317,15 @@ def _interp_crossing(x: np.ndarray, f: np.ndarray, level: float) -> float:
 
 
 def fit_crossings(series: Any, *, threshold: float, band: tuple[float, float],
-                  curve: str = "logistic", confidence: float = 0.95) -> list[CrossingFit]:
+                  curve: str = "logistic", confidence: float = 0.95,
+                  probability: float = CROSSING_PROBABILITY) -> list[CrossingFit]:
     """Threshold crossing per product (see the module docstring).
 
     A product whose series does not cross the threshold gets no logistic fit
     (``method = "none"``); a logistic fit that does not converge or ends at a
     bound of ``k`` or ``c`` falls back to interpolation, and says so in its notes.
+    Each logistic crossing with an interval gets its evidence
+    (:func:`crossing_probabilities`, the verdict called at ``probability``).
     """
     from scipy.optimize import least_squares
 
@@ -288,7 +378,7 @@ def fit_crossings(series: Any, *, threshold: float, band: tuple[float, float],
             cf.notes.append(f"{prod}: fewer than 5 amounts, crossing by interpolation")
             cf.method = "interpolation"
         fits.append(_finish(cf, x, f, a, lin, threshold, band))
-    _intervals(fits, jacs, ss, dof, threshold, confidence)
+    _intervals(fits, jacs, ss, dof, threshold, confidence, series, probability)
     return [CrossingFit.of(cf) for cf in fits]
 
 
@@ -324,7 +414,8 @@ def _finish(cf: _Crossing, x: np.ndarray, f: np.ndarray, a: np.ndarray, lin: flo
 
 
 def _intervals(fits: list[_Crossing], jacs: dict[str, Any], ss: float, dof: int,
-               threshold: float, confidence: float) -> None:
+               threshold: float, confidence: float, series: Any = None,
+               probability: float = CROSSING_PROBABILITY) -> None:
     """Pooled residual variance -> delta-method intervals on ln A*."""
     from scipy.stats import t as student
 
@@ -346,6 +437,14 @@ def _intervals(fits: list[_Crossing], jacs: dict[str, Any], ss: float, dof: int,
                 se = math.sqrt(max(float(gr @ cov @ gr), 0.0))
                 lc = math.log(cf.crossing)
                 cf.crossing_low, cf.crossing_high = math.exp(lc - tq * se), math.exp(lc + tq * se)
+                if series is not None:
+                    amounts = series.loc[series["product"] == cf.product, "applied_amount"]
+                    ev = crossing_probabilities(cf.params, cov, amounts, threshold, dof,
+                                                probability=probability)
+                    cf.p_inside = ev["p_inside"]
+                    cf.p_below_at_largest = ev["p_below_at_largest"]
+                    cf.p_above_at_smallest = ev["p_above_at_smallest"]
+                    cf.verdict = ev["verdict"]
     elif any(cf.method == "logistic" for cf in fits):
         for cf in fits:
             cf.notes.append(f"{cf.product}: no residual degrees of freedom, no interval")
@@ -396,6 +495,8 @@ def amount_section(series: Any, cfg: Any) -> Section:
             "crossing_mass_high_mg": cf.crossing_high * mf,
             "band_amount_from": cf.band_low_amount, "band_amount_to": cf.band_high_amount,
             "mg_per_unit": mf,
+            "p_crossing_in_range": cf.p_inside, "p_below_at_largest": cf.p_below_at_largest,
+            "p_above_at_smallest": cf.p_above_at_smallest, "crossing_verdict": cf.verdict,
         }
         for n in ("f_low", "f_high", "k", "c"):
             row[f"logistic_{n}"] = cf.params.get(n, float("nan"))
@@ -427,8 +528,14 @@ def amount_section(series: Any, cfg: Any) -> Section:
         iv = "" if not math.isfinite(r["crossing_amount_low"]) else \
             f" [{r['crossing_amount_low']:.3g}, {r['crossing_amount_high']:.3g}]"
         ms = "" if not math.isfinite(r["crossing_mass_mg"]) else f" = {r['crossing_mass_mg']:.3g} mg"
+        ev = ""
+        if math.isfinite(r["p_crossing_in_range"]):
+            ev = (f" Probability that the crossing lies within the tested amounts "
+                  f"{r['p_crossing_in_range']:.3f} (verdict, called at ≥ {CROSSING_PROBABILITY:g}: "
+                  f"{r['crossing_verdict']}); friction below the threshold at the largest amount "
+                  f"with probability {r['p_below_at_largest']:.3f}.")
         paragraphs.append(f"{r['product']}: f falls below {thr:g} at {r['crossing_amount']:.3g}"
-                          f"{iv} {r['amount_unit']}{ms} ({r['method']}).")
+                          f"{iv} {r['amount_unit']}{ms} ({r['method']}).{ev}")
     figs = [Figure("amount_applied", _figure(series, fits, cfg, mass=False),
                    "Friction f against the applied amount (µl for liquids, mg for solids) with "
                    "the fitted curves, the optimal band and the threshold crossings"),]
@@ -445,7 +552,9 @@ def amount_section(series: Any, cfg: Any) -> Section:
             "crossing": ("crossing_amount", ".3g"), f"{lev} low": ("crossing_amount_low", ".3g"),
             f"{lev} high": ("crossing_amount_high", ".3g"), "unit": ("amount_unit", ""),
             "crossing (mg)": ("crossing_mass_mg", ".3g"),
-            "in band from": ("band_amount_from", ".3g"), "in band to": ("band_amount_to", ".3g")}
+            "in band from": ("band_amount_from", ".3g"), "in band to": ("band_amount_to", ".3g"),
+            "P(crossing in range)": ("p_crossing_in_range", ".3f"),
+            "verdict": ("crossing_verdict", "")}
     series_show = {"product": ("product", ""), "amount": ("applied_amount", "g"),
                    "unit": ("applied_amount_unit", ""), "mass (mg)": ("mass_mg", ".3g"),
                    "f": ("f", ".4f"), "sd": ("f_sd", ".4f"), "file": ("file", "")}

@@ -24,7 +24,8 @@ def traction_figure(curves: Sequence[tuple[str, Any]], *, boundary: Any = None,
     ----------
     curves
         ``(label, table)`` pairs; ``table`` has ``creepage`` and ``mu`` and optionally
-        ``mu_boundary`` and ``mu_ehl`` (drawn thin and dashed when they differ from ``mu``).
+        ``mu_boundary`` and ``mu_ehl`` (drawn thin and dashed when they differ from ``mu``)
+        and the 95 % band ``mu_low95``, ``mu_high95`` (shaded).
     boundary
         The scene's ``boundary:`` (``mu_c1``, ``mu_c2``): drawn as the layer's limits.
     title
@@ -36,6 +37,9 @@ def traction_figure(curves: Sequence[tuple[str, Any]], *, boundary: Any = None,
     for label, t in curves:
         x = 100.0 * np.asarray(t["creepage"], dtype=float)
         (line,) = ax.plot(x, t["mu"], lw=1.8, label=label)
+        if "mu_low95" in t and "mu_high95" in t:
+            ax.fill_between(x, t["mu_low95"], t["mu_high95"], color=line.get_color(), alpha=0.25,
+                            lw=0, label=f"{label}: 95 % band (fit uncertainty)")
         if "mu_boundary" in t and "mu_ehl" in t:
             ax.plot(x, t["mu_boundary"], lw=0.9, ls="--", color=line.get_color(),
                     label=f"{label}: boundary part μ_BL")
@@ -87,7 +91,8 @@ def stribeck_figure(table: Any, *, title: str = "", creepage: float | None = Non
     """Stribeck figure: ``mu``, film parameter Lambda and asperity load share against speed.
 
     Regimes (boundary / mixed / full film) are shaded.  Speeds of 0 are left out of
-    the logarithmic axis.
+    the logarithmic axis.  The 95 % bands of ``mu`` and the film thickness
+    (``mu_low95`` ... from the fit's covariance) are drawn where the table has them.
     """
     t = table[table["speed_m_s"] > 0]
     v = t["speed_m_s"].to_numpy(dtype=float)
@@ -97,6 +102,10 @@ def stribeck_figure(table: Any, *, title: str = "", creepage: float | None = Non
         shade_regimes(ax, v, list(t["regime"]), label=ax is ax_mu)
         ax.set_xscale("log")
     ax_mu.plot(v, t["mu"], lw=1.8, color="k", label="μ (mixed, Eq. 5.47)")
+    if "mu_low95" in t and "mu_high95" in t:
+        ax_mu.fill_between(v, t["mu_low95"], t["mu_high95"], color="0.3", alpha=0.3, lw=0,
+                           label="95 % band of μ (fit uncertainty)")
+    hb = ("film_thickness_low95_m" in t and "film_thickness_high95_m" in t)
     if "mu_ehl" in t and t["mu_ehl"].notna().any():
         ax_mu.plot(v, t["mu_ehl"], lw=0.9, ls=":", color="C0", label="film part μ_EHL")
     if "mu_boundary" in t and t["mu_boundary"].notna().any():
@@ -109,12 +118,22 @@ def stribeck_figure(table: Any, *, title: str = "", creepage: float | None = Non
         ax_mu.set_title(ttl)
     ax_mu.legend(loc="best")
     lam = t["lambda"].to_numpy(dtype=float)
+    h = t["film_thickness_m"].to_numpy(dtype=float)
     if np.isfinite(lam).any():
         ax_lam.plot(v, lam, color="C2")
+        if hb:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                per_h = np.where(h > 0, lam / h, np.nan)
+            ax_lam.fill_between(v, t["film_thickness_low95_m"] * per_h,
+                                t["film_thickness_high95_m"] * per_h, color="C2", alpha=0.25,
+                                lw=0)
         ax_lam.set_yscale("log")
         ax_lam.set_ylabel("film parameter Λ = h/σ (-)")
     else:
-        ax_lam.plot(v, t["film_thickness_m"] * 1e9, color="C2")
+        ax_lam.plot(v, h * 1e9, color="C2")
+        if hb:
+            ax_lam.fill_between(v, t["film_thickness_low95_m"] * 1e9,
+                                t["film_thickness_high95_m"] * 1e9, color="C2", alpha=0.25, lw=0)
         ax_lam.set_yscale("log")
         ax_lam.set_ylabel("film thickness h (nm)\n(smooth: Λ undefined)")
     ax_sh.plot(v, t["load_share_asperity"], color="C1")

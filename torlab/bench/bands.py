@@ -1,0 +1,102 @@
+"""Prediction bands (``torlab bench``): a traction curve with its 95 % band against the plain
+curve, and the band's accuracy against a many-draw reference.
+
+The scene is the thesis's wheel-rail contact (Tab. 5.4, with its flash temperature) with the
+layer of an HPT fit: a synthetic HPT run of the sample generator (seed 0) fitted by
+``fit_layer_hpt``, whose covariance the prediction propagates (:mod:`torlab.model.bands`).
+The unit of work is ``predict_traction`` on 101 creepages 0-5 %.  The error of a band is the
+largest difference of its edges from the reference band, in units of the reference
+half-width at that creepage (over ``mu`` and the temperature): 0.1 means an edge is off by a
+twentieth of the band's width.  The reference is the mean of two independent sampled bands
+(``n`` seeded draws each); half their difference is the reference's own noise
+(``x_reference_noise``), the floor below which no error can be resolved.
+"""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+
+from torlab.bench import BenchRow, median_time
+
+__all__ = ["run"]
+
+
+def _scene_with_fit() -> object:
+    from pathlib import Path
+
+    from torlab.fit.layer import fit_layer_hpt
+    from torlab.model.layer import LayerParams
+    from torlab.parsers.hpt import read_hpt
+    from torlab.reduce.hpt import RigCompliance, reduce_hpt
+    from torlab.scene import load_scene, scene_from_dict
+    from torlab.synth.hpt import HptRig, HptRunSpec, rig_compliance_u, simulate_hpt, write_hpt_log
+
+    rig = HptRig()
+    tg = np.linspace(0, 1e9, 2001)
+    comp = RigCompliance(tg, rig_compliance_u(tg, rig), "true")
+    spec = HptRunSpec("b", "OFM1", 4, 25.0, LayerParams(0.135, 0.223, 8e-6, 19e-6), seed=0)
+    df, meta = read_hpt(io.StringIO(write_hpt_log(spec, simulate_hpt(spec, rig), rig)), name="b")
+    res = fit_layer_hpt(reduce_hpt(df, meta, compliance=comp))
+    base = load_scene(Path(__file__).resolve().parents[2] / "protocols" / "scenes" /
+                      "wheel_rail_tab54.yaml").model_dump(exclude_none=True)
+    base.pop("fit", None)
+    d = res.to_yaml_dict()
+    base["boundary"] = {**base["boundary"], **d["boundary"]}
+    base["fit"] = d["fit"]
+    return scene_from_dict(base)
+
+
+def _edge_error(band, ref: dict[str, tuple[np.ndarray, np.ndarray]]) -> float:
+    """Largest edge difference over the reference half-width (every output)."""
+    worst = 0.0
+    for k, (lo, hi) in ref.items():
+        half = 0.5 * (hi - lo)
+        ok = half > 1e-6 * np.max(np.abs(half))
+        d = np.maximum(np.abs(band.low(k) - lo), np.abs(band.high(k) - hi))
+        worst = max(worst, float(np.max(d[ok] / half[ok])))
+    return worst
+
+
+def run(quick: bool = False) -> list[BenchRow]:
+    """Plain curve, its band by the default choice, forced linearisation and forced sampling."""
+    from torlab.model.bands import scene_uncertainty, traction_band
+    from torlab.model.predict import predict_traction
+
+    sc = _scene_with_fit()
+    xi = np.linspace(0.0, 0.05, 101)
+    su = scene_uncertainty(sc)
+    plain_table = predict_traction(sc, xi, band=False).table
+    n_ref = 150 if quick else 1500
+    ra, rb = (traction_band(sc, xi, plain_table, su, method="sampling", n_samples=n_ref, seed=s)
+              for s in (12345, 54321))
+    ref = {k: (0.5 * (ra.low(k) + rb.low(k)), 0.5 * (ra.high(k) + rb.high(k))) for k in ra.center}
+    noise = 0.5 * _edge_error(ra, {k: (rb.low(k), rb.high(k)) for k in rb.center})
+    repeat = 3 if quick else 7
+    t_plain = median_time(lambda: predict_traction(sc, xi, band=False), repeat=repeat)
+    t_band = median_time(lambda: predict_traction(sc, xi), repeat=repeat)
+    pred = predict_traction(sc, xi)
+    unit = "101-point traction curve (wheel-rail Tab. 5.4, HPT-fitted layer)"
+    refname = f"mean of two sampled bands, {n_ref} draws each"
+    rows = [BenchRow("traction curve with 95 % band", "plain curve (no band)", t_plain, None,
+                     "", False, unit, extra={"ratio_to_plain": 1.0})]
+    rows.append(BenchRow(
+        "traction curve with 95 % band", f"band, automatic choice ({pred.band.method})", t_band,
+        _edge_error(pred.band, ref), refname, True, unit,
+        error_kind="band edge / reference half-width",
+        extra={"ratio_to_plain": t_band / t_plain, "model_evaluations": pred.band.n_evaluations,
+               "nonlinearity": pred.band.nonlinearity, "reference_noise": noise}))
+    for method, n in (("linear", None), ("sampling", 150 if quick else 400)):
+        opts = {"method": method} | ({"n_samples": n} if n else {})
+        t = median_time(lambda o=opts: traction_band(sc, xi, plain_table, su, **o),
+                        repeat=repeat) + t_plain
+        b = traction_band(sc, xi, plain_table, su, **opts)
+        rows.append(BenchRow("traction curve with 95 % band",
+                             f"band, {method}" + (f" ({n} draws)" if n else ""), t,
+                             _edge_error(b, ref), refname, False, unit,
+                             error_kind="band edge / reference half-width",
+                             extra={"ratio_to_plain": t / t_plain,
+                                    "model_evaluations": b.n_evaluations,
+                                    "reference_noise": noise}))
+    return rows

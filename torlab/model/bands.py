@@ -1,0 +1,227 @@
+"""Prediction bands: a fit's parameter uncertainty carried through ``torlab predict``.
+
+A parameter file written by ``torlab fit`` carries the covariance of its
+estimates (``fit: covariance:``, validated by :class:`torlab.scene.FitCovariance`).
+When the scene has one, :func:`torlab.model.predict.predict_traction` and
+:func:`torlab.model.mixed.predict_stribeck` propagate it through the same model
+(:func:`torlab.uncertainty.propagate`: linearised where that is accurate,
+sampled where it is not) and add the 95 % band of ``mu`` and, where the scene
+models them, of the film thickness and the contact temperature:
+
+=================================  =============================================
+column                             band of
+=================================  =============================================
+``mu_low95``, ``mu_high95``        ``mu``
+``film_thickness_low95_m``,        ``film_thickness_m`` (lubricated scenes)
+``film_thickness_high95_m``
+``max_temperature_low95_C``,       ``max_temperature_C`` (``thermal:``)
+``max_temperature_high95_C``
+=================================  =============================================
+
+Which parameters are uncertain
+------------------------------
+Only the scene's own keys (``boundary:``: ``mu_c1 ... mu_c2_T``;
+``lubricant:``: ``eta0``, ``alpha``, ``Z``) whose value in the scene is the
+value the covariance belongs to; a value that a later file (or the user)
+changed is taken as exact and the summary says so.  Parameters that cannot
+change the prediction are left out (temperature coefficients without a
+``thermal:`` section, a viscosity parameter the scene's laws do not use).
+Several parameter files give independent blocks (one fit each; a later file's
+parameter replaces an earlier file's).  A parameter the fit did not determine
+(``not_determined``) that the prediction depends on means no band can be
+drawn; the summary gives the reason instead.
+
+Positive parameters (limits, lengths, viscosity parameters) are propagated on
+a log scale, so no draw leaves their physical range.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from torlab.uncertainty import ParameterDistribution, Propagation, propagate
+
+__all__ = ["BAND_COLUMNS", "SceneUncertainty", "add_band_columns", "band_summary",
+           "scene_uncertainty", "stribeck_band", "traction_band"]
+
+BOUNDARY_KEYS = ("mu_c1", "mu_c2", "L_mue", "L_mup", "mu_c1_T", "mu_c2_T")
+LUBRICANT_KEYS = ("eta0", "alpha", "Z")
+#: parameters that must stay positive: propagated as ln p
+POSITIVE = frozenset({"mu_c1", "mu_c2", "L_mue", "L_mup", "eta0", "alpha", "Z"})
+#: output -> (low column, high column) of the CSV
+BAND_COLUMNS = {"mu": ("mu_low95", "mu_high95"),
+                "film_thickness_m": ("film_thickness_low95_m", "film_thickness_high95_m"),
+                "max_temperature_C": ("max_temperature_low95_C", "max_temperature_high95_C")}
+
+
+@dataclass
+class SceneUncertainty:
+    """The uncertain parameters of a scene (from its ``fit: covariance:`` blocks).
+
+    ``dist`` is None when there is nothing to propagate (no covariance, no
+    parameter left) or when ``missing`` is not empty (a parameter the
+    prediction depends on was not determined by its fit).
+    """
+
+    dist: ParameterDistribution | None
+    notes: list[str] = field(default_factory=list)
+    missing: list[str] = field(default_factory=list)
+    has_covariance: bool = False
+
+
+def _used_keys(scene: Any) -> dict[str, str]:
+    """Scene keys that can change a prediction -> their section."""
+    keys: dict[str, str] = {}
+    if scene.boundary is not None:
+        for k in BOUNDARY_KEYS:
+            if k in ("mu_c1_T", "mu_c2_T") and scene.thermal is None:
+                continue
+            keys[k] = "boundary"
+    lub = scene.lubricant
+    if lub is not None:
+        keys["eta0"] = "lubricant"
+        if lub.alpha is not None and (lub.viscosity == "barus" or lub.film_law == "piezo"):
+            keys["alpha"] = "lubricant"
+        if lub.Z is not None and lub.viscosity == "roelands":
+            keys["Z"] = "lubricant"
+    return keys
+
+
+def scene_uncertainty(scene: Any) -> SceneUncertainty:
+    """Collect the uncertain parameters of a scene (module docstring)."""
+    fit = getattr(scene, "fit", None)
+    blocks = fit.covariances if fit is not None else []
+    if not blocks:
+        return SceneUncertainty(None, ["no band: the scene carries no fit covariance (its "
+                                       "parameters are taken as exact); predict with the "
+                                       "params.yaml of a torlab fit to get one"])
+    used = _used_keys(scene)
+    notes: list[str] = []
+    missing: list[str] = []
+    taken: set[str] = set()
+    parts: list[ParameterDistribution] = []
+    for blk in reversed(blocks):  # later files take precedence
+        keep: list[int] = []
+        for i, n in enumerate(blk.names):
+            if n not in used or n in taken:
+                continue
+            section = getattr(scene, used[n])
+            val = getattr(section, n)
+            ref = blk.values[i]
+            if val is None or not math.isclose(float(val), ref, rel_tol=1e-9, abs_tol=1e-300):
+                notes.append(f"{n} = {val!r} in the scene differs from the fitted value "
+                             f"{ref:.6g} its covariance belongs to: taken as exact")
+                taken.add(n)
+                continue
+            keep.append(i)
+            taken.add(n)
+        for n in blk.not_determined:
+            if n in used and n not in taken:
+                missing.append(n)
+                taken.add(n)
+        if not keep:
+            continue
+        names = [blk.names[i] for i in keep]
+        cov = np.asarray(blk.matrix, dtype=float)[np.ix_(keep, keep)]
+        vals = [blk.values[i] for i in keep]
+        logs = [n for n, v in zip(names, vals, strict=True)
+                if (n in blk.log_scale or n in POSITIVE) and v > 0]
+        parts.append(ParameterDistribution.from_covariance(names, vals, cov, log_scale=logs,
+                                                           dof=blk.dof))
+    if missing:
+        why = (f"no band: {', '.join(missing)} not determined by the fit (fix it in the fit, "
+               "e.g. torlab fit traction --fix, and refit)")
+        return SceneUncertainty(None, [why, *notes], missing, True)
+    if not parts:
+        why = "no band: none of the fitted parameters with a covariance enters this prediction"
+        return SceneUncertainty(None, [why, *notes], [], True)
+    return SceneUncertainty(ParameterDistribution.combine(parts[::-1]), notes, [], True)
+
+
+def _with_params(scene: Any, params: dict[str, float]) -> Any:
+    """The scene with ``boundary:`` / ``lubricant:`` values replaced (no re-validation)."""
+    b = {k: float(v) for k, v in params.items() if k in BOUNDARY_KEYS}
+    lub = {k: float(v) for k, v in params.items() if k in LUBRICANT_KEYS}
+    upd: dict[str, Any] = {}
+    if b:
+        upd["boundary"] = scene.boundary.model_copy(update=b)
+    if lub:
+        upd["lubricant"] = scene.lubricant.model_copy(update=lub)
+    return scene.model_copy(update=upd)
+
+
+def _outputs(table: Any, names: tuple[str, ...]) -> dict[str, np.ndarray]:
+    return {k: table[k].to_numpy(dtype=float) for k in names if k in table}
+
+
+def traction_band(scene: Any, creepage: np.ndarray, table: Any, su: SceneUncertainty, *,
+                  seed: int = 0, **options: Any) -> Propagation:
+    """Band of a traction curve (``table`` is the curve at the estimate).
+
+    A dry scene evaluates FASTSIM directly with the layer replaced; a
+    lubricated one the whole mixed model (``predict_traction(..., band=False)``).
+    ``options`` go to :func:`torlab.uncertainty.propagate` (``method``,
+    ``n_samples`` ...).
+    """
+    from torlab.model.fastsim import boundary_traction
+    from torlab.model.predict import fastsim_grid, fastsim_problem, predict_traction
+
+    xi = np.asarray(creepage, dtype=float)
+    outs = tuple(k for k in BAND_COLUMNS if k in table)
+    f0 = _outputs(table, outs)
+    if scene.lubricant is None:
+        prob = fastsim_problem(scene)
+        grid = fastsim_grid(scene)
+        boundary_names = set(BOUNDARY_KEYS)
+
+        def model(p: dict[str, float]) -> dict[str, np.ndarray]:
+            layer = replace(prob.layer, **{k: v for k, v in p.items() if k in boundary_names})
+            res = boundary_traction(replace(prob, layer=layer), xi, grid)
+            out = {"mu": res.mu}
+            if "max_temperature_C" in outs:
+                out["max_temperature_C"] = res.max_temperature_C
+            return out
+    else:
+        def model(p: dict[str, float]) -> dict[str, np.ndarray]:
+            t = predict_traction(_with_params(scene, p), xi, band=False).table
+            return _outputs(t, outs)
+
+    return propagate(model, su.dist, f0=f0, seed=seed, **options)
+
+
+def stribeck_band(scene: Any, speed: np.ndarray, creepage: float, table: Any,
+                  su: SceneUncertainty, *, seed: int = 0) -> Propagation:
+    """Band of a Stribeck curve (``table`` is the curve at the estimate)."""
+    from torlab.model.mixed import predict_stribeck
+
+    outs = tuple(k for k in BAND_COLUMNS if k in table)
+    f0 = _outputs(table, outs)
+
+    def model(p: dict[str, float]) -> dict[str, np.ndarray]:
+        t = predict_stribeck(_with_params(scene, p), speed, creepage, band=False).table
+        return _outputs(t, outs)
+
+    return propagate(model, su.dist, f0=f0, seed=seed)
+
+
+def add_band_columns(table: Any, band: Propagation) -> Any:
+    """The table with the ``*_low95`` / ``*_high95`` columns of :data:`BAND_COLUMNS`."""
+    for out, (lo, hi) in BAND_COLUMNS.items():
+        if out in band.center:
+            table[lo] = band.low(out)
+            table[hi] = band.high(out)
+    return table
+
+
+def band_summary(band: Propagation | None, su: SceneUncertainty) -> dict[str, Any]:
+    """``summary.json``'s ``band``: method, check, dominant parameters, notes."""
+    if band is None:
+        return {"method": "not computed", "notes": list(su.notes)}
+    s = band.summary()
+    s["notes"] = list(su.notes) + s["notes"]
+    s["columns"] = {k: list(v) for k, v in BAND_COLUMNS.items() if k in band.center}
+    return s

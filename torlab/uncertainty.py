@@ -1,0 +1,842 @@
+"""Propagation of parameter uncertainty through a model: bands, derived quantities, verdicts.
+
+A fit gives its parameters as an estimate with a covariance (and the residual
+degrees of freedom of that covariance).  :func:`propagate` carries that
+uncertainty through any model function of named parameters and returns, for
+every output, the model at the estimate, a two-sided band (95 % by default),
+the standard deviation, and how much each parameter contributes to the band.
+:meth:`Propagation.derive` carries it on to a quantity computed from the
+outputs (a trend, a crossing) without new model evaluations, and
+:meth:`Propagation.class_probabilities` turns such a scalar into the
+probability of each verdict class.
+
+Parameter scale
+---------------
+Parameters listed in ``log_scale`` (positive quantities: friction limits,
+lengths, viscosities) are propagated as ``theta = ln p`` with the covariance
+``C_ij / (p_i p_j)`` (the same first-order information, expressed on the scale
+on which their uncertainty is symmetric), so a sample or a step never makes
+them negative.  The others (temperature coefficients, exponents) are
+propagated as they are.
+
+Methods
+-------
+``linear``
+    The model's derivatives by forward differences, one step of one standard
+    deviation along each parameter (``k + 1`` evaluations with the estimate
+    itself); the output variance is ``G C G^T`` and the band
+    ``f(theta0) +- t sd``.
+``sampling``
+    ``n_samples`` seeded draws of the parameters from the fit's distribution
+    (multivariate normal, or Student t with the fit's degrees of freedom);
+    the band is the sample's 2.5 % and 97.5 % quantiles around the model at
+    the estimate.
+``none``
+    Every parameter variance is zero: the band is the curve itself.
+
+Nonlinearity check (``method="auto"``)
+--------------------------------------
+After the linear step the model is evaluated at the parameter sets that put
+the band where it is widest: along the first (and, when it explains less than
+90 %, the second) principal direction of the parameter space in the output
+variance (each output point normalised by its own standard deviation), at
+``-t`` standard deviations (the lower 95 % edge: ``t = 1.96``, or Student's
+quantile for the smallest degrees of freedom of the fits).  The
+nonlinearity is
+
+``eta = max over outputs |f(probe) - linear prediction| / (t sd)``,
+
+the error of the linear band edge relative to the band's half-width (the
+standard deviation is floored at 1 % of its largest value along each output,
+so points where the band vanishes, e.g. zero creepage, do not count).  When
+``eta <= nonlinearity_tol`` (0.1 by default) the linear band is used, else the
+model is sampled.  ``k + 3`` evaluations for the linear band of a model with
+``k`` parameters (``k + 2`` when one direction explains the variance).
+
+Contributions
+-------------
+``contributions[output][name]`` is the parameter's share of the output's
+variance, its covariances with the other parameters split evenly:
+``S_j = g_j (C g)_j / var`` with ``g`` the output's gradient (linear method);
+in the sampling method ``g`` is the slope of the multiple linear regression of
+the output on the drawn parameters, so the shares add up to the part of the
+variance that is linear in the parameters (``R^2 <= 1``).  The shares add up
+to 1 in the linear method; a negative share means the parameter's correlation
+with the others partly cancels their effect (a fit that determines a
+combination of parameters better than each one).
+
+Degrees of freedom
+------------------
+A distribution may consist of independent blocks (one per fit), each with the
+residual degrees of freedom of its covariance (``inf``: normal).  The linear
+band uses Student's t with the Welch-Satterthwaite degrees of freedom of each
+output's variance, ``nu = var^2 / sum_b (var_b^2 / nu_b)``; sampling draws each
+block from a multivariate t with its own ``nu``.
+
+Example
+-------
+>>> import numpy as np
+>>> from torlab.uncertainty import ParameterDistribution, propagate
+>>> x = np.linspace(0.0, 1.0, 5)
+>>> dist = ParameterDistribution.from_covariance(("a", "b"), [1.0, 2.0],
+...                                              [[0.01, 0.0], [0.0, 0.04]])
+>>> band = propagate(lambda p: p["a"] + p["b"] * x, dist)
+>>> band.method, round(float(band.high()[-1] - band.low()[-1]), 3)
+('linear', 0.877)
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "CONFIDENCE",
+    "NONLINEARITY_TOL",
+    "N_SAMPLES",
+    "ParameterDistribution",
+    "Propagation",
+    "propagate",
+]
+
+#: default two-sided confidence of a band
+CONFIDENCE = 0.95
+#: largest nonlinearity (error of the linear band edge / band half-width) for the linear method
+NONLINEARITY_TOL = 0.1
+#: parameter draws of the sampling method
+N_SAMPLES = 400
+#: principal directions probed by the nonlinearity check explain at least this share
+_PROBE_SHARE = 0.9
+#: a standard deviation below this fraction of its output's largest one is floored there
+_SD_FLOOR = 0.01
+
+Model = Callable[[dict[str, Any]], Any]
+
+
+@dataclass(frozen=True)
+class ParameterDistribution:
+    """The uncertainty of named parameters: estimate, covariance, scale and degrees of freedom.
+
+    Attributes
+    ----------
+    names
+        Parameter names.
+    values
+        Estimates (the model's argument values), natural units.
+    cov
+        ``(k, k)`` covariance in natural units, symmetric positive semi-definite.
+    log_scale
+        Names propagated as ``ln p`` (positive parameters).
+    blocks
+        ``(indices, dof)`` of independent groups of parameters; ``dof`` is the
+        residual degrees of freedom of that group's covariance (``inf``: normal).
+        Default: one block with ``dof = inf``.
+    """
+
+    names: tuple[str, ...]
+    values: np.ndarray
+    cov: np.ndarray
+    log_scale: frozenset[str] = frozenset()
+    blocks: tuple[tuple[tuple[int, ...], float], ...] = ()
+
+    @classmethod
+    def from_covariance(cls, names: Sequence[str], values: Sequence[float], cov: Any, *,
+                        log_scale: Sequence[str] = (), dof: float = math.inf
+                        ) -> ParameterDistribution:
+        """One block of parameters from a fit (see the class attributes).
+
+        Raises
+        ------
+        ValueError
+            Shapes that do not match, a non-finite or non-symmetric covariance, a
+            negative variance, a log-scale parameter that is not positive.
+        """
+        names = tuple(str(n) for n in names)
+        v = np.asarray(values, dtype=float).ravel()
+        c = np.asarray(cov, dtype=float)
+        k = len(names)
+        if len(set(names)) != k:
+            raise ValueError(f"parameter names repeat: {names}")
+        if v.shape != (k,) or c.shape != (k, k):
+            raise ValueError(f"{k} names but {v.size} values and a {c.shape} covariance")
+        if not (np.all(np.isfinite(v)) and np.all(np.isfinite(c))):
+            raise ValueError("values and covariance must be finite")
+        scale = max(float(np.max(np.abs(np.diag(c)), initial=0.0)), 1e-300)
+        if not np.allclose(c, c.T, rtol=1e-6, atol=1e-9 * scale):
+            raise ValueError("the covariance is not symmetric")
+        if np.any(np.diag(c) < 0):
+            raise ValueError("a variance is negative")
+        logs = frozenset(str(n) for n in log_scale)
+        unknown = logs - set(names)
+        if unknown:
+            raise ValueError(f"log_scale names {sorted(unknown)} are not parameters")
+        for i, n in enumerate(names):
+            if n in logs and not v[i] > 0:
+                raise ValueError(f"{n} = {v[i]:g} cannot be on a log scale (it must be > 0)")
+        if not (dof > 0):
+            raise ValueError("degrees of freedom must be > 0")
+        return cls(names, v, 0.5 * (c + c.T), logs, ((tuple(range(k)), float(dof)),))
+
+    @classmethod
+    def combine(cls, parts: Sequence[ParameterDistribution]) -> ParameterDistribution:
+        """Independent distributions side by side (block-diagonal covariance).
+
+        Raises
+        ------
+        ValueError
+            A parameter name in two parts.
+        """
+        names: list[str] = []
+        blocks: list[tuple[tuple[int, ...], float]] = []
+        for p in parts:
+            off = len(names)
+            names += list(p.names)
+            blocks += [(tuple(off + i for i in idx), dof) for idx, dof in p.blocks_or_default]
+        if len(set(names)) != len(names):
+            raise ValueError(f"a parameter appears in two distributions: {names}")
+        k = len(names)
+        cov = np.zeros((k, k))
+        off = 0
+        for p in parts:
+            m = len(p.names)
+            cov[off:off + m, off:off + m] = p.cov
+            off += m
+        values = np.concatenate([p.values for p in parts]) if parts else np.zeros(0)
+        logs = frozenset().union(*(p.log_scale for p in parts)) if parts else frozenset()
+        return cls(tuple(names), values, cov, logs, tuple(blocks))
+
+    @property
+    def blocks_or_default(self) -> tuple[tuple[tuple[int, ...], float], ...]:
+        """The blocks, or one normal block of every parameter."""
+        return self.blocks or ((tuple(range(len(self.names))), math.inf),)
+
+    @property
+    def is_log(self) -> np.ndarray:
+        """Boolean mask of the log-scale parameters."""
+        return np.array([n in self.log_scale for n in self.names], dtype=bool)
+
+    def transformed(self) -> tuple[np.ndarray, np.ndarray]:
+        """``theta0`` and the covariance of ``theta`` (``ln p`` for the log-scale names)."""
+        lg = self.is_log
+        theta = np.where(lg, np.log(np.where(lg, self.values, 1.0)), self.values)
+        d = np.where(lg, 1.0 / np.where(lg, self.values, 1.0), 1.0)
+        return theta, self.cov * np.outer(d, d)
+
+    def params(self, theta: np.ndarray) -> dict[str, Any]:
+        """Model arguments from ``theta`` (``(k,)`` or ``(m, k)``: scalars or arrays)."""
+        theta = np.asarray(theta, dtype=float)
+        lg = self.is_log
+        p = np.where(lg, np.exp(np.where(lg, theta, 0.0)), theta)
+        if p.ndim == 1:
+            return {n: float(v) for n, v in zip(self.names, p, strict=True)}
+        return {n: p[:, i] for i, n in enumerate(self.names)}
+
+    def subset(self, keep: Sequence[str]) -> ParameterDistribution:
+        """The marginal distribution of ``keep`` (in the order of :attr:`names`)."""
+        idx = [i for i, n in enumerate(self.names) if n in set(keep)]
+        where = {old: new for new, old in enumerate(idx)}
+        blocks = []
+        for b, dof in self.blocks_or_default:
+            nb = tuple(where[i] for i in b if i in where)
+            if nb:
+                blocks.append((nb, dof))
+        return ParameterDistribution(tuple(self.names[i] for i in idx), self.values[idx],
+                                     self.cov[np.ix_(idx, idx)],
+                                     frozenset(n for n in self.log_scale if n in set(keep)),
+                                     tuple(blocks))
+
+
+@dataclass
+class Propagation:
+    """Outputs of a model under parameter uncertainty (see the module docstring).
+
+    Attributes
+    ----------
+    method
+        ``"linear"``, ``"sampling"`` or ``"none"`` (no parameter uncertainty).
+    confidence
+        Two-sided level of :meth:`low` / :meth:`high`.
+    center
+        Model at the estimate, per output.
+    sd
+        Standard deviation per output (linear: first order; sampling: of the sample).
+    lower, upper
+        Band edges per output.
+    contributions
+        ``{output: {parameter: share of the variance}}`` (arrays like the output; see
+        the module docstring).
+    nonlinearity
+        The check's ``eta`` (NaN when not computed).
+    n_evaluations
+        Model evaluations spent (the estimate included when computed here).
+    n_failed
+        Samples whose model evaluation raised a numerical error (left out).
+    names
+        The parameters.
+    notes
+        What was done and why (for reports).
+    """
+
+    method: str
+    confidence: float
+    center: dict[str, np.ndarray]
+    sd: dict[str, np.ndarray]
+    lower: dict[str, np.ndarray]
+    upper: dict[str, np.ndarray]
+    contributions: dict[str, dict[str, np.ndarray]]
+    nonlinearity: float
+    n_evaluations: int
+    names: tuple[str, ...]
+    n_failed: int = 0
+    notes: list[str] = field(default_factory=list)
+    # the design, for derived quantities: outputs at the estimate, the steps and probes
+    # (linear) or at the draws (sampling), with the parameter offsets in theta
+    _design: dict[str, Any] = field(default_factory=dict, repr=False)
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Picklable (the protocol cache): the model function is not kept, so a derived
+        quantity of an unpickled propagation is linear (or uses its stored draws)."""
+        state = dict(self.__dict__)
+        state["_design"] = {k: v for k, v in self._design.items() if k != "model"}
+        return state
+
+    # -- access -----------------------------------------------------------------------------
+    def _key(self, output: str | None) -> str:
+        if output is None:
+            if len(self.center) != 1:
+                raise KeyError(f"name the output: {sorted(self.center)}")
+            return next(iter(self.center))
+        return output
+
+    def low(self, output: str | None = None) -> np.ndarray:
+        """Lower band edge of ``output`` (the only one when None)."""
+        return self.lower[self._key(output)]
+
+    def high(self, output: str | None = None) -> np.ndarray:
+        """Upper band edge of ``output``."""
+        return self.upper[self._key(output)]
+
+    def dominant(self, output: str | None = None, *, min_share: float = 0.1) -> list[tuple[str, float]]:
+        """Parameters that dominate the band of ``output``, largest first.
+
+        The share of a parameter is its contribution averaged over the output's
+        points, weighted by their variance (so the widest part of the band counts
+        most); parameters below ``min_share`` are left out.  Shares below zero
+        (a parameter that offsets others through its correlation) never dominate.
+        """
+        key = self._key(output)
+        var = np.nan_to_num(np.asarray(self.sd[key], dtype=float) ** 2)
+        tot = float(np.sum(var))
+        if tot <= 0:
+            return []
+        out = []
+        for n, c in self.contributions[key].items():
+            share = float(np.sum(np.nan_to_num(np.asarray(c, dtype=float)) * var) / tot)
+            if share >= min_share:
+                out.append((n, share))
+        return sorted(out, key=lambda t: -t[1])
+
+    def summary(self, outputs: Sequence[str] | None = None) -> dict[str, Any]:
+        """Method, check and dominant parameters per output, for ``summary.json``."""
+        keys = list(outputs) if outputs is not None else list(self.center)
+        return {
+            "method": self.method,
+            "confidence": self.confidence,
+            "nonlinearity": None if not math.isfinite(self.nonlinearity) else self.nonlinearity,
+            "nonlinearity_tolerance": self._design.get("tol"),
+            "n_evaluations": int(self.n_evaluations),
+            "n_samples": self._design.get("n_samples") if self.method == "sampling" else None,
+            "n_failed": int(self.n_failed),
+            "parameters": list(self.names),
+            "dominant": {k: [{"parameter": n, "share": round(s, 4)} for n, s in self.dominant(k)]
+                         for k in keys if k in self.center},
+            "notes": list(self.notes),
+        }
+
+    # -- derived quantities -----------------------------------------------------------------
+    def derive(self, func: Callable[[dict[str, np.ndarray]], Any], *,
+               nonlinearity_tol: float | None = None) -> Propagation:
+        """Propagate ``func(outputs)`` (a function of the model's outputs) with the same design.
+
+        No new model evaluations in the linear method: ``func`` is applied to
+        the stored outputs at the estimate, the steps and the probes, and the
+        derived quantity gets its own nonlinearity check; if it fails and the
+        model is known, the model is sampled (``n_samples`` evaluations).  In
+        the sampling method ``func`` is applied to every draw.
+        """
+        d = self._design
+        tol = d.get("tol", NONLINEARITY_TOL) if nonlinearity_tol is None else nonlinearity_tol
+        if self.method == "none":
+            c = _as_outputs(func(d["f0"]))
+            return _none_result(c, self.names, self.confidence, 0)
+        if self.method == "linear":
+            f0 = _as_outputs(func(d["f0"]))
+            steps = [_as_outputs(func(f)) for f in d["steps"]]
+            probes = [_as_outputs(func(f)) for f in d["probes"]]
+            res = _linear_from_design(d["dist"], d["h"], f0, steps, d["dirs"], probes,
+                                      self.confidence, tol, 0, self.names)
+            if res.nonlinearity <= tol or d.get("model") is None:
+                if res.nonlinearity > tol:
+                    res.notes.append("the derived quantity is nonlinear in the parameters but "
+                                     "no model was kept for sampling; linear result")
+                return res
+            model = d["model"]
+            draws = _draws(d["dist"], d["n_samples"], d["seed"])
+            samples, failed = _evaluate_many(model, d["dist"], draws, d["vectorized"])
+            out = _sampling_from_draws(d["dist"], draws[~failed], samples, d["f0"],
+                                       self.confidence, res.nonlinearity, self.names,
+                                       int(failed.sum()), func=func, tol=tol)
+            out.notes.insert(0, f"derived quantity nonlinear (eta = {res.nonlinearity:.3g} > "
+                                f"{tol:g}): sampled the model")
+            return out
+        samples = [_as_outputs(func(s)) for s in d["samples"]]
+        f0 = _as_outputs(func(d["f0"]))
+        stacked = {k: np.stack([s[k] for s in samples]) for k in f0}
+        return _sampling_result(d["dist"], d["draws"], stacked, f0, self.confidence,
+                                self.nonlinearity, self.names, self.n_failed, d)
+
+    def class_probabilities(self, edges: Sequence[float], output: str | None = None
+                            ) -> np.ndarray:
+        """Probabilities that a scalar output falls in each interval between ``edges``.
+
+        ``edges = (a, b)`` gives ``P(x < a), P(a <= x <= b), P(x > b)``.  Linear
+        method: Student-t (or normal) distribution of the output; sampling: the
+        fraction of draws; ``none``: the class of the estimate with probability 1.
+        """
+        from scipy.stats import t as student
+
+        key = self._key(output)
+        e = np.asarray(edges, dtype=float)
+        c = float(np.ravel(self.center[key])[0])
+        if self.method == "none" or not float(np.ravel(self.sd[key])[0]) > 0:
+            # the inner classes include their edges: [e0, e1], (e1, e2] ...
+            idx = 0 if c < e[0] else max(1, int(np.sum(c > e)))
+            p = np.zeros(e.size + 1)
+            p[idx] = 1.0
+            return p
+        if self.method == "linear":
+            nu = float(np.ravel(self._design.get("nu", {}).get(key, np.array([math.inf])))[0])
+            s = float(np.ravel(self.sd[key])[0])
+            cdf = student.cdf((e - c) / s, nu) if math.isfinite(nu) else _norm_cdf((e - c) / s)
+        else:
+            x = np.asarray(self._design["stacked"][key], dtype=float).reshape(-1)
+            cdf = np.array([np.mean(x < v) if i == 0 else np.mean(x <= v)
+                            for i, v in enumerate(e)])
+        cdf = np.concatenate(([0.0], np.asarray(cdf, dtype=float), [1.0]))
+        return np.clip(np.diff(cdf), 0.0, 1.0)
+
+
+# ---------------------------------------------------------------------------------------------
+# the propagation
+# ---------------------------------------------------------------------------------------------
+def propagate(model: Model, dist: ParameterDistribution, *, confidence: float = CONFIDENCE,
+              method: str = "auto", n_samples: int = N_SAMPLES, seed: int = 0,
+              nonlinearity_tol: float = NONLINEARITY_TOL, vectorized: bool = False,
+              f0: Any = None) -> Propagation:
+    """Propagate a parameter distribution through ``model`` (see the module docstring).
+
+    Parameters
+    ----------
+    model
+        ``model(params) -> array`` or ``-> {name: array}``; ``params`` maps every
+        name of ``dist`` to a float (or, ``vectorized=True``, to an ``(m,)``
+        array, and the outputs get a leading axis of length ``m``).
+    dist
+        The parameters' distribution.
+    confidence
+        Two-sided level of the band.
+    method
+        ``"auto"`` (linear unless the nonlinearity check fails), ``"linear"``
+        or ``"sampling"``.
+    n_samples, seed
+        Draws of the sampling method and the seed of their generator.
+    nonlinearity_tol
+        Largest ``eta`` for the linear method.
+    vectorized
+        Whether ``model`` takes arrays of parameter sets.
+    f0
+        The model at the estimate, if the caller has it (saves one evaluation).
+
+    Returns
+    -------
+    Propagation
+
+    Raises
+    ------
+    ValueError
+        Unknown method, confidence outside (0, 1).
+    torlab.errors.NumericalError
+        More than 5 % of the samples fail, or the model fails at the estimate or a step.
+    """
+    if method not in ("auto", "linear", "sampling"):
+        raise ValueError(f"method must be auto, linear or sampling, not {method!r}")
+    if not 0 < confidence < 1:
+        raise ValueError("confidence must be between 0 and 1")
+    n_eval = 0
+    theta0, _ = dist.transformed()
+    if f0 is None:
+        f0 = _eval1(model, dist, theta0, vectorized)
+        n_eval += 1
+    f0 = _as_outputs(f0)
+    design_base = {"dist": dist, "f0": f0, "tol": nonlinearity_tol, "model": model,
+                   "n_samples": int(n_samples), "seed": int(seed), "vectorized": vectorized}
+    _, cov_t = dist.transformed()
+    sd_t = np.sqrt(np.clip(np.diag(cov_t), 0.0, None))
+    if not np.any(sd_t > 0):
+        res = _none_result(f0, dist.names, confidence, n_eval)
+        res._design.update(design_base)
+        return res
+    if method == "sampling":
+        res = _sample(model, dist, f0, confidence, n_samples, seed, vectorized,
+                      nonlinearity_tol, math.nan, design_base)
+        res.n_evaluations += n_eval
+        return res
+    # --- linear: forward steps of one standard deviation ------------------------------------
+    from torlab.errors import NumericalError
+
+    k = len(dist.names)
+    h = sd_t
+    live = np.flatnonzero(h > 0)
+    thetas = np.repeat(theta0[None, :], live.size, axis=0)
+    thetas[np.arange(live.size), live] += h[live]
+    try:
+        step_out = _evaluate_rows(model, dist, thetas, vectorized)
+        n_eval += live.size
+        steps: list[dict[str, np.ndarray]] = []
+        j = 0
+        for i in range(k):
+            if h[i] > 0:
+                steps.append(step_out[j])
+                j += 1
+            else:
+                steps.append(f0)
+        tq_guess = _quantile(confidence, _min_dof(dist))
+        dirs = _probe_directions(dist, h, f0, steps) if method == "auto" else []
+        probes: list[dict[str, np.ndarray]] = []
+        if dirs:
+            pth = np.array([theta0 - tq_guess * dvec for dvec in dirs])
+            probes = _evaluate_rows(model, dist, pth, vectorized)
+            n_eval += len(dirs)
+    except NumericalError as e:
+        if method == "linear":
+            raise
+        # the model has no solution one step (or one band edge) away: not linear there
+        out = _sample(model, dist, f0, confidence, n_samples, seed, vectorized, nonlinearity_tol,
+                      math.inf, design_base)
+        out.n_evaluations += n_eval
+        out.notes.insert(0, f"sampled: the model failed at a linearisation point ({e})")
+        return out
+    res = _linear_from_design(dist, h, f0, steps, dirs, probes, confidence, nonlinearity_tol,
+                              n_eval, dist.names)
+    res._design.update(design_base)
+    if method == "linear" or res.nonlinearity <= nonlinearity_tol:
+        if method == "auto":
+            res.notes.insert(0, f"linearised: nonlinearity {res.nonlinearity:.3g} <= "
+                                f"{nonlinearity_tol:g}")
+        return res
+    out = _sample(model, dist, f0, confidence, n_samples, seed, vectorized, nonlinearity_tol,
+                  res.nonlinearity, design_base)
+    out.n_evaluations += n_eval
+    out.notes.insert(0, f"sampled: nonlinearity {res.nonlinearity:.3g} > {nonlinearity_tol:g} "
+                        "(the linear band edge would be off by more than that share of the "
+                        "band's half-width)")
+    return out
+
+
+def _sample(model: Model, dist: ParameterDistribution, f0: dict[str, np.ndarray],
+            confidence: float, n_samples: int, seed: int, vectorized: bool, tol: float,
+            eta: float, design_base: dict[str, Any]) -> Propagation:
+    draws = _draws(dist, n_samples, seed)
+    samples, failed = _evaluate_many(model, dist, draws, vectorized)
+    out = _sampling_from_draws(dist, draws[~failed], samples, f0, confidence, eta,
+                               dist.names, int(failed.sum()), tol=tol)
+    out._design.update({**design_base, **out._design})
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# helpers
+# ---------------------------------------------------------------------------------------------
+def _norm_cdf(x: np.ndarray) -> np.ndarray:
+    from scipy.special import ndtr
+
+    return ndtr(x)
+
+
+def _quantile(confidence: float, nu: Any) -> Any:
+    """Two-sided quantile (Student t for finite ``nu``, normal for inf), elementwise."""
+    from scipy.stats import norm
+    from scipy.stats import t as student
+
+    nu = np.asarray(nu, dtype=float)
+    q = 0.5 + confidence / 2.0
+    out = np.where(np.isfinite(nu), student.ppf(q, np.where(np.isfinite(nu), np.maximum(nu, 1.0),
+                                                            1.0)), norm.ppf(q))
+    return float(out) if out.ndim == 0 else out
+
+
+def _min_dof(dist: ParameterDistribution) -> float:
+    """The smallest degrees of freedom of the blocks (where the probes go: the widest quantile)."""
+    return min(dof for _, dof in dist.blocks_or_default)
+
+
+def _as_outputs(x: Any) -> dict[str, np.ndarray]:
+    if isinstance(x, Mapping):
+        return {str(k): np.asarray(v, dtype=float) for k, v in x.items()}
+    return {"value": np.asarray(x, dtype=float)}
+
+
+def _eval1(model: Model, dist: ParameterDistribution, theta: np.ndarray,
+           vectorized: bool) -> dict[str, np.ndarray]:
+    if vectorized:
+        out = _as_outputs(model(dist.params(theta[None, :])))
+        return {k: v[0] for k, v in out.items()}
+    return _as_outputs(model(dist.params(theta)))
+
+
+def _evaluate_rows(model: Model, dist: ParameterDistribution, thetas: np.ndarray,
+                   vectorized: bool) -> list[dict[str, np.ndarray]]:
+    """Model outputs at each row of ``thetas`` (errors propagate)."""
+    if thetas.shape[0] == 0:
+        return []
+    if vectorized:
+        out = _as_outputs(model(dist.params(thetas)))
+        return [{k: v[i] for k, v in out.items()} for i in range(thetas.shape[0])]
+    return [_as_outputs(model(dist.params(t))) for t in thetas]
+
+
+def _evaluate_many(model: Model, dist: ParameterDistribution, thetas: np.ndarray,
+                   vectorized: bool) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Outputs at the draws, stacked; draws whose evaluation fails numerically are left out."""
+    from torlab.errors import NumericalError, TorlabInputError
+
+    m = thetas.shape[0]
+    failed = np.zeros(m, dtype=bool)
+    if vectorized:
+        out = _as_outputs(model(dist.params(thetas)))
+        for v in out.values():
+            bad = ~np.all(np.isfinite(v.reshape(m, -1)) | np.isnan(v.reshape(m, -1)), axis=1)
+            failed |= bad
+        stacked = {k: v[~failed] for k, v in out.items()}
+    first = ""
+    if not vectorized:
+        rows = []
+        for i in range(m):
+            try:
+                rows.append(_as_outputs(model(dist.params(thetas[i]))))
+            except (NumericalError, TorlabInputError, FloatingPointError, ValueError) as e:
+                failed[i] = True
+                first = first or str(e)
+                if failed.sum() > 0.05 * m:
+                    break  # too many already: no need to evaluate the rest
+        if not rows:
+            stacked = {}
+        else:
+            stacked = {k: np.stack([r[k] for r in rows]) for k in rows[0]}
+    if failed.sum() > 0.05 * m:
+        from torlab.errors import NumericalError as NE
+
+        raise NE(f"uncertainty propagation: the model failed for {int(failed.sum())} of {m} "
+                 "parameter draws; the fit's uncertainty reaches parameters where the model "
+                 "does not hold" + (f" (first: {first})" if first else ""))
+    return stacked, failed
+
+
+def _draws(dist: ParameterDistribution, n: int, seed: int) -> np.ndarray:
+    """``(n, k)`` draws of ``theta``: per block multivariate normal or Student t (seeded)."""
+    rng = np.random.default_rng(seed)
+    theta0, cov = dist.transformed()
+    k = theta0.size
+    out = np.repeat(theta0[None, :], n, axis=0)
+    z = rng.standard_normal((n, k))
+    for idx, dof in dist.blocks_or_default:
+        ii = np.asarray(idx)
+        c = cov[np.ix_(ii, ii)]
+        w, v = np.linalg.eigh(c)
+        root = v * np.sqrt(np.clip(w, 0.0, None))
+        dz = z[:, ii] @ root.T
+        if math.isfinite(dof):
+            chi = rng.chisquare(dof, size=n)
+            dz = dz * np.sqrt(dof / chi)[:, None]
+        out[:, ii] += dz
+    return out
+
+
+def _none_result(f0: dict[str, np.ndarray], names: tuple[str, ...], confidence: float,
+                 n_eval: int) -> Propagation:
+    zero = {k: np.zeros_like(v) for k, v in f0.items()}
+    return Propagation(
+        method="none", confidence=confidence, center=f0, sd=zero,
+        lower={k: v.copy() for k, v in f0.items()}, upper={k: v.copy() for k, v in f0.items()},
+        contributions={k: {n: np.zeros_like(v) for n in names} for k, v in f0.items()},
+        nonlinearity=math.nan, n_evaluations=n_eval, names=names,
+        notes=["no parameter uncertainty: the band is the curve"], _design={"f0": f0})
+
+
+def _block_variances(dist: ParameterDistribution, G: dict[str, np.ndarray],
+                     cov: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Per output: total variance and Welch-Satterthwaite degrees of freedom."""
+    out = {}
+    for key, g in G.items():  # g: (k, *shape)
+        gf = g.reshape(g.shape[0], -1)
+        var = np.zeros(gf.shape[1])
+        denom = np.zeros(gf.shape[1])
+        for idx, dof in dist.blocks_or_default:
+            ii = np.asarray(idx)
+            gb = gf[ii]
+            vb = np.einsum("it,ij,jt->t", gb, cov[np.ix_(ii, ii)], gb)
+            var += vb
+            if math.isfinite(dof):
+                denom += vb**2 / dof
+        with np.errstate(divide="ignore", invalid="ignore"):
+            nu = np.where(denom > 0, var**2 / np.where(denom > 0, denom, 1.0), np.inf)
+        shape = g.shape[1:]
+        out[key] = (np.clip(var, 0.0, None).reshape(shape), nu.reshape(shape))
+    return out
+
+
+def _probe_directions(dist: ParameterDistribution, h: np.ndarray, f0: dict[str, np.ndarray],
+                      steps: list[dict[str, np.ndarray]]) -> list[np.ndarray]:
+    """Principal directions (in theta, scaled to one standard deviation) of the output variance."""
+    _, cov = dist.transformed()
+    k = h.size
+    rows = []
+    for key, v0 in f0.items():
+        g = np.stack([(steps[i][key] - v0) / h[i] if h[i] > 0 else np.zeros_like(v0)
+                      for i in range(k)]).reshape(k, -1)
+        g = np.where(np.isfinite(g), g, 0.0)
+        var = np.einsum("it,ij,jt->t", g, cov, g)
+        sd = np.sqrt(np.clip(var, 0.0, None))
+        floor = _SD_FLOOR * float(np.max(sd, initial=0.0))
+        if floor <= 0:
+            continue
+        rows.append((g / np.maximum(sd, floor)).T)  # (t, k)
+    if not rows:
+        return []
+    A = np.concatenate(rows)  # normalised sensitivities
+    w, v = np.linalg.eigh(cov)
+    root = v * np.sqrt(np.clip(w, 0.0, None))  # theta = theta0 + root z
+    B = A @ root  # output per unit z
+    _, s, vt = np.linalg.svd(B, full_matrices=False)
+    if s.size == 0 or s[0] <= 0:
+        return []
+    share = s**2 / np.sum(s**2)
+    n_dirs = 1 if share[0] >= _PROBE_SHARE or s.size == 1 else 2
+    return [root @ vt[i] for i in range(n_dirs)]
+
+
+def _linear_from_design(dist: ParameterDistribution, h: np.ndarray, f0: dict[str, np.ndarray],
+                        steps: list[dict[str, np.ndarray]], dirs: list[np.ndarray],
+                        probes: list[dict[str, np.ndarray]], confidence: float, tol: float,
+                        n_eval: int, names: tuple[str, ...]) -> Propagation:
+    _, cov = dist.transformed()
+    k = h.size
+    G = {}
+    for key, v0 in f0.items():
+        G[key] = np.stack([(steps[i][key] - v0) / h[i] if h[i] > 0 else np.zeros_like(v0)
+                           for i in range(k)])
+    varnu = _block_variances(dist, G, cov)
+    center, sd, lower, upper, contrib, nus = {}, {}, {}, {}, {}, {}
+    eta = 0.0
+    for key, v0 in f0.items():
+        var, nu = varnu[key]
+        s = np.sqrt(var)
+        tq = _quantile(confidence, nu)
+        center[key] = v0
+        sd[key] = s
+        lower[key] = v0 - tq * s
+        upper[key] = v0 + tq * s
+        nus[key] = nu
+        g = G[key].reshape(k, -1)
+        cg = cov @ g  # (k, t)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            c = g * cg / var.reshape(1, -1)
+        c = np.where(np.isfinite(c), c, 0.0)
+        contrib[key] = {n: c[i].reshape(v0.shape) for i, n in enumerate(names)}
+        flat_s = s.reshape(-1)
+        floor = max(_SD_FLOOR * float(np.max(flat_s, initial=0.0)), 1e-300)
+        tq0 = _quantile(confidence, _min_dof(dist))
+        for dvec, pr in zip(dirs, probes, strict=True):
+            lin = v0 - tq0 * np.tensordot(dvec, G[key], axes=(0, 0))
+            err = np.abs(pr[key] - lin).reshape(-1)
+            ok = np.isfinite(err) & np.isfinite(flat_s)
+            if np.any(ok) and float(np.max(flat_s, initial=0.0)) > 0:
+                eta = max(eta, float(np.max(err[ok] / (tq0 * np.maximum(flat_s[ok], floor)))))
+    res = Propagation(method="linear", confidence=confidence, center=center, sd=sd, lower=lower,
+                      upper=upper, contributions=contrib,
+                      nonlinearity=eta if dirs else math.nan, n_evaluations=n_eval, names=names)
+    res._design = {"dist": dist, "h": h, "f0": f0, "steps": steps, "dirs": dirs,
+                   "probes": probes, "nu": nus, "tol": tol}
+    return res
+
+
+def _sampling_from_draws(dist: ParameterDistribution, draws: np.ndarray,
+                         samples: dict[str, np.ndarray], f0: dict[str, np.ndarray],
+                         confidence: float, eta: float, names: tuple[str, ...], n_failed: int,
+                         func: Callable[[dict[str, np.ndarray]], Any] | None = None,
+                         tol: float = NONLINEARITY_TOL) -> Propagation:
+    m = draws.shape[0]
+    per = [{k: v[i] for k, v in samples.items()} for i in range(m)]
+    if func is not None:
+        per = [_as_outputs(func(s)) for s in per]
+        f0 = _as_outputs(func(f0))
+    stacked = {k: np.stack([s[k] for s in per]) for k in f0}
+    design = {"samples": per, "draws": draws, "tol": tol}
+    return _sampling_result(dist, draws, stacked, f0, confidence, eta, names, n_failed, design)
+
+
+def _sampling_result(dist: ParameterDistribution, draws: np.ndarray,
+                     stacked: dict[str, np.ndarray], f0: dict[str, np.ndarray],
+                     confidence: float, eta: float, names: tuple[str, ...], n_failed: int,
+                     design: dict[str, Any]) -> Propagation:
+    lo_q, hi_q = 50.0 * (1 - confidence), 50.0 * (1 + confidence)
+    center, sd, lower, upper, contrib = {}, {}, {}, {}, {}
+    m = draws.shape[0]
+    theta0, _ = dist.transformed()
+    dth = draws - theta0[None, :]
+    dth = dth - dth.mean(axis=0)
+    sth = np.sqrt(np.mean(dth**2, axis=0))
+    for key, v0 in f0.items():
+        x = stacked[key].reshape(m, -1)
+        ok = np.all(np.isfinite(x), axis=0)
+        lo = np.full(x.shape[1], np.nan)
+        hi = np.full(x.shape[1], np.nan)
+        s = np.full(x.shape[1], np.nan)
+        if np.any(ok):
+            lo[ok], hi[ok] = np.percentile(x[:, ok], [lo_q, hi_q], axis=0)
+            s[ok] = np.std(x[:, ok], axis=0, ddof=1)
+        # the band always contains the model at the estimate
+        v = np.asarray(v0, dtype=float).reshape(-1)
+        lo = np.where(np.isfinite(lo), np.minimum(lo, v), lo)
+        hi = np.where(np.isfinite(hi), np.maximum(hi, v), hi)
+        center[key] = v0
+        sd[key] = s.reshape(v0.shape)
+        lower[key] = lo.reshape(v0.shape)
+        upper[key] = hi.reshape(v0.shape)
+        # shares from the multiple regression of the output on the drawn parameters
+        live = sth > 0
+        shares = np.zeros((len(names), x.shape[1]))
+        if np.any(live) and np.any(ok) and m > live.sum() + 1:
+            xc = x[:, ok] - x[:, ok].mean(axis=0)
+            d = dth[:, live]
+            sxy = d.T @ xc / m  # (k_live, t)
+            beta = np.linalg.lstsq(d.T @ d / m, sxy, rcond=None)[0]
+            vx = np.mean(xc**2, axis=0)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                sh = beta * sxy / vx
+            sub = np.zeros((live.sum(), x.shape[1]))
+            sub[:, ok] = np.where(np.isfinite(sh), sh, 0.0)
+            shares[live] = sub
+        contrib[key] = {n: shares[i].reshape(v0.shape) for i, n in enumerate(names)}
+    res = Propagation(method="sampling", confidence=confidence, center=center, sd=sd,
+                      lower=lower, upper=upper, contributions=contrib, nonlinearity=eta,
+                      n_evaluations=m + n_failed, names=names, n_failed=n_failed)
+    res._design = {**design, "dist": dist, "f0": f0, "stacked": stacked, "n_samples": m + n_failed}
+    if n_failed:
+        res.notes.append(f"{n_failed} of {m + n_failed} parameter draws failed in the model and "
+                         "were left out")
+    return res
