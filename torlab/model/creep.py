@@ -98,7 +98,7 @@ The numerical scheme
 * Points: each distinct triple up to the symmetries (``(-xi, eta, phi)`` reverses
   ``Fx``, ``(xi, -eta, -phi)`` reverses ``Fy`` and ``Mz``; :func:`canonical_creepages`)
   is solved once; points with spin and without are solved apart, each group on its own
-  strips, in chunks of about 1024 strips (larger arrays spend their time faulting in
+  strips, in chunks of about 512 strips (larger arrays spend their time faulting in
   fresh memory).  A point's numbers do not depend on the other points of the call.
 * Temperature: as in :mod:`torlab.model.fastsim` (flash temperature on 48
   uniform angles per strip, heat flux ``|tau| |w| v`` with the rigid slip
@@ -1349,7 +1349,7 @@ def creep_forces(problem: CreepProblem, creepage: Any, lateral: Any = 0.0, spin:
 
 #: creepage points per array pass: the scheme's arrays stay a few hundred kB (a pass over
 #: thousands of points spends much of its time faulting in fresh memory for each temporary)
-_CHUNK_LANES = 1024
+_CHUNK_LANES = 512
 
 
 def _solve_points(prob: CreepProblem, grid: CreepGrid, xi: np.ndarray, eta: np.ndarray,
