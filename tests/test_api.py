@@ -89,7 +89,8 @@ def test_api_reference_builds_without_warnings(tmp_path):
     problems = build_api.build(tmp_path)
     assert problems == []
     page = (tmp_path / "torlab" / "api.html").read_text(encoding="utf-8")
-    for name in ("fit_hpt", "reduce_files", "predict_traction", "run_protocol"):
+    for name in ("fit_hpt", "reduce_files", "predict_traction", "run_protocol", "predict_creep",
+                 "creep_table", "fit_polach"):
         assert f'id="{name}"' in page, name
 
 

@@ -12,6 +12,8 @@ The public API (:mod:`torlab.api`) is available at the top level::
     red = torlab.reduce_file("demo_5.txt")            # instrument detected
     fit = torlab.fit_hpt("hpt_OFM1_4uL_25C.txt")
     curve = torlab.predict_traction("scene.yaml", "0:5 %:51", params=fit)
+    forces = torlab.predict_creep("wheel_rail.yaml", "0:2 %:41", lateral="0.1 %",
+                                  spin="0.5 1/m")            # Fx, Fy, Mz
 
 ``import torlab`` itself imports nothing heavy: each name is loaded on first
 use (PEP 562), so ``torlab --help`` starts fast.
@@ -37,6 +39,9 @@ _LAZY = {
     "load_scene": "torlab.api",
     "predict_traction": "torlab.api",
     "predict_stribeck": "torlab.api",
+    "predict_creep": "torlab.api",
+    "creep_table": "torlab.api",
+    "fit_polach": "torlab.api",
     "predict_retention": "torlab.api",
     "predict_sweep": "torlab.api",
     "run_protocol": "torlab.api",

@@ -19,6 +19,9 @@ returns DataFrames and result objects:
 :func:`predict_stribeck`  scene, speeds, creepage -> Stribeck curve (mu, film, regimes)
 :func:`predict_retention` scene, removal parameters, amount -> mu against passes, band crossings
 :func:`predict_sweep`     a slip sweep recorded while product is removed, beside the steady curve
+:func:`predict_creep`     dry scene, creepages, lateral creepage, spin -> Fx, Fy, Mz curve
+:func:`creep_table`       dry scene, creepage x lateral x spin axes -> creep-force table
+:func:`fit_polach`        dry scene, creepage and speed range -> Polach's parameters
 :func:`run_protocol`      a YAML protocol -> reports in a folder
 ========================  ===============================================================
 
@@ -43,13 +46,16 @@ from typing import Any
 from torlab.errors import TorlabInputError
 
 __all__ = [
+    "creep_table",
     "fit_film",
     "fit_hpt",
+    "fit_polach",
     "fit_removal",
     "fit_temperature",
     "fit_traction",
     "fit_viscosity",
     "load_scene",
+    "predict_creep",
     "predict_retention",
     "predict_stribeck",
     "predict_sweep",
@@ -190,6 +196,17 @@ def fit_temperature(curves: Any, temperatures: Any = None, *,
     return fit_temperature_coefficients(items, temps, reference_temperature_C=tref)
 
 
+def _param_file(path: PathLike) -> dict:
+    """The keys of a parameter file (YAML mapping), to merge over a scene given as an object."""
+    from torlab.yamlio import load_yaml
+
+    doc = load_yaml(path)
+    if not isinstance(doc.data, dict):
+        raise TorlabInputError("a parameter file must be a YAML mapping (boundary: ...)",
+                               path=doc.path)
+    return doc.data
+
+
 def _scene(scene: Any, params: Any = None) -> Any:
     """A Scene from a Scene, a dict or scene/parameter files, with fitted parameters applied."""
     from torlab.fit.result import FitResult
@@ -200,12 +217,13 @@ def _scene(scene: Any, params: Any = None) -> Any:
     files = [p for p in extra if isinstance(p, (str, os.PathLike))]
     if isinstance(scene, (str, os.PathLike)):
         sc = load_scene(scene, *files)
+        extra = [p for p in extra if not isinstance(p, (str, os.PathLike))]
     elif isinstance(scene, Scene):
         sc = scene
     else:
         sc = scene_from_dict(dict(scene))
-    sets = [p.to_scene_dict() if isinstance(p, FitResult) else p
-            for p in extra if not isinstance(p, (str, os.PathLike))]
+    sets = [p.to_scene_dict() if isinstance(p, FitResult) else
+            _param_file(p) if isinstance(p, (str, os.PathLike)) else p for p in extra]
     if not sets:
         return sc
     d = sc.model_dump(exclude_none=True)
@@ -643,6 +661,153 @@ def predict_sweep(scene: Any, params: Any, amount: Any, *, seconds: Any,
                         n_draws=int(n_draws), seed=int(seed), trend_tolerance=trend_tolerance)
     sw.summary["parameter_file"] = rp.source
     return sw
+
+
+# ------------------------------------------------------------------ creep forces (vehicle dynamics)
+def predict_creep(scene: Any, creepage: Any, lateral: Any = 0.0, spin: Any = 0.0, *,
+                  params: Any = None) -> Any:
+    """Creep forces ``Fx, Fy, Mz`` of a dry scene along a creepage curve at one lateral
+    creepage and one spin: FASTSIM with the third-body layer in all three creepages
+    (Kalker's flexibilities from C11, C22, C23; the Voce limit, Eqs. 5.24-5.29; the contact
+    temperature where the scene has ``thermal:``).
+
+    Parameters
+    ----------
+    scene
+        Scene file, dict or Scene of a dry contact (``boundary:``, no ``lubricant:``).
+    creepage
+        Longitudinal creepages: ``"0:2 %:41"`` (start:stop:count), ``"0.1 %, 1 %"`` or
+        fractions.
+    lateral
+        Lateral creepage of every point: ``"0.1 %"`` or a fraction.
+    spin
+        Spin of every point: ``"0.5 1/m"`` or 1/m.
+    params
+        Parameter files or FitResults applied over the scene.
+
+    Returns
+    -------
+    TractionPrediction
+        ``table`` (``creepage, mu, lateral, spin_1_m, mu_x, mu_y, Fx_N, Fy_N, Mz_Nm,
+        adhesion_fraction``; ``max_temperature_C`` with ``thermal:``), ``trend``,
+        ``modelled``, ``summary``.
+    """
+    from torlab.model.creep import predict_creep as _predict
+    from torlab.units import to_si
+
+    return _predict(_scene(scene, params), _grid(creepage, "dimensionless", "creepage"),
+                    to_si(lateral, "dimensionless", where="lateral"),
+                    to_si(spin, "inverse_length", where="spin"))
+
+
+def _amount(value: Any) -> tuple[float, str]:
+    """``"4 uL"`` -> ``(4.0, "uL")``; a number -> ``(value, "")``."""
+    import re
+
+    if isinstance(value, str):
+        m = re.fullmatch(r"\s*([+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?)\s*(.*?)\s*", value)
+        if not m:
+            raise TorlabInputError(f"{value!r}: give an amount as a number with an optional unit, "
+                                   f"e.g. '4 uL'", key="amounts")
+        return float(m.group(1)), m.group(2)
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise TorlabInputError(f"{value!r}: give an amount as a number or '4 uL'", key="amounts")
+    return float(value), ""
+
+
+def creep_table(scene: Any, creepage: Any, lateral: Any, spin: Any, *, speed: Any = None,
+                params: Any = None, amounts: Any = None, normalised: bool = False,
+                map_fn: Any = None) -> Any:
+    """Creep-force table of a dry scene over creepage x lateral x spin (x speed x amount),
+    in SI units and Kalker's normalised form, for vehicle-dynamics codes
+    (``torlab predict table``).
+
+    Parameters
+    ----------
+    scene
+        Scene file, dict or Scene of a dry contact.
+    creepage, lateral
+        Axes of longitudinal and lateral creepage: ``"-1 %:1 %:21"``, a list, fractions;
+        two points at least, increasing.
+    spin
+        Spin axis: ``"-2:2:11"`` (1/m), ``"-2 1/m, 0 1/m, 2 1/m"`` or numbers.
+    speed
+        Optional speed axis (``"5 m/s, 20 m/s"``): it changes the contact temperature.
+    params
+        Parameter files or FitResults applied over the scene.
+    amounts
+        Optional amount axis: ``(amount, params)`` pairs or a mapping, one parameter set
+        (file, FitResult or dict) per applied amount, the amount a number or ``"4 uL"``
+        (one unit for all).
+    normalised
+        The creepage axes are Kalker's ``xi*, eta*, phi*`` rather than fractions and 1/m.
+    map_fn
+        ``map``-like callable for the chunks of the table (an executor's ``map``).
+
+    Returns
+    -------
+    CreepTable
+        ``dataset`` (an :class:`xarray.Dataset`), ``to_long()``, ``write(out)``, ``notes``.
+    """
+    from torlab.model.creep_table import scene_creep_table
+
+    kinds = ("dimensionless",) * 3 if normalised else ("dimensionless", "dimensionless",
+                                                        "inverse_length")
+    axes = [_grid(v, k, n) for v, k, n in zip((creepage, lateral, spin), kinds,
+                                               ("creepage", "lateral", "spin"), strict=True)]
+    v = None if speed is None else _grid(speed, "velocity", "speed")
+    sc = _scene(scene, params)
+    pairs, unit = None, ""
+    if amounts is not None:
+        items = list(amounts.items()) if isinstance(amounts, dict) else list(amounts)
+        parsed = [(_amount(a), p) for a, p in items]
+        units = {u for (_, u), _ in parsed}
+        if len(units) > 1:
+            raise TorlabInputError(f"amounts in different units {sorted(units)}: use one unit",
+                                   key="amounts")
+        unit = units.pop() if units else ""
+        base = [params] if params is not None and not isinstance(params, (list, tuple)) \
+            else list(params or [])
+        pairs = [(a, _scene(scene, [*base, p])) for (a, _), p in parsed]
+    return scene_creep_table(sc, *axes, speed=v, amounts=pairs, amount_unit=unit,
+                             normalised=normalised, map_fn=map_fn,
+                             provenance={"command": "torlab.creep_table"})
+
+
+def fit_polach(scene: Any, creepage: Any = "0:0.05:41", speed: Any = "5 m/s, 20 m/s", *,
+               lateral: Any = None, spin: Any = None, params: Any = None) -> Any:
+    """Polach's creep-force parameters ``mu0, A, B, kA, kS`` (Polach 2005; spin of 1999)
+    fitted to torlab's creep forces of a dry scene over a creepage and speed range
+    (``torlab fit polach``).
+
+    Parameters
+    ----------
+    scene
+        Scene file, dict or Scene of a dry contact, with the product's layer.
+    creepage
+        Longitudinal creepages of the fit range (three at least): ``"0:5 %:41"``.
+    speed
+        Rolling speeds of the fit range: ``"5 m/s, 20 m/s"`` or m/s.
+    lateral, spin
+        Optional lateral creepages and spins (1/m) added at each creepage and speed.
+    params
+        Parameter files or FitResults applied over the scene (the product's fit).
+
+    Returns
+    -------
+    FitResult
+        ``params``, ``stderr``, ``data`` (torlab, Polach and their difference per point),
+        ``meta`` (RMS and largest difference), ``warnings``.
+    """
+    from torlab.fit.polach import fit_polach as _fit
+    from torlab.model.creep import creep_problem
+
+    sc = _scene(scene, params)
+    return _fit(creep_problem(sc), _grid(creepage, "dimensionless", "creepage"),
+                _grid(speed, "velocity", "speed"),
+                lateral=None if lateral is None else _grid(lateral, "dimensionless", "lateral"),
+                spin=None if spin is None else _grid(spin, "inverse_length", "spin"),
+                source=sc.name or "scene")
 
 
 def run_protocol(protocol: PathLike, out: PathLike, *, force: bool = False,

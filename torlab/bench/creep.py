@@ -12,7 +12,8 @@ isothermal.  Measured side by side in one run:
   runs it, with the layer), vectorised over the rows;
 * the longitudinal point of :func:`torlab.model.fastsim.boundary_traction` (the cost
   a 3-creepage point is compared with), and both on a 101-point curve (cost per point
-  when vectorised);
+  when vectorised); the ratios are medians over rounds in which the two are timed one
+  after the other, so a change of the machine's load between them does not enter;
 * the 21 x 21 x 11 table (Kalker-normalised axes -1..1 in xi*, eta* and phi*) through
   :func:`torlab.model.creep_table.creep_table`, serially and on a two-process pool.
 
@@ -45,7 +46,7 @@ from torlab.model.creep import (
     naive_creep_forces,
 )
 
-__all__ = ["TEST_SET", "run", "wheel_rail_problem"]
+__all__ = ["TEST_SET", "paired_ratio", "run", "wheel_rail_problem"]
 
 SCENE: dict[str, Any] = {
     "name": "wheel-rail Tab. 5.4 (isothermal)",
@@ -74,6 +75,32 @@ def wheel_rail_problem() -> CreepProblem:
 @lru_cache(maxsize=64)
 def _reference(prob: CreepProblem, case: tuple[float, float, float]) -> tuple[float, ...]:
     return creep_forces_reference(prob, *case, rtol=1e-8)
+
+
+def paired_ratio(a: Callable[[], Any], b: Callable[[], Any], *, rounds: int = 9,
+                 min_time: float = 0.05) -> tuple[float, float, float]:
+    """``(median time of a, median time of b, median of the per-round ratios a/b)``.
+
+    Each round times ``a`` and then ``b`` (each repeated to last ``min_time``), so both see
+    the same load of the shared machine; the ratio is the median over the rounds.
+    """
+    import time
+
+    def loops(fn: Callable[[], Any]) -> int:
+        t0 = time.perf_counter()
+        fn()
+        return max(1, int(min_time / max(time.perf_counter() - t0, 1e-9)))
+
+    na, nb = loops(a), loops(b)
+    ta, tb = [], []
+    for _ in range(rounds):
+        for fn, n, out in ((a, na, ta), (b, nb, tb)):
+            t0 = time.perf_counter()
+            for _ in range(n):
+                fn()
+            out.append((time.perf_counter() - t0) / n)
+    A, B = np.array(ta), np.array(tb)
+    return float(np.median(A)), float(np.median(B)), float(np.median(A / B))
 
 
 def _errors(prob: CreepProblem, cases: tuple, fn: Callable[[tuple], tuple]) -> np.ndarray:
@@ -136,8 +163,8 @@ def run(quick: bool = False) -> list[BenchRow]:
             return r.Fx, r.Fy, r.Mz
         return f
 
-    grids = [DEFAULT, replace(DEFAULT, spin_panels=4), replace(DEFAULT, m=6),
-             replace(DEFAULT, spin_panels=16, m=6, uniform_panels=16)]
+    grids = [DEFAULT, replace(DEFAULT, m=3), replace(DEFAULT, spin_panels=4),
+             replace(DEFAULT, m=6), replace(DEFAULT, spin_panels=16, m=6, uniform_panels=32)]
     if quick:
         grids = grids[:2]
     rows = []
@@ -145,7 +172,7 @@ def run(quick: bool = False) -> list[BenchRow]:
         e = _errors(prob, cases, point(g))
         t = median_time(lambda g=g: creep_forces(prob, *POINT, grid=g), **reps)
         rows.append(BenchRow(comp, f"torlab strips {g.spin_panels}x{g.spin_strips} m={g.m} "
-                             f"panels {g.graded_panels}+{g.uniform_panels}", t, float(e.max()),
+                             f"panels 1+{g.graded_panels}+{g.uniform_panels}", t, float(e.max()),
                              ref_name, g == DEFAULT, unit, error_kind="of mu_c2 N",
                              extra={"family": "torlab", "error_Fx": e[0], "error_Fy": e[1],
                                     "error_Mz": e[2]}))
@@ -162,22 +189,36 @@ def run(quick: bool = False) -> list[BenchRow]:
                              extra={"family": "baseline", "error_Fx": e[0], "error_Fy": e[1],
                                     "error_Mz": e[2]}))
     d = rows[0]
-    # the longitudinal point and the per-point cost of a 101-point curve
+    # the longitudinal point and the per-point cost of a 101-point curve, each timed in
+    # rounds alternating with the 3-creepage one
     fp = FastsimProblem(a=prob.a, b=prob.b, p0=prob.p0, L1=prob.L1, layer=prob.layer)
-    t_lon = median_time(lambda: boundary_traction(fp, POINT[0]), **reps)
-    t_lon_creep = median_time(lambda: creep_forces(prob, POINT[0]), **reps)
+    rounds = 5 if quick else 15
+    t_3, t_lon, r_point = paired_ratio(lambda: creep_forces(prob, *POINT),
+                                       lambda: boundary_traction(fp, POINT[0]), rounds=rounds)
+    _, t_lon_creep, r_point_own = paired_ratio(lambda: creep_forces(prob, *POINT),
+                                               lambda: creep_forces(prob, POINT[0]),
+                                               rounds=rounds)
     xi = np.linspace(1e-4, 0.05, 101)
-    t_curve_lon = median_time(lambda: boundary_traction(fp, xi), **reps)
-    t_curve_3 = median_time(lambda: creep_forces(prob, xi, 0.3 * xi, 400.0 * xi), **reps)
+    t_curve_3, t_curve_lon, r_curve = paired_ratio(
+        lambda: creep_forces(prob, xi, 0.3 * xi, 400.0 * xi), lambda: boundary_traction(fp, xi),
+        rounds=rounds, min_time=0.2)
     rows.append(BenchRow("creep forces: longitudinal point", "torlab.model.fastsim "
                          "boundary_traction", t_lon, None, "", False,
                          "one longitudinal point", extra={"family": "longitudinal"}))
+    rows.append(BenchRow("creep forces: 101-point curve", "torlab default, xi 1e-4..0.05, "
+                         "eta = 0.3 xi, phi = 400 xi 1/m", t_curve_3, None, "", False,
+                         "101-point curve", extra={"family": "curve"}))
+    rows.append(BenchRow("creep forces: 101-point curve", "torlab.model.fastsim "
+                         "boundary_traction, xi 1e-4..0.05", t_curve_lon, None, "", False,
+                         "101-point curve", extra={"family": "curve"}))
     extra: dict[str, Any] = {
-        "ratio_3creepage_point_to_longitudinal_point": d.time_s / t_lon,
+        "ratio_3creepage_point_to_longitudinal_point": r_point,
         "ratio_target": 3.0,
-        "ratio_3creepage_point_to_longitudinal_point_of_creep": d.time_s / t_lon_creep,
+        "ratio_3creepage_point_to_longitudinal_point_of_creep": r_point_own,
+        "time_3creepage_point_paired_s": t_3,
         "time_longitudinal_point_s": t_lon,
-        "ratio_per_point_101_curve_3creepage_to_longitudinal": t_curve_3 / t_curve_lon,
+        "time_longitudinal_point_of_creep_s": t_lon_creep,
+        "ratio_per_point_101_curve_3creepage_to_longitudinal": r_curve,
         "time_101_curve_longitudinal_s": t_curve_lon, "time_101_curve_3creepage_s": t_curve_3,
         "loadavg_1min": os.getloadavg()[0], "cpus": os.cpu_count(),
     }

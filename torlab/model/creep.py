@@ -68,27 +68,44 @@ The numerical scheme
   Newton iteration from the regula-falsi point (bisection whenever a step leaves the
   bracket) converges to 1e-13 rad.  The end of the clamped zone (``kappa`` turning
   positive) is found the same way.
-* Panels: the elastic zone in 8 Gauss panels; the plastic zone in a clamp panel,
-  6 panels graded with the Voce length ``L_mup/|w|`` from the clamp end (as in the
-  longitudinal scheme) and 16 uniform panels, 3 nodes each.  The stick traction and
-  the slip path ``S`` at the nodes are integrated panel by panel from ``T`` (explicit),
+* Elastic zone ``[0, theta_y]``: by parts, its forces need ``T = d tau_el/d theta``
+  (explicit) at Gauss nodes only (8 panels of ``m`` nodes) and the stick traction at
+  the yield point: ``integral tau_el sin = tau_el(theta_y)(1 - cos theta_y) -
+  integral T (1 - cos)``, likewise with ``sin cos`` and ``sin^2/2`` for the moment.
+* Plastic zone: a clamp panel, 6 panels graded with the Voce length ``L_mup/|w|`` from
+  the clamp end (as in the longitudinal scheme) and 16 uniform panels, ``m`` Gauss
+  nodes each (``m = 4``, a scene's ``grid: m``).  The stick traction and the slip path
+  ``S`` at the nodes are integrated panel by panel from ``T`` and ``|w|`` (explicit),
   with each panel's integration matrix through its ends and Gauss nodes.
-* The traction is marched through the nodes of the plastic panels.  The
+* The traction along the plastic zone follows FASTSIM's rules node by node.  The
   magnitude is the explicit limit ``g``.  The direction over a step is the
   exact solution of ``d chi/d theta = -(k sin chi + beta')`` (``chi`` the angle
   between the traction and ``T``, ``k = |T|/g`` averaged over the step,
-  ``beta'`` the turning rate of ``T`` over the step), a Riccati equation solved
-  as a 2x2 linear system and applied as a Moebius map of ``exp(i psi)``: second
+  ``beta'`` the turning rate of ``T`` over the step), a Riccati equation whose
+  solution over a step is a Moebius map of ``u = tan(chi/2)``, a 2x2 matrix: second
   order, and exact in the stiff limit where the traction trails the slip direction
   by ``beta'/k``.  Stick and slip switch at the nodes (FASTSIM's test on the trial
   traction ``tau + Delta tau_el``, the increment exact).
-* Symmetries: ``(-xi, eta, phi)`` reverses ``Fx``, ``(xi, -eta, -phi)`` reverses
-  ``Fy`` and ``Mz``; each distinct triple is solved once (:func:`canonical_creepages`).
+* The march is not a loop over nodes with the stick/slip logic in it
+  (:func:`_march_lanes`): every strip is first taken to slip from its yield point to
+  the trailing edge -- its directions are products of the step matrices, a
+  log-depth prefix product for a few strips, a loop of six array operations per node
+  for many -- and the unloading test is applied at all nodes at once.  Strips where a
+  particle unloads (spin) go on from the first node that fails it: a stick segment is
+  the stick traction shifted by a constant, the next slip segment another product;
+  there are as many such rounds as stick/slip switches on a strip (two or three).
+  The result is the node-by-node march's, to round-off.
+* Points: each distinct triple up to the symmetries (``(-xi, eta, phi)`` reverses
+  ``Fx``, ``(xi, -eta, -phi)`` reverses ``Fy`` and ``Mz``; :func:`canonical_creepages`)
+  is solved once; points with spin and without are solved apart, each group on its own
+  strips, in chunks of about 512 strips (larger arrays spend their time faulting in
+  fresh memory).  A point's numbers do not depend on the other points of the call.
 * Temperature: as in :mod:`torlab.model.fastsim` (flash temperature on 48
   uniform angles per strip, heat flux ``|tau| |w| v`` with the rigid slip
   ``w``, or zero in stick with ``slip_velocity: local``; an adaptively
-  under-relaxed fixed point to ``thermal.tolerance``, or
-  :class:`~torlab.errors.ConvergenceError`).
+  under-relaxed fixed point per point to ``thermal.tolerance``, a point leaving the
+  iteration when it has converged, or :class:`~torlab.errors.ConvergenceError`
+  naming the point).
 
 :func:`creep_forces_reference` integrates the same model without a grid (an ODE
 per strip with event location, adaptive quadrature across the strips) for tests
@@ -136,27 +153,29 @@ class CreepGrid:
     Attributes
     ----------
     n
-        Gauss strips per half contact (``2 n`` strips) without spin.
+        Gauss strips per half contact (``2 n`` strips) without spin: the longitudinal
+        scheme's strips (a scene's ``grid: n``).
     spin_panels, spin_strips
         With spin: equal panels in ``phi`` (``y = b sin phi``) over the contact and
         Gauss strips per panel.  Spin makes the strip forces kink across the
         contact (where the stick/slip pattern of the strips changes), which
         low-order panels integrate better than one high-order rule.
     m
-        Gauss nodes per panel along a strip.
+        Gauss nodes per panel along a strip (a scene's ``grid: m``, default 4 as in the
+        longitudinal scheme).
     elastic_panels, clamp_panels, graded_panels, uniform_panels
         Panels of the elastic zone, the clamped zone, the Voce-graded start of
         the plastic zone and the rest of it.
     yield_table
         Angles per strip of the table that brackets the first yield.
     temperature_nodes
-        Nodes per strip of the temperature grid.
+        Nodes per strip of the temperature grid (a scene's ``grid: temperature_nodes``).
     """
 
     n: int = 6
     spin_panels: int = 8
     spin_strips: int = 4
-    m: int = 3
+    m: int = 4
     elastic_panels: int = 8
     clamp_panels: int = 1
     graded_panels: int = 6
@@ -289,9 +308,7 @@ def kalker_weighted_flexibility(prob: CreepProblem, xi: Any, eta: Any, phi: Any)
     L3 = prob.L3 if prob.L3 is not None else prob.L1
     num = np.abs(xi) * prob.L1 + np.abs(eta) * L2 + c * np.abs(phi) * L3
     den = np.sqrt(xi * xi + eta * eta + (c * phi) ** 2)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        out = np.where(den > 0, num / np.where(den > 0, den, 1.0), prob.L1)
-    return out
+    return np.where(den > 0, num / np.where(den > 0, den, 1.0), prob.L1)
 
 
 def creep_problem(scene: Any, contact: Any = None) -> CreepProblem:
@@ -331,12 +348,14 @@ def creep_problem(scene: Any, contact: Any = None) -> CreepProblem:
 def scene_grid(scene: Any) -> CreepGrid:
     """The creep-force grid of a scene's ``grid:`` section.
 
-    ``n`` (strips per half contact without spin) and ``temperature_nodes`` carry over;
-    the nodes along a strip are the creep scheme's own (:class:`CreepGrid`), whose
-    panels differ from the longitudinal scheme's.
+    The keys mean what they mean for the longitudinal scheme and carry over: ``n``
+    (Gauss strips per half contact, the strips of a point without spin), ``m`` (Gauss
+    nodes per panel along a strip) and ``temperature_nodes``.  The panel counts along a
+    strip and the strips of a point with spin are the creep scheme's own
+    (:class:`CreepGrid`): the scene contract has no keys for them.
     """
     g = scene.grid
-    return CreepGrid(n=g.n, temperature_nodes=g.temperature_nodes)
+    return CreepGrid(n=g.n, m=g.m, temperature_nodes=g.temperature_nodes)
 
 
 def predict_creep(scene: Any, creepage: Any, lateral: float = 0.0, spin: float = 0.0) -> Any:
@@ -462,11 +481,6 @@ def _G(s: np.ndarray, r: np.ndarray) -> np.ndarray:
     return out
 
 
-def _q(st: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """``sin^2/(sin + r)``, the derivative of ``e(theta; r)``."""
-    return st * st / (st + r) if np.any(r) else st
-
-
 def _e(theta: np.ndarray, r: np.ndarray) -> np.ndarray:
     """``e(theta; r)`` (:func:`torlab.model.fastsim.e_strip`); ``1 - cos`` when ``r = 0``."""
     if not np.any(r):
@@ -531,6 +545,7 @@ class _Lanes:
         L3 = prob.L3 if prob.L3 is not None else L1
         self.L = (L1, L2, L3)
         zero = np.zeros_like(self.Pj)
+        self.has_layer = lay.L_mue > 0
         if lay.L_mue > 0:
             self.r = tuple(lay.L_mue / (Li * self.Pj) for Li in self.L)
         else:
@@ -574,9 +589,11 @@ class _Lanes:
         extra = (None,) * (np.ndim(theta) - 2)
         r1, r2, r3 = (r[(..., *extra)] for r in self.r)
         st = np.sin(theta) if st is None else st
-        q1 = _q(st, r1)
-        q2 = q1 if (self.L[1] == self.L[0]) or not self.lateral else _q(st, r2)
-        q3 = q1 if (self.L[2] == self.L[0]) or not self.spin else _q(st, r3)
+        layer = self.has_layer
+        st2 = st * st if layer else None
+        q1 = st2 / (st + r1) if layer else st
+        q2 = q1 if (self.L[1] == self.L[0]) or not self.lateral or not layer else st2 / (st + r2)
+        q3 = q1 if (self.L[2] == self.L[0]) or not self.spin or not layer else st2 / (st + r3)
         Ax1, Ax3, Ay2, Ay3 = (c[(..., *extra)] for c in (self.Ax1, self.Ax3, self.Ay2, self.Ay3))
         tx = Ax1 * q1 if not self.spin else Ax1 * q1 + Ax3 * q3
         if self.spin:
@@ -585,103 +602,51 @@ class _Lanes:
             ty = Ay2 * q2
         return tx, ty
 
-    def panels(self, edges: np.ndarray, m: int, tx0: np.ndarray, ty0: np.ndarray,
-               S0: np.ndarray | None = None) -> dict[str, np.ndarray]:
-        """Gauss nodes of the panels ``edges`` (nc, ns, P+1) and the stick traction there.
-
-        The traction (and, given ``S0``, the accumulated rigid slip) is integrated from its
-        value at ``edges[..., 0]``: panel by panel with the Gauss weights (order 2m), inside a
-        panel with the Gauss integration matrix (order m) -- from ``T`` at the nodes, which
-        the march needs anyway.
-        """
-        x, w = _gauss(m)
-        Sm = _gauss_integration(m)
-        lo, hv = edges[..., :-1, None], np.diff(edges, axis=-1)[..., None]
-        th = lo + hv * x  # (nc, ns, P, m)
-        st, ct = np.sin(th), np.cos(th)
-        Tx, Ty = self.T(th, st, ct)
-        se, ce = np.sin(edges), np.cos(edges)
-        Tex, Tey = self.T(edges, se, ce)
-
-        def flat(a):
-            return a.reshape(*a.shape[:2], -1)
-
-        out = {"theta": flat(th), "weight": flat(hv * w), "st": flat(st), "ct": flat(ct)}
-
-        def cum(f, fe, f0):
-            allp = np.concatenate([fe[..., :-1, None], f, fe[..., 1:, None]], axis=-1)
-            within = np.einsum("kj,...j->...k", Sm, allp) * hv
-            total = np.sum(f * w, axis=-1) * hv[..., 0]
-            start = f0[..., None] + np.concatenate(
-                [np.zeros((*f0.shape, 1)), np.cumsum(total, axis=-1)[..., :-1]], axis=-1)
-            return (start[..., None] + within).reshape(*f.shape[:2], -1)
-
-        out["tx"] = cum(Tx, Tex, tx0)
-        out["ty"] = cum(Ty, Tey, ty0)
-        out["Tx"] = flat(Tx)
-        out["Ty"] = flat(Ty)
-        if S0 is not None:
-            dS = self.rigid_slip(th, ct) * self.aj[..., None, None] * st
-            dSe = self.rigid_slip(edges, ce) * self.aj[..., None] * se
-            out["S"] = cum(dS, dSe, S0)
-        return out
-
-    def tau_cumulative(self, pts: np.ndarray, tx0: np.ndarray, ty0: np.ndarray
-                       ) -> tuple[np.ndarray, np.ndarray]:
-        """Stick traction at increasing angles ``pts`` (last axis) from its value at ``pts[..., 0]``.
-
-        ``tau_el(t_k) = tau_el(t_0) + sum of integral_{t_j}^{t_j+1} T``, each interval by a
-        4-point Gauss rule on the explicit, analytic ``T`` (exact to ~1e-10 on the short
-        intervals between the nodes), without the closed forms' logarithms.
-        """
-        x, w = _gauss(4)
-        lo = pts[..., :-1, None]
-        h = np.diff(pts, axis=-1)[..., None]
-        Tx, Ty = self.T(lo + h * x)  # (nc, ns, k-1, 6): broadcast in T via ndim 4
-        ix = np.sum(Tx * w, axis=-1) * h[..., 0]
-        iy = np.sum(Ty * w, axis=-1) * h[..., 0]
-        tx = np.concatenate([tx0[..., None], tx0[..., None] + np.cumsum(ix, axis=-1)], axis=-1)
-        ty = np.concatenate([ty0[..., None], ty0[..., None] + np.cumsum(iy, axis=-1)], axis=-1)
-        return tx, ty
-
     def pressure(self, theta: np.ndarray, st: np.ndarray | None = None) -> np.ndarray:
         P = self.Pj[(..., *(None,) * (np.ndim(theta) - 2))]
         st = np.sin(theta) if st is None else st
         return P * (st * st if self.parabolic else st)
 
-    def dpressure(self, theta: np.ndarray) -> np.ndarray:
+    def dpressure(self, theta: np.ndarray, st: np.ndarray | None = None,
+                  ct: np.ndarray | None = None) -> np.ndarray:
         P = self.Pj[..., None] if np.ndim(theta) == 3 else self.Pj
-        return P * (2.0 * np.sin(theta) * np.cos(theta) if self.parabolic else np.cos(theta))
+        ct = np.cos(theta) if ct is None else ct
+        if not self.parabolic:
+            return P * ct
+        return P * 2.0 * (np.sin(theta) if st is None else st) * ct
 
-    def slip_path(self, theta: np.ndarray) -> np.ndarray:
-        """``S = integral_0^X |w| dX'``, the accumulated rigid slip (closed form)."""
+    def slip_path(self, theta: np.ndarray, ct: np.ndarray | None = None) -> np.ndarray:
+        """``S = integral_0^X |w| dX'``, the accumulated rigid slip (closed form; cos theta
+        if known)."""
         ex3 = np.ndim(theta) == 3
         aj = self.aj[..., None] if ex3 else self.aj
         wx = np.abs(self.wx[..., None] if ex3 else self.wx)
         eta = self.eta[..., None] if ex3 else self.eta
         phi = self.phi[..., None] if ex3 else self.phi
-        X = aj * (1.0 - np.cos(theta))
+        X = aj * (1.0 - (np.cos(theta) if ct is None else ct))
         x1 = aj - X
         z0 = eta + phi * aj
         z1 = eta + phi * x1
         zm = eta + phi * (aj - 0.5 * X)
 
+        wx2 = wx * wx
+
         def absw(z):
-            return np.sqrt(wx * wx + z * z)
+            return np.sqrt(wx2 + z * z)
 
         simpson = X / 6.0 * (absw(z0) + 4.0 * absw(zm) + absw(z1))
-        small = np.abs(phi) * X <= 1e-4 * (wx + np.abs(zm))
-        if not self.spin or np.all(small):
+        if not self.spin:
             return simpson
+        small = np.abs(phi) * X <= 1e-4 * (wx + np.abs(zm))
+        if small.all():
+            return simpson
+        pos = wx > 0
+        wxs = np.where(pos, wx, 1.0)
 
-        def H(z):
-            R = absw(z)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                ash = np.where(wx > 0, wx * wx * np.arcsinh(z / np.where(wx > 0, wx, 1.0)), 0.0)
-            return 0.5 * (z * R + ash)
+        def H(z):  # antiderivative of sqrt(wx^2 + z^2)
+            return 0.5 * (z * absw(z) + np.where(pos, wx2 * np.arcsinh(z / wxs), 0.0))
 
-        with np.errstate(divide="ignore", invalid="ignore"):
-            closed = (H(z0) - H(z1)) / np.where(phi != 0, phi, 1.0)
+        closed = (H(z0) - H(z1)) / np.where(phi != 0, phi, 1.0)
         return np.where(small, simpson, closed)
 
     def rigid_slip(self, theta: np.ndarray, ct: np.ndarray | None = None) -> np.ndarray:
@@ -713,12 +678,20 @@ class _Lanes:
             decay = np.where(kap > 0, 0.0, 1.0)
         return t1, t2 - (t2 - t1) * decay
 
-    def kappa(self, theta: np.ndarray, dT: np.ndarray | float) -> np.ndarray:
+    def kappa(self, theta: np.ndarray, dT: np.ndarray | float, st: np.ndarray | None = None,
+              ct: np.ndarray | None = None) -> np.ndarray:
+        """The Voce slip before the clamp, ``S - tau_c1 (L_K + Le)`` (sin, cos theta if known)."""
         lay = self.prob.layer
-        p = self.pressure(theta)
+        p = self.pressure(theta, st)
         f1 = np.exp(lay.mu_c1_T * dT) if lay.mu_c1_T else 1.0
         LK = self.LK[..., None] if np.ndim(theta) == 3 else self.LK
-        return self.slip_path(theta) - lay.mu_c1 * f1 * (LK * p + lay.L_mue)
+        return self.slip_path(theta, ct) - lay.mu_c1 * f1 * (LK * p + lay.L_mue)
+
+
+def _pick(a: np.ndarray, k: np.ndarray) -> np.ndarray:
+    """``a[..., k]`` per lane: ``a`` (..., K), ``k`` (...) integer."""
+    K = a.shape[-1]
+    return a.reshape(-1, K)[np.arange(k.size), k.ravel()].reshape(k.shape)
 
 
 def _first_root(f_table: np.ndarray, grid: np.ndarray, start: np.ndarray
@@ -753,12 +726,11 @@ def _newton_bracketed(f_and_df, lo: np.ndarray, hi: np.ndarray, found: np.ndarra
         neg = f < 0
         lo = np.where(neg, th, lo)
         hi = np.where(neg, hi, th)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            new = th - f / df
+        new = th - f / np.where(df != 0, df, np.nan)  # NaN (no step) where df = 0
         bad = ~np.isfinite(new) | (new < lo) | (new > hi)
         new = np.where(bad, 0.5 * (lo + hi), new)
         new = np.where(found, new, hi)
-        step = np.max(np.abs(new - th), initial=0.0)
+        step = np.abs(new - th).max(initial=0.0)
         th = new
         if step <= 1e-13:
             break
@@ -784,6 +756,12 @@ class _Solver:
         self.ln = _Lanes(prob, grid, xi, eta, phi)
         self.tab, self._tab_ex, self.thetaT, self._T_ex = _tables(prob, grid, self.ln.spin,
                                                                   self.ln.lateral)
+        self.tab_st, self.tab_ct = np.sin(self.tab), np.cos(self.tab)
+
+    def subset(self, rows: np.ndarray) -> _Solver:
+        """The solver of the points ``rows`` (same strips: the points share spin or not)."""
+        ln = self.ln
+        return _Solver(self.prob, self.grid, ln.xi[rows, 0], ln.eta[rows, 0], ln.phi[rows, 0])
 
     # -- first yield -------------------------------------------------------------------------
     def yield_angle(self, dT_grid: np.ndarray | None
@@ -798,27 +776,29 @@ class _Solver:
         dTt = 0.0 if dT_grid is None else _interp_uniform(tab, dT_grid)
         tx, ty = ln.tau_el(tab, self._tab_ex)
         mu1T = lay.mu_c1_T
-        t1 = lay.mu_c1 * ln.pressure(tab) * (np.exp(mu1T * dTt) if mu1T else 1.0)
+        t1 = lay.mu_c1 * ln.pressure(tab, self.tab_st) * (np.exp(mu1T * dTt) if mu1T else 1.0)
         f = np.sqrt(tx * tx + ty * ty) - t1
         lo, hi, found = _first_root(f, self.tab, np.zeros((nc, ns)))
         # the stick traction at the bracket's start, then tau_el(theta) = tau_lo + integral of T
         k = np.argmax((f >= 0), axis=-1)
-        km = np.maximum(k - 1, 0)[..., None]
-        tx0 = np.where(k > 0, np.take_along_axis(tx, km, axis=-1)[..., 0], 0.0)
-        ty0 = np.where(k > 0, np.take_along_axis(ty, km, axis=-1)[..., 0], 0.0)
+        km = np.maximum(k - 1, 0)
+        tx0 = np.where(k > 0, _pick(tx, km), 0.0)
+        ty0 = np.where(k > 0, _pick(ty, km), 0.0)
         lo0 = lo.copy()
         xg, wg = _gauss(6)
         last = {}
         # start: regula falsi between the bracketing table values
-        fk = np.take_along_axis(f, k[..., None], axis=-1)[..., 0]
-        fkm = np.where(k > 0, np.take_along_axis(f, km, axis=-1)[..., 0], 0.0)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            start = np.where((k > 0) & (fk > fkm), lo + (hi - lo) * (-fkm) / (fk - fkm),
-                             0.5 * (lo + hi))
+        fk = _pick(f, k)
+        fkm = np.where(k > 0, _pick(f, km), 0.0)
+        ok = (k > 0) & (fk > fkm)
+        start = np.where(ok, lo + (hi - lo) * (-fkm) / np.where(ok, fk - fkm, 1.0),
+                         0.5 * (lo + hi))
 
         def fdf(th):
             h = (th - lo0)[..., None]
-            Tx, Ty = ln.T(np.concatenate([lo0[..., None] + h * xg, th[..., None]], axis=-1))
+            pts = np.concatenate([lo0[..., None] + h * xg, th[..., None]], axis=-1)
+            sp, cp = np.sin(pts), np.cos(pts)
+            Tx, Ty = ln.T(pts, sp, cp)
             txx = tx0 + np.sum(Tx[..., :-1] * wg, axis=-1) * h[..., 0]
             tyy = ty0 + np.sum(Ty[..., :-1] * wg, axis=-1) * h[..., 0]
             last["tau"] = (th, txx, tyy)
@@ -826,10 +806,9 @@ class _Solver:
             Tx1, Ty1 = Tx[..., -1], Ty[..., -1]
             dT = 0.0 if dT_grid is None else _interp_uniform(th[..., None], dT_grid)[..., 0]
             f1 = np.exp(mu1T * dT) if mu1T else 1.0
-            with np.errstate(invalid="ignore", divide="ignore"):
-                dm = np.where(m > 0, (txx * Tx1 + tyy * Ty1) / np.where(m > 0, m, 1.0), 0.0)
-            return (m - lay.mu_c1 * ln.pressure(th) * f1,
-                    dm - lay.mu_c1 * ln.dpressure(th) * f1)
+            dm = np.where(m > 0, (txx * Tx1 + tyy * Ty1) / np.where(m > 0, m, 1.0), 0.0)
+            return (m - lay.mu_c1 * ln.pressure(th, sp[..., -1]) * f1,
+                    dm - lay.mu_c1 * ln.dpressure(th, sp[..., -1], cp[..., -1]) * f1)
 
         th = _newton_bracketed(fdf, lo, hi, found, start=start)
         th = np.where(found, th, math.pi)
@@ -847,28 +826,28 @@ class _Solver:
             return th_y  # no hardening: the clamp does not change g
         dTy = 0.0 if dT_grid is None else _interp_uniform(th_y[..., None], dT_grid)[..., 0]
         k_y = ln.kappa(th_y, dTy)
-        if np.all(k_y >= 0):
+        if (k_y >= 0).all():
             return th_y  # every strip yields past the clamp (its leading half)
         tab = np.broadcast_to(self.tab, (nc, ns, self.tab.size))
         dTt = 0.0 if dT_grid is None else _interp_uniform(tab, dT_grid)
-        kt = ln.kappa(tab, dTt)
+        kt = ln.kappa(tab, dTt, self.tab_st, self.tab_ct)
         lo, hi, found = _first_root(kt, self.tab, th_y)
         mu1T = lay.mu_c1_T
         # start: regula falsi between kappa at the bracket's ends
         kk = np.argmax((kt >= 0) & (self.tab > th_y[..., None]), axis=-1)
-        k_hi = np.take_along_axis(kt, kk[..., None], axis=-1)[..., 0]
-        k_lo = np.where(lo <= th_y, k_y,
-                        np.take_along_axis(kt, np.maximum(kk - 1, 0)[..., None], axis=-1)[..., 0])
-        with np.errstate(invalid="ignore", divide="ignore"):
-            start = np.where(k_hi > k_lo, lo + (hi - lo) * (-k_lo) / (k_hi - k_lo),
-                             0.5 * (lo + hi))
+        k_hi = _pick(kt, kk)
+        k_lo = np.where(lo <= th_y, k_y, _pick(kt, np.maximum(kk - 1, 0)))
+        ok = k_hi > k_lo
+        start = np.where(ok, lo + (hi - lo) * (-k_lo) / np.where(ok, k_hi - k_lo, 1.0),
+                         0.5 * (lo + hi))
 
         def fdf(th):
             dT = 0.0 if dT_grid is None else _interp_uniform(th[..., None], dT_grid)[..., 0]
             f1 = np.exp(mu1T * dT) if mu1T else 1.0
-            k = ln.kappa(th, dT)
-            dk = (ln.rigid_slip(th) * ln.aj * np.sin(th)
-                  - lay.mu_c1 * f1 * ln.LK * ln.dpressure(th))
+            st, ct = np.sin(th), np.cos(th)
+            k = ln.kappa(th, dT, st, ct)
+            dk = (ln.rigid_slip(th, ct) * ln.aj * st
+                  - lay.mu_c1 * f1 * ln.LK * ln.dpressure(th, st, ct))
             return k, dk
 
         lo = np.minimum(lo, hi)
@@ -882,38 +861,45 @@ class _Solver:
         g, ln, lay = self.grid, self.ln, self.prob.layer
         aj = ln.aj
         w_s = ln.rigid_slip(th_s)
-        with np.errstate(divide="ignore"):
-            ell = np.where(w_s > 0, lay.L_mup / np.where(w_s > 0, w_s, 1.0), 2.0 * aj) \
-                if lay.L_mup > 0 else np.zeros_like(th_s)
+        ell = np.where(w_s > 0, lay.L_mup / np.where(w_s > 0, w_s, 1.0), 2.0 * aj) \
+            if lay.L_mup > 0 else np.zeros_like(th_s)
         Xs = aj * (1.0 - np.cos(th_s))
-        grades = 0.25 * 2.0 ** np.arange(g.graded_panels)
+        grades, uni01, cl01 = _edge_fractions(g.graded_panels, g.uniform_panels, g.clamp_panels)
         Xb = np.minimum(Xs[..., None] + ell[..., None] * grades, 2.0 * aj[..., None])
         thb = np.maximum(np.arccos(np.clip(1.0 - Xb / aj[..., None], -1.0, 1.0)), th_s[..., None])
         # uniform panels over the whole plastic zone, refined by the Voce-graded edges near its
         # start (edges beyond pi collapse into empty panels at the trailing edge)
-        uni = th_s[..., None] + (math.pi - th_s[..., None]) * np.linspace(0, 1, g.uniform_panels + 1)
-        cl = th_y[..., None] + (th_s - th_y)[..., None] * np.linspace(0, 1, g.clamp_panels + 1)
+        uni = th_s[..., None] + (math.pi - th_s[..., None]) * uni01
+        cl = th_y[..., None] + (th_s - th_y)[..., None] * cl01
         edges = np.concatenate([cl, np.sort(np.concatenate([thb, uni[..., 1:]], axis=-1), axis=-1)],
                                axis=-1)
         return edges
 
-    # -- march -------------------------------------------------------------------------------
-    def solve(self, dT_grid: np.ndarray | None) -> _Solution:
+    # -- solution ----------------------------------------------------------------------------
+    def solve(self, dT_grid: np.ndarray | None, want_rho: bool = False) -> _Solution:
+        """Forces and adhesion per case; ``|tau|/g`` at the plastic nodes with ``want_rho``
+        (the temperature loop's heat flux)."""
         ln, g, prob = self.ln, self.grid, self.prob
         th_y, txy, tyy = self.yield_angle(dT_grid)
         th_s = self.clamp_end(th_y, dT_grid)
         aj, y = ln.aj, ln.y
-        nc, ns = th_y.shape
-        # elastic zone: Gauss panels on [0, theta_y], the stick traction integrated from 0
-        zero = np.zeros((nc, ns))
-        el = ln.panels(th_y[..., None] * np.linspace(0.0, 1.0, g.elastic_panels + 1), g.m,
-                       zero, zero)
-        tx, ty = el["tx"], el["ty"]
-        jac = aj[..., None] * el["st"] * el["weight"]  # dX
-        xx = aj[..., None] * el["ct"]
-        Fx = np.sum(tx * jac, axis=-1)
-        Fy = np.sum(ty * jac, axis=-1)
-        Mz = np.sum((xx * ty - y[..., None] * tx) * jac, axis=-1)
+        # elastic zone [0, theta_y], by parts: with tau_el = integral of T and 1 - cos, sin^2/2
+        # the antiderivatives of sin, sin cos that vanish at the leading edge,
+        #   integral tau_el sin = tau_el(theta_y) (1 - cos theta_y) - integral T (1 - cos),
+        #   integral tau_el sin cos = tau_el(theta_y) sin^2(theta_y)/2 - integral T sin^2/2,
+        # so the elastic forces need T (explicit, analytic) at Gauss nodes only
+        xe, we = _composite_gauss(g.elastic_panels, g.m)
+        th = th_y[..., None] * xe
+        st, ct = np.sin(th), np.cos(th)
+        Tx, Ty = ln.T(th, st, ct)
+        wgt = th_y[..., None] * we
+        omc = 2.0 * np.sin(0.5 * th) ** 2  # 1 - cos without cancellation
+        hs2 = 0.5 * st * st
+        sy = np.sin(th_y)
+        omcy = 2.0 * np.sin(0.5 * th_y) ** 2
+        Fx = aj * (txy * omcy - np.sum(Tx * omc * wgt, axis=-1))
+        Fy = aj * (tyy * omcy - np.sum(Ty * omc * wgt, axis=-1))
+        Mz = aj * aj * (0.5 * tyy * sy * sy - np.sum(Ty * hs2 * wgt, axis=-1)) - y * Fx
         if ln.parabolic:
             c = np.cos(th_y)
             stick = ln.Pj * aj * (2.0 / 3.0 - c + c**3 / 3.0)
@@ -926,134 +912,320 @@ class _Solver:
         keep = np.any(np.diff(edges, axis=-1) > 0, axis=(0, 1))
         if not keep.all():
             idx = np.concatenate([[0], np.flatnonzero(keep) + 1])
-            edges = np.concatenate([edges[..., :1], edges[..., idx[1:]]], axis=-1)
-            edges = np.maximum.accumulate(edges, axis=-1)
-        pl = ln.panels(edges, g.m, txy, tyy, ln.slip_path(th_y))
+            edges = np.maximum.accumulate(edges[..., idx], axis=-1)
+        S_y = ln.slip_path(th_y)
+        pl = self.plastic_nodes(edges, txy, tyy, S_y)
         thp = pl["theta"]
-        tau, plastic, gvals = self.march(th_y, txy, tyy, pl, dT_grid)
+        tau_x, tau_y, plastic, gvals = self.march(th_y, txy, tyy, S_y, pl, dT_grid)
         jac = aj[..., None] * pl["st"] * pl["weight"]
         xx = aj[..., None] * pl["ct"]
-        Fx = Fx + np.sum(tau.real * jac, axis=-1)
-        Fy = Fy + np.sum(tau.imag * jac, axis=-1)
-        Mz = Mz + np.sum((xx * tau.imag - y[..., None] * tau.real) * jac, axis=-1)
+        Fx = Fx + np.sum(tau_x * jac, axis=-1)
+        Fy = Fy + np.sum(tau_y * jac, axis=-1)
+        Mz = Mz + np.sum((xx * tau_y - y[..., None] * tau_x) * jac, axis=-1)
         stick = stick + np.sum(np.where(plastic, 0.0, ln.pressure(thp, pl["st"])) * jac, axis=-1)
         wstrip = ln.wy * prob.b * ln.cphi
-        with np.errstate(invalid="ignore", divide="ignore"):
-            rho = np.where(gvals > 0, np.abs(tau) / np.where(gvals > 0, gvals, 1.0), 1.0)
+        rho = None if not want_rho else np.where(
+            gvals > 0, np.sqrt(tau_x * tau_x + tau_y * tau_y) / np.where(gvals > 0, gvals, 1.0),
+            1.0)
         return _Solution(Fx=np.sum(wstrip * Fx, axis=-1), Fy=np.sum(wstrip * Fy, axis=-1),
                          Mz=np.sum(wstrip * Mz, axis=-1),
                          stick=np.sum(wstrip * stick, axis=-1) / prob.load, th_y=th_y,
                          nodes=thp, rho=rho, plastic=plastic)
 
-    def march(self, th_y: np.ndarray, txy: np.ndarray, tyy: np.ndarray, pl: dict,
-              dT_grid: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Traction at the plastic-zone nodes (complex ``tau_x + i tau_y``), slip flags, ``g``.
+    def plastic_nodes(self, edges: np.ndarray, tx0: np.ndarray, ty0: np.ndarray,
+                      S0: np.ndarray) -> dict[str, np.ndarray]:
+        """Gauss nodes of the plastic panels ``edges`` (nc, ns, P+1), their weights, and there
+        the stick traction, ``T`` and the accumulated rigid slip ``S``.
 
-        Everything that does not depend on the marched state is computed for all steps at
-        once: the stick increments, the limits, and per step the Moebius map that carries
-        the traction direction ``zeta = exp(i psi)`` over the step (the exact solution of
-        the direction equation with the step's coefficients).  The loop then costs a few
-        array operations per node.
+        ``tau_el`` and ``S`` are integrated from their values at ``edges[..., 0]``: panel by
+        panel with the Gauss weights (order 2m), inside a panel with the integration matrix
+        through its ends and Gauss nodes (order m + 2) -- from ``T`` and ``|w| dX/dtheta``,
+        explicit, in one stacked array.
         """
+        ln, m = self.ln, self.grid.m
+        x, w = _gauss(m)
+        SmT = _gauss_integration(m).T
+        lo, hv = edges[..., :-1, None], np.diff(edges, axis=-1)[..., None]
+        th = lo + hv * x  # (nc, ns, P, m)
+        st, ct = np.sin(th), np.cos(th)
+        se, ce = np.sin(edges), np.cos(edges)
+        Tx, Ty = ln.T(th, st, ct)
+        Tex, Tey = ln.T(edges, se, ce)
+        aj = ln.aj[..., None]
+        f = np.empty((3, *th.shape))
+        f[0], f[1], f[2] = Tx, Ty, ln.rigid_slip(th, ct) * aj[..., None] * st
+        fe = np.empty((3, *edges.shape))
+        fe[0], fe[1], fe[2] = Tex, Tey, ln.rigid_slip(edges, ce) * aj * se
+        # inside each panel: the integration matrix through its start, its Gauss nodes, its end
+        within = (f @ SmT[1:-1] + fe[..., :-1, None] * SmT[0] + fe[..., 1:, None] * SmT[-1]) * hv
+        total = np.cumsum((f @ w) * hv[..., 0], axis=-1)
+        f0 = np.empty((3, *tx0.shape))
+        f0[0], f0[1], f0[2] = tx0, ty0, S0
+        start = f0[..., None] + np.concatenate([np.zeros((*f0.shape, 1)), total[..., :-1]], axis=-1)
+        cum = (start[..., None] + within).reshape(*f.shape[:3], -1)
+        shape = (*th.shape[:2], -1)
+        return {"theta": th.reshape(shape), "weight": np.broadcast_to(hv * w, th.shape).reshape(shape),
+                "st": st.reshape(shape), "ct": ct.reshape(shape), "tx": cum[0], "ty": cum[1],
+                "S": cum[2], "Tx": Tx.reshape(shape), "Ty": Ty.reshape(shape)}
+
+    def march(self, th_y: np.ndarray, txy: np.ndarray, tyy: np.ndarray, S_y: np.ndarray,
+              pl: dict, dT_grid: np.ndarray | None
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Traction ``(tau_x, tau_y)`` at the plastic-zone nodes, slip flags and ``g`` there."""
         ln, prob = self.ln, self.prob
         thp = pl["theta"]
         pts = np.concatenate([th_y[..., None], thp], axis=-1)  # (nc, ns, M+1)
-        M = thp.shape[-1]
-        tel = np.concatenate([(txy + 1j * tyy)[..., None], pl["tx"] + 1j * pl["ty"]], axis=-1)
-        dtel = np.diff(tel, axis=-1)
+        telx = np.concatenate([txy[..., None], pl["tx"]], axis=-1)
+        tely = np.concatenate([tyy[..., None], pl["ty"]], axis=-1)
         dT_p = 0.0 if dT_grid is None else _interp_uniform(pts, dT_grid)
-        S = np.concatenate([ln.slip_path(th_y)[..., None], pl["S"]], axis=-1)
+        S = np.concatenate([S_y[..., None], pl["S"]], axis=-1)
         st = np.concatenate([np.sin(th_y)[..., None], pl["st"]], axis=-1)
         _, gp = ln.limits(pts, dT_p, S, st)
         Tyx, Tyy = ln.T(np.maximum(th_y, 1e-9))
-        Tp = np.concatenate([(Tyx + 1j * Tyy)[..., None], pl["Tx"] + 1j * pl["Ty"]], axis=-1)
+        Tpx = np.concatenate([Tyx[..., None], pl["Tx"]], axis=-1)
+        Tpy = np.concatenate([Tyy[..., None], pl["Ty"]], axis=-1)
         yielded = th_y < math.pi
-        # a yielded particle takes the Voce limit at once (a jump where kappa > 0, as in the
-        # longitudinal model); the direction is the stick traction's, or T's where that is 0
-        mag0 = np.abs(tel[..., 0])
-        dir0 = np.where(mag0 > 0, tel[..., 0] / np.where(mag0 > 0, mag0, 1.0),
-                        np.exp(1j * np.angle(Tp[..., 0])))
         direction_fixed = not ln.spin and (not ln.lateral or not np.any(ln.r[0] != ln.r[1])) \
             and prob.restick == "thesis"
         if direction_fixed:
             # one rigid-slip direction along every strip, equal flexibilities in x and y:
             # the stick traction, the slip and so the traction keep one direction, and
-            # a loaded particle never unloads
-            d = dir0[..., None]
+            # a loaded particle never unloads; a yielded particle takes the Voce limit at
+            # once (a jump where kappa > 0, as in the longitudinal model)
+            mag0 = np.sqrt(txy * txy + tyy * tyy)
+            aT0 = np.sqrt(Tyx * Tyx + Tyy * Tyy)
+            dx = np.where(mag0 > 0, txy / np.where(mag0 > 0, mag0, 1.0),
+                          np.where(aT0 > 0, Tyx / np.where(aT0 > 0, aT0, 1.0), 1.0))
+            dy = np.where(mag0 > 0, tyy / np.where(mag0 > 0, mag0, 1.0),
+                          np.where(aT0 > 0, Tyy / np.where(aT0 > 0, aT0, 1.0), 0.0))
             plast = np.broadcast_to(yielded[..., None], thp.shape)
-            return np.where(plast, gp[..., 1:] * d, tel[..., 1:]), plast, gp[..., 1:]
-        h = np.diff(pts, axis=-1)
-        aT = np.abs(Tp)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            kp = np.where(gp > 0, aT / np.where(gp > 0, gp, 1.0), 1e8)
-        kh = np.where(h > 0, np.minimum(0.5 * (kp[..., 1:] + kp[..., :-1]) * h, 1e8), 0.0)
-        uT = np.where(aT > 0, Tp / np.where(aT > 0, aT, 1.0), 1.0)  # exp(i beta) at the points
-        dbeta = np.angle(uT[..., 1:] * np.conj(uT[..., :-1]))
-        dbeta = np.where(h > 0, dbeta, 0.0)
-        # chi = psi - beta obeys d chi/dt = -(k sin chi + beta'); with u = tan(chi/2) that is
-        # a Riccati equation, u = A/B with (A, B)' = [[-k/2, -b/2], [b/2, k/2]] (A, B):
-        # exp of the step's matrix (scaled: only the ratio matters)
-        lam2 = 0.25 * (kh * kh - dbeta * dbeta)
-        lam = np.sqrt(np.abs(lam2))
-        C = np.ones(lam.shape)
-        Sh = np.ones(lam.shape)  # sinh(lam)/lam scaled by cosh, or sin(lam)/lam; 1 at lam = 0
-        big = lam > 1e-12
-        pos = big & (lam2 >= 0)
-        neg = big & (lam2 < 0)
-        Sh[pos] = np.tanh(lam[pos]) / lam[pos]
-        if neg.any():
-            ln_ = lam[neg]
-            C[neg] = np.cos(ln_)
-            Sh[neg] = np.sin(ln_) / ln_
-        m11 = C - 0.5 * Sh * kh
-        m22 = C + 0.5 * Sh * kh
-        m12 = -0.5 * Sh * dbeta
-        m21 = -m12
-        # zeta -> w = zeta e^{-i beta0} -> u = -i (w - 1)/(w + 1) -> u1 = M u
-        # -> w1 = (1 + i u1)/(1 - i u1) -> zeta1 = e^{i beta1} w1; as 2x2 matrices
-        # Q = D1 Cf M Cinv D0 with Cinv D0 = [[-i e0, i], [e0, 1]], Cf = [[i, 1], [-i, 1]]
-        e0 = np.conj(uT[..., :-1])
-        e1 = uT[..., 1:]
-        b11 = (m12 - 1j * m11) * e0
-        b12 = 1j * m11 + m12
-        b21 = (m22 - 1j * m21) * e0
-        b22 = 1j * m21 + m22
-        q11 = e1 * (1j * b11 + b21)
-        q12 = e1 * (1j * b12 + b22)
-        q21 = b21 - 1j * b11
-        q22 = b22 - 1j * b12
-        # unloading test on the trial traction: a yielded particle stays on the limit unless
-        # |trial| falls below min(its traction, the new limit) (the thesis); Kalker: below
-        # the new limit.  A relative margin keeps an empty step from counting as unloading.
-        g_new = gp[..., 1:]
-        lim = (g_new if prob.restick == "kalker" else np.minimum(gp[..., :-1], g_new)) \
-            * (1.0 - 1e-12)
-        # step axis first: each step works on contiguous slices
-        def steps(a: np.ndarray) -> np.ndarray:
-            return np.ascontiguousarray(np.moveaxis(a, -1, 0))
+            g1 = gp[..., 1:]
+            return (np.where(plast, g1 * dx[..., None], pl["tx"]),
+                    np.where(plast, g1 * dy[..., None], pl["ty"]), plast, g1)
+        shape = pts.shape
+        L = shape[0] * shape[1]
+        tx, ty, plast = _march_lanes(*(a.reshape(L, -1) for a in (pts, telx, tely, gp, Tpx, Tpy)),
+                                     prob.restick == "kalker")
+        return (tx[:, 1:].reshape(thp.shape), ty[:, 1:].reshape(thp.shape),
+                plast[:, 1:].reshape(thp.shape), gp[..., 1:])
 
-        Q11, Q12, Q21, Q22 = (steps(q) for q in (q11, q12, q21, q22))
-        DT, GN, LIM = steps(dtel), steps(g_new), steps(lim)
-        out = np.empty((M, *thp.shape[:-1]), dtype=complex)
-        plast = np.empty((M, *thp.shape[:-1]), dtype=bool)
-        plastic = yielded
-        d = dir0
-        tau = np.where(plastic, gp[..., 0] * dir0, tel[..., 0])
-        for i in range(M):
-            trial = tau + DT[i]
-            at = np.abs(trial)
-            zn = (Q11[i] * d + Q12[i]) / (Q21[i] * d + Q22[i])
-            zn /= np.abs(zn)
-            gi = GN[i]
-            newp = np.where(plastic, at >= LIM[i], at >= gi)
-            d = np.where(plastic & newp, zn, trial / (at + 1e-300))
-            tau = np.where(newp, gi * d, trial)
-            plastic = newp
-            out[i] = tau
-            plast[i] = newp
-        out = np.moveaxis(out, 0, -1)
-        plast = np.moveaxis(plast, 0, -1)
-        return out, plast, g_new
+
+@cache
+def _edge_fractions(graded: int, uniform: int, clamp: int
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Voce grading factors and the unit edges of the uniform and the clamp panels."""
+    return (0.25 * 2.0 ** np.arange(graded), np.linspace(0.0, 1.0, uniform + 1),
+            np.linspace(0.0, 1.0, clamp + 1))
+
+
+@cache
+def _composite_gauss(panels: int, m: int) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes and weights on [0, 1] of ``panels`` equal panels with ``m`` Gauss nodes each."""
+    x, w = _gauss(m)
+    lo = np.arange(panels)[:, None] / panels
+    return (lo + x / panels).ravel(), np.tile(w / panels, panels)
+
+
+#: lanes x steps below which the direction chain is a log-depth scan (fewer numpy calls)
+#: rather than a loop over the steps (less arithmetic)
+_SCAN_SIZE = 4096
+
+
+def _moebius_chain(m11: np.ndarray, m12: np.ndarray, m22: np.ndarray, A0: np.ndarray,
+                   B0: np.ndarray, start: np.ndarray | None = None
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """``(A, B)`` at nodes 0..M of ``(A, B)_(i+1) = M_i (A, B)_i`` from ``(A0, B0)`` at ``start``.
+
+    ``u = A/B`` (a projective pair: only the ratio matters) is carried over step ``i`` by
+    the 2x2 matrix ``M_i = [[m11, m12], [-m12, m22]]`` (arrays (L, M)); ``start`` (L,) is
+    each lane's first node (default 0), before which the pair stays ``(A0, B0)``.  Small
+    problems use a Hillis-Steele prefix product (log2(M) rounds of array operations), large
+    ones a loop over the steps; each product is rescaled so nothing over- or underflows.
+    """
+    L, M = m11.shape
+    if start is not None:  # identity before the start: the product from node 0 is the chain
+        before = np.arange(M)[None, :] < start[:, None]
+        m11, m22 = np.where(before, 1.0, m11), np.where(before, 1.0, m22)
+        m12 = np.where(before, 0.0, m12)
+    m21 = -m12
+    A = np.empty((L, M + 1))
+    B = np.empty((L, M + 1))
+    A[:, 0], B[:, 0] = A0, B0
+    if L * M <= _SCAN_SIZE:
+        p11, p12, p21, p22 = (np.array(a, dtype=float) for a in (m11, m12, m21, m22))
+        d, level = 1, 0
+        while d < M:  # P_j <- P_j P_(j-d): the product of the maps from node j-2d+1 to j+1
+            a11, a12, a21, a22 = p11[:, d:], p12[:, d:], p21[:, d:], p22[:, d:]
+            b11, b12, b21, b22 = p11[:, :-d], p12[:, :-d], p21[:, :-d], p22[:, :-d]
+            q11 = a11 * b11 + a12 * b21
+            q12 = a11 * b12 + a12 * b22
+            q21 = a21 * b11 + a22 * b21
+            q22 = a21 * b12 + a22 * b22
+            if level % 2:  # every other round: products of at most four rescaled ones
+                s = 1.0 / (np.abs(q11) + np.abs(q12) + np.abs(q21) + np.abs(q22) + 1e-300)
+                q11, q12, q21, q22 = q11 * s, q12 * s, q21 * s, q22 * s
+            p11[:, d:], p12[:, d:], p21[:, d:], p22[:, d:] = q11, q12, q21, q22
+            d, level = 2 * d, level + 1
+        A[:, 1:] = p11 * A0[:, None] + p12 * B0[:, None]
+        B[:, 1:] = p21 * A0[:, None] + p22 * B0[:, None]
+        return A, B
+    s11, s12, s22 = (np.ascontiguousarray(a.T) for a in (m11, m12, m22))
+    a, b = np.array(A0, dtype=float), np.array(B0, dtype=float)
+    At, Bt = np.empty((M, L)), np.empty((M, L))
+    for i in range(M):
+        a, b = s11[i] * a + s12[i] * b, s22[i] * b - s12[i] * a
+        if i % 4 == 3:
+            n = np.abs(a) + np.abs(b)
+            n[n == 0] = 1.0
+            a /= n
+            b /= n
+        At[i], Bt[i] = a, b
+    A[:, 1:], B[:, 1:] = At.T, Bt.T
+    return A, B
+
+
+def _norm2(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    return x * x + y * y
+
+
+def _chain_start(dx: np.ndarray, dy: np.ndarray, ux: np.ndarray, uy: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """The pair ``(A, B)``, ``A/B = tan(chi/2)``, of the direction ``d`` at angle ``chi`` from ``u``."""
+    c = dx * ux + dy * uy
+    s = dy * ux - dx * uy
+    pos = c >= 0  # tan(chi/2) = s/(1 + c) = (1 - c)/s: the better-conditioned form
+    return np.where(pos, s, 1.0 - c), np.where(pos, 1.0 + c, s)
+
+
+def _chain_direction(A: np.ndarray, B: np.ndarray, ux: np.ndarray, uy: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """The unit direction ``exp(i (beta + chi))``, ``tan(chi/2) = A/B``, ``exp(i beta) = u``."""
+    A2, B2 = A * A, B * B
+    n = A2 + B2
+    if not n.all():  # a pair that collapsed to zero: along T
+        B2 = np.where(n > 0, B2, 1.0)
+        n = np.where(n > 0, n, 1.0)
+    inv = 1.0 / n
+    c = (B2 - A2) * inv
+    s = 2.0 * A * B * inv
+    return ux * c - uy * s, ux * s + uy * c
+
+
+def _march_lanes(pts: np.ndarray, telx: np.ndarray, tely: np.ndarray, gp: np.ndarray,
+                 Tx: np.ndarray, Ty: np.ndarray, kalker: bool
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The traction march along the plastic zone of ``L`` lanes (arrays (L, M+1); node 0 is
+    the yield point): ``(tau_x, tau_y, slipping)`` at the nodes.
+
+    FASTSIM's rules (module docstring), node by node: a slipping particle stays on the
+    limit ``g`` while the trial traction ``tau + Delta tau_el`` is not inside
+    ``min(|tau|, g)`` (the thesis; Kalker: ``g``), its direction carried over the step by
+    the exact solution of ``d chi/d theta = -(k sin chi + beta')`` (``chi`` the angle
+    between the traction and ``T = d tau_el/d theta``, ``k = |T|/g`` averaged over the
+    step, ``beta'`` the turning of ``T``), a Riccati equation whose solution is a Moebius
+    map of ``u = tan(chi/2)``; a sticking particle takes the trial traction and slips
+    again when that reaches ``g``.
+
+    Nothing is marched node by node where it need not be: first every lane is assumed to
+    slip from its yield point to the trailing edge (the direction chain is a product of
+    2x2 matrices, :func:`_moebius_chain`), and the unloading test is applied to all nodes
+    at once.  Lanes where a particle unloads (spin) continue from the first node that
+    fails the test: their stick segment is the stick traction shifted by a constant,
+    their next slip segment again a chain; each round of segments is array operations
+    over the nodes, and there are as many rounds as stick/slip switches (a few).
+    """
+    L, M1 = pts.shape
+    h = np.diff(pts, axis=-1)
+    aT = np.sqrt(Tx * Tx + Ty * Ty)
+    nz = aT > 0
+    inv = 1.0 / np.where(nz, aT, 1.0)
+    ux, uy = Tx * inv, Ty * inv  # exp(i beta) at the nodes
+    if not nz.all():
+        ux[~nz] = 1.0
+    # k = |T|/g (large where g = 0, at the trailing edge); steps of zero length (empty
+    # panels) have kh = 0 and beta' = 0: the identity
+    kp = aT / np.maximum(gp, 1e-300)
+    kh = np.minimum(0.5 * (kp[:, 1:] + kp[:, :-1]) * h, 1e8)
+    dbeta = np.arctan2(ux[:, :-1] * uy[:, 1:] - uy[:, :-1] * ux[:, 1:],
+                       ux[:, :-1] * ux[:, 1:] + uy[:, :-1] * uy[:, 1:])
+    # chi obeys d chi/dt = -(k sin chi + beta'); with u = tan(chi/2) that is a Riccati
+    # equation, u = A/B with (A, B)' = [[-k/2, -b/2], [b/2, k/2]] (A, B) (b = beta'):
+    # exp of the step's matrix, scaled by cosh (only the ratio matters)
+    lam2 = 0.25 * (kh * kh - dbeta * dbeta)
+    lam = np.maximum(np.sqrt(np.abs(lam2)), 1e-12)
+    Sh = np.tanh(lam) / lam  # tanh(lam)/lam, or sin(lam)/lam where lam2 < 0; 1 at lam = 0
+    neg = lam2 < -1e-24
+    if neg.any():
+        C = np.ones(lam.shape)
+        ln_ = lam[neg]
+        C[neg] = np.cos(ln_)
+        Sh[neg] = np.sin(ln_) / ln_
+    else:
+        C = 1.0
+    hs = 0.5 * Sh
+    hk = hs * kh
+    m11, m22 = C - hk, C + hk
+    m12 = -hs * dbeta
+    DTx, DTy = np.diff(telx, axis=-1), np.diff(tely, axis=-1)
+    # the tests compare squares (g >= 0)
+    lim2 = ((gp[:, 1:] if kalker else np.minimum(gp[:, :-1], gp[:, 1:])) * (1.0 - 1e-12)) ** 2
+    gp2 = gp * gp
+    # round 1: every lane slips from its yield point (a yielded particle takes the Voce limit
+    # at once, in the direction of its stick traction, or of T where that is zero); a lane
+    # that never yields has all its nodes at the trailing edge, where g = 0 and the traction
+    # is zero either way
+    mag0 = np.sqrt(telx[:, 0] ** 2 + tely[:, 0] ** 2)
+    m0 = mag0 > 0
+    dx0 = np.where(m0, telx[:, 0] / np.where(m0, mag0, 1.0), ux[:, 0])
+    dy0 = np.where(m0, tely[:, 0] / np.where(m0, mag0, 1.0), uy[:, 0])
+    A, B = _moebius_chain(m11, m12, m22, *_chain_start(dx0, dy0, ux[:, 0], uy[:, 0]))
+    dx, dy = _chain_direction(A, B, ux, uy)
+    tx, ty = gp * dx, gp * dy
+    plast = np.ones((L, M1), dtype=bool)
+    ok = _norm2(tx[:, :-1] + DTx, ty[:, :-1] + DTy) >= lim2  # step i: node i+1 stays slipping
+    bad = ~ok.all(axis=1)
+    if not bad.any():
+        return tx, ty, plast
+    # lanes that unload: rounds of a stick segment and a slip segment
+    lanes = np.flatnonzero(bad)
+    k = np.argmin(ok[lanes], axis=1) + 1  # first node that fails the slip test
+    node = np.arange(M1)[None, :]
+    while lanes.size:
+        sub = (lanes, slice(None))
+        # stick from node k: tau_j = tau_(k-1) + tel_j - tel_(k-1)
+        r = np.arange(lanes.size)
+        bx = tx[lanes, k - 1] - telx[lanes, k - 1]
+        by = ty[lanes, k - 1] - tely[lanes, k - 1]
+        sx, sy = bx[:, None] + telx[sub], by[:, None] + tely[sub]
+        yield_ = (_norm2(sx, sy) >= gp2[sub]) & (node > k[:, None])
+        again = yield_.any(axis=1)
+        j = np.where(again, np.argmax(yield_, axis=1), M1)  # first node slipping again
+        seg = (node >= k[:, None]) & (node < j[:, None])
+        tx[sub] = np.where(seg, sx, tx[sub])
+        ty[sub] = np.where(seg, sy, ty[sub])
+        plast[sub] = ~seg & plast[sub]
+        lanes, j, r = lanes[again], j[again], r[again]
+        if not lanes.size:
+            break
+        sub = (lanes, slice(None))
+        # slip from node j in the direction of the trial traction there
+        sxj, syj = sx[r, j], sy[r, j]
+        mj = np.sqrt(sxj * sxj + syj * syj) + 1e-300
+        A, B = _moebius_chain(m11[lanes], m12[lanes], m22[lanes],
+                              *_chain_start(sxj / mj, syj / mj, ux[lanes, j], uy[lanes, j]),
+                              start=j)
+        dx, dy = _chain_direction(A, B, ux[sub], uy[sub])
+        cx, cy = gp[sub] * dx, gp[sub] * dy
+        ok = (_norm2(cx[:, :-1] + DTx[lanes], cy[:, :-1] + DTy[lanes]) >= lim2[lanes]) \
+            | (node[:, 1:] <= j[:, None])
+        fail = ~ok.all(axis=1)
+        k = np.where(fail, np.argmin(ok, axis=1) + 1, M1)
+        seg = (node >= j[:, None]) & (node < k[:, None])
+        tx[sub] = np.where(seg, cx, tx[sub])
+        ty[sub] = np.where(seg, cy, ty[sub])
+        plast[sub] = seg | plast[sub]
+        lanes, k = lanes[fail], k[fail]
+    return tx, ty, plast
 
 
 #: largest |mu_T dT| the temperature iteration accepts (as in torlab.model.fastsim)
@@ -1151,19 +1323,15 @@ def creep_forces(problem: CreepProblem, creepage: Any, lateral: Any = 0.0, spin:
         else:
             uniq = np.stack([xi[nz], eta[nz], phi[nz]], axis=1)
             inv, sx, sy = np.arange(uniq.shape[0]), np.ones(uniq.shape[0]), np.ones(uniq.shape[0])
-        solver = _Solver(prob, grid, uniq[:, 0].copy(), uniq[:, 1].copy(), uniq[:, 2].copy())
-        dT_grid = None
+        out = _solve_points(prob, grid, uniq[:, 0], uniq[:, 1], uniq[:, 2])
+        Fx[nz] = sx * out["Fx"][inv]
+        Fy[nz] = sy * out["Fy"][inv]
+        Mz[nz] = sy * out["Mz"][inv]
+        stick[nz] = out["stick"][inv]
         if prob.thermal is not None:
-            dT_grid, it, loop, tm = _temperature(solver, prob, grid)
-            iters[nz] = it[inv]
-            tmax[nz] = tm[inv]
-            if prob.layer.mu_c1_T == 0 and prob.layer.mu_c2_T == 0:
-                dT_grid = None
-        sol = solver.solve(dT_grid)
-        Fx[nz] = sx * sol.Fx[inv]
-        Fy[nz] = sy * sol.Fy[inv]
-        Mz[nz] = sy * sol.Mz[inv]
-        stick[nz] = sol.stick[inv]
+            iters[nz] = out["iterations"][inv]
+            tmax[nz] = out["tmax"][inv]
+            loop = out["loop"]
     for name, arr in (("Fx", Fx), ("Fy", Fy), ("Mz", Mz)):
         if not np.all(np.isfinite(arr)):
             raise NumericalError(f"creep forces: non-finite {name}; please report this scene")
@@ -1179,11 +1347,64 @@ def creep_forces(problem: CreepProblem, creepage: Any, lateral: Any = 0.0, spin:
                        temperature_loop=loop)
 
 
+#: creepage points per array pass: the scheme's arrays stay a few hundred kB (a pass over
+#: thousands of points spends much of its time faulting in fresh memory for each temporary)
+_CHUNK_LANES = 512
+
+
+def _solve_points(prob: CreepProblem, grid: CreepGrid, xi: np.ndarray, eta: np.ndarray,
+                  phi: np.ndarray) -> dict[str, Any]:
+    """Forces, adhesion and temperature of distinct creepage points, each as if alone.
+
+    The points with spin and those without are solved apart (their strips differ), in
+    chunks of about ``_CHUNK_LANES`` strips; a point's temperature iteration ends when it
+    has converged.  So a point gets the same numbers in a curve or a table as on its own.
+    """
+    n = xi.size
+    out: dict[str, Any] = {"Fx": np.zeros(n), "Fy": np.zeros(n), "Mz": np.zeros(n),
+                           "stick": np.ones(n), "iterations": np.zeros(n, dtype=int),
+                           "tmax": np.full(n, prob.ambient_temperature), "loop": "single pass"}
+    spin = phi != 0
+    for group in (np.flatnonzero(~spin), np.flatnonzero(spin)):
+        if not group.size:
+            continue
+        ns = 2 * grid.n if not spin[group[0]] else grid.spin_panels * grid.spin_strips
+        size = max(1, _CHUNK_LANES // ns)
+        for s in range(0, group.size, size):
+            rows = group[s:s + size]
+            solver = _Solver(prob, grid, xi[rows], eta[rows], phi[rows])
+            dT_grid = None
+            if prob.thermal is not None:
+                dT_grid, it, loop, tm = _temperature(solver, prob, grid)
+                out["iterations"][rows] = it
+                out["tmax"][rows] = tm
+                if loop == "iterated":
+                    out["loop"] = loop
+                if prob.layer.mu_c1_T == 0 and prob.layer.mu_c2_T == 0:
+                    dT_grid = None
+            sol = solver.solve(dT_grid)
+            out["Fx"][rows], out["Fy"][rows], out["Mz"][rows] = sol.Fx, sol.Fy, sol.Mz
+            out["stick"][rows] = sol.stick
+    return out
+
+
 def _temperature(solver: _Solver, prob: CreepProblem, grid: CreepGrid
                  ) -> tuple[np.ndarray, np.ndarray, str, np.ndarray]:
-    """Converge the flash temperature on the per-strip grid (as :mod:`torlab.model.fastsim` does)."""
+    """Converge the flash temperature on the per-strip grid, every point at once.
+
+    As :func:`torlab.model.fastsim._temperature`: each point has its own adaptively
+    under-relaxed fixed-point iteration; the points iterate together in one array, and a
+    point leaves the active set as soon as it has converged, so its result does not depend
+    on the other points computed with it.
+
+    Returns
+    -------
+    tuple
+        ``(dT grid (nc, ns, nT), iterations per point, mode, Tmax per point)``.
+    """
     th, lay, ln = prob.thermal, prob.layer, solver.ln
     thetaT, K = flash_temperature_matrix(grid.temperature_nodes)
+    KT = K.T
     nc, ns = ln.xi.shape[0], ln.Pj.shape[1]
     nT = thetaT.size
     if prob.speed <= 0:
@@ -1192,67 +1413,92 @@ def _temperature(solver: _Solver, prob: CreepProblem, grid: CreepGrid
     coef = th.partition / math.sqrt(math.pi * th.conductivity * th.density * th.heat_capacity
                                     * prob.speed)
     scale = coef * np.sqrt(ln.aj)[..., None]
-    thT = np.broadcast_to(thetaT, (nc, ns, nT))
-    w_abs = ln.rigid_slip(thT) * prob.speed
     coupled = bool(lay.mu_c1_T or lay.mu_c2_T)
-    tx, ty = ln.tau_el(thT, solver._T_ex)  # stick traction at the temperature nodes (fixed)
+    thT = np.broadcast_to(thetaT, (nc, ns, nT))
+    w_all = ln.rigid_slip(thT) * prob.speed
+    tx_all, ty_all = ln.tau_el(thT, solver._T_ex)  # stick traction at the temperature nodes
+    mag_el = np.sqrt(tx_all * tx_all + ty_all * ty_all)
 
-    def G(dT: np.ndarray) -> np.ndarray:
-        sol = solver.solve(dT if coupled else None)
-        _, gT = ln.limits(thT, dT)
-        before = thT < sol.th_y[..., None]
+    def where(i: int) -> str:
+        return (f"creepage {ln.xi[i, 0]:.4g}, lateral creepage {ln.eta[i, 0]:.4g} and spin "
+                f"{ln.phi[i, 0]:.4g} 1/m")
+
+    def G(dT: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """Flash temperature rise of the points ``rows`` given their temperature ``dT``."""
+        sub = solver if rows.size == nc else solver.subset(rows)
+        k = rows.size
+        sol = sub.solve(dT if coupled else None, want_rho=True)
+        tT = thT[:k]
+        _, gT = sub.ln.limits(tT, dT)
+        before = tT < sol.th_y[..., None]
         # piecewise-linear |tau|/g (and the slip flag) between the march's nodes, all lanes at
         # once: lanes are shifted apart along one axis so a single np.interp serves them all
-        off = 4.0 * np.arange(nc * ns).reshape(nc, ns, 1)
+        off = 4.0 * np.arange(k * ns).reshape(k, ns, 1)
         xp = np.concatenate([sol.th_y[..., None], sol.nodes], axis=-1) + off
         rp = np.concatenate([sol.rho[..., :1], sol.rho], axis=-1)
-        pp = np.concatenate([np.ones((nc, ns, 1)), sol.plastic.astype(float)], axis=-1)
-        xq = (thT + off).ravel()
-        rho = np.interp(xq, xp.ravel(), rp.ravel()).reshape(thT.shape)
-        plast = np.interp(xq, xp.ravel(), pp.ravel()).reshape(thT.shape) >= 0.5
-        mag = np.where(before, np.sqrt(tx * tx + ty * ty), rho * gT)
-        q = mag * w_abs
+        pp = np.concatenate([np.ones((k, ns, 1)), sol.plastic.astype(float)], axis=-1)
+        xq = (tT + off).ravel()
+        rho = np.interp(xq, xp.ravel(), rp.ravel()).reshape(tT.shape)
+        plast = np.interp(xq, xp.ravel(), pp.ravel()).reshape(tT.shape) >= 0.5
+        q = np.where(before, mag_el[rows], rho * gT) * w_all[rows]
         if th.slip_velocity == "local":
             q = np.where(before | ~plast, 0.0, q)
-        return scale * np.einsum("ij,xsj->xsi", K, q)
+        return scale * (q @ KT)
 
     dT = np.zeros((nc, ns, nT))
-    new = G(dT)
+    rows = np.arange(nc)
+    its = np.ones(nc, dtype=int)
+    new = G(dT, rows)
+    peak = np.max(np.abs(new).reshape(nc, -1), axis=1)
     sens = max(abs(lay.mu_c1_T), abs(lay.mu_c2_T))
-    if sens == 0.0 or np.max(np.abs(new)) * sens < 1e-6:
-        return new, np.ones(nc, dtype=int), "single pass", \
-            prob.ambient_temperature + np.max(new.reshape(nc, -1), axis=1)
-    if np.max(np.abs(new)) * sens > _MAX_EXPONENT:
+    single = peak * sens < 1e-6  # heating too small to change the limits: one pass
+    if sens == 0.0 or single.all():
+        return new, its, "single pass", prob.ambient_temperature + np.max(new.reshape(nc, -1),
+                                                                          axis=1)
+    if np.max(peak) * sens > _MAX_EXPONENT:
+        bad = int(np.argmax(peak))
         raise ConvergenceError(
-            f"contact temperature runs away: the first pass already heats by "
-            f"{np.max(np.abs(new)):.3g} K, and the temperature coefficients mu_c1_T = "
-            f"{lay.mu_c1_T:g}, mu_c2_T = {lay.mu_c2_T:g} 1/K would change the limits by a factor "
+            f"contact temperature runs away at {where(bad)}: the first pass already heats by "
+            f"{peak[bad]:.3g} K, and the temperature coefficients mu_c1_T = {lay.mu_c1_T:g}, "
+            f"mu_c2_T = {lay.mu_c2_T:g} 1/K would change the limits by a factor "
             f"exp({_MAX_EXPONENT:g})", iterations=1)
+    dT[single] = new[single]
+    active = ~single
     omega = np.ones(nc)
     res_prev = np.full(nc, np.inf)
-    its = np.ones(nc, dtype=int)
     for k in range(1, th.max_iterations + 1):
-        res = np.max(np.abs(new - dT).reshape(nc, -1), axis=1)
+        rows = np.flatnonzero(active)
+        res = np.max(np.abs(new[rows] - dT[rows]).reshape(rows.size, -1), axis=1)
         done = res < th.tolerance
-        if done.all():
-            dT = new
+        dT[rows[done]] = new[rows[done]]  # converged: keep G(T), leave the active set
+        active[rows[done]] = False
+        rows, res = rows[~done], res[~done]
+        if rows.size == 0:
             break
-        worse = res > 0.9 * res_prev
-        omega = np.where(worse & ~done, np.maximum(omega * 0.5, 1.0 / 1024), omega)
-        res_prev = res
-        dT = dT + np.where(done, 1.0, omega)[:, None, None] * (new - dT)
-        its = np.where(done, its, k + 1)
-        new = G(dT)
-        if np.any(~np.isfinite(new)) or np.max(np.abs(new)) * sens > _MAX_EXPONENT:
-            raise ConvergenceError("contact temperature diverged (thermal runaway: the temperature "
-                                   "coefficients make frictional heating self-amplifying)",
-                                   iterations=k)
+        worse = res > 0.9 * res_prev[rows]
+        omega[rows] = np.where(worse, np.maximum(omega[rows] * 0.5, 1.0 / 1024), omega[rows])
+        res_prev[rows] = res
+        dT[rows] = dT[rows] + omega[rows][:, None, None] * (new[rows] - dT[rows])
+        its[rows] = k + 1
+        new[rows] = G(dT[rows], rows)
+        runaway = ~np.isfinite(new[rows]) | (sens * np.abs(new[rows]) > _MAX_EXPONENT)
+        if runaway.any():
+            bad = int(rows[np.argmax(runaway.reshape(rows.size, -1).any(axis=1))])
+            raise ConvergenceError(
+                f"contact temperature diverged at {where(bad)} (thermal runaway: the "
+                f"temperature coefficients mu_c1_T/mu_c2_T make frictional heating "
+                f"self-amplifying)", iterations=k)
     else:
-        res = np.max(np.abs(new - dT).reshape(nc, -1), axis=1)
+        rows = np.flatnonzero(active)
+        res = np.max(np.abs(new[rows] - dT[rows]).reshape(rows.size, -1), axis=1)
+        j = int(np.argmax(res))
+        bad = int(rows[j])
         raise ConvergenceError(
-            f"contact temperature did not converge: max |dT| = {res.max():.3g} K after "
-            f"{th.max_iterations} under-relaxed iterations", iterations=th.max_iterations,
-            residual=float(res.max()))
+            f"contact temperature did not converge at {where(bad)}: max |dT| = {res[j]:.3g} K "
+            f"after {th.max_iterations} under-relaxed iterations (relaxation {omega[bad]:.3g}); "
+            f"the temperature coefficients mu_c1_T = {lay.mu_c1_T:g}, mu_c2_T = "
+            f"{lay.mu_c2_T:g} 1/K make the heating unstable at this slip",
+            iterations=th.max_iterations, residual=float(res[j]))
     return dT, its, "iterated", prob.ambient_temperature + np.max(dT.reshape(nc, -1), axis=1)
 
 
