@@ -8,7 +8,17 @@ from typing import Annotated
 
 import typer
 
-from torlab.cli._common import ForceOpt, OutOpt, command_line, console, require_files
+from torlab.cli._common import (
+    ForceOpt,
+    FormatsOpt,
+    JobsOpt,
+    OutOpt,
+    QuietOpt,
+    SchedulerOpt,
+    command_line,
+    console,
+    require_files,
+)
 
 app = typer.Typer(help="Predict traction and Stribeck curves of a scene (Hertz + FASTSIM with "
                   "the third-body layer, contact temperature, EHL film, asperity load sharing).",
@@ -17,6 +27,12 @@ app = typer.Typer(help="Predict traction and Stribeck curves of a scene (Hertz +
 ScenesArg = Annotated[list[Path], typer.Argument(
     help="Scene YAML, then optional parameter files (e.g. 'torlab fit' output) that override "
     "its keys, in order.")]
+NoPlotOpt = Annotated[bool, typer.Option("--no-plot", help="Write the tables and summary only "
+                                         "(no figure: no plotting library is loaded).")]
+
+
+def _written(names: list[str]) -> str:
+    return ", ".join(names)
 
 
 def register(root: typer.Typer) -> None:
@@ -70,12 +86,18 @@ def traction_cmd(
     spin: Annotated[str, typer.Option(help="Spin (1/m, units allowed: '0.5 1/m') of every "
                                       "point; non-zero: creep forces in three creepages.")] = "0",
     force: ForceOpt = False,
+    no_plot: NoPlotOpt = False,
+    formats: FormatsOpt = None,
+    jobs: JobsOpt = None,
+    scheduler: SchedulerOpt = None,
+    quiet: QuietOpt = False,
 ) -> None:
     """Traction curve mu(creepage) at the scene's speed.
 
     Writes traction.csv (creepage, mu, and where modelled mu_boundary, mu_ehl,
-    load_share_asperity, film_thickness_m, max_temperature_C), traction.png/.svg
-    (mu against creepage with the layer's limits mu_c1, mu_c2) and summary.json
+    load_share_asperity, film_thickness_m, max_temperature_C), traction.png (--formats:
+    also .svg/.pdf; --no-plot: none) (mu against creepage with the layer's limits mu_c1,
+    mu_c2 and the 95 % band) and summary.json
     (what was modelled, the trend after saturation, thesis H4.1).  With --lateral or
     --spin (dry scenes): lateral, spin_1_m, Fx_N, Fy_N, Mz_Nm, mu_x, mu_y too (mu = mu_x).
     When a parameter file from 'torlab fit' carries its covariance, the fit's uncertainty
@@ -83,45 +105,54 @@ def traction_cmd(
     the CSV, the band in the figure, the method and the dominant parameters in
     summary.json, and the trend with the probability of each class.
     """
-    from torlab.cli._common import parse_values
+    import numpy as np
+
+    from torlab.cli._common import parse_values, session
     from torlab.model.predict import predict_traction
     from torlab.outputs import OutputDir
-    from torlab.reports.predict import traction_figure
+    from torlab.reports.render import parse_formats
     from torlab.scene import load_scene
 
     files = require_files(scene, "scene")
+    fmts = parse_formats(formats)
     sc = load_scene(*files)
     xi = parse_values(creepage, "dimensionless", "--creepage", "creepage")
     eta = float(parse_values(lateral, "dimensionless", "--lateral")[0])
     phi = float(parse_values(spin, "inverse_length", "--spin")[0])
     dest = OutputDir(out, force=force, inputs=files, command=command_line())
-    with dest:
+    names = ["traction.csv", "summary.json"]
+    with dest, session(jobs, scheduler, quiet):
         if eta or phi:
             from torlab.model.creep import predict_creep
 
             pred = predict_creep(sc, xi, eta, phi)
         else:
-            pred = predict_traction(sc, xi)
+            pred = predict_traction(sc, xi, as_frame=False)
         dest.write_csv("traction.csv", pred.table,
                        allow_missing=("max_temperature_low95_C", "max_temperature_high95_C"))
         summary = dict(pred.summary, creepage_range=[float(xi.min()), float(xi.max())],
                        n_points=int(xi.size))
         dest.write_json("summary.json", summary)
-        for ext in ("png", "svg"):
-            fig = traction_figure([(sc.name or files[0].stem, pred.table)], boundary=sc.boundary,
-                                  title=f"Traction: {sc.name or files[0].stem}")
-            dest.save_figure(f"traction.{ext}", fig)
+        if not no_plot:
+            from torlab.reports.predict import traction_figure
+            from torlab.reports.render import plot, write_figures
+
+            fig = plot(traction_figure, [(sc.name or files[0].stem, pred.table)],
+                       boundary=sc.boundary, title=f"Traction: {sc.name or files[0].stem}")
+            names += write_figures(dest, [("traction", fig)], fmts)[0]
     _print_modelled(pred.modelled, pred.summary.get("notes", []))
     _print_band(pred.summary)
     t = pred.trend
     c = console()
-    mu = pred.table["mu"].abs()
-    i = mu.idxmax()
+    tab = pred.table
+    mu = np.abs(np.asarray(tab["mu"], dtype=float))
+    i = int(np.argmax(mu))
     band = ""
-    if "mu_low95" in pred.table:
-        band = (f" (95 % band {abs(pred.table['mu_low95'][i]):.4f}–"
-                f"{abs(pred.table['mu_high95'][i]):.4f})")
-    c.print(f"max |mu| = {mu.max():.4f}{band} at creepage {pred.table['creepage'][i]:.4g}")
+    if "mu_low95" in tab:
+        band = (f" (95 % band {abs(float(np.asarray(tab['mu_low95'])[i])):.4f}–"
+                f"{abs(float(np.asarray(tab['mu_high95'])[i])):.4f})")
+    c.print(f"max |mu| = {mu[i]:.4f}{band} at creepage "
+            f"{float(np.asarray(tab['creepage'])[i]):.4g}")
     if t["trend"] == "not saturated":
         c.print("trend after saturation: not saturated (the curve does not level off in this range)")
     elif t.get("trend_from_creepage") is None:  # e.g. 'too few points' after saturation
@@ -137,7 +168,7 @@ def traction_cmd(
                 f"creepage {t['saturation_creepage']:.4g}; from {t['trend_from_creepage']:.4g} "
                 f"to the end mu changes {100 * t['relative_change']:+.2f} %, neutral within "
                 f"±{100 * t['tolerance']:g} %{ev})")
-    c.print(f"wrote traction.csv, traction.png, traction.svg, summary.json to {out}")
+    c.print(f"wrote {_written(names)} to {out}")
 
 
 @app.command("stribeck")
@@ -152,25 +183,32 @@ def stribeck_cmd(
     log: Annotated[bool, typer.Option("--log/--linear", help="Space start:stop:count "
                                       "speeds geometrically (default) or linearly.")] = True,
     force: ForceOpt = False,
+    no_plot: NoPlotOpt = False,
+    formats: FormatsOpt = None,
+    jobs: JobsOpt = None,
+    scheduler: SchedulerOpt = None,
+    quiet: QuietOpt = False,
 ) -> None:
     """Stribeck curve mu(speed) at one creepage for a lubricated scene.
 
     Writes stribeck.csv (speed_m_s, mu, film_thickness_m, lambda, load_share_asperity,
-    mu_ehl, mu_boundary, separation_m, regime), stribeck.png/.svg (mu, Lambda and the
-    asperity load share against speed, regimes shaded) and summary.json.  With a
+    mu_ehl, mu_boundary, separation_m, regime), stribeck.png (--formats: also .svg/.pdf;
+    --no-plot: none) (mu, Lambda and the asperity load share against speed, regimes
+    shaded) and summary.json.  With a
     parameter file that carries its fit covariance: the 95 % bands of mu and the film
     thickness (mu_low95, mu_high95, film_thickness_low95_m ...) in the CSV and figure.
     """
     import numpy as np
 
-    from torlab.cli._common import parse_values
+    from torlab.cli._common import parse_values, session
     from torlab.errors import TorlabInputError
     from torlab.model.mixed import predict_stribeck
     from torlab.outputs import OutputDir
-    from torlab.reports.predict import stribeck_figure
+    from torlab.reports.render import parse_formats
     from torlab.scene import load_scene
 
     files = require_files(scene, "scene")
+    fmts = parse_formats(formats)
     sc = load_scene(*files)
     if sc.lubricant is None:
         raise TorlabInputError("a Stribeck curve needs a lubricated scene (lubricant: section)",
@@ -185,22 +223,27 @@ def stribeck_cmd(
     if xi.size != 1:
         raise TorlabInputError("give one creepage", key="--creepage")
     dest = OutputDir(out, force=force, inputs=files, command=command_line())
-    with dest:
+    names = ["stribeck.csv", "summary.json"]
+    with dest, session(jobs, scheduler, quiet):
         pred = predict_stribeck(sc, v, float(xi[0]))
         dest.write_csv("stribeck.csv", pred.table,
                        allow_missing=("lambda", "mu_ehl", "mu_boundary", "max_temperature_C",
                                       "max_temperature_low95_C", "max_temperature_high95_C"))
         dest.write_json("summary.json", pred.summary)
-        for ext in ("png", "svg"):
-            fig = stribeck_figure(pred.table, title=f"Stribeck: {sc.name or files[0].stem}",
-                                  creepage=pred.creepage)
-            dest.save_figure(f"stribeck.{ext}", fig)
+        if not no_plot:
+            from torlab.reports.predict import stribeck_figure
+            from torlab.reports.render import plot, write_figures
+
+            fig = plot(stribeck_figure, pred.table,
+                       title=f"Stribeck curve: {sc.name or files[0].stem}",
+                       creepage=pred.creepage)
+            names += write_figures(dest, [("stribeck", fig)], fmts)[0]
     _print_modelled(pred.modelled, pred.summary.get("notes", []))
     _print_band(pred.summary)
     s = pred.summary
     console().print(f"mu from {s['mu_min']:.4g} to {s['mu_max']:.4g}; regimes: "
                     + ", ".join(f"{k} ({n} speeds)" for k, n in s["regimes"].items()))
-    console().print(f"wrote stribeck.csv, stribeck.png, stribeck.svg, summary.json to {out}")
+    console().print(f"wrote {_written(names)} to {out}")
 
 
 @app.command("table")
@@ -220,13 +263,16 @@ def table_cmd(
                                              "xi*, eta*, phi* instead of fractions and 1/m.")]
     = False,
     force: ForceOpt = False,
+    jobs: JobsOpt = None,
+    scheduler: SchedulerOpt = None,
+    quiet: QuietOpt = False,
 ) -> None:
     """Creep-force table over creepage x lateral x spin (x speed x amount) for a dry scene.
 
     Writes creep_table.nc (netCDF3: axes, units, Kalker's normalisation, the scene's
     provenance), creep_table.csv (one row per point) and summary.json.
     """
-    from torlab.cli._common import parse_values
+    from torlab.cli._common import parse_values, session
     from torlab.model.creep_table import scene_creep_table
     from torlab.outputs import OutputDir
     from torlab.scene import load_scene
@@ -240,10 +286,11 @@ def table_cmd(
     pairs, unit, extra = _parse_amounts(amount or [])
     amounts = [(a, load_scene(*files, p)) for a, p in pairs] if pairs else None
     sc = load_scene(*files)
-    tab = scene_creep_table(sc, *axes, speed=v, amounts=amounts, amount_unit=unit,
-                            normalised=normalised, provenance={
-                                "scene_files": [str(f) for f in [*files, *extra]],
-                                "command": command_line()})
+    with session(jobs, scheduler, quiet):
+        tab = scene_creep_table(sc, *axes, speed=v, amounts=amounts, amount_unit=unit,
+                                normalised=normalised, provenance={
+                                    "scene_files": [str(f) for f in [*files, *extra]],
+                                    "command": command_line()})
     dest = OutputDir(out, force=force, inputs=[*files, *extra], command=command_line())
     with dest:
         names = tab.write(dest)

@@ -28,7 +28,8 @@ class TractionPrediction:
     Attributes
     ----------
     table
-        DataFrame with the scene-contract columns ``creepage`` (fraction) and
+        DataFrame (a dict of numpy columns with ``as_frame=False``) with the
+        scene-contract columns ``creepage`` (fraction) and
         ``mu``, and where the scene has them ``mu_boundary``, ``mu_ehl``,
         ``load_share_asperity``, ``film_thickness_m``, ``max_temperature_C``;
         also ``adhesion_fraction`` (load fraction still elastic).
@@ -252,7 +253,7 @@ def _summary(scene: Any, contact: ContactModel, modelled: list[str], trend: dict
     from torlab import __version__
     from torlab.model.plausible import result_notes
 
-    mu = table["mu"].to_numpy()
+    mu = np.asarray(table["mu"])
     s = {
         "torlab_version": __version__,
         "scene": scene.name,
