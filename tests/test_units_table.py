@@ -18,6 +18,9 @@ def test_every_stored_unit_is_what_pint_gives():
     assert set(fresh) == set(KNOWN)
     for key, value in KNOWN.items():
         assert fresh[key] == value, key
+    from torlab._unit_table import KIND_DIMENSIONS, UNIT_DIMENSIONS, generate_dimensions
+
+    assert generate_dimensions() == (UNIT_DIMENSIONS, KIND_DIMENSIONS)
 
 
 def test_every_candidate_spelling_is_stored_and_used():
@@ -58,3 +61,24 @@ def test_band_note_without_covariance_is_the_band_modules():
 
     sc = load_scene(SCENE)
     assert scene_uncertainty(sc).notes == [NO_COVARIANCE]
+
+
+def test_a_common_unit_of_the_wrong_kind_gets_pints_message_without_pint():
+    from torlab._unit_table import UNIT_DIMENSIONS
+    from torlab.errors import TorlabInputError
+    from torlab.units import KINDS, _pint_factor, _wrong_kind
+
+    checked = 0
+    for u in UNIT_DIMENSIONS:
+        for kind in KINDS:
+            fast = _wrong_kind(u, u, kind)
+            if fast is None:
+                continue
+            try:
+                _pint_factor(u, u, kind)
+            except TorlabInputError as e:
+                assert e.message == fast, (u, kind)
+                checked += 1
+            else:
+                raise AssertionError(f"pint accepts {u!r} as {kind}; the table says no")
+    assert checked > 1000

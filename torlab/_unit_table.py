@@ -11,7 +11,7 @@ from __future__ import annotations
 
 #: kind -> the unit spellings stored (as users write them; normalised for the key)
 CANDIDATES: dict[str, list[str]] = {
-    'dimensionless': ['%', 'percent', '1'],
+    'dimensionless': ['%', 'percent', '1', '-'],
     'length': ['m', 'cm', 'mm', 'um', 'µm', 'nm', 'km'],
     'area': ['m^2', 'cm^2', 'mm^2', 'um^2'],
     'volume': ['m^3', 'mm^3', 'cm^3', 'L', 'l', 'mL', 'ml', 'uL', 'ul', 'µL', 'µl', 'nL', 'nl'],
@@ -21,7 +21,7 @@ CANDIDATES: dict[str, list[str]] = {
     'torque': ['N*m', 'N m', 'mN*m', 'kN*m'],
     'pressure': ['Pa', 'kPa', 'MPa', 'GPa', 'bar', 'N/m^2', 'N/mm^2'],
     'inverse_pressure': ['1/Pa', '1/kPa', '1/MPa', '1/GPa', 'Pa^-1', 'MPa^-1', 'GPa^-1', '1/bar'],
-    'velocity': ['m/s', 'mm/s', 'cm/s', 'km/h', 'm/min'],
+    'velocity': ['m/s', 'mm/s', 'um/s', 'cm/s', 'km/h', 'm/min', 'mm/min'],
     'angle': ['rad', 'mrad', 'deg', '°'],
     'viscosity': ['Pa*s', 'mPa*s', 'Pa s', 'mPa s', 'cP', 'P'],
     'density': ['kg/m^3', 'g/cm^3', 'g/mL', 'kg/L'],
@@ -41,6 +41,7 @@ CANDIDATES: dict[str, list[str]] = {
 KNOWN: dict[tuple[str, str], tuple[float, float]] = {
     ('percent', 'dimensionless'): (0.01, 0.0),
     ('1', 'dimensionless'): (1.0, 0.0),
+    ('', 'dimensionless'): (1.0, 0.0),
     ('m', 'length'): (1.0, 0.0),
     ('cm', 'length'): (0.01, 0.0),
     ('mm', 'length'): (0.001, 0.0),
@@ -96,9 +97,11 @@ KNOWN: dict[tuple[str, str], tuple[float, float]] = {
     ('1/bar', 'inverse_pressure'): (1e-05, 0.0),
     ('m/s', 'velocity'): (1.0, 0.0),
     ('mm/s', 'velocity'): (0.001, 0.0),
+    ('um/s', 'velocity'): (1e-06, 0.0),
     ('cm/s', 'velocity'): (0.01, 0.0),
     ('km/h', 'velocity'): (0.2777777777777778, 0.0),
     ('m/min', 'velocity'): (0.016666666666666666, 0.0),
+    ('mm/min', 'velocity'): (1.6666666666666667e-05, 0.0),
     ('rad', 'angle'): (1.0, 0.0),
     ('mrad', 'angle'): (0.001, 0.0),
     ('deg', 'angle'): (0.017453292519943295, 0.0),
@@ -155,6 +158,152 @@ KNOWN: dict[tuple[str, str], tuple[float, float]] = {
     ('mm**-1', 'inverse_length'): (1000.0, 0.0),
 }
 
+#: normalised unit -> its dimensions as pint writes them (a unit of the wrong kind is an
+#: error told without pint)
+UNIT_DIMENSIONS: dict[str, str] = {
+    '': 'dimensionless',
+    '1': 'dimensionless',
+    '1/GPa': '[length] * [time] ** 2 / [mass]',
+    '1/K': '1 / [temperature]',
+    '1/MPa': '[length] * [time] ** 2 / [mass]',
+    '1/Pa': '[length] * [time] ** 2 / [mass]',
+    '1/bar': '[length] * [time] ** 2 / [mass]',
+    '1/degC': '1 / [temperature]',
+    '1/delta_degC': '1 / [temperature]',
+    '1/kPa': '[length] * [time] ** 2 / [mass]',
+    '1/m': '1 / [length]',
+    '1/m**2': '1 / [length] ** 2',
+    '1/mm': '1 / [length]',
+    '1/mm**2': '1 / [length] ** 2',
+    '1/s': '1 / [time]',
+    '1/um**2': '1 / [length] ** 2',
+    'GPa': '[mass] / [length] / [time] ** 2',
+    'GPa**-1': '[length] * [time] ** 2 / [mass]',
+    'Hz': '1 / [time]',
+    'J/(kg K)': '[length] ** 2 / [time] ** 2 / [temperature]',
+    'J/(kg*K)': '[length] ** 2 / [time] ** 2 / [temperature]',
+    'J/kg/K': '[length] ** 2 / [time] ** 2 / [temperature]',
+    'K': '[temperature]',
+    'K**-1': '1 / [temperature]',
+    'L': '[length] ** 3',
+    'MN': '[mass] * [length] / [time] ** 2',
+    'MPa': '[mass] / [length] / [time] ** 2',
+    'MPa**-1': '[length] * [time] ** 2 / [mass]',
+    'N': '[mass] * [length] / [time] ** 2',
+    'N m': '[mass] * [length] ** 2 / [time] ** 2',
+    'N*m': '[mass] * [length] ** 2 / [time] ** 2',
+    'N/m**2': '[mass] / [length] / [time] ** 2',
+    'N/mm**2': '[mass] / [length] / [time] ** 2',
+    'P': '[mass] / [length] / [time]',
+    'Pa': '[mass] / [length] / [time] ** 2',
+    'Pa s': '[mass] / [length] / [time]',
+    'Pa**-1': '[length] * [time] ** 2 / [mass]',
+    'Pa*s': '[mass] / [length] / [time]',
+    'W/(m K)': '[mass] * [length] / [time] ** 3 / [temperature]',
+    'W/(m*K)': '[mass] * [length] / [time] ** 3 / [temperature]',
+    'W/m/K': '[mass] * [length] / [time] ** 3 / [temperature]',
+    'bar': '[mass] / [length] / [time] ** 2',
+    'cP': '[mass] / [length] / [time]',
+    'celsius': '[temperature]',
+    'cm': '[length]',
+    'cm**2': '[length] ** 2',
+    'cm**3': '[length] ** 3',
+    'cm/s': '[length] / [time]',
+    'deg': 'dimensionless',
+    'degC': '[temperature]',
+    'degF': '[temperature]',
+    'delta_degC': '[temperature]',
+    'g': '[mass]',
+    'g/cm**3': '[mass] / [length] ** 3',
+    'g/m**2': '[mass] / [length] ** 2',
+    'g/mL': '[mass] / [length] ** 3',
+    'h': '[time]',
+    'kHz': '1 / [time]',
+    'kJ/(kg*K)': '[length] ** 2 / [time] ** 2 / [temperature]',
+    'kN': '[mass] * [length] / [time] ** 2',
+    'kN*m': '[mass] * [length] ** 2 / [time] ** 2',
+    'kPa': '[mass] / [length] / [time] ** 2',
+    'kg': '[mass]',
+    'kg/L': '[mass] / [length] ** 3',
+    'kg/m**2': '[mass] / [length] ** 2',
+    'kg/m**3': '[mass] / [length] ** 3',
+    'km': '[length]',
+    'km/h': '[length] / [time]',
+    'l': '[length] ** 3',
+    'm': '[length]',
+    'm**-1': '1 / [length]',
+    'm**-2': '1 / [length] ** 2',
+    'm**2': '[length] ** 2',
+    'm**3': '[length] ** 3',
+    'm/Pa': '[length] ** 2 * [time] ** 2 / [mass]',
+    'm/min': '[length] / [time]',
+    'm/s': '[length] / [time]',
+    'mK': '[temperature]',
+    'mL': '[length] ** 3',
+    'mN': '[mass] * [length] / [time] ** 2',
+    'mN*m': '[mass] * [length] ** 2 / [time] ** 2',
+    'mPa s': '[mass] / [length] / [time]',
+    'mPa*s': '[mass] / [length] / [time]',
+    'mg': '[mass]',
+    'mg/m**2': '[mass] / [length] ** 2',
+    'mg/mm**2': '[mass] / [length] ** 2',
+    'min': '[time]',
+    'ml': '[length] ** 3',
+    'mm': '[length]',
+    'mm**-1': '1 / [length]',
+    'mm**-2': '1 / [length] ** 2',
+    'mm**2': '[length] ** 2',
+    'mm**3': '[length] ** 3',
+    'mm/GPa': '[length] ** 2 * [time] ** 2 / [mass]',
+    'mm/min': '[length] / [time]',
+    'mm/s': '[length] / [time]',
+    'mrad': 'dimensionless',
+    'ms': '[time]',
+    'nL': '[length] ** 3',
+    'nl': '[length] ** 3',
+    'nm': '[length]',
+    'nm/MPa': '[length] ** 2 * [time] ** 2 / [mass]',
+    'percent': 'dimensionless',
+    'rad': 'dimensionless',
+    's': '[time]',
+    'uL': '[length] ** 3',
+    'ug': '[mass]',
+    'ul': '[length] ** 3',
+    'um': '[length]',
+    'um**-2': '1 / [length] ** 2',
+    'um**2': '[length] ** 2',
+    'um/GPa': '[length] ** 2 * [time] ** 2 / [mass]',
+    'um/MPa': '[length] ** 2 * [time] ** 2 / [mass]',
+    'um/s': '[length] / [time]',
+    'us': '[time]',
+}
+
+#: kind -> its dimensions as pint writes them
+KIND_DIMENSIONS: dict[str, str] = {
+    'length': '[length]',
+    'area': '[length] ** 2',
+    'volume': '[length] ** 3',
+    'mass': '[mass]',
+    'time': '[time]',
+    'force': '[mass] * [length] / [time] ** 2',
+    'torque': '[mass] * [length] ** 2 / [time] ** 2',
+    'pressure': '[mass] / [length] / [time] ** 2',
+    'inverse_pressure': '[length] * [time] ** 2 / [mass]',
+    'velocity': '[length] / [time]',
+    'viscosity': '[mass] / [length] / [time]',
+    'density': '[mass] / [length] ** 3',
+    'areal_density': '1 / [length] ** 2',
+    'mass_per_area': '[mass] / [length] ** 2',
+    'compliance': '[length] ** 2 * [time] ** 2 / [mass]',
+    'temperature': '[temperature]',
+    'temperature_difference': '[temperature]',
+    'inverse_temperature': '1 / [temperature]',
+    'conductivity': '[mass] * [length] / [time] ** 3 / [temperature]',
+    'heat_capacity': '[length] ** 2 / [time] ** 2 / [temperature]',
+    'frequency': '1 / [time]',
+    'inverse_length': '1 / [length]',
+}
+
 
 def generate() -> dict[tuple[str, str], tuple[float, float]]:
     """:data:`KNOWN` computed by pint now (what the test compares with)."""
@@ -168,6 +317,19 @@ def generate() -> dict[tuple[str, str], tuple[float, float]]:
     return out
 
 
+def generate_dimensions() -> tuple[dict[str, str], dict[str, str]]:
+    """:data:`UNIT_DIMENSIONS` and :data:`KIND_DIMENSIONS` computed by pint now."""
+    from torlab.units import KINDS, _normalise_unit, registry
+
+    ureg = registry()
+    units = {_normalise_unit(u) for us in CANDIDATES.values() for u in us}
+    unit_dims = {u: str(ureg.Quantity(1.0, u).dimensionality) for u in sorted(units)}
+    kind_dims = {k: str(ureg.get_dimensionality(d)) for k, (d, _) in KINDS.items() if d}
+    return unit_dims, kind_dims
+
+
 if __name__ == "__main__":  # pragma: no cover
     for k, v in generate().items():
         print(f"    {k!r}: {(float(v[0]), float(v[1]))!r},")
+    for d in generate_dimensions():
+        print(d)

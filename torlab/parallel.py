@@ -44,8 +44,8 @@ from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any
 
-__all__ = ["DaskExecutor", "Executor", "ProcessExecutor", "SerialExecutor", "chunks", "current",
-           "get_executor", "map_tasks", "usable_cores", "use"]
+__all__ = ["DaskExecutor", "Executor", "ProcessExecutor", "SerialExecutor", "activate", "chunks",
+           "current", "get_executor", "map_tasks", "usable_cores", "use"]
 
 _CURRENT: contextvars.ContextVar[Executor | None] = contextvars.ContextVar(
     "torlab_executor", default=None)
@@ -200,13 +200,21 @@ class ProcessExecutor(Executor):
                 pending = set(futs)
                 while pending:
                     done, pending = wait(pending, return_when=FIRST_EXCEPTION)
-                    for f in sorted(done, key=index.__getitem__):
+                    for f in done:
                         if f.exception() is None:
                             out[index[f]] = f.result()
                         advance()
-                    failed = [f for f in done if f.exception() is not None]
+                    failed = [index[f] for f in done if f.exception() is not None]
                     if failed:
-                        raise min(failed, key=index.__getitem__).exception()
+                        # the first error in task order: later tasks are cancelled, earlier
+                        # ones finish (one of them may fail first in order)
+                        first = min(failed)
+                        for f in futs[first + 1:]:
+                            f.cancel()
+                        wait(futs[:first])
+                        for f in futs[:first + 1]:
+                            if f.exception() is not None:
+                                raise f.exception()
         except BaseException:
             for f in futs:
                 f.cancel()
@@ -235,6 +243,8 @@ class DaskExecutor(Executor):
     scheduler
         The scheduler's address (``tcp://host:8786``), or a
         ``distributed.Client`` / ``LocalCluster`` to use as it is.
+    timeout
+        How long to try to reach a scheduler given by address.
 
     Notes
     -----
@@ -246,7 +256,7 @@ class DaskExecutor(Executor):
 
     kind = "dask"
 
-    def __init__(self, scheduler: Any) -> None:
+    def __init__(self, scheduler: Any, timeout: str = "20s") -> None:
         try:
             from distributed import Client
         except ImportError:
@@ -259,7 +269,7 @@ class DaskExecutor(Executor):
             self.client = scheduler
         elif isinstance(scheduler, str):
             try:
-                self.client = Client(scheduler, timeout="20s", set_as_default=False)
+                self.client = Client(scheduler, timeout=timeout, set_as_default=False)
             except OSError as e:
                 from torlab.errors import TorlabInputError
 
@@ -281,18 +291,15 @@ class DaskExecutor(Executor):
         items = list(items)
         if not items:
             return []
-        from distributed import as_completed
-
         from torlab.progress import current as progress
 
         futs = self.client.map(_dask_run, [fn] * len(items), items, pure=False)
+        out = []
         try:
             with progress().task(description, len(items) if description else 0) as advance:
-                for f in as_completed(futs):
-                    if f.status == "error":
-                        break
+                for f in futs:  # in order: the first error in task order is the one raised
+                    out.append(f.result())
                     advance()
-            out = self.client.gather(futs)
         except BaseException:
             self.client.cancel(futs)
             raise
@@ -327,6 +334,17 @@ def use(executor: Executor) -> Iterator[Executor]:
     """Make ``executor`` the :func:`current` one inside the block (and close it after)."""
     with executor:
         yield executor
+
+
+@contextmanager
+def activate(executor: Executor) -> Iterator[Executor]:
+    """Make ``executor`` the :func:`current` one inside the block, leaving it open (for an
+    executor used by several blocks)."""
+    token = _CURRENT.set(executor)
+    try:
+        yield executor
+    finally:
+        _CURRENT.reset(token)
 
 
 def get_executor(jobs: int | None = None, scheduler: str | None = None) -> Executor:

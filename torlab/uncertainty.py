@@ -609,34 +609,78 @@ def _evaluate_rows(model: Model, dist: ParameterDistribution, thetas: np.ndarray
     return [_as_outputs(model(dist.params(t))) for t in thetas]
 
 
+#: parameter draws per task of the sampling method (:mod:`torlab.parallel`); fixed, so the
+#: split -- and the result -- never depends on how many workers evaluate the blocks
+SAMPLE_BLOCK = 25
+
+
+@dataclass
+class _Block:
+    """Evaluate the model at a block of draws, row by row (a picklable executor task)."""
+
+    model: Any
+    dist: ParameterDistribution
+
+    def __call__(self, thetas: np.ndarray) -> list[tuple[dict[str, np.ndarray] | None, str]]:
+        from torlab.errors import NumericalError, TorlabInputError
+
+        out: list[tuple[dict[str, np.ndarray] | None, str]] = []
+        for t in thetas:
+            try:
+                out.append((_as_outputs(self.model(self.dist.params(t))), ""))
+            except (NumericalError, TorlabInputError, FloatingPointError, ValueError) as e:
+                out.append((None, str(e)))
+        return out
+
+
+def _block_executor(task: _Block) -> Any:
+    """The executor in use for the draws; serial when local processes cannot take the model
+    (a closure: standard pickling cannot send it) -- the same blocks, the same result."""
+    from torlab.parallel import SerialExecutor, current
+
+    ex = current()
+    if ex.kind == "processes":
+        import pickle
+
+        try:
+            pickle.dumps(task)
+        except (pickle.PicklingError, TypeError, AttributeError):
+            return SerialExecutor()
+    return ex
+
+
 def _evaluate_many(model: Model, dist: ParameterDistribution, thetas: np.ndarray,
                    vectorized: bool) -> tuple[dict[str, np.ndarray], np.ndarray]:
-    """Outputs at the draws, stacked; draws whose evaluation fails numerically are left out."""
-    from torlab.errors import NumericalError, TorlabInputError
+    """Outputs at the draws, stacked; draws whose evaluation fails numerically are left out.
 
+    A vectorised model takes every draw in one call.  Otherwise the draws go in fixed
+    blocks of :data:`SAMPLE_BLOCK` to the executor in use (:mod:`torlab.parallel`), each
+    evaluated row by row; every block is evaluated, whatever fails, so the result and the
+    failure count are the same serially, on processes and on a cluster.
+    """
     m = thetas.shape[0]
     failed = np.zeros(m, dtype=bool)
+    first = ""
     if vectorized:
         out = _as_outputs(model(dist.params(thetas)))
         for v in out.values():
             bad = ~np.all(np.isfinite(v.reshape(m, -1)) | np.isnan(v.reshape(m, -1)), axis=1)
             failed |= bad
         stacked = {k: v[~failed] for k, v in out.items()}
-    first = ""
-    if not vectorized:
+    else:
+        from torlab.parallel import chunks
+
+        task = _Block(model, dist)
+        blocks = [thetas[s] for s in chunks(m, SAMPLE_BLOCK)]
+        results = _block_executor(task).map(task, blocks, description="band: parameter draws")
         rows = []
-        for i in range(m):
-            try:
-                rows.append(_as_outputs(model(dist.params(thetas[i]))))
-            except (NumericalError, TorlabInputError, FloatingPointError, ValueError) as e:
+        for i, (res, err) in enumerate(r for block in results for r in block):
+            if res is None:
                 failed[i] = True
-                first = first or str(e)
-                if failed.sum() > 0.05 * m:
-                    break  # too many already: no need to evaluate the rest
-        if not rows:
-            stacked = {}
-        else:
-            stacked = {k: np.stack([r[k] for r in rows]) for k in rows[0]}
+                first = first or err
+            else:
+                rows.append(res)
+        stacked = {k: np.stack([r[k] for r in rows]) for k in rows[0]} if rows else {}
     if failed.sum() > 0.05 * m:
         from torlab.errors import NumericalError as NE
 

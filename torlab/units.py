@@ -124,7 +124,32 @@ def parse_unit_factor(unit: str, kind: str, *, where: str = "", path: Any = None
     hit = _known().get((u, kind))
     if hit is not None:  # a common unit: pint's own answer, stored (no pint import)
         return hit
+    wrong = _wrong_kind(unit, u, kind)
+    if wrong is not None:  # a common unit of another kind: pint's message, stored
+        raise TorlabInputError(wrong, path=path, line=line, key=where or None)
     return _pint_factor(unit, u, kind, where=where, path=path, line=line)
+
+
+def _wrong_kind(unit: str, u: str, kind: str) -> str | None:
+    """The message :func:`_pint_factor` gives for a common unit of another kind (None if the
+    unit is not a stored one, or may be of this kind)."""
+    from torlab._unit_table import KIND_DIMENSIONS, UNIT_DIMENSIONS
+
+    dim = UNIT_DIMENSIONS.get(u) if u else None  # no unit: the kind's own (pint decides)
+    if dim is None or (kind in ("temperature", "temperature_difference")
+                       and u in _NOT_TEMPERATURE):
+        return None
+    if kind == "temperature":
+        return None if dim == "[temperature]" else \
+            f"unknown unit {unit!r} (DimensionalityError)"
+    if kind in ("dimensionless", "angle"):
+        ok = dim == "dimensionless"
+    else:
+        ok = dim == KIND_DIMENSIONS.get(kind)
+    if ok:
+        return None
+    return (f"unit {unit!r} is not {_article(kind)} {kind.replace('_', ' ')} (expected something "
+            f"like {_example(kind)}; got {dim})")
 
 
 def known_kinds(text: str) -> set[str]:

@@ -46,9 +46,8 @@ def hpt_figure(results: Sequence[Any], title: str = "") -> Any:
                  lw=2.5, solid_capstyle="butt")
     ax1.set_ylabel("shear stress τ (MPa)")
     ax2.set_ylabel("friction coefficient f (–)")
-    xl = "displacement at r_e (µm)"
-    if results and results[0].compliance:
-        xl += ", rig compliance subtracted"
+    xl = "displacement at r_e" + (", rig compliance subtracted" if results and
+                                   results[0].compliance else "") + " (µm)"
     ax2.set_xlabel(xl)
     ax1.set_ylim(bottom=0)
     ax2.set_ylim(bottom=0)

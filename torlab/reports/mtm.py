@@ -87,7 +87,7 @@ def curve_figure(red: Any, kind: str) -> Any:
         sm = matplotlib.cm.ScalarMappable(cmap=cmap, norm=matplotlib.colors.Normalize(
             vmin=min(steps), vmax=max(steps)))
         fig.colorbar(sm, ax=ax, label="step number")
-    fig.suptitle(f"{red.label}: {kind.replace('_', ' ')} steps ({n})")
+    fig.suptitle(f"{kind.replace('_', ' ').capitalize()} steps ({n}): {red.label}")
     return fig
 
 
@@ -128,5 +128,5 @@ def time_test_figure(red: Any, results: list[Any]) -> Any:
             "after recovery · dotted: low-adhesion threshold (shaded: below)",
             transform=ax.transAxes, fontsize=7, va="top", alpha=0.7)
     legend(ax)
-    fig.suptitle(f"{red.label}: time test after application (thesis Fig. 5.9)")
+    fig.suptitle(f"Time test after application (thesis Fig. 5.9): {red.label}")
     return fig

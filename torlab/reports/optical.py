@@ -25,7 +25,7 @@ def optical_figure(res: Any) -> Any:
       the coefficient where measured.
     """
     p = res.points
-    title = f"{res.label}: {_TEST_TITLES.get(res.test, res.test.replace('_', ' '))}"
+    title = _TEST_TITLES.get(res.test, res.test.replace('_', ' ')).capitalize()
     if res.test in ("traction", "dry_traction") and "traction_coefficient" in p:
         from torlab.reduce.optical import speed_groups
 
@@ -91,5 +91,5 @@ def optical_figure(res: Any) -> Any:
         ax1.set_ylabel("traction coefficient μ (–)")
         srr = float(np.median(p["srr"]))
         title += f" at SRR {srr * 100:.3g} %"
-    fig.suptitle(title)
+    fig.suptitle(f"{title}: {res.label}")
     return fig

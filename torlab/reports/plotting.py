@@ -26,8 +26,8 @@ from collections.abc import Iterable, Sequence
 from typing import Any
 
 __all__ = ["DIMENSIONLESS", "PALETTE", "STYLE", "STYLE_VERSION", "axis_label", "band",
-           "colours", "finish", "legend", "plain_log_ticks", "points", "pyplot", "subplots",
-           "unit"]
+           "colours", "finish", "legend", "plain_log_ticks", "points", "pretty", "pyplot",
+           "subplots", "unit"]
 
 #: bump when the look of the figures changes (invalidates cached figures)
 STYLE_VERSION = 2
@@ -190,6 +190,7 @@ def legend(ax: Any, *, outside: bool = True, loc: str = "upper right", ncol: int
     handles, labels = ax.get_legend_handles_labels()
     if not handles:
         return None
+    labels = [pretty(x) for x in labels]
     if outside:
         lg = ax.legend(handles, labels, loc="upper left", bbox_to_anchor=(1.02, 1.0),
                        borderaxespad=0.0, ncol=ncol, title=title, **kw)
@@ -205,6 +206,11 @@ def finish(fig: Any) -> Any:
     An outside legend's width is measured with the Agg renderer's font metrics
     (no drawing) and the figure is widened by it.  Returns ``fig``.
     """
+    for ax in fig.axes:
+        if ax.get_title():
+            ax.set_title(pretty(ax.get_title()))
+    if getattr(fig, "_suptitle", None) is not None:
+        fig._suptitle.set_text(pretty(fig._suptitle.get_text()))
     need = 0.0
     outside = [ax.get_legend() for ax in fig.axes
                 if ax.get_legend() is not None and getattr(ax.get_legend(), "_torlab_outside",
@@ -259,6 +265,15 @@ def unit(u: str) -> str:
     """A unit as printed on a figure: ``uL``/``ul`` -> ``µL``, ``um`` -> ``µm`` ..."""
     u = str(u).strip()
     return _UNITS.get(u, re.sub(r"\bu(?=[LlmgsN]\b)", "µ", u).replace("µl", "µL"))
+
+
+_AMOUNT = re.compile(r"(\d)(\s*)(?:[uμµ]L|[uμµ]l)\b")
+
+
+def pretty(text: str) -> str:
+    """Text as shown on a figure: an amount in microlitres written ``µL`` (``5 uL``, ``5 ul``,
+    ``5µl`` -> ``5 µL``, ``5µL``); a file name (``hpt_4uL_25C.txt``) is left as it is."""
+    return _AMOUNT.sub(r"\1\2µL", str(text))
 
 
 def axis_label(quantity: str, symbol: str = "", unit_: str = DIMENSIONLESS) -> str:

@@ -151,16 +151,16 @@ def stribeck_figure(table: Any, *, title: str = "", creepage: float | None = Non
             band(ax_lam, v, np.asarray(t["film_thickness_low95_m"], dtype=float) * per_h,
                  np.asarray(t["film_thickness_high95_m"], dtype=float) * per_h, color=green)
         ax_lam.set_yscale("log")
-        ax_lam.set_ylabel(axis_label("film parameter", "Λ = h/σ"))
+        ax_lam.set_ylabel("film parameter\n" + axis_label("Λ = h/σ", ""))
     else:
         ax_lam.plot(v, h * 1e9, color=green)
         if hb:
             band(ax_lam, v, np.asarray(t["film_thickness_low95_m"], dtype=float) * 1e9,
                  np.asarray(t["film_thickness_high95_m"], dtype=float) * 1e9, color=green)
         ax_lam.set_yscale("log")
-        ax_lam.set_ylabel("film thickness h (nm)\n(smooth: Λ undefined)")
+        ax_lam.set_ylabel("film thickness\nh (nm), Λ undefined")
     ax_sh.plot(v, t["load_share_asperity"], color=PALETTE[4])
     ax_sh.set_ylim(-0.02, 1.02)
-    ax_sh.set_ylabel(axis_label("asperity load share", "F_BL/F"))
+    ax_sh.set_ylabel("asperity load\n" + axis_label("share F_BL/F", ""))
     ax_sh.set_xlabel(axis_label("rolling speed", "v", "m/s"))
     return fig

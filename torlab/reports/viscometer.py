@@ -27,7 +27,7 @@ def falls_figure(res: Any) -> Any:
     ax2.plot(t, d["pressure_Pa"].to_numpy() / 1e6, lw=0.8, color=PALETTE[1])
     ax2.set_ylabel("pressure (MPa)")
     ax2.set_xlabel("time (s)")
-    fig.suptitle(f"{res.label}: falling-body runs")
+    fig.suptitle(f"Falling-body runs: {res.label}")
     return fig
 
 
@@ -49,5 +49,5 @@ def fit_figure(res: Any, fits: Sequence[Any]) -> Any:
     ax2.set_ylabel("residual of ln η (%)")
     ax2.set_xlabel("pressure p (MPa)")
     legend(ax1)
-    fig.suptitle(f"{res.label}: pressure-viscosity (Eqs. 5.38-5.39)")
+    fig.suptitle(f"Pressure–viscosity law (Eqs. 5.38–5.39): {res.label}")
     return fig
