@@ -222,6 +222,7 @@ def test_hertz_reference_swaps_axes():
 
 
 # --- the benchmark modules in their quick form ---------------------------------------------------
+@pytest.mark.slow
 def test_fastsim_quick_rows_and_ratios():
     from torlab.bench import fastsim
 
@@ -295,6 +296,7 @@ def test_cli_benchmark_library_call_does_the_commands_work(cli, tmp_path):
     pd.testing.assert_frame_equal(a, b, check_exact=False, rtol=1e-8)  # OutputDir rounds
 
 
+@pytest.mark.slow
 def test_bands_quick_rows():
     """The band benchmark measures the plain curve, the default band and both methods in one
     run; the default is linearised for the HPT-fitted wheel-rail scene (k + 2 = 6 model

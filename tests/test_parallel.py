@@ -144,7 +144,7 @@ def test_band_draws_bit_for_bit(executors):
     from torlab.model.bands import _DryTractionModel
     from torlab.model.predict import fastsim_grid, fastsim_problem
     from torlab.scene import load_scene
-    from torlab.uncertainty import SAMPLE_BLOCK, ParameterDistribution, propagate
+    from torlab.uncertainty import SAMPLE_BLOCK, SAMPLE_ROUND, ParameterDistribution, propagate
 
     sc = load_scene(SCENE)
     xi = np.linspace(0.0, 0.02, 11)
@@ -152,7 +152,7 @@ def test_band_draws_bit_for_bit(executors):
     dist = ParameterDistribution.from_covariance(
         ("mu_c1", "mu_c2", "L_mue"), [0.30, 0.45, 1e-5],
         [[4e-4, 1e-4, 0.0], [1e-4, 4e-4, 0.0], [0.0, 0.0, 4e-12]], log_scale=("L_mue",), dof=12)
-    n = 3 * SAMPLE_BLOCK + 7  # several blocks, the last one short
+    n = (SAMPLE_ROUND + 2) * SAMPLE_BLOCK + 7  # two rounds of blocks, the last block short
     bands = []
     for ex in executors:
         with use(ex):
@@ -177,7 +177,7 @@ fits:
     amounts: [4 uL]
     temperature: 25 degC
 reports:
-  amount: {}
+  amount: {curve: interpolation}
   traction:
     creepage: {from: 0, to: 0.03, points: 16}
     curves:
@@ -200,7 +200,8 @@ def _files(folder: Path) -> dict[str, bytes]:
 def test_protocol_run_bit_for_bit(tmp_path, executors):
     from torlab.protocols.runner import run_protocol
 
-    for f in sorted((ROOT / "sample_data" / "hpt").glob("hpt_OFM1_*uL_25C.txt")):
+    for a in (1, 4, 16):
+        f = ROOT / "sample_data" / "hpt" / f"hpt_OFM1_{a}uL_25C.txt"
         shutil.copy(f, tmp_path / f.name)
     shutil.copy(SCENE, tmp_path / SCENE.name)
     p = tmp_path / "parallel.yaml"
@@ -208,7 +209,7 @@ def test_protocol_run_bit_for_bit(tmp_path, executors):
     runs = []
     for i, ex in enumerate(executors):
         res = run_protocol(p, tmp_path / f"out{i}", executor=ex, command="test")
-        assert res.timing["figures_drawn"] == 4 and res.cache_misses > 5, ex.kind
+        assert res.timing["figures_drawn"] == 4 and res.cache_misses > 4, ex.kind
         files = _files(tmp_path / f"out{i}")
         summary = json.loads(files.pop("summary.json"))
         summary.pop("run")  # timings

@@ -350,11 +350,20 @@ def activate(executor: Executor) -> Iterator[Executor]:
 def get_executor(jobs: int | None = None, scheduler: str | None = None) -> Executor:
     """The executor for the command-line options ``--jobs`` and ``--scheduler``.
 
-    ``scheduler`` wins; else ``jobs`` 1 is serial and anything else (default: every
-    usable core) a :class:`ProcessExecutor` -- serial too where only one core is usable.
+    ``scheduler`` wins; else ``jobs`` 1 is serial and anything else (default: the
+    environment variable ``TORLAB_JOBS``, else every usable core) a
+    :class:`ProcessExecutor` -- serial too where only one core is usable.
     """
     if scheduler:
         return DaskExecutor(scheduler)
+    if jobs is None and os.environ.get("TORLAB_JOBS", "").strip():
+        try:
+            jobs = int(os.environ["TORLAB_JOBS"])
+        except ValueError:
+            from torlab.errors import TorlabInputError
+
+            raise TorlabInputError(f"TORLAB_JOBS={os.environ['TORLAB_JOBS']!r} is not a whole "
+                                   "number of worker processes", key="TORLAB_JOBS") from None
     n = usable_cores() if jobs is None or jobs <= 0 else int(jobs)
     if n <= 1:
         return SerialExecutor()

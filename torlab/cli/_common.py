@@ -40,8 +40,8 @@ FormatsOpt = Annotated[str | None, typer.Option(
     "--formats", metavar="FORMATS", help="Figure formats, comma-separated: png (default), svg, "
     "pdf; e.g. 'png,svg'.")]
 JobsOpt = Annotated[int | None, typer.Option(
-    "--jobs", "-j", metavar="N", help="Worker processes for independent tasks (default: every "
-    "usable core; 1: serial, in this process).")]
+    "--jobs", "-j", metavar="N", help="Worker processes for independent tasks (default: "
+    "$TORLAB_JOBS, else every usable core; 1: serial, in this process).")]
 SchedulerOpt = Annotated[str | None, typer.Option(
     "--scheduler", metavar="ADDRESS", help="Run the tasks on a Dask cluster instead "
     "(tcp://host:8786; needs pip install 'torlab[dask]'; see docs/performance.md).")]

@@ -210,7 +210,7 @@ def classify_trend(creepage: np.ndarray, mu: np.ndarray, *, saturation: float = 
         out["relative_change_high95"] = float(np.ravel(d.high())[0])
         out["basis"] = f"the parameters' uncertainty ({d.method} propagation)"
     elif measured and xs.size >= 3:
-        from scipy.stats import t as student
+        from torlab._stats import t_cdf, t_ppf  # scipy.stats.t, without its import
 
         xc = xs - xs.mean()
         resid = ys - ys.mean() - slope * xc
@@ -218,9 +218,9 @@ def classify_trend(creepage: np.ndarray, mu: np.ndarray, *, saturation: float = 
         se_slope = math.sqrt(float(resid @ resid) / dof / float(xc @ xc))
         se = se_slope * (xs[-1] - xs[0]) / ys[0]
         if se > 0:
-            cdf = student.cdf((np.array(edges) - change) / se, dof)
+            cdf = t_cdf((np.array(edges) - change) / se, dof)
             probs = np.diff(np.concatenate(([0.0], cdf, [1.0])))
-            tq = float(student.ppf(0.975, dof))
+            tq = float(t_ppf(0.975, dof))
             out["relative_change_low95"] = float(change - tq * se)
             out["relative_change_high95"] = float(change + tq * se)
         else:

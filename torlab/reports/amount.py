@@ -282,7 +282,8 @@ def crossing_probabilities(params: dict[str, float], cov: Any, amounts: Any, thr
         ``p_inside >= probability``, else ``"undetermined"``.
     """
     from scipy.special import expit
-    from scipy.stats import t as student
+
+    from torlab._stats import t_cdf  # scipy.stats.t.cdf, without its import
 
     a = np.asarray(amounts, dtype=float)
     x_lo, x_hi = math.log(float(a.min())), math.log(float(a.max()))
@@ -299,15 +300,15 @@ def crossing_probabilities(params: dict[str, float], cov: Any, amounts: Any, thr
     for x, key, below in ((x_hi, "p_below_at_largest", True), (x_lo, "p_above_at_smallest", False)):
         f, g = f_and_grad(x)
         se = math.sqrt(max(float(g @ C @ g), 0.0))
-        cdf = float(student.cdf((threshold - f) / se, dof)) if se > 0 else float(f < threshold)
+        cdf = float(t_cdf((threshold - f) / se, dof)) if se > 0 else float(f < threshold)
         out[key] = cdf if below else 1.0 - cdf
     if fl < threshold < fh:
         lc = _ln_crossing(params, threshold)
         gr = _ln_crossing_grad(params, threshold)
         se = math.sqrt(max(float(gr @ C @ gr), 0.0))
         if se > 0:
-            out["p_inside"] = float(student.cdf((x_hi - lc) / se, dof)
-                                    - student.cdf((x_lo - lc) / se, dof))
+            out["p_inside"] = float(t_cdf((x_hi - lc) / se, dof)
+                                    - t_cdf((x_lo - lc) / se, dof))
         else:
             out["p_inside"] = float(x_lo <= lc <= x_hi)
     else:
@@ -426,11 +427,11 @@ def _intervals(fits: list[_Crossing], jacs: dict[str, Any], ss: float, dof: int,
                threshold: float, confidence: float, series: Any = None,
                probability: float = CROSSING_PROBABILITY) -> None:
     """Pooled residual variance -> delta-method intervals on ln A*."""
-    from scipy.stats import t as student
+    from torlab._stats import t_ppf  # scipy.stats.t.ppf, without its import
 
     if dof >= 1:
         s2 = ss / dof
-        tq = float(student.ppf(0.5 + confidence / 2, dof))
+        tq = float(t_ppf(0.5 + confidence / 2, dof))
         for cf in fits:
             if cf.product not in jacs:
                 continue
