@@ -160,6 +160,25 @@ HPT_MAP_CSV = (b"Export of rig 2\nZeit;Fn;M;phi_enc;motor_steps\ns;kN;Nm;deg;cou
                           .replace(".", ",").encode() for k in range(12)))
 
 
+def retention_sources() -> tuple[dict[str, bytes], bytes]:
+    """The retention commands' inputs: the HPT layer parameter files of a product's amount
+    series (``torlab fit hpt`` output of the synthetic truth layer, name -> YAML) and a
+    removal parameter file fitted to the shipped time tests with that layer."""
+    from torlab.fit.removal import fit_removal, read_time_test
+    from torlab.model.amount import AmountLayer
+    from torlab.synth.retention import law_layer_fits, mtm_scene
+    from torlab.yamlio import dump_yaml
+
+    fits, dry = law_layer_fits()
+    layer_files = {f"layer_{i}.yaml": dump_yaml(f.to_yaml_dict()).encode()
+                   for i, f in enumerate([*fits, dry])}
+    layer = AmountLayer.from_fits(fits, dry)
+    tests = [read_time_test(p, density=930.0)
+             for p in sorted((SAMPLE / "retention").glob("mtm_retention_*.txt"))]
+    res = fit_removal(tests, layer, mtm_scene(), laws=("first_order",))
+    return layer_files, dump_yaml(res.to_yaml_dict()).encode()
+
+
 # ----------------------------------------------------------------------------- mutations
 _NUM = re.compile(rb"(?<![\w.])[+-]?\d+(?:\.\d+)?(?:[eE][+-]?\d+)?(?![\w.])")
 UNIT_SWAPS = [(b"[N]", b"[m]"), (b"[kN]", b"[kg]"), (b"[mm]", b"[bar]"), (b"[s]", b"[furlong]"),
@@ -341,6 +360,16 @@ def build_corpus(seed: int = 20240613) -> list[Case]:
     for reader in ("hpt", "pcs", "optical", "visc", "scene", "protocol"):
         for special in ("fifo", "folder", "device", "missing", "symlink_device"):
             cases.append(Case(reader, "-", special, special=special))
+    # the retention commands (their own generator: the cases above stay as they were)
+    rng2 = random.Random(seed + 16)
+    layer_files, removal = retention_sources()
+    tt = (SAMPLE / "retention" / "mtm_retention_1uL.txt").read_bytes()
+    for mut, b in mutate_text(tt, rng2)[::2]:
+        cases.append(Case("fit_removal", "mtm_retention_1uL", mut, b, extra=layer_files))
+    for mut, b in mutate_yaml(removal, rng2, values=6)[::2]:
+        cases.append(Case("predict_retention", "removal.yaml", mut, b))
+    for special in ("fifo", "device", "missing"):
+        cases.append(Case("fit_removal", "-", special, special=special, extra=layer_files))
     return cases
 
 
@@ -355,7 +384,8 @@ def _alarm(signum: int, frame: object) -> None:
 
 def _place(case: Case, work: Path) -> Path:
     """Write the case's input into ``work`` and return its path."""
-    suffix = {"scene": ".yaml", "scene_stribeck": ".yaml", "protocol": ".yaml", "hpt_map": ".yaml", "optical": ".csv"}.get(
+    suffix = {"scene": ".yaml", "scene_stribeck": ".yaml", "protocol": ".yaml", "hpt_map": ".yaml",
+              "predict_retention": ".yaml", "optical": ".csv"}.get(
         case.reader, ".txt")
     p = work / f"input{suffix}"
     if case.special == "fifo":
@@ -395,6 +425,15 @@ def command(case: Case, work: Path) -> list[str]:
                 "-o", out]
     if r == "fit_hpt":
         return ["fit", "hpt", str(p), "-o", out]
+    if r == "fit_removal":
+        hpt = []
+        for k, v in case.extra.items():
+            (work / k).write_bytes(v)
+            hpt += ["--hpt", str(work / k)]
+        return ["fit", "removal", str(p), *hpt, "--density", "930 kg/m^3", "-o", out]
+    if r == "predict_retention":
+        return ["predict", "retention", str(SCENES / "wheel_rail_tab54.yaml"), str(p),
+                "--amount", "50000 mg/m^2", "--draws", "20", "-o", out]
     if r == "hpt_map":
         csv = work / "rig2.csv"
         csv.write_bytes(HPT_MAP_CSV)

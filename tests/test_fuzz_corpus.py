@@ -68,7 +68,8 @@ def test_corpus_has_no_traceback_exit_1_hang_or_raw_warning(corpus):
 def test_corpus_covers_every_reader_scene_and_protocol(outcomes):
     readers = {o.case.reader for o in outcomes}
     assert readers >= {"hpt", "hpt_map", "pcs", "ehd2", "optical", "visc", "scene",
-                       "scene_stribeck", "protocol", "fit_hpt"}
+                       "scene_stribeck", "protocol", "fit_hpt", "fit_removal",
+                       "predict_retention"}
     specials = {o.case.mutation for o in outcomes if o.case.special}
     assert specials == {"fifo", "folder", "device", "missing", "symlink_device"}
 

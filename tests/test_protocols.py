@@ -260,7 +260,7 @@ def test_cli_lists_every_problem_exit_2(tmp_path, cli):
     assert not (tmp_path / "out").exists()
 
 
-@pytest.mark.parametrize("name", ["paper_a", "paper_b", "paper_c"])
+@pytest.mark.parametrize("name", ["paper_a", "paper_b", "paper_c", "retention"])
 def test_shipped_protocols_validate(cli, name):
     r = cli("run", PROTOCOLS / f"{name}.yaml", "--validate-only")
     assert r.exit_code == 0, r.output

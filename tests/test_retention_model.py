@@ -374,7 +374,14 @@ def test_sample_campaign_writes_files_and_truth(tmp_path):
     out.commit()
     truth = load_yaml(tmp_path / "ret" / "truth.yaml").data
     assert truth["law"]["name"] == "first_order" and truth["law"]["k1"] == 1e-6
-    assert len(truth["runs"]) == len(names) == 2
+    assert len(truth["runs"]) == 2 and len(truth["hpt_runs"]) == 6
+    assert names == [r["file"] for r in truth["runs"]] + [r["file"] for r in truth["hpt_runs"]]
+    assert (tmp_path / "ret" / "rig_compliance.csv").exists()
+    # each HPT run carries exactly the truth layer's node at its amount (the dry run: the anchor)
+    nodes = {n["amount_mg_m2"]: n for n in truth["layer"]["nodes"]}
+    for r, node in zip(truth["hpt_runs"], sorted(nodes)[1:] + sorted(nodes)[:1], strict=True):
+        for k in ("mu_c1", "mu_c2", "L_mue", "L_mup"):
+            assert r["boundary"][k] == pytest.approx(nodes[node][k], rel=1e-12)
     tt = read_time_test(tmp_path / "ret" / names[0])
     assert tt.application_source == "detected"
     assert abs(tt.application_time - truth["runs"][0]["design"]["application_time_s"]) <= 2.0

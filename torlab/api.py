@@ -13,9 +13,12 @@ returns DataFrames and result objects:
 :func:`fit_temperature`   HPT runs at several temperatures -> temperature coefficients
 :func:`fit_viscosity`     viscometer data -> Barus / Roelands FitResult
 :func:`fit_film`          film thickness against speed -> speed exponent (and alpha)
+:func:`fit_removal`       time tests after application + HPT amount series -> removal law
 :func:`load_scene`        scene and parameter files -> a validated Scene
 :func:`predict_traction`  scene, creepages -> traction curve (mu, trend after saturation)
 :func:`predict_stribeck`  scene, speeds, creepage -> Stribeck curve (mu, film, regimes)
+:func:`predict_retention` scene, removal parameters, amount -> mu against passes, band crossings
+:func:`predict_sweep`     a slip sweep recorded while product is removed, beside the steady curve
 :func:`run_protocol`      a YAML protocol -> reports in a folder
 ========================  ===============================================================
 
@@ -42,11 +45,14 @@ from torlab.errors import TorlabInputError
 __all__ = [
     "fit_film",
     "fit_hpt",
+    "fit_removal",
     "fit_temperature",
     "fit_traction",
     "fit_viscosity",
     "load_scene",
+    "predict_retention",
     "predict_stribeck",
+    "predict_sweep",
     "predict_traction",
     "read",
     "reduce_file",
@@ -394,6 +400,249 @@ def predict_stribeck(scene: Any, speed: Any, creepage: Any, *, params: Any = Non
 
     return _predict(_scene(scene, params), _grid(speed, "velocity", "speed"),
                     to_si(creepage, "dimensionless", where="creepage"))
+
+
+# ------------------------------------------------------------------ retention
+def _si(value: Any, kind: str, name: str, quantity: str | None = None) -> float | None:
+    """A user quantity (string with unit, or SI number) -> SI float, range-checked; None stays."""
+    from torlab.units import check_range, to_si
+
+    if value is None:
+        return None
+    x = to_si(value, kind, where=name)
+    return x if quantity is None else check_range(quantity, x, where=name)
+
+
+def fit_removal(tests: Any, layer: Any, *, scene: Any = None, density: Any = None,
+                amount: Any = None, track_radius: Any = None, application_time: Any = None,
+                step: int | None = None, compliance: Any = None, repeatability: float = 0.0,
+                dry_amount: Any = None, temperature: Any = None,
+                laws: Sequence[str] = ("zero_order", "first_order"), law: str | None = None,
+                transfer: Any = 1.0, skip: Any = "auto", duration: Any = None) -> Any:
+    """A product's removal law from time tests after application (Paper B) and its HPT amount
+    series (Paper C); ``docs/model/retention.md``.
+
+    Parameters
+    ----------
+    tests
+        Time tests: PCS exports (their timed step), ``*_timed.csv`` of
+        ``torlab mtm reduce``, or :class:`~torlab.fit.removal.TimeTest` objects.
+    layer
+        The product's amount dependency: an :class:`~torlab.model.amount.AmountLayer`,
+        or HPT logs / HPT layer parameter files / FitResults, one per applied
+        amount plus the dry run (:func:`torlab.fit.amount.amount_layer`).
+    scene
+        The tribometer's contact (file, dict or Scene); default the PCS MTM ball
+        on disc (19.05 mm steel ball on a steel disc).  Each test's load and
+        speed replace the scene's.
+    density
+        Product density (``"930 kg/m^3"``) for amounts in volume; default the
+        HPT logs' ``product_density``.
+    amount, track_radius, application_time, step
+        For the time tests: the applied amount (``"2 uL"``; default the PCS
+        step's ``Applied amount``), the disc track radius, the application
+        moment (default detected as the largest drop), the PCS step.
+    compliance, repeatability, dry_amount, temperature
+        For the layer from HPT inputs (:func:`torlab.fit.amount.amount_layer`).
+    laws, law, transfer, skip, duration
+        As :func:`torlab.fit.removal.fit_removal` (``skip``/``duration`` as times,
+        ``transfer`` a fraction or ``"fit"``).
+
+    Returns
+    -------
+    RemovalFit
+        A :class:`~torlab.fit.result.FitResult` (``kind="removal"``);
+        ``to_params(path)`` writes the parameter file ``predict_retention`` reads.
+    """
+    from torlab.fit.amount import amount_layer
+    from torlab.fit.removal import TimeTest, default_tribometer_scene, read_time_test
+    from torlab.fit.removal import fit_removal as _fit
+    from torlab.model.amount import AmountLayer
+
+    dens = _si(density, "density", "density", "density")
+    if isinstance(layer, AmountLayer):
+        lay = layer
+    else:
+        items = layer if isinstance(layer, (list, tuple)) else [layer]
+        lay, series, _, _ = amount_layer(
+            items, compliance=compliance, density=dens, dry_amount=dry_amount,
+            repeatability=repeatability,
+            temperature=_si(temperature, "temperature", "temperature"))
+        if dens is None:  # the density the HPT runs state, for the time tests' volumes
+            ds = {float(f.meta["product_density"]) for f in series
+                  if isinstance(f.meta.get("product_density"), (int, float))}
+            dens = ds.pop() if len(ds) == 1 else None
+    items = tests if isinstance(tests, (list, tuple)) else [tests]
+    tt = [t if isinstance(t, TimeTest) else read_time_test(
+        t, step=step, amount=amount, density=dens,
+        application_time=_si(application_time, "time", "application_time"),
+        track_radius=_si(track_radius, "length", "track_radius")) for t in items]
+    sc = default_tribometer_scene() if scene is None else _scene(scene)
+    sk = skip if skip == "auto" else _si(skip, "time", "skip")
+    tr = transfer if transfer == "fit" else _si(transfer, "dimensionless", "transfer")
+    res = _fit(tt, lay, sc, laws=laws, law=law, transfer=tr, skip=sk,
+               duration=_si(duration, "time", "duration"))
+    if scene is None:
+        res.meta["notes"] = [*res.meta.get("notes", []), "tribometer: the default PCS MTM ball "
+                             "on disc (19.05 mm steel ball on a steel disc)"]
+    return res
+
+
+def _retention_inputs(scene: Any, params: Any) -> tuple[Any, Any]:
+    """The scene (overlays applied) and the one set of retention parameters among ``params``."""
+    from torlab.fit.removal import (
+        RemovalFit,
+        RetentionParams,
+        is_retention_file,
+        load_retention,
+        retention_from_dict,
+    )
+
+    items = params if isinstance(params, (list, tuple)) else [params]
+    found, overlays = [], []
+    for p in items:
+        if isinstance(p, RetentionParams):
+            found.append(p)
+        elif isinstance(p, RemovalFit):
+            found.append(retention_from_dict(p.parameter_file, path=str(p.meta.get("source", ""))))
+        elif isinstance(p, (str, os.PathLike)) and Path(p).suffix.lower() in (".yaml", ".yml") \
+                and is_retention_file(p):
+            found.append(load_retention(p))
+        elif p is not None:
+            overlays.append(p)
+    if len(found) != 1:
+        raise TorlabInputError("give one removal parameter file ('torlab fit removal' output: "
+                               f"params.yaml with a retention: section); got {len(found)}",
+                               key="params")
+    return _scene(scene, overlays or None), found[0]
+
+
+def _band(band: Any) -> tuple[float, float]:
+    if isinstance(band, str):
+        parts = band.split(":")
+        if len(parts) != 2:
+            raise TorlabInputError(f"{band!r}: write LOW:HIGH, e.g. 0.15:0.25", key="band")
+        band = parts
+    lo, hi = (_si(v, "dimensionless", "band") for v in band)
+    return float(lo), float(hi)
+
+
+def predict_retention(scene: Any, params: Any, amount: Any, *, creepage: Any = "1 %",
+                      passes: Any = None, time: Any = None, speed: Any = None,
+                      band: Any = (0.15, 0.25), band_length: Any = None,
+                      track_radius: Any = None, pass_interval: Any = None, density: Any = None,
+                      transfer: Any = None, n_draws: int = 200, seed: int = 0,
+                      points: int = 501) -> Any:
+    """The coefficient against axle passes after one application, with 95 % intervals, and
+    the passes until it enters and leaves the band (``docs/model/retention.md``).
+
+    Parameters
+    ----------
+    scene
+        Scene file, dict or Scene: the wheel-rail contact (Tab. 5.4) or a disc.
+    params
+        The removal parameter file (``torlab fit removal`` output), a
+        :class:`~torlab.fit.removal.RemovalFit` or
+        :class:`~torlab.fit.removal.RetentionParams`; or a list of it and scene
+        parameter files applied over the scene.
+    amount
+        Applied amount: ``"4 uL"`` (with a density), ``"4 mg"``, or per area
+        ``"100000 mg/m^2"``.
+    creepage
+        Creepage of the passes (``"1 %"`` or a fraction).
+    passes, time, speed
+        How far: ``passes`` (a number of passes, or a sequence of them), or
+        ``time`` (``"2 h"``) at ``speed`` (default the scene's); default until
+        1.2 x the passes to the dry anchor.
+    band
+        ``(low, high)`` or ``"0.15:0.25"``.
+    band_length, track_radius, pass_interval
+        Rail length a volume or mass covers; a disc track's radius (then a pass
+        is a revolution); time between passes on a rail (for a time axis).
+    density, transfer
+        Product density (default the removal fit's) and transferred fraction
+        (default the fit's).
+    n_draws, seed, points
+        Parameter draws for the intervals, their seed, table rows.
+
+    Returns
+    -------
+    RetentionPrediction
+        ``table`` (``passes``, ``amount_mg_m2``, ``mu``, ``mu_low95``,
+        ``mu_high95``, ``energy_J_m2`` [, ``time_s``]), ``summary``, ``modelled``.
+    """
+    import numpy as np
+
+    from torlab.model.retention import predict_retention as _predict
+
+    sc, rp = _retention_inputs(scene, params)
+    v = _si(speed, "velocity", "speed", "speed")
+    if v is not None:
+        sc = sc.model_copy(update={"kinematics": sc.kinematics.model_copy(update={"speed": v})})
+    xi = _si(creepage, "dimensionless", "creepage", "creepage")
+    r = _si(track_radius, "length", "track_radius")
+    dt = _si(pass_interval, "time", "pass_interval")
+    dens = _si(density, "density", "density", "density")
+    t_end = _si(time, "time", "time")
+    kw: dict[str, Any] = {}
+    if passes is not None and t_end is not None:
+        raise TorlabInputError("give passes or time, not both", key="passes")
+    if t_end is not None:
+        if r is None and dt is None:
+            raise TorlabInputError("a time axis on a rail needs the time between axle passes "
+                                   "(pass_interval=); on a disc give track_radius=", key="time")
+        per = dt if dt is not None else 2 * np.pi * r / sc.kinematics.speed
+        kw["n_passes"] = t_end / per
+    elif passes is not None:
+        if np.ndim(passes) == 0:
+            kw["n_passes"] = float(passes)
+            if not (np.isfinite(kw["n_passes"]) and kw["n_passes"] > 0):
+                raise TorlabInputError(f"passes must be a positive number, got {passes}",
+                                       key="passes")
+        else:
+            kw["passes"] = np.asarray(passes, dtype=float)
+    pred = _predict(sc, rp.layer, rp.removal, amount, creepage=xi, track_radius=r,
+                    band_length=_si(band_length, "length", "band_length"),
+                    density=dens if dens is not None else rp.density,
+                    transfer=_si(transfer, "dimensionless", "transfer"), band=_band(band),
+                    n_draws=int(n_draws), seed=int(seed), points=int(points),
+                    pass_interval=dt, **kw)
+    pred.summary["parameter_file"] = rp.source
+    pred.summary["density_kg_m3"] = dens if dens is not None else rp.density
+    return pred
+
+
+def predict_sweep(scene: Any, params: Any, amount: Any, *, seconds: Any,
+                  creepage: Any = "0:0.05:101", band_length: Any = None, track_radius: Any = None,
+                  pass_interval: Any = None, density: Any = None, transfer: Any = None,
+                  n_draws: int = 100, seed: int = 0, trend_tolerance: float = 0.01) -> Any:
+    """A traction curve recorded during a slip sweep of ``seconds`` while the product is
+    removed, beside the steady curve at the applied amount (thesis H4.1); the verdict says
+    whether removal turns the curve positive, with its probability over parameter draws.
+
+    ``creepage``: ``"start:stop:count"`` (the ramp and the points recorded);
+    ``seconds``: ``"60 s"`` or s; the time between passes of a band point is a disc track's
+    revolution (``track_radius``) or ``pass_interval`` on a rail; other parameters as
+    :func:`predict_retention`.  Returns a :class:`~torlab.model.retention.SweepPrediction`.
+    """
+    from torlab.model.retention import simulate_sweep
+
+    sc, rp = _retention_inputs(scene, params)
+    xi = _grid(creepage, "dimensionless", "creepage")
+    if xi.size < 3 or xi[0] < 0 or not (xi[-1] > xi[0]):
+        raise TorlabInputError("a sweep needs a rising creepage range start:stop:count with "
+                               "start >= 0 and at least 3 points", key="creepage")
+    dens = _si(density, "density", "density", "density")
+    sw = simulate_sweep(sc, rp.layer, rp.removal, amount, creepage=(float(xi[0]), float(xi[-1])),
+                        seconds=_si(seconds, "time", "sweep"),
+                        track_radius=_si(track_radius, "length", "track_radius"),
+                        pass_interval=_si(pass_interval, "time", "pass_interval"),
+                        band_length=_si(band_length, "length", "band_length"),
+                        density=dens if dens is not None else rp.density,
+                        transfer=_si(transfer, "dimensionless", "transfer"), points=int(xi.size),
+                        n_draws=int(n_draws), seed=int(seed), trend_tolerance=trend_tolerance)
+    sw.summary["parameter_file"] = rp.source
+    return sw
 
 
 def run_protocol(protocol: PathLike, out: PathLike, *, force: bool = False,

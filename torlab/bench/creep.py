@@ -1,7 +1,7 @@
 """Benchmark of the creep forces in xi, eta, phi: speed against error, and table time.
 
 Scene: the wheel-rail contact of thesis Tab. 5.4 (a = 3.7 mm, b = 3.3 mm, F = 20 kN,
-steel) with the layer of issue 3 (mu_c1 0.30, mu_c2 0.45, L_mue 10 um, L_mup 20 um),
+steel) with the example layer (mu_c1 0.30, mu_c2 0.45, L_mue 10 um, L_mup 20 um),
 isothermal.  Measured side by side in one run:
 
 * ``torlab`` -- :func:`torlab.model.creep.creep_forces` at several

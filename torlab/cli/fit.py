@@ -43,21 +43,24 @@ def register(root: typer.Typer) -> None:
 def write_fit(dest: Any, result: Any, prefix: str = "", title: str | None = None,
               model_curve: tuple[Any, Any] | None = None, formats: Any = None) -> None:
     """Write one :class:`~torlab.fit.result.FitResult` into an OutputDir (under ``prefix``);
-    its figure in ``formats`` (``--formats``; PNG by default)."""
-    from torlab.reports.fit import fit_figure
+    its figure (the result's own :meth:`plot`) in ``formats`` (``--formats``; PNG by
+    default)."""
+    from torlab.reports.fit import result_figure
     from torlab.reports.render import parse_formats, plot, write_figures
     from torlab.yamlio import dump_yaml
 
     pre = f"{prefix}/" if prefix else ""
-    dest.write_text(f"{pre}params.yaml", "# torlab fit output: a parameter file for torlab predict "
-                    "(name it after the scene)\n" + dump_yaml(result.to_yaml_dict()))
+    use = ("torlab predict retention SCENE params.yaml" if result.kind == "removal" else
+           "torlab predict (name it after the scene)")
+    dest.write_text(f"{pre}params.yaml", f"# torlab fit output: a parameter file for {use}\n"
+                    + dump_yaml(result.to_yaml_dict()))
     tab = result.table()
     dest.write_csv(f"{pre}fit_table.csv", tab, allow_missing=("stderr", "ci95_low", "ci95_high"))
     corr = result.correlation_table().reset_index(names="parameter")
     dest.write_csv(f"{pre}correlation.csv", corr, allow_missing=tuple(result.names))
     dest.write_csv(f"{pre}fit_data.csv", result.data)
     dest.write_json(f"{pre}summary.json", result.summary())
-    write_figures(dest, [(f"{pre}fit", plot(fit_figure, result, title=title,
+    write_figures(dest, [(f"{pre}fit", plot(result_figure, result, title=title,
                                             model_curve=model_curve))], parse_formats(formats))
 
 
@@ -390,3 +393,84 @@ def polach_cmd(
     print_fit(res, f"Polach fit: {res.meta['source']}")
     console().print(f"largest difference Polach - torlab: {res.meta['max_abs_residual']:.3g} "
                     f"(F/N); wrote {', '.join(_FILES)} to {out}")
+
+
+@app.command("removal")
+def removal_cmd(
+    tests: Annotated[list[Path], typer.Argument(help="Time tests after application: PCS exports "
+                                                "(their timed step) or *_timed.csv of 'torlab "
+                                                "mtm reduce'; folders and patterns expanded.")],
+    out: OutOpt,
+    hpt: Annotated[list[str], typer.Option(
+        "--hpt", help="The product's amount series: HPT logs or 'torlab fit hpt' params.yaml, one "
+        "per applied amount, and the dry run (repeatable; folders and patterns expanded).")],
+    scene: Annotated[Path | None, typer.Option(help="Scene of the tribometer contact (radii, "
+                                               "materials); default the PCS MTM ball on "
+                                               "disc.")] = None,
+    density: Annotated[str | None, typer.Option(help="Product density for amounts in uL "
+                                                "('930 kg/m^3'); default the HPT logs'.")] = None,
+    amount: Annotated[str | None, typer.Option(help="Applied amount of every time test ('2 uL') "
+                                               "where the files do not state it.")] = None,
+    track_radius: Annotated[str | None, typer.Option(help="Disc track radius ('21 mm') where the "
+                                                     "files do not state it.")] = None,
+    application_time: Annotated[str | None, typer.Option(
+        help="Application moment in the step ('60 s'); default: the largest drop.")] = None,
+    compliance: Annotated[str | None, typer.Option(help="Rig compliance of the HPT logs (curve "
+                                                   "file or '0.012 um/MPa').")] = None,
+    repeatability: Annotated[float, typer.Option(help="Relative run-to-run scatter of the HPT "
+                                                 "layer parameters (e.g. 0.03).")] = 0.0,
+    laws: Annotated[str, typer.Option(help="Candidate laws (comma list of zero_order, "
+                                      "first_order, zero_order+spread, first_order+spread).")]
+    = "zero_order,first_order",
+    law: Annotated[str | None, typer.Option(help="Force this law (still compared).")] = None,
+    transfer: Annotated[str, typer.Option(help="Fraction of the applied product reaching the "
+                                          "track, or 'fit'.")] = "1",
+    skip: Annotated[str, typer.Option(help="Time after the application left out of the fit "
+                                      "(the film phase), or 'auto'.")] = "auto",
+    force: ForceOpt = False,
+    formats: FormatsOpt = None,
+) -> None:
+    """Removal law of a product (k0 or k1, spread, transfer) from MTM time tests after
+    application and its HPT amount series; the law chosen by AICc (docs/model/retention.md).
+
+    Writes params.yaml (the retention: section 'torlab predict retention' reads: law,
+    covariance, the amount layer), fit_table.csv, correlation.csv, fit_data.csv (measured and
+    modelled mu(t), amount, energy), fit.png (measured against modelled mu(t)),
+    law_selection.csv, amount_layer.csv/.png and summary.json.
+    """
+    from torlab.api import fit_removal
+    from torlab.fit.amount import is_layer_input
+    from torlab.fit.removal import is_time_test_input, retention_from_dict
+    from torlab.outputs import OutputDir
+    from torlab.reports.retention import layer_figure
+
+    files = require_files(tests, "time-test", keep=is_time_test_input)
+    layer_files = require_files([Path(h) for h in hpt], "HPT", keep=is_layer_input)
+    extra = [scene] if scene else []
+    comp = _compliance(compliance, extra)
+    res = fit_removal(files, layer_files, scene=scene, density=density, amount=amount,
+                      track_radius=track_radius, application_time=application_time,
+                      compliance=comp, repeatability=repeatability,
+                      laws=[x.strip() for x in laws.split(",") if x.strip()], law=law,
+                      transfer="fit" if transfer.strip() == "fit" else transfer, skip=skip)
+    import pandas as pd
+
+    layer = retention_from_dict(res.parameter_file).layer
+    dest = OutputDir(out, force=force, inputs=[*files, *layer_files, *extra],
+                     command=command_line())
+    with dest:
+        write_fit(dest, res, title=f"Removal fit: {res.meta['source']}", formats=formats)
+        dest.write_csv("law_selection.csv", pd.DataFrame(res.meta["law_selection"]))
+        dest.write_csv("amount_layer.csv", layer.table())
+        from torlab.reports.render import parse_formats, plot, write_figures
+
+        write_figures(dest, [("amount_layer", plot(layer_figure, layer))],
+                      parse_formats(formats))
+    print_fit(res, f"Removal fit ({res.meta['law']}): {res.meta['source']}")
+    print_table([{k: r[k] for k in ("law", "parameters", "aicc", "delta_aicc", "weight")}
+                 for r in res.meta["law_selection"]], title="Law choice (AICc)",
+                formats={"aicc": ".1f", "delta_aicc": ".1f", "weight": ".3f"})
+    for n in res.meta.get("notes", []):
+        console().print(f"[yellow]note:[/yellow] {n}")
+    console().print(f"wrote {', '.join(_FILES)}, law_selection.csv, amount_layer.csv/.png to "
+                    f"{out}")

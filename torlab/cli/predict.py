@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -74,6 +74,12 @@ def _print_band(summary: dict) -> None:
             c.print(f"[yellow]band:[/yellow] {n}")
 
 
+_SWEEP_HELP = ("Simulate the curve as recorded during a slip sweep of this duration ('60 s') "
+               "while product is removed; needs a 'torlab fit removal' params.yaml among the "
+               "files and --amount ('4 uL', '4 mg', '100000 mg/m^2'); the running band as in "
+               "'predict retention'.")
+
+
 @app.command("traction")
 def traction_cmd(
     scene: ScenesArg,
@@ -85,6 +91,12 @@ def traction_cmd(
                                          "non-zero: creep forces in three creepages.")] = "0",
     spin: Annotated[str, typer.Option(help="Spin (1/m, units allowed: '0.5 1/m') of every "
                                       "point; non-zero: creep forces in three creepages.")] = "0",
+    sweep: Annotated[str | None, typer.Option(help=_SWEEP_HELP)] = None,
+    amount: Annotated[str | None, typer.Option(help="With --sweep: the applied amount.")] = None,
+    band_length: Annotated[str | None, typer.Option(help="With --sweep: rail length.")] = None,
+    track_radius: Annotated[str | None, typer.Option(help="With --sweep: disc track.")] = None,
+    pass_interval: Annotated[str | None, typer.Option(help="With --sweep: time between "
+                                                      "passes on a rail.")] = None,
     force: ForceOpt = False,
     no_plot: NoPlotOpt = False,
     formats: FormatsOpt = None,
@@ -100,13 +112,12 @@ def traction_cmd(
     mu_c2 and the 95 % band) and summary.json
     (what was modelled, the trend after saturation, thesis H4.1).  With --lateral or
     --spin (dry scenes): lateral, spin_1_m, Fx_N, Fy_N, Mz_Nm, mu_x, mu_y too (mu = mu_x).
+    --sweep: the curve recorded while product is removed, beside the steady one (H4.1).
     When a parameter file from 'torlab fit' carries its covariance, the fit's uncertainty
     is propagated: mu_low95/mu_high95 (and the film thickness and temperature bands) in
     the CSV, the band in the figure, the method and the dominant parameters in
     summary.json, and the trend with the probability of each class.
     """
-    import numpy as np
-
     from torlab.cli._common import parse_values, session
     from torlab.model.predict import predict_traction
     from torlab.outputs import OutputDir
@@ -115,6 +126,11 @@ def traction_cmd(
 
     files = require_files(scene, "scene")
     fmts = parse_formats(formats)
+    if sweep is not None or amount is not None:
+        return _sweep(files, out, force, fmts, creepage=creepage, seconds=sweep, amount=amount,
+                      band_length=band_length, track_radius=track_radius,
+                      pass_interval=pass_interval)
+    _no_retention_file(files)
     sc = load_scene(*files)
     xi = parse_values(creepage, "dimensionless", "--creepage", "creepage")
     eta = float(parse_values(lateral, "dimensionless", "--lateral")[0])
@@ -142,6 +158,14 @@ def traction_cmd(
             names += write_figures(dest, [("traction", fig)], fmts)[0]
     _print_modelled(pred.modelled, pred.summary.get("notes", []))
     _print_band(pred.summary)
+    _print_trend(pred)
+    console().print(f"wrote {_written(names)} to {out}")
+
+
+def _print_trend(pred: Any) -> None:
+    """The largest coefficient (with its band) and the trend after saturation (H4.1)."""
+    import numpy as np
+
     t = pred.trend
     c = console()
     tab = pred.table
@@ -168,7 +192,121 @@ def traction_cmd(
                 f"creepage {t['saturation_creepage']:.4g}; from {t['trend_from_creepage']:.4g} "
                 f"to the end mu changes {100 * t['relative_change']:+.2f} %, neutral within "
                 f"±{100 * t['tolerance']:g} %{ev})")
-    c.print(f"wrote {_written(names)} to {out}")
+
+
+def _no_retention_file(files: Sequence[Path]) -> None:
+    """A removal parameter file among a plain prediction's files: say what it is for."""
+    from torlab.errors import TorlabInputError
+    from torlab.fit.removal import is_retention_file
+
+    for f in files[1:]:
+        if f.suffix.lower() in (".yaml", ".yml") and is_retention_file(f):
+            raise TorlabInputError("a removal parameter file ('torlab fit removal' output): use "
+                                   "it with --sweep and --amount, or with 'torlab predict "
+                                   "retention'", path=f)
+
+
+def _sweep(files: list[Path], out: Path, force: bool, formats: Sequence[str],
+           **kw: str | None) -> None:
+    """``predict traction --sweep``: the recorded-looking curve beside the steady one."""
+    from torlab.api import predict_sweep
+    from torlab.errors import TorlabInputError
+    from torlab.outputs import OutputDir
+    from torlab.reports.retention import write_sweep
+
+    if kw["seconds"] is None or kw["amount"] is None:
+        raise TorlabInputError("a slip sweep needs both --sweep (its duration) and --amount",
+                               key="--sweep" if kw["seconds"] is None else "--amount")
+    sw = predict_sweep(files[0], files[1:], kw.pop("amount"), **kw)
+    with OutputDir(out, force=force, inputs=files, command=command_line()) as dest:
+        names = write_sweep(dest, sw, title="", formats=formats)
+    s = sw.summary
+    c = console()
+    _print_modelled(s["modelled"], s["notes"])
+    c.print(f"sweep over {s['seconds']:g} s: {s['passes_during_sweep']:.4g} passes, amount "
+            f"{s['initial_amount_mg_m2']:.4g} -> {s['final_amount_mg_m2']:.4g} mg/m^2")
+    c.print(f"trend after saturation: recorded curve [bold]{s['trend_sweep']['trend']}[/bold], "
+            f"steady curve [bold]{s['trend_steady']['trend']}[/bold]")
+    c.print(f"verdict: {s['verdict']}")
+    c.print(f"wrote {', '.join(names)} to {out}")
+
+
+@app.command("retention")
+def retention_cmd(
+    scene: ScenesArg,
+    out: OutOpt,
+    amount: Annotated[str, typer.Option(help="Applied amount: '4 uL' (with the product "
+                                        "density), '4 mg', or per area '100000 mg/m^2'.")],
+    creepage: Annotated[str, typer.Option(help="Creepage of every pass ('1 %' or a "
+                                          "fraction).")] = "1 %",
+    passes: Annotated[str | None, typer.Option(help="Predict this many axle passes (default: "
+                                               "until 1.2 x the passes to dry).")] = None,
+    cycles: Annotated[str | None, typer.Option(help="Predict this many disc revolutions "
+                                               "(needs --track-radius).")] = None,
+    time: Annotated[str | None, typer.Option(help="Predict this long ('2 h') at --speed (a disc, "
+                                             "or a rail with --pass-interval).")] = None,
+    speed: Annotated[str | None, typer.Option(help="Rolling speed (default the scene's).")]
+    = None,
+    band: Annotated[str, typer.Option(help="The coefficient band LOW:HIGH.")] = "0.15:0.25",
+    band_length: Annotated[str | None, typer.Option(help="Rail length a volume or mass "
+                                                    "covers ('20 mm').")] = None,
+    track_radius: Annotated[str | None, typer.Option(help="Disc track radius: a closed track, "
+                                                     "one pass per revolution.")] = None,
+    pass_interval: Annotated[str | None, typer.Option(help="Time between axle passes on a "
+                                                      "rail ('2 s'), for a time axis.")] = None,
+    density: Annotated[str | None, typer.Option(help="Product density ('930 kg/m^3'); default "
+                                                "the removal fit's.")] = None,
+    draws: Annotated[int, typer.Option(help="Parameter draws for the 95 % intervals (0: "
+                                       "none).")] = 200,
+    seed: Annotated[int, typer.Option(help="Seed of the draws.")] = 0,
+    force: ForceOpt = False,
+    formats: FormatsOpt = None,
+) -> None:
+    """Coefficient against axle passes (disc revolutions, or time) after one application,
+    with 95 % intervals, and the passes until it enters and leaves the band.
+
+    SCENE, then the removal params.yaml of 'torlab fit removal' (and optional scene
+    parameter files). Writes retention.csv (passes, amount_mg_m2, mu, mu_low95, mu_high95,
+    energy_J_m2[, time_s]), summary.json (crossings with 95 % intervals, law, what was
+    modelled), retention.png (--formats: also .svg/.pdf).
+    """
+    from torlab.api import predict_retention
+    from torlab.errors import TorlabInputError
+    from torlab.outputs import OutputDir
+    from torlab.reports.retention import write_retention
+    from torlab.units import to_si
+
+    files = require_files(scene, "scene")
+    given = [k for k, v in (("--passes", passes), ("--cycles", cycles), ("--time", time)) if v]
+    if len(given) > 1:
+        raise TorlabInputError(f"give one of {', '.join(given)}", key=given[1])
+    if cycles is not None and track_radius is None:
+        raise TorlabInputError("cycles are revolutions of a disc track: give --track-radius",
+                               key="--cycles")
+    n = passes or cycles
+    pred = predict_retention(
+        files[0], files[1:], amount, creepage=creepage, time=time, speed=speed, band=band,
+        passes=None if n is None else to_si(n, "dimensionless", where=given[0]),
+        band_length=band_length, track_radius=track_radius, pass_interval=pass_interval,
+        density=density, n_draws=draws, seed=seed)
+    axis = "time" if time else "cycles" if track_radius else "passes"
+    with OutputDir(out, force=force, inputs=files, command=command_line()) as dest:
+        names = write_retention(dest, pred, axis=axis, formats=formats)
+    _print_modelled(pred.modelled, [])
+    _print_crossings(pred.summary)
+    console().print(f"wrote {', '.join(names)} to {out}")
+
+
+def _print_crossings(s: dict) -> None:
+    from torlab.reports.retention import crossing_text
+
+    c = console()
+    c.print(f"applied {s['applied']}: {s['initial_amount_mg_m2']:.4g} mg/m^2 in the band; mu "
+            f"{s['mu_initial']:.4f} at the application, dry {s['mu_dry']:.4f}")
+    for key, word in (("passes_to_enter_band", "enters"), ("passes_to_leave_band", "leaves")):
+        cr = s[key]
+        c.print(f"mu {word} the band (crosses {cr['level']:g}): "
+                f"[bold]{crossing_text(cr)}[/bold] -- {cr['status']}")
 
 
 @app.command("stribeck")

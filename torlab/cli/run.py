@@ -50,15 +50,14 @@ def run_cmd(
     (--jobs) or a Dask cluster (--scheduler), with the same results.
     """
     from torlab.errors import TorlabInputError
-    from torlab.protocols.loader import load_protocol
+    from torlab.protocols.loader import REPORT_KEYS, load_protocol
 
     lp = load_protocol(protocol)
     c = console()
     p = lp.protocol
     if validate_only:
         n = len(lp.input_files())
-        reports = [k for k in ("amount", "time_test", "traction", "stribeck", "film")
-                   if getattr(p.reports, k) is not None]
+        reports = [k for k in REPORT_KEYS if getattr(p.reports, k) is not None]
         c.print(f"{protocol}: valid protocol '{p.name}' (version {p.version}): {n} input "
                 f"files, reports: {', '.join(reports)}")
         return
@@ -132,3 +131,17 @@ def _print_key_numbers(summary: dict) -> None:
                 for k, v in rep["traction"]["curves"].items()]
         print_table(rows, title="Traction: trend after saturation (H4.1)",
                     formats={"μ max": ".4f"})
+    if "retention" in rep:
+        from torlab.reports.retention import crossing_text
+
+        r = rep["retention"]
+        pr = r["prediction"]
+        rows = [{"band limit": f"{pr[k]['level']:g}", "passes (95 %)": crossing_text(pr[k]),
+                 "status": pr[k]["status"]}
+                for k in ("passes_to_enter_band", "passes_to_leave_band")]
+        law = ", ".join(f"{k} {v['value']:.3g} [{v['low95']:.3g}, {v['high95']:.3g}] {v['unit']}"
+                        for k, v in r["parameters"].items())
+        print_table(rows, title=f"Retention of {r['product']}: {r['law']} ({law}), "
+                    f"{pr['applied']} on {pr['scene']}")
+        if "sweep" in r:
+            console().print(f"slip sweep: {r['sweep']['verdict']}")

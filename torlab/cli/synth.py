@@ -54,6 +54,22 @@ def synth_mtm(
     _write(out, force, seed, write_mtm_sample_data, "synthetic MTM exports and truth.yaml")
 
 
+@app.command("retention")
+def synth_retention(
+    out: OutOpt,
+    seed: Annotated[int, typer.Option(help="Random seed (the same seed gives the same files).")] = 2016,
+    force: ForceOpt = False,
+) -> None:
+    """Virtual retention campaign with a stated removal law: two MTM time tests after
+    application (PCS exports, 1 and 2 uL, first order k1 = 1e-6 m^2/J in the frictional
+    energy), the product's HPT amount series (1-16 uL and dry, the truth layer), the rig
+    compliance and truth.yaml (law, layer nodes, initial amounts, energy at the end)."""
+    from torlab.synth.retention import write_retention_sample_data
+
+    _write(out, force, seed, write_retention_sample_data,
+           "synthetic time tests and HPT logs, rig_compliance.csv and truth.yaml")
+
+
 @app.command("visc")
 def synth_visc(
     out: OutOpt,

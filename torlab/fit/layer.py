@@ -175,7 +175,7 @@ def hpt_curve(curve: Any, *, sigma: float | None = None, compliance: Any = None,
         meta = {"source": Path(m.source).name if m.source else "", "product": m.product,
                 "condition": m.condition, "applied_amount": m.applied_amount_value,
                 "applied_amount_unit": m.applied_amount_unit, "temperature_C": m.temperature,
-                "compliance": curve.compliance or "none"}
+                "product_density": m.product_density, "compliance": curve.compliance or "none"}
     else:
         df = curve
         meta = {"source": name or ""}
@@ -388,7 +388,8 @@ def _fit(cs: list[HptCurve]) -> FitResult:
         "effective_points": float(neff),
         "interval_dof": {nm_: round(float(d), 1) for nm_, d in zip(LAYER_NAMES, pdof, strict=True)},
         **{k2: first.get(k2) for k2 in ("product", "condition", "applied_amount",
-                                        "applied_amount_unit", "temperature_C", "compliance")
+                                        "applied_amount_unit", "product_density",
+                                        "temperature_C", "compliance")
            if k2 in first},
         "source": where,
     }

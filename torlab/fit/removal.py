@@ -70,7 +70,9 @@ from torlab.model.removal import (
     passes_solution,
 )
 
-__all__ = ["TimeTest", "fit_removal", "read_time_test", "removal_figure", "time_test"]
+__all__ = ["RemovalFit", "RetentionParams", "TimeTest", "default_tribometer_scene", "fit_removal",
+           "is_retention_file", "is_time_test_input", "load_retention", "read_time_test", "removal_figure",
+           "retention_from_dict", "time_test"]
 
 # the law parameters' units, registered where the fit results list units
 for _k, _u in LAW_UNITS.items():
@@ -125,6 +127,24 @@ class TimeTest:
     notes: list[str] = field(default_factory=list)
 
 
+def default_tribometer_scene(load: float = 18.0, speed: float = 1.0) -> Any:
+    """The PCS MTM ball on disc: a 19.05 mm (3/4 in) steel ball on a flat steel disc.
+
+    The tribometer scene of a removal fit when none is given (each time test's
+    own load and speed replace these); its ``boundary:`` is a placeholder,
+    replaced by the layer of the remaining amount.
+    """
+    from torlab.scene import scene_from_dict
+
+    return scene_from_dict({
+        "name": "PCS MTM ball on disc (19.05 mm steel ball, steel disc)",
+        "contact": {"load": load, "r1x": "9.525 mm", "r1y": "9.525 mm", "hertz": "exact"},
+        "materials": {"E1": "210 GPa", "nu1": 0.3, "E2": "210 GPa", "nu2": 0.3},
+        "kinematics": {"speed": speed, "ambient_temperature": "30 degC"},
+        "boundary": {"mu_c1": 0.3, "mu_c2": 0.3},
+    })
+
+
 def _per_sample(v: Any, n: int, name: str, where: str) -> np.ndarray:
     a = np.asarray(v, dtype=float)
     if a.ndim == 0:
@@ -134,6 +154,21 @@ def _per_sample(v: Any, n: int, name: str, where: str) -> np.ndarray:
     if not np.all(np.isfinite(a)):
         raise TorlabInputError(f"{name} has non-finite values", path=where, key=name)
     return a
+
+
+def is_time_test_input(path: Path) -> bool:
+    """A PCS export or a ``*_timed.csv`` (what a folder or pattern of time tests contributes)."""
+    from torlab.instruments.measured import detected
+
+    try:
+        if detected(path) == "pcs":
+            return True
+    except TorlabInputError:
+        return False
+    from torlab.outputs import open_regular
+
+    with open_regular(path) as fh:
+        return b"step_time_s" in fh.read(2000).split(b"\n", 1)[0]
 
 
 def _detect_application(t: np.ndarray, mu: np.ndarray, label: str, min_drop: float) -> float:
@@ -231,9 +266,10 @@ def read_time_test(path: str | Path, *, step: int | None = None,
     path = Path(path)
     label = path.name
     amount_text: str | None = None
-    text_start = path.read_bytes()[:200].decode("utf-8", "replace") if path.exists() else ""
-    if not path.exists():
-        raise TorlabInputError("file not found", path=str(path))
+    from torlab.outputs import open_regular
+
+    with open_regular(path) as fh:  # a regular file only: no FIFO or device is waited on
+        text_start = fh.read(200).decode("utf-8", "replace")
     if text_start.lstrip().lower().startswith(("mtm", "etm", "ehd")):
         from torlab.parsers.pcs import read_pcs
         from torlab.reduce.mtm import mu_series
@@ -981,7 +1017,7 @@ def fit_removal(tests: TimeTest | Sequence[TimeTest], layer: Any, scene: Any, *,
     fixed = {} if fit_tr else {"transfer": float(transfer)}
     if not sp.spread:
         fixed["spread"] = 0.0
-    res = FitResult.from_covariance(
+    res = RemovalFit.from_covariance(
         "removal", sp.names, vals, cov, dof=dof, param_dof=pdof,
         residual_norm=float(np.sqrt(np.mean(f["resid"] ** 2))), n_points=int(f["n"]),
         warnings=warnings, data=pd.concat(frames, ignore_index=True), meta=meta,
@@ -996,37 +1032,220 @@ def fit_removal(tests: TimeTest | Sequence[TimeTest], layer: Any, scene: Any, *,
         if nm == "transfer":
             tmax = min(p.transfer_max for p in preps)
             res.ci95[nm] = (res.ci95[nm][0], min(res.ci95[nm][1], tmax))
+    dens = {float(p.test.density) for p in preps if p.test.density is not None}
+    res.parameter_file = _parameter_section(res, layer, dens.pop() if len(dens) == 1 else None)
     return res
 
 
-def removal_figure(result: FitResult, title: str | None = None) -> Any:
-    """Measured against modelled coefficient after application (top), remaining amount (bottom).
+# ---------------------------------------------------------------------------------------------
+# the result and its parameter file
+# ---------------------------------------------------------------------------------------------
+#: version of the ``retention:`` section of a parameter file
+RETENTION_FORMAT = 1
 
-    Per time test: the measured coefficient (points), the model over the fit
-    window (line) and before it (dotted: the film phase, not fitted).
+
+@dataclass
+class RemovalFit(FitResult):
+    """The removal fit: a :class:`~torlab.fit.result.FitResult` (``kind="removal"``) that
+    also carries what a prediction needs besides the law (:attr:`parameter_file`).
+
+    Attributes
+    ----------
+    parameter_file
+        The ``retention:`` section of ``params.yaml``: the law with its log-space
+        covariance and sensitivity to the layer, the product's amount layer
+        (:meth:`~torlab.model.amount.AmountLayer.to_dict`) and density.  Read
+        back by :func:`load_retention`.
     """
-    from torlab.reports.plotting import subplots
 
-    d = result.data
-    fig, (ax, axm) = subplots(2, 1, sharex=True, figsize=(7.5, 6.0),
-                              gridspec_kw={"height_ratios": [3, 1.4]})
-    for i, (name, g) in enumerate(d.groupby("test", sort=False)):
-        col = f"C{i % 10}"
-        t = g["time_s"].to_numpy()
-        win = g["in_fit"].to_numpy(dtype=bool)
-        ax.plot(t, g["mu_measured"], ".", ms=2, color=col, alpha=0.35, label=f"{name} measured")
-        ax.plot(t[win], g["mu_model"].to_numpy()[win], "-", lw=1.6, color=col, label=f"{name} model")
-        ax.plot(t[~win], g["mu_model"].to_numpy()[~win], ":", lw=1.0, color=col)
-        axm.plot(t, g["amount_mg_m2"], "-", lw=1.2, color=col)
-    ax.set_ylabel("traction coefficient μ (–)")
-    ax.set_ylim(bottom=0)
-    ax.legend(loc="lower right", fontsize=7)
-    axm.set_xlabel("time after application t (s)")
-    axm.set_ylabel("remaining amount m (mg/m²)")
-    if (d["amount_mg_m2"] > 0).any():
-        axm.set_yscale("log")
-    law = result.meta.get("law", "")
-    pars = ", ".join(f"{n} = {result.params[n]:.3g} {LAW_UNITS.get(n, '')}" for n in result.names)
-    ax.set_title(title or f"Removal fit: {law} ({pars}); dotted: film phase, not fitted",
-                 fontsize=9)
-    return fig
+    parameter_file: dict[str, Any] = field(default_factory=dict)
+
+    def to_yaml_dict(self) -> dict[str, Any]:
+        """``params.yaml``: the ``retention:`` section and the ``fit:`` provenance.
+
+        A removal law has no scene keys (``boundary:``, ``lubricant:``): the
+        file is read by ``torlab predict retention`` and ``predict traction
+        --sweep``, not merged into a scene.
+        """
+        return {"retention": self.parameter_file, "fit": self.provenance()}
+
+    def plot(self, *, title: str | None = None, model_curve: tuple[Any, Any] | None = None
+             ) -> Any:
+        """Measured against modelled coefficient and the remaining amount
+        (:func:`torlab.reports.retention.removal_figure`)."""
+        return removal_figure(self, title=title)
+
+
+def _parameter_section(res: FitResult, layer: Any, density: float | None) -> dict[str, Any]:
+    """The ``retention:`` section of a removal fit's parameter file."""
+    allv = {**res.fixed, **res.params}
+    return {
+        "format": RETENTION_FORMAT,
+        "law": res.meta["law"],
+        "order": int(res.meta["order"]),
+        "parameters": {k: float(v) for k, v in allv.items()},
+        "units": {k: LAW_UNITS.get(k, "-") for k in allv},
+        "fitted": list(res.names),
+        "ci95": {k: [float(a), float(b)] for k, (a, b) in res.ci95.items()},
+        "dof": int(res.dof),
+        "interval_dof": dict(res.meta.get("interval_dof", {})),
+        "density_kg_m3": density,
+        "fit_space": res.meta["fit_space"],
+        "layer": layer.to_dict(),
+    }
+
+
+@dataclass
+class RetentionParams:
+    """What ``torlab predict retention`` reads from a removal fit's parameter file.
+
+    Attributes
+    ----------
+    layer
+        The product's :class:`~torlab.model.amount.AmountLayer`.
+    removal
+        The law as a :class:`RemovalFit` (estimate, log-space covariance,
+        sensitivity to the layer: :func:`torlab.model.retention.removal_draws`).
+    density
+        Product density (kg/m^3) of the time tests, or None.
+    source
+        The file.
+    """
+
+    layer: Any
+    removal: Any
+    density: float | None
+    source: str
+
+
+def _matrix(v: Any, shape: tuple[int, int], where: str, path: str) -> np.ndarray:
+    try:
+        a = np.asarray(v, dtype=float)
+    except (TypeError, ValueError):
+        a = np.zeros(0)
+    if a.shape != shape or not np.all(np.isfinite(a)):
+        raise TorlabInputError(f"expected a finite {shape[0]} x {shape[1]} matrix", path=path,
+                               key=where)
+    return a
+
+
+def retention_from_dict(d: Any, *, path: str = "", fit: Any = None) -> RetentionParams:
+    """:class:`RetentionParams` from the ``retention:`` section (every value checked).
+
+    Raises
+    ------
+    TorlabInputError
+        Missing or malformed keys, an unknown law or format, matrices of the
+        wrong shape or not finite, a layer of :meth:`AmountLayer.from_dict`'s
+        errors.
+    """
+    from torlab.model.amount import AmountLayer
+
+    def bad(msg: str, k: str = "") -> TorlabInputError:
+        return TorlabInputError(msg, path=path or None, key=f"retention.{k}" if k else "retention")
+
+    if not isinstance(d, dict):
+        raise bad("expected the retention: section of 'torlab fit removal' output")
+    if d.get("format") != RETENTION_FORMAT:
+        raise bad(f"format {d.get('format')!r} is not the one this torlab reads "
+                  f"({RETENTION_FORMAT})", "format")
+    law = d.get("law")
+    if law not in LAWS:
+        raise bad(f"unknown removal law {law!r}; use one of {', '.join(LAWS)}", "law")
+    order = 0 if str(law).startswith("zero") else 1
+    fs = d.get("fit_space")
+    if not isinstance(fs, dict) or not isinstance(fs.get("names"), list):
+        raise bad("missing fit_space (names, values, covariance, layer_sensitivity)",
+                  "fit_space")
+    names = [str(n) for n in fs["names"]]
+    k = len(names)
+    if not 1 <= k <= 3 or names[0] != f"k{order}" or \
+            any(n not in ("spread", "transfer") for n in names[1:]):
+        raise bad(f"names {names} do not fit the law {law}", "fit_space.names")
+    theta = _matrix([fs.get("values")], (1, k), "retention.fit_space.values", path)[0]
+    cov = _matrix(fs.get("covariance"), (k, k), "retention.fit_space.covariance", path)
+    cov0 = _matrix(fs.get("covariance_without_layer", cov), (k, k),
+                   "retention.fit_space.covariance_without_layer", path)
+    for c, nm in ((cov, "covariance"), (cov0, "covariance_without_layer")):
+        if not np.allclose(c, c.T, rtol=1e-6, atol=0.0) or np.any(np.diag(c) < 0):
+            raise bad("must be symmetric with a non-negative diagonal", f"fit_space.{nm}")
+    layer = AmountLayer.from_dict(d.get("layer"), path=path or None, key="retention.layer")
+    n_nodes = layer.nodes.size
+    G = fs.get("layer_sensitivity", [])
+    if G:
+        _matrix(G, (k, 4 * n_nodes), "retention.fit_space.layer_sensitivity", path)
+        _matrix([fs.get("layer_nodes_mg_m2")], (1, n_nodes),
+                "retention.fit_space.layer_nodes_mg_m2", path)
+    pars = d.get("parameters") if isinstance(d.get("parameters"), dict) else {}
+    fixed = {}
+    for nm in ("spread", "transfer"):
+        if nm not in names and nm in pars:
+            try:
+                fixed[nm] = float(pars[nm])
+            except (TypeError, ValueError):
+                raise bad(f"{nm} must be a number", f"parameters.{nm}") from None
+    if not (0 <= fixed.get("spread", 0.0) and 0 < fixed.get("transfer", 1.0) <= 1):
+        raise bad("spread must be >= 0 and transfer in (0, 1]", "parameters")
+    dens = d.get("density_kg_m3")
+    if dens is not None and (isinstance(dens, bool) or not isinstance(dens, (int, float))
+                             or not (math.isfinite(dens) and dens > 0)):
+        raise bad("must be a positive number (kg/m^3) or null", "density_kg_m3")
+    vals = np.exp(theta)
+    D = np.diag(vals)
+    dof = d.get("dof", 10)
+    res = RemovalFit.from_covariance(
+        "removal", tuple(names), vals, D @ cov @ D,
+        dof=int(dof) if isinstance(dof, int) and dof > 0 else 10, residual_norm=0.0,
+        n_points=0, warnings=[], data=None, fixed=fixed, residual_unit="-",
+        meta={"law": law, "order": order, "fit_space": fs, "source": Path(path).name if path
+              else "retention parameters"}, parameter_file=d)
+    ci = d.get("ci95") if isinstance(d.get("ci95"), dict) else {}
+    for nm in names:
+        iv = ci.get(nm)
+        if isinstance(iv, list) and len(iv) == 2 and all(isinstance(x, (int, float))
+                                                           for x in iv):
+            res.ci95[nm] = (float(iv[0]), float(iv[1]))
+    return RetentionParams(layer=layer, removal=res, density=None if dens is None else float(dens),
+                           source=path)
+
+
+def is_retention_file(path: str | Path) -> bool:
+    """Whether a YAML file is a removal fit's parameter file (a top-level ``retention:``)."""
+    from torlab.yamlio import load_yaml
+
+    d = load_yaml(path).data
+    return isinstance(d, dict) and "retention" in d
+
+
+def load_retention(path: str | Path) -> RetentionParams:
+    """Read a removal fit's parameter file (``torlab fit removal`` -> ``params.yaml``).
+
+    Raises
+    ------
+    TorlabInputError
+        Not such a file, or a malformed ``retention:`` section (file and key named).
+    """
+    from torlab.yamlio import load_yaml
+
+    doc = load_yaml(path)
+    d = doc.data
+    if not isinstance(d, dict) or "retention" not in d:
+        raise TorlabInputError("not a removal parameter file (no retention: section; write one "
+                               "with 'torlab fit removal')", path=str(path))
+    try:
+        return retention_from_dict(d["retention"], path=str(path))
+    except TorlabInputError as e:
+        if e.key and e.line is None:
+            kp = tuple(int(x) if x.isdigit() else x for x in
+                       e.key.replace("[", ".").replace("]", "").split("."))
+            raise TorlabInputError(e.message, path=str(path), line=doc.lines.line(kp),
+                                   key=e.key) from None
+        raise
+
+
+def removal_figure(result: FitResult, title: str | None = None) -> Any:
+    """Measured against modelled coefficient after application (top), remaining amount
+    (bottom): :func:`torlab.reports.retention.removal_figure`."""
+    from torlab.reports.retention import removal_figure as _figure
+
+    return _figure(result, title=title)

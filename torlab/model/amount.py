@@ -491,6 +491,84 @@ class AmountLayer:
             rows.append(r)
         return pd.DataFrame(rows)
 
+    def to_dict(self) -> dict[str, Any]:
+        """The layer as plain data (the ``layer:`` of a retention parameter file).
+
+        Areal densities in mg/m^2, parameters in SI, each node's 4 x 4
+        covariance in the order of :data:`LAYER_NAMES`; :meth:`from_dict`
+        reads it back exactly (YAML keeps every float's digits).
+        """
+        allp = np.vstack([self.dry_params, self.params])
+        covs = np.concatenate([self.dry_cov[None], self.covs])
+        nodes = []
+        for j, m in enumerate(np.r_[self.dry_amount, self.amounts]):
+            nodes.append({"amount_mg_m2": float(m) / MG_M2,
+                          "source": "dry fit" if j == 0 else (self.sources[j - 1]
+                                                              if self.sources else ""),
+                          **{nm: float(allp[j, i]) for i, nm in enumerate(LAYER_NAMES)},
+                          "covariance": [[float(v) for v in row] for row in covs[j]]})
+        return {"parameters": list(LAYER_NAMES), "dry_anchor": "first node", "above": self.above,
+                "temperature_coefficients": [float(v) for v in self.temperature_coefficients],
+                "nodes": nodes, "notes": list(self.notes)}
+
+    @classmethod
+    def from_dict(cls, d: Any, *, path: Any = None, key: str = "layer") -> AmountLayer:
+        """The layer of :meth:`to_dict` (read from a file: every value checked).
+
+        Raises
+        ------
+        TorlabInputError
+            A missing or malformed key, a node without its four parameters or a
+            covariance that is not a finite symmetric 4 x 4 matrix, fewer than
+            three nodes (the dry anchor and two tested amounts), too many nodes.
+        """
+        def bad(msg: str, k: str = "") -> TorlabInputError:
+            return TorlabInputError(msg, path=path, key=f"{key}.{k}" if k else key)
+
+        if not isinstance(d, dict) or not isinstance(d.get("nodes"), list):
+            raise bad("expected a mapping with nodes: (the amount layer of 'torlab fit "
+                      "removal')")
+        nodes = d["nodes"]
+        if not 3 <= len(nodes) <= 200:
+            raise bad(f"needs the dry anchor and at least two tested amounts (3-200 nodes), got "
+                      f"{len(nodes)}", "nodes")
+        vals, covs, amts, src = [], [], [], []
+        for j, n in enumerate(nodes):
+            k = f"nodes[{j}]"
+            if not isinstance(n, dict):
+                raise bad("expected a mapping", k)
+            try:
+                amts.append(float(n["amount_mg_m2"]) * MG_M2)
+                vals.append([float(n[nm]) for nm in LAYER_NAMES])
+                c = np.asarray(n["covariance"], dtype=float)
+            except KeyError as e:
+                raise bad(f"missing {e.args[0]}", k) from None
+            except (TypeError, ValueError):
+                raise bad("amount_mg_m2, the four parameters and covariance must be numbers",
+                          k) from None
+            if c.shape != (4, 4) or not np.all(np.isfinite(c)) or not np.allclose(c, c.T) or \
+                    np.any(np.diag(c) < 0):
+                raise bad("covariance must be a finite symmetric 4 x 4 matrix with a "
+                          "non-negative diagonal", f"{k}.covariance")
+            covs.append(c)
+            src.append(str(n.get("source", "")))
+        tc = d.get("temperature_coefficients", [0.0, 0.0])
+        try:
+            tcs = tuple(float(v) for v in tc)
+        except (TypeError, ValueError):
+            raise bad("expected two numbers", "temperature_coefficients") from None
+        if len(tcs) != 2 or not all(math.isfinite(v) for v in tcs):
+            raise bad("expected two finite numbers (1/K)", "temperature_coefficients")
+        notes = d.get("notes", [])
+        try:
+            return cls(amounts=np.array(amts[1:]), params=np.array(vals[1:]),
+                       covs=np.array(covs[1:]), dry_params=np.array(vals[0]), dry_cov=covs[0],
+                       dry_amount=amts[0], above=str(d.get("above", "error")),
+                       temperature_coefficients=tcs, sources=src[1:],
+                       notes=[str(v) for v in notes] if isinstance(notes, list) else [])
+        except TorlabInputError as e:
+            raise bad(e.message, e.key or "") from None
+
     def summary(self) -> dict[str, Any]:
         """Key numbers for ``summary.json``."""
         return {"amounts_mg_m2": [float(v) / MG_M2 for v in self.amounts],

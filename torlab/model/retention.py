@@ -167,7 +167,7 @@ class RetentionPrediction:
     ----------
     table
         DataFrame: ``passes``, ``amount_mg_m2``, ``mu``, ``mu_low95``,
-        ``mu_high95`` (the issue's columns), then ``energy_J_m2`` (dissipated per
+        ``mu_high95`` (the retention table's contract columns), then ``energy_J_m2`` (dissipated per
         unit band area since the application) and ``time_s`` where a pass
         interval is known (a disc track at the scene's speed, or given).
     summary
@@ -270,7 +270,8 @@ def predict_retention(scene: Any, layer: Any, removal: Any, amount: Any, *, cree
         raise TorlabInputError(f"creepage must be a non-zero number, got {creepage}",
                                key="creepage")
     rng = np.random.default_rng(seed)
-    sc, notes = boundary_scene(scene, layer.temperature_coefficients)
+    sc, left_out = boundary_scene(scene, layer.temperature_coefficients)
+    notes: list[str] = []
     contact = build_contact(sc)
     bnd = band_of(contact, track_radius)
     F = float(contact.patch.F)
@@ -282,6 +283,7 @@ def predict_retention(scene: Any, layer: Any, removal: Any, amount: Any, *, cree
                                                 else _fixed_transfer(removal))
     m0, how = _initial_amount(amount, bnd, band_length=band_length, density=density, transfer=tr)
     layer.check(m0)
+    notes += _below_tested(m0, layer)
     m0_d = np.full(max(n_draws, 1), m0)
     if transfer is None and rd["transfer"] is not None:
         m0_d = m0 / tr * rd["transfer"]
@@ -340,7 +342,7 @@ def predict_retention(scene: Any, layer: Any, removal: Any, amount: Any, *, cree
                 "series, PCHIP in log amount)",
                 f"removal: {rd['law']} in the frictional energy per unit band area "
                 f"(e_pass = mu F |xi| / w = {c:.4g} mu J/m^2 per pass)",
-                *notes]
+                *left_out, *notes]
     if scene.thermal is None:
         modelled.append("contact temperature: not modelled (no thermal: section)")
     summary = {
@@ -370,10 +372,23 @@ def predict_retention(scene: Any, layer: Any, removal: Any, amount: Any, *, cree
                            "layer draws)"))
         if n_draws > 0 else "none",
         "modelled": modelled,
+        "notes": list(notes),
         "layer_notes": list(layer.notes),
         "friction_evaluations": int(table.n_evaluations),
     }
     return RetentionPrediction(table=out, summary=summary, modelled=modelled, notes=notes)
+
+
+def _below_tested(m0: float, layer: Any) -> list[str]:
+    """A note when the applied amount lies below the smallest tested amount."""
+    if m0 >= layer.m_min:
+        return []
+    where = ("at or below the dry anchor: the dry coefficient from the first pass"
+             if m0 <= layer.dry_amount else "between the dry anchor and the smallest tested "
+             "amount, where the layer is the assumed interpolation to the dry fit")
+    return [f"initial amount {m0 / MG_M2:.4g} mg/m^2 is below the smallest tested amount "
+            f"{layer.m_min / MG_M2:.4g} mg/m^2 of the HPT series: {where} (apply more, or "
+            "test smaller amounts)"]
 
 
 def _fixed_transfer(removal: Any) -> float:
@@ -413,7 +428,9 @@ class SweepPrediction:
     ----------
     table
         ``time_s``, ``creepage``, ``mu_sweep`` (the measured-looking curve),
-        ``mu_steady`` (at the applied amount), ``amount_mg_m2``.
+        ``mu_steady`` (at the applied amount), ``amount_mg_m2``; with parameter
+        draws also ``mu_sweep_low95``, ``mu_sweep_high95``, ``mu_steady_low95``,
+        ``mu_steady_high95`` (quantiles of the draws).
     trend_sweep, trend_steady
         :func:`~torlab.model.predict.classify_trend` of both curves.
     verdict
@@ -487,7 +504,8 @@ def simulate_sweep(scene: Any, layer: Any, removal: Any, amount: Any, *,
         raise TorlabInputError(f"creepage range must rise from >= 0, got {creepage}",
                                key="creepage")
     rng = np.random.default_rng(seed)
-    sc, notes = boundary_scene(scene, layer.temperature_coefficients)
+    sc, left_out = boundary_scene(scene, layer.temperature_coefficients)
+    notes: list[str] = []
     contact = build_contact(sc)
     bnd = band_of(contact, track_radius)
     T_pass = bnd.pass_interval(sc.kinematics.speed) if pass_interval is None else float(pass_interval)
@@ -503,6 +521,7 @@ def simulate_sweep(scene: Any, layer: Any, removal: Any, amount: Any, *,
                                                 else _fixed_transfer(removal))
     m0, how = _initial_amount(amount, bnd, band_length=band_length, density=density, transfer=tr)
     layer.check(m0)
+    notes += _below_tested(m0, layer)
     xi_nodes = np.linspace(xi0, xi1, max(int(points), 3))
     table = mu_table(sc, layer, xi_nodes, m_top=m0, per_interval=per_interval,
                      gradient=n_draws > 0, extra=[m0])
@@ -550,18 +569,27 @@ def simulate_sweep(scene: Any, layer: Any, removal: Any, amount: Any, *,
                        for i in range(t_eval.size)])
     trend_sweep = classify_trend(xi_t, mu_sweep[:, 0], tolerance=trend_tolerance)
     trend_steady = classify_trend(xi_t, steady[:, 0], tolerance=trend_tolerance)
-    p_pos = None
-    p_steady = None
+    p_pos = p_made = None
+    p_steady = p_sweep = None
     if D:
-        pos = [classify_trend(xi_t, mu_sweep[:, 1 + d], tolerance=trend_tolerance)["trend"]
-               == "positive" for d in range(D)]
-        p_pos = float(np.mean(pos))
+        sw = [classify_trend(xi_t, mu_sweep[:, 1 + d], tolerance=trend_tolerance)["trend"]
+              for d in range(D)]
         st = [classify_trend(xi_t, steady[:, 1 + d], tolerance=trend_tolerance)["trend"]
               for d in range(D)]
+        p_pos = float(np.mean([x == "positive" for x in sw]))
+        # the H4.1 case in one draw: the recorded curve positive, the steady one not
+        p_made = float(np.mean([a == "positive" and b in ("neutral", "negative")
+                                for a, b in zip(sw, st, strict=True)]))
         p_steady = {c: float(np.mean([x == c for x in st])) for c in sorted(set(st))}
+        p_sweep = {c: float(np.mean([x == c for x in sw])) for c in sorted(set(sw))}
     verdict = _sweep_verdict(trend_sweep["trend"], trend_steady["trend"], p_pos)
-    out = pd.DataFrame({"time_s": t_eval, "creepage": xi_t, "mu_sweep": mu_sweep[:, 0],
-                        "mu_steady": steady[:, 0], "amount_mg_m2": mt[0] / MG_M2})
+    cols = {"time_s": t_eval, "creepage": xi_t, "mu_sweep": mu_sweep[:, 0],
+            "mu_steady": steady[:, 0], "amount_mg_m2": mt[0] / MG_M2}
+    if D:
+        for name, arr in (("mu_sweep", mu_sweep), ("mu_steady", steady)):
+            lo, hi = propagate_draws(arr[:, 1:], axis=1)
+            cols[f"{name}_low95"], cols[f"{name}_high95"] = lo, hi
+    out = pd.DataFrame(cols)
     summary = {
         "scene": getattr(scene, "name", ""), "seconds": float(seconds),
         "creepage_range": [xi0, xi1], "pass_interval_s": T_pass,
@@ -569,8 +597,13 @@ def simulate_sweep(scene: Any, layer: Any, removal: Any, amount: Any, *,
         "initial_amount_mg_m2": m0 / MG_M2, "initial_amount_from": how,
         "final_amount_mg_m2": float(mt[0, -1] / MG_M2), "law": rd["law"],
         "trend_sweep": trend_sweep, "trend_steady": trend_steady,
-        "probability_sweep_positive": p_pos, "steady_trend_probabilities": p_steady,
+        "probability_sweep_positive": p_pos,
+        "probability_positive_by_removal": p_made,
+        "sweep_trend_probabilities": p_sweep, "steady_trend_probabilities": p_steady,
         "verdict": verdict, "n_draws": int(n_draws), "notes": notes,
+        "modelled": ["boundary friction: FASTSIM with the layer of the remaining amount",
+                     f"removal: {rd['law']} in the frictional energy of each pass at the "
+                     "current creepage", *left_out],
         "integrator": f"RK45 with step control, {sol.nfev} right-hand-side evaluations",
     }
     return SweepPrediction(table=out, trend_sweep=trend_sweep, trend_steady=trend_steady,

@@ -17,7 +17,10 @@ from typing import Any
 
 from torlab.errors import TorlabInputError, ValidationErrors
 
-__all__ = ["LoadedProtocol", "load_protocol", "load_protocol_text"]
+__all__ = ["REPORT_KEYS", "LoadedProtocol", "load_protocol", "load_protocol_text"]
+
+#: the ``reports:`` sections, in report order
+REPORT_KEYS = ("amount", "time_test", "traction", "stribeck", "film", "retention")
 
 
 @dataclass
@@ -250,8 +253,19 @@ def _cross_check(lp: LoadedProtocol, doc: Any) -> list[TorlabInputError]:
         err(("reports", "amount"), "the amount-dependency report needs data.hpt")
     if r.time_test is not None and d.mtm is None:
         err(("reports", "time_test"), "the time-test report needs data.mtm")
-    if all(getattr(r, k) is None for k in ("amount", "time_test", "traction", "stribeck", "film")):
-        err(("reports",), "no report requested (amount, time_test, traction, stribeck or film)")
+    if all(getattr(r, k) is None for k in REPORT_KEYS):
+        err(("reports",), "no report requested (amount, time_test, traction, stribeck, film or "
+            "retention)")
+    if r.retention is not None:
+        for sec in ("hpt", "mtm"):
+            if getattr(d, sec) is None:
+                err(("reports", "retention"), f"the retention report needs data.{sec} (the HPT "
+                    "amount series and the MTM time tests)")
+        mtm_files = set(lp.data_files("mtm"))
+        for i, e in enumerate(r.retention.time_tests):
+            if any(x not in mtm_files for x in e.resolved):
+                err(("reports", "retention", "time_tests", i),
+                    f"{e.path} is not one of the files of data.mtm")
 
     def check_params(keypath: tuple[Any, ...], params: list[str]) -> None:
         for j, ps in enumerate(params):
@@ -310,6 +324,10 @@ def _cross_check(lp: LoadedProtocol, doc: Any) -> list[TorlabInputError]:
                 err(("reports", "stribeck", "curves", i),
                     "give reports.stribeck.creepage (a modelled curve without a measured file "
                     "has no SRR to take)")
+    if r.retention is not None:
+        kp = ("reports", "retention")
+        check_scene((*kp, "prediction", "scene"), r.retention.prediction.scene)
+        check_scene((*kp, "tribometer"), r.retention.tribometer)
     if r.time_test is not None and r.time_test.initial_drop is not None:
         idp = r.time_test.initial_drop
         kp = ("reports", "time_test", "initial_drop")

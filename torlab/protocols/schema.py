@@ -49,6 +49,9 @@ __all__ = [
     "Product",
     "Protocol",
     "Reports",
+    "RetentionPredictionSpec",
+    "RetentionReport",
+    "RetentionSweepSpec",
     "StribeckReport",
     "TimeTestReport",
     "TractionLayerFit",
@@ -597,6 +600,113 @@ def _formats(v: Any) -> Any:
         if isinstance(v, list) else v
 
 
+def _retention_amount(v: Any) -> Any:
+    """An applied amount for the retention model: volume, mass or per area, with its unit."""
+    from torlab.model.amount import parse_amount
+
+    if isinstance(v, bool) or not isinstance(v, (str, int, float)):
+        return v
+    try:
+        parse_amount(v)
+    except TorlabInputError as e:
+        raise ValueError(e.message) from None
+    return str(v)
+
+
+RetentionAmount = Annotated[str, BeforeValidator(_retention_amount)]
+RemovalLawName = Literal["zero_order", "first_order", "zero_order+spread", "first_order+spread"]
+
+
+def _fraction_or_fit(v: Any) -> Any:
+    return v if v == "fit" else _q("dimensionless").func(v)
+
+
+def _time_or_auto(v: Any) -> Any:
+    return v if v == "auto" else _q("time").func(v)
+
+
+class RetentionPredictionSpec(_Model):
+    """``reports.retention.prediction``: coefficient against passes on a scene.
+
+    ``amount`` as applied (``4 uL`` with the product's density, ``4 mg``) needs
+    ``band_length`` on a rail (the length it covers) or ``track_radius`` on a
+    disc; or give it per area (``100000 mg/m^2``).
+    """
+
+    scene: Annotated[list[Ref], BeforeValidator(_listify)] = Field(min_length=1)
+    amount: RetentionAmount
+    creepage: Annotated[float, _q("dimensionless", "creepage")] = 0.01
+    band: Band = (0.15, 0.25)
+    band_length: Length | None = Field(default=None, gt=0)
+    track_radius: Length | None = Field(default=None, gt=0)
+    pass_interval: Time | None = Field(default=None, gt=0)
+    passes: float | None = Field(default=None, gt=0, le=1e9)
+    draws: int = Field(default=200, ge=0, le=5000)
+    seed: int = 0
+
+    @model_validator(mode="after")
+    def _check(self) -> RetentionPredictionSpec:
+        if self.creepage == 0:
+            raise ValueError("creepage must not be zero (no creepage dissipates no energy)")
+        if not self.band[0] < self.band[1]:
+            raise ValueError(f"band: the lower limit {self.band[0]:g} must be below the upper "
+                             f"{self.band[1]:g}")
+        return self
+
+
+class RetentionSweepSpec(_Model):
+    """``reports.retention.sweep``: a slip sweep recorded while product is removed (H4.1).
+
+    On the prediction's scene; the time between passes is the disc track's
+    revolution (``prediction.track_radius``) or ``pass_interval`` on a rail.
+    """
+
+    seconds: Time = Field(gt=0)
+    creepage: Creepages = Field(default_factory=lambda: [i * 0.001 for i in range(51)])
+    amount: RetentionAmount | None = None
+    pass_interval: Time | None = Field(default=None, gt=0)
+    trend_tolerance: Fraction = Field(default=0.01, gt=0)
+    draws: int = Field(default=100, ge=0, le=2000)
+
+
+class RetentionReport(_Model):
+    """``reports.retention``: removal fit and retention prediction of one product.
+
+    The HPT runs of ``product`` at ``temperature`` (one fit per applied amount,
+    repeats of an amount fitted jointly) and the ``dry`` runs form the amount
+    layer; the time tests (``time_tests``, default every ``data.mtm`` file) give
+    the removal law on the ``tribometer`` scene (default the PCS MTM ball on
+    disc); ``prediction`` (and ``sweep``) use both (docs/model/retention.md).
+    """
+
+    product: str = Field(min_length=1)
+    dry: str = "dry"
+    temperature: Temperature = 25.0
+    temperature_tolerance: Annotated[float, _q("temperature_difference",
+                                               "temperature_difference")] = Field(default=2.0, gt=0)
+    density: Density | None = Field(default=None, gt=0)
+    repeatability: Fraction = Field(default=0.0, ge=0, lt=1)
+    dry_amount: RetentionAmount | None = None
+    time_tests: Annotated[list[File], BeforeValidator(_listify)] = []
+    tribometer: Annotated[list[Ref], BeforeValidator(_listify)] = []
+    laws: list[RemovalLawName] = Field(default_factory=lambda: ["zero_order", "first_order"],
+                                       min_length=1)
+    law: RemovalLawName | None = None
+    transfer: Annotated[Any, BeforeValidator(_fraction_or_fit)] = 1.0
+    skip: Annotated[Any, BeforeValidator(_time_or_auto)] = "auto"
+    axis: Literal["passes", "cycles", "time"] = "passes"
+    prediction: RetentionPredictionSpec
+    sweep: RetentionSweepSpec | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> RetentionReport:
+        if self.transfer != "fit" and not 0 < self.transfer <= 1:
+            raise ValueError(f"transfer must be in (0, 1] or 'fit', got {self.transfer:g}")
+        if self.skip != "auto" and self.skip < 0:
+            raise ValueError("skip must be a non-negative time or 'auto'")
+        return self
+
+
 class Reports(_Model):
     """``reports:``: the analyses to write (each needs its data; see docs/protocols.md)."""
 
@@ -605,6 +715,7 @@ class Reports(_Model):
     traction: TractionReport | None = None
     stribeck: StribeckReport | None = None
     film: FilmReport | None = None
+    retention: RetentionReport | None = None
     #: file formats of every figure (``torlab run --formats`` overrides)
     figure_formats: Annotated[list[Literal["png", "svg", "pdf"]],
                               BeforeValidator(_formats)] = Field(default=["png"], min_length=1)

@@ -26,7 +26,7 @@ def build_sections(ctx: RunContext) -> list[Any]:
     """Every report section the protocol asks for, then the fitted parameter sets."""
     r = ctx.p.reports
     builders = (("amount", amount), ("time_test", time_test), ("traction", traction),
-                ("stribeck", stribeck), ("film", film))
+                ("stribeck", stribeck), ("film", film), ("retention", retention))
     out = [fn(ctx) for key, fn in builders if getattr(r, key) is not None]
     if ctx.fit_rows:
         out.append(fits_section(ctx))
@@ -258,6 +258,92 @@ def film(ctx: RunContext) -> Any:
                 "kind": fr.kind, "params": dict(fr.params),
                 "ci95": {k: list(v) for k, v in fr.ci95.items()}, "warnings": list(fr.warnings)}
     return film_section(measured, models, fits)
+
+
+def _amount_series_fits(ctx: RunContext, cfg: Any) -> tuple[list[Any], Any, list[str]]:
+    """One HPT layer fit per applied amount of ``cfg.product`` (repeats jointly) and the dry
+    fit, at the report's temperature; each cached like the ``fits.hpt_layers`` fits."""
+    from torlab.fit.layer import fit_layer_hpt
+
+    groups: dict[Any, list[Any]] = {}
+    for r in ctx.reductions.get("hpt", []):
+        m = r.meta
+        if m.temperature is not None and abs(m.temperature - cfg.temperature) > \
+                cfg.temperature_tolerance:
+            continue
+        label = m.product + (f"-{m.condition}" if m.condition else "")
+        if m.product == cfg.dry or label == cfg.dry:
+            groups.setdefault(None, []).append(r)
+        elif cfg.product in (m.product, label) and m.applied_amount is not None:
+            groups.setdefault((m.applied_amount_kind, round(m.applied_amount, 15)), []).append(r)
+    if None not in groups:
+        raise TorlabInputError(f"no HPT run of the dry reference {cfg.dry!r} at "
+                               f"{cfg.temperature:g} °C", key="reports.retention.dry")
+    fits, labels = [], []
+    for g in sorted((k for k in groups if k is not None), key=lambda k: k[1]):
+        runs = groups[g]
+        fits.append(ctx.cache.get_or_compute(
+            "fit_hpt", lambda runs=runs: fit_layer_hpt([r.detail for r in runs]),
+            runs=[ctx.keys[id(r)] for r in runs]))
+        labels += [ctx.keys[id(r)] for r in runs]
+    dry_runs = groups[None]
+    dry = ctx.cache.get_or_compute("fit_hpt", lambda: fit_layer_hpt([r.detail for r in dry_runs]),
+                                   runs=[ctx.keys[id(r)] for r in dry_runs])
+    return fits, dry, labels + [ctx.keys[id(r)] for r in dry_runs]
+
+
+def retention(ctx: RunContext) -> Any:
+    """Removal fit from the time tests and the HPT amount series, retention prediction and
+    (optionally) a slip sweep on the prediction scene (docs/model/retention.md)."""
+    from torlab.fit.removal import default_tribometer_scene, fit_removal, read_time_test
+    from torlab.model.amount import AmountLayer
+    from torlab.model.retention import predict_retention, simulate_sweep
+    from torlab.reports.retention import retention_section
+    from torlab.scene import scene_from_dict
+
+    cfg = ctx.p.reports.retention
+    fits, dry, run_keys = _amount_series_fits(ctx, cfg)
+    prod = ctx.p.products.get(cfg.product)
+    density = cfg.density or (prod.density if prod is not None else None)
+    layer = AmountLayer.from_fits(fits, dry, density=density, dry_amount=cfg.dry_amount,
+                                  repeatability=cfg.repeatability,
+                                  temperature_tolerance=cfg.temperature_tolerance)
+    layer_opts = [cfg.repeatability, cfg.dry_amount, cfg.temperature, density]
+    dens = density or next((f.meta["product_density"] for f in fits
+                            if isinstance(f.meta.get("product_density"), (int, float))), None)
+    files = [p for e in cfg.time_tests for p in e.resolved] or ctx.lp.data_files("mtm")
+    trib_dict = ctx.lp.scenes[tuple(x.resolved for x in cfg.tribometer)] if cfg.tribometer \
+        else {}
+    trib = scene_from_dict(trib_dict) if trib_dict else default_tribometer_scene()
+    opts = {"laws": list(cfg.laws), "law": cfg.law, "transfer": cfg.transfer, "skip": cfg.skip}
+    app = ctx.p.data.mtm.time_test.application_time
+    fit = ctx.cache.get_or_compute(
+        "fit_removal", lambda: fit_removal(
+            [read_time_test(f, density=dens, application_time=app) for f in files], layer,
+            trib, **opts),
+        hpt=run_keys, tests=[ctx.sha(f) for f in files], scene=trib_dict, density=dens,
+        application_time=app, layer_options=layer_opts, **opts)
+    ctx.add_fit(f"removal:{cfg.product}", fit, {}, keep_set=False)
+    pc = cfg.prediction
+    ((_, sc, sd),) = ctx.scenes_for(pc.scene, [])
+    kw = {"track_radius": pc.track_radius, "band_length": pc.band_length, "density": dens}
+    key = {"fit": fit.meta["fit_space"], "hpt": run_keys, "layer_options": layer_opts,
+           "scene": sd, **kw}
+    pred = ctx.cache.get_or_compute("retention", lambda: predict_retention(
+        sc, layer, fit, pc.amount, creepage=pc.creepage, band=tuple(pc.band),
+        pass_interval=pc.pass_interval, n_passes=pc.passes, n_draws=pc.draws, seed=pc.seed,
+        **kw), amount=pc.amount, spec=pc.model_dump(mode="json"), **key)
+    sweep = None
+    if cfg.sweep is not None:
+        sw = cfg.sweep
+        xi = np.asarray(sw.creepage, dtype=float)
+        sweep = ctx.cache.get_or_compute("retention_sweep", lambda: simulate_sweep(
+            sc, layer, fit, sw.amount or pc.amount, creepage=(float(xi[0]), float(xi[-1])),
+            points=xi.size, seconds=sw.seconds, pass_interval=sw.pass_interval or
+            pc.pass_interval, n_draws=sw.draws,
+            trend_tolerance=sw.trend_tolerance, **kw), spec=sw.model_dump(mode="json"),
+            amount=sw.amount or pc.amount, **key)
+    return retention_section(cfg.product, fit, layer, pred, sweep, axis=cfg.axis)
 
 
 def fits_section(ctx: RunContext) -> Any:

@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["KIND_TITLES", "fit_figure"]
+__all__ = ["KIND_TITLES", "fit_figure", "result_figure"]
 
 #: per kind: (x column, x label, x factor, y measured, y model, y label, y factor, residual, log-log)
 _LAYOUT: dict[str, tuple[str, str, float, str, str, str, float, str, bool]] = {
@@ -114,6 +114,13 @@ def fit_figure(result: Any, title: str | None = None,
                      + (f": {src}" if src else ""))
     ax.set_title(f"{head}\n{txt}" if txt and not title else head, fontsize=9)
     return fig
+
+
+def result_figure(result: Any, title: str | None = None,
+                  model_curve: tuple[Any, Any] | None = None) -> Any:
+    """The result's own figure, :meth:`~torlab.fit.result.FitResult.plot` (a result class
+    may draw its own; :class:`~torlab.reports.render.Plot` function)."""
+    return result.plot(title=title, model_curve=model_curve)
 
 
 def _layout(result: Any) -> tuple[str, str, float, str, str, str, float, str, bool]:

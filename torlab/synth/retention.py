@@ -43,6 +43,7 @@ from torlab.model.removal import RemovalLaw
 
 __all__ = [
     "RetentionTestSpec",
+    "hpt_amount_series",
     "law_layer_fits",
     "mtm_scene",
     "paper_b_retention_design",
@@ -335,15 +336,46 @@ def retention_time_test(spec: RetentionTestSpec, layer: AmountLayer, law: Remova
     return tt
 
 
+def hpt_amount_series(seed: int = 2016, product: str = "OFM1",
+                      amounts: tuple[float, ...] = (1, 2, 4, 8, 16)) -> list[Any]:
+    """The HPT runs of the truth layer: one per amount at 25 degC, and the dry run.
+
+    Each run's layer is exactly the truth layer's node (:func:`law_layer_fits`:
+    the product law without run-to-run scatter), so the layer a user fits from
+    these logs estimates the layer the time tests were simulated with; the
+    simulated rig adds its compliance and noise (:func:`torlab.synth.hpt.simulate_hpt`).
+    """
+    from torlab.model.layer import LayerParams
+    from torlab.synth.hpt import PRODUCTS, HptRunSpec
+
+    fits, dry = law_layer_fits(product, amounts)
+    rng = np.random.default_rng([seed, 1])
+    specs = []
+    for law_key, amt, fit in [*((product, a, f) for a, f in zip(amounts, fits, strict=True)),
+                              ("dry", None, dry)]:
+        law = PRODUCTS[law_key]
+        p = fit.params
+        lp = LayerParams(mu_c1=p["mu_c1"], mu_c2=p["mu_c2"], L_mue=p["L_mue"], L_mup=p["L_mup"],
+                         mu_c1_T=law.mu_c1_T, mu_c2_T=law.mu_c2_T)
+        name = f"hpt_{law.name}{'' if amt is None else f'_{amt:g}{law.amount_unit}'}_25C"
+        specs.append(HptRunSpec(name=name, law=law_key, amount=amt, temperature_C=25.0,
+                                params=lp, seed=int(rng.integers(0, 2**31 - 1))))
+    return specs
+
+
 def write_retention_sample_data(out: Any, seed: int = 2016, *,
                                 law: RemovalLaw | None = None) -> list[str]:
     """Write the virtual retention campaign into an :class:`~torlab.outputs.OutputDir`.
 
-    Two MTM time tests of OFM1 (1 and 2 uL) with a first-order removal law;
+    Two MTM time tests of OFM1 (1 and 2 uL) with a first-order removal law, and
+    the product's HPT amount series (1-16 uL and a dry run, 25 degC, the truth
+    layer's nodes; :func:`hpt_amount_series`) with the rig's compliance curve;
     ``truth.yaml`` holds the law, the truth layer's nodes, every test's design,
-    initial amount, band and energy at the end.
+    initial amount, band and energy at the end, and every HPT run's layer.
+    Returns the names of the data files (time tests, then HPT logs).
     """
     from torlab import __version__
+    from torlab.synth.hpt import HptRig, compliance_curve_text, simulate_hpt, write_hpt_log
     from torlab.yamlio import dump_yaml
 
     law = law or RemovalLaw(1, 1.0e-6)
@@ -361,6 +393,16 @@ def write_retention_sample_data(out: Any, seed: int = 2016, *,
                      "energy_at_end_J_m2": float(ch["E_true"][-1]),
                      "amount_at_end_mg_m2": float(ch["m_true"][-1]) / MG_M2,
                      "mu_at_end": float(ch["mu_true"][-1])})
+    hpt_runs = []
+    for spec in hpt_amount_series(seed):
+        fname = f"{spec.name}.txt"
+        out.write_text(fname, write_hpt_log(spec, simulate_hpt(spec), HptRig(),
+                                            notes="retention sample: the truth layer's node"))
+        names.append(fname)
+        hpt_runs.append({"file": fname, "applied_amount": spec.amount,
+                         "boundary": {k: float(v) for k, v in asdict(spec.params).items()},
+                         "seed": spec.seed})
+    out.write_text("rig_compliance.csv", compliance_curve_text(HptRig(), seed + 1))
     tab = layer.table()
     truth = {
         "description": "SYNTHETIC MTM time tests after application with a stated removal law "
@@ -377,6 +419,7 @@ def write_retention_sample_data(out: Any, seed: int = 2016, *,
                              for k, v in row.items()} for row in tab.to_dict("records")]},
         "track_radius_m": TRACK_RADIUS,
         "runs": runs,
+        "hpt_runs": hpt_runs,
     }
     out.write_text("truth.yaml", dump_yaml(truth))
     out.write_text("README.md", _README)
@@ -392,6 +435,12 @@ virtual experiment), not measured.
   (18 N, 1 m/s, 2 % SRR, 1 Hz, 20 minutes after the application at 60 s) of 1 and 2 uL of a
   virtual product whose layer is the OFM1 law of the synthetic HPT campaign, removed by a
   first-order law in the frictional energy per unit band area.
+- `hpt_OFM1_*uL_25C.txt`, `hpt_dry_25C.txt`: the product's HPT amount series (`torlab-hpt`
+  logs, 750 MPa, 25 degC), each run's layer exactly the truth layer's node (no run-to-run
+  scatter), with the virtual rig's compliance (`rig_compliance.csv`) and noise.
 - `truth.yaml`: the law and its parameter, the truth layer's nodes, every test's design,
-  initial amount in the band, band area, and the energy and amount at the end.
+  initial amount in the band, band area, and the energy and amount at the end; every HPT
+  run's layer.
+
+Regenerate with `torlab synth retention -o sample_data/retention --seed 2016 --force`.
 """
