@@ -2,8 +2,9 @@
 hang, no raw warning -- every case either works or ends in one clear line.
 
 Every test runs twice: on a fixed sample of the corpus (every tenth case, the first of
-every reader, every special file and named case) in the quick suite, and on the whole corpus in the slow
-step CI runs (``-m slow``).  The counts of the whole-corpus run are what
+every reader, every special file and named case; the commands that draw figures asked for
+their tables only, --no-plot) in the quick suite, and on the whole corpus, figures
+included, in the slow step CI runs (``-m slow``).  The counts of the whole-corpus run are what
 docs/reliability.md reports; set ``TORLAB_FUZZ_REPORT`` to a file name to have them
 written as JSON.
 """
@@ -37,7 +38,8 @@ def corpus(request, tmp_path_factory):
         firsts = {c.reader: k for k, c in reversed(list(enumerate(cases)))}  # one per reader
         cases = [c for k, c in enumerate(cases)
                  if k % STRIDE == 0 or c.special or c.name in NAMED or firsts[c.reader] == k]
-    return request.param, run_corpus(cases, tmp_path_factory.mktemp("corpus"), CliRunner())
+    return request.param, run_corpus(cases, tmp_path_factory.mktemp("corpus"), CliRunner(),
+                                     plots=request.param == "whole")
 
 
 @pytest.fixture

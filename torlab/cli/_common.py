@@ -45,6 +45,8 @@ JobsOpt = Annotated[int | None, typer.Option(
 SchedulerOpt = Annotated[str | None, typer.Option(
     "--scheduler", metavar="ADDRESS", help="Run the tasks on a Dask cluster instead "
     "(tcp://host:8786; needs pip install 'torlab[dask]'; see docs/performance.md).")]
+NoPlotOpt = Annotated[bool, typer.Option("--no-plot", help="Write the tables only (no figure: "
+                                         "no plotting library is loaded).")]
 QuietOpt = Annotated[bool, typer.Option(
     "--quiet", "-q", help="No progress bars (they are never shown when the output is not a "
     "terminal).")]

@@ -38,13 +38,13 @@ def reduce_command(inputs: list[Path], out: Path, *, instrument: str | None, for
                    options: dict[str, Any], xlsx: bool = False, what: str = "input",
                    filter_folders: bool = True, flags: bool = True, formats: str | None = None,
                    jobs: int | None = None, scheduler: str | None = None,
-                   quiet: bool = False) -> list[Any]:
+                   quiet: bool = False, no_plot: bool = False) -> list[Any]:
     """Expand the inputs, reduce them through the registry, write and print the results.
 
     Option errors are reported with their command-line spelling: ``--window``
     (``flags``), or ``--option window`` (``torlab reduce``).  Files are reduced and
     figures drawn on the executor of ``--jobs``/``--scheduler`` (:mod:`torlab.parallel`),
-    with progress bars unless ``--quiet``; figures in ``--formats``.
+    with progress bars unless ``--quiet``; figures in ``--formats`` (none with ``--no-plot``).
     """
     from torlab.cli._common import session
     from torlab.instruments import (
@@ -73,7 +73,8 @@ def reduce_command(inputs: list[Path], out: Path, *, instrument: str | None, for
         extra = [p for o in prepared.values() for p in _extra_inputs(o)]
         dest = OutputDir(out, force=force, inputs=[*files, *extra], command=command_line())
         with dest:
-            written = write_reductions(dest, reds, prepared, xlsx=xlsx, formats=fmts)
+            written = write_reductions(dest, reds, prepared, xlsx=xlsx, formats=fmts,
+                                       figures=not no_plot)
     show_reductions(reds, notes, out, len(written))
     return reds
 

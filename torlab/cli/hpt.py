@@ -11,6 +11,7 @@ from torlab.cli._common import (
     ForceOpt,
     FormatsOpt,
     JobsOpt,
+    NoPlotOpt,
     OutOpt,
     QuietOpt,
     SchedulerOpt,
@@ -43,6 +44,7 @@ def reduce_cmd(
         "shear_stress and displacement columns) or a constant such as '0.012 um/MPa'.")] = None,
     force: ForceOpt = False,
     xlsx: XlsxOpt = False,
+    no_plot: NoPlotOpt = False,
     formats: FormatsOpt = None,
     jobs: JobsOpt = None,
     scheduler: SchedulerOpt = None,
@@ -60,4 +62,5 @@ def reduce_cmd(
     reduce_command(raw, out, instrument="hpt", force=force, xlsx=xlsx, what="HPT log",
                    options={k: v for k, v in opts.items() if v is not None},
                    filter_folders=map_ is None,
-                   formats=formats, jobs=jobs, scheduler=scheduler, quiet=quiet)
+                   formats=formats, jobs=jobs, scheduler=scheduler, quiet=quiet,
+                   no_plot=no_plot)

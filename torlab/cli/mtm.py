@@ -11,6 +11,7 @@ from torlab.cli._common import (
     ForceOpt,
     FormatsOpt,
     JobsOpt,
+    NoPlotOpt,
     OutOpt,
     QuietOpt,
     SchedulerOpt,
@@ -56,6 +57,7 @@ def reduce_cmd(
         "the end of the step.")] = None,
     force: ForceOpt = False,
     xlsx: XlsxOpt = False,
+    no_plot: NoPlotOpt = False,
     formats: FormatsOpt = None,
     jobs: JobsOpt = None,
     scheduler: SchedulerOpt = None,
@@ -84,4 +86,5 @@ def reduce_cmd(
         raise TorlabInputError(f"{threshold}: give a coefficient such as 0.15", key="--threshold")
     reduce_command(files, out, instrument="pcs", force=force, xlsx=xlsx, what="PCS export",
                    options={k: v for k, v in opts.items() if v is not None},
-                   formats=formats, jobs=jobs, scheduler=scheduler, quiet=quiet)
+                   formats=formats, jobs=jobs, scheduler=scheduler, quiet=quiet,
+                   no_plot=no_plot)

@@ -11,6 +11,7 @@ from torlab.cli._common import (
     ForceOpt,
     FormatsOpt,
     JobsOpt,
+    NoPlotOpt,
     OutOpt,
     QuietOpt,
     SchedulerOpt,
@@ -44,6 +45,7 @@ def reduce_cmd(
         help="Absolute tolerance (coefficient) of the ±SRR symmetry check.")] = 0.005,
     force: ForceOpt = False,
     xlsx: XlsxOpt = False,
+    no_plot: NoPlotOpt = False,
     formats: FormatsOpt = None,
     jobs: JobsOpt = None,
     scheduler: SchedulerOpt = None,
@@ -63,4 +65,5 @@ def reduce_cmd(
             "symmetry_abs": symmetry_abs}
     reduce_command(logs, out, instrument="optical", force=force, xlsx=xlsx, what="optical log",
                    options={k: v for k, v in opts.items() if v is not None},
-                   formats=formats, jobs=jobs, scheduler=scheduler, quiet=quiet)
+                   formats=formats, jobs=jobs, scheduler=scheduler, quiet=quiet,
+                   no_plot=no_plot)

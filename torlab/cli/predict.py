@@ -12,6 +12,7 @@ from torlab.cli._common import (
     ForceOpt,
     FormatsOpt,
     JobsOpt,
+    NoPlotOpt,
     OutOpt,
     QuietOpt,
     SchedulerOpt,
@@ -27,8 +28,6 @@ app = typer.Typer(help="Predict traction and Stribeck curves of a scene (Hertz +
 ScenesArg = Annotated[list[Path], typer.Argument(
     help="Scene YAML, then optional parameter files (e.g. 'torlab fit' output) that override "
     "its keys, in order.")]
-NoPlotOpt = Annotated[bool, typer.Option("--no-plot", help="Write the tables and summary only "
-                                         "(no figure: no plotting library is loaded).")]
 
 
 def _written(names: list[str]) -> str:

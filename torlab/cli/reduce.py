@@ -11,6 +11,7 @@ from torlab.cli._common import (
     ForceOpt,
     FormatsOpt,
     JobsOpt,
+    NoPlotOpt,
     OutOpt,
     QuietOpt,
     SchedulerOpt,
@@ -42,6 +43,7 @@ def reduce_cmd(
                                         callback=lambda v: _list() if v else None)] = False,
     force: ForceOpt = False,
     xlsx: XlsxOpt = False,
+    no_plot: NoPlotOpt = False,
     formats: FormatsOpt = None,
     jobs: JobsOpt = None,
     scheduler: SchedulerOpt = None,
@@ -68,7 +70,8 @@ def reduce_cmd(
         opts["after_application"] = True
     reduce_command(inputs, out, instrument=as_, force=force, xlsx=xlsx, options=opts,
                    what="instrument", flags=False,
-                   formats=formats, jobs=jobs, scheduler=scheduler, quiet=quiet)
+                   formats=formats, jobs=jobs, scheduler=scheduler, quiet=quiet,
+                   no_plot=no_plot)
 
 
 def _list() -> None:

@@ -11,6 +11,7 @@ from torlab.cli._common import (
     ForceOpt,
     FormatsOpt,
     JobsOpt,
+    NoPlotOpt,
     OutOpt,
     QuietOpt,
     SchedulerOpt,
@@ -49,6 +50,7 @@ def reduce_cmd(
     confidence: Annotated[float, typer.Option(help="Level of the confidence intervals.")] = 0.95,
     force: ForceOpt = False,
     xlsx: XlsxOpt = False,
+    no_plot: NoPlotOpt = False,
     formats: FormatsOpt = None,
     jobs: JobsOpt = None,
     scheduler: SchedulerOpt = None,
@@ -69,4 +71,5 @@ def reduce_cmd(
             "eta0": eta0, "confidence": confidence}
     reduce_command(logs, out, instrument="visc", force=force, xlsx=xlsx, what="viscometer log",
                    options={k: v for k, v in opts.items() if v is not None},
-                   formats=formats, jobs=jobs, scheduler=scheduler, quiet=quiet)
+                   formats=formats, jobs=jobs, scheduler=scheduler, quiet=quiet,
+                   no_plot=no_plot)
