@@ -13,11 +13,14 @@ REAL_PCS = ROOT.parent / "shared" / "real-data" / "pcs"
 
 
 def pytest_configure(config):
-    """Keep the cache's HMAC key (torlab.protocols.cache) out of the tester's home folder."""
+    """Keep the cache's HMAC key (torlab.protocols.cache) out of the tester's home folder;
+    commands run their tasks in their own process (pytest-xdist already uses every core;
+    tests/test_parallel.py runs the executors themselves)."""
     import os
     import tempfile
 
     os.environ.setdefault("TORLAB_CONFIG_DIR", tempfile.mkdtemp(prefix="torlab-test-config-"))
+    os.environ.setdefault("TORLAB_JOBS", "1")
 
 
 @pytest.fixture

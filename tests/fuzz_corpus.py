@@ -455,12 +455,19 @@ def command(case: Case, work: Path) -> list[str]:
 _STDERR_OK = ("error: ", "warning: ")
 
 
-def run_case(case: Case, work: Path, runner: object) -> Outcome:
+#: the commands that take --no-plot (tables only)
+_PLOTTING = {("hpt", "reduce"), ("mtm", "reduce"), ("optical", "reduce"), ("visc", "reduce"),
+             ("predict", "traction"), ("predict", "stribeck")}
+
+
+def run_case(case: Case, work: Path, runner: object, plots: bool = True) -> Outcome:
     """Run one case through the CLI in-process and classify what happened."""
     from torlab.cli import _STATE, app
 
     work.mkdir(parents=True, exist_ok=True)
     args = command(case, work)
+    if not plots and tuple(args[:2]) in _PLOTTING:
+        args.append("--no-plot")
     old = signal.signal(signal.SIGALRM, _alarm)
     signal.alarm(TIME_LIMIT)
     try:
@@ -497,12 +504,12 @@ def run_case(case: Case, work: Path, runner: object) -> Outcome:
     return Outcome(case, code, "bug", f"exit code {code}", hidden)
 
 
-def run_corpus(cases: list[Case], base: Path, runner: object,
+def run_corpus(cases: list[Case], base: Path, runner: object, plots: bool = True,
                progress: Callable[[int, Outcome], None] | None = None) -> list[Outcome]:
     """Run every case in its own folder under ``base``."""
     outs = []
     for k, c in enumerate(cases):
-        o = run_case(c, base / f"c{k:04d}", runner)
+        o = run_case(c, base / f"c{k:04d}", runner, plots)
         outs.append(o)
         if progress is not None:
             progress(k, o)
@@ -522,5 +529,5 @@ if __name__ == "__main__":  # python tests/fuzz_corpus.py [filter]: run and prin
         def show(k: int, o: Outcome) -> None:
             if o.kind not in ("ok", "input_error", "numerical_error"):
                 print(f"{k:4d} {o.kind:15s} {o.case.name}: {o.detail}", flush=True)
-        outs = run_corpus(cases, Path(d), CliRunner(), show)
+        outs = run_corpus(cases, Path(d), CliRunner(), progress=show)
     print(len(outs), collections.Counter(o.kind for o in outs))

@@ -78,6 +78,7 @@ def test_notebook_example_runs(monkeypatch):
     plt.close("all")
 
 
+@pytest.mark.slow
 def test_api_reference_builds_without_warnings(tmp_path):
     pytest.importorskip("pdoc", reason="the docs extra (pdoc) is not installed: pip install "
                         "'torlab[docs]' to build the API reference")

@@ -222,6 +222,7 @@ def test_hertz_reference_swaps_axes():
 
 
 # --- the benchmark modules in their quick form ---------------------------------------------------
+@pytest.mark.slow
 def test_fastsim_quick_rows_and_ratios():
     from torlab.bench import fastsim
 
@@ -260,7 +261,8 @@ def test_temperature_quick_rows():
 
 def test_cli_benchmark_cases_are_runnable_and_their_library_calls_compile():
     """Every measured command's inputs exist, its library equivalent is valid Python, and
-    the quick set is --help plus one prediction."""
+    the quick set is --help plus one prediction with and without its figure; the three
+    protocols are timed cold and warm."""
     from torlab.bench import cli as bench_cli
 
     full = bench_cli.cases(quick=False)
@@ -271,7 +273,11 @@ def test_cli_benchmark_cases_are_runnable_and_their_library_calls_compile():
                 assert Path(a).exists(), (c.name, a)
         if c.library is not None:
             compile(c.library, c.name, "exec")
-    assert [c.name for c in bench_cli.cases(quick=True)] == [c.name for c in full[:2]]
+    assert [c.name for c in bench_cli.cases(quick=True)] == [c.name for c in full[:3]]
+    assert "--no-plot" in full[2].argv
+    runs = [c for c in full if c.argv[0] == "run"]
+    assert [c.name.split()[-1] for c in runs] == ["(cold)", "(warm)"] * 3
+    assert all(c.warm == ("--force" in c.argv) for c in runs)
 
 
 def test_cli_benchmark_library_call_does_the_commands_work(cli, tmp_path):
@@ -290,6 +296,7 @@ def test_cli_benchmark_library_call_does_the_commands_work(cli, tmp_path):
     pd.testing.assert_frame_equal(a, b, check_exact=False, rtol=1e-8)  # OutputDir rounds
 
 
+@pytest.mark.slow
 def test_bands_quick_rows():
     """The band benchmark measures the plain curve, the default band and both methods in one
     run; the default is linearised for the HPT-fitted wheel-rail scene (k + 2 = 6 model

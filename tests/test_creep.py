@@ -150,6 +150,7 @@ def test_reduces_to_the_longitudinal_model(layer, ab):
     assert np.all(r.Fy == 0) and np.all(np.abs(r.Mz) < 1e-12 * np.abs(r.Fx) * prob.a)
 
 
+@pytest.mark.slow
 def test_longitudinal_against_the_grid_free_reference():
     prob = problem(1.12, WR_LAYER)
     for xi in (1e-4, 3e-3, 0.05):

@@ -69,6 +69,7 @@ def test_sample_run_recovers_truth_within_intervals(file):
     assert set(res.to_scene_dict()["boundary"]) == set(NAMES)
 
 
+@pytest.mark.slow
 def test_interval_coverage_over_200_seeds():
     """95 % intervals cover the truth about 95 % of the time (binomial 3-sigma band 90-99.6 %
     for 200 seeds)."""
@@ -84,6 +85,7 @@ def test_interval_coverage_over_200_seeds():
     assert np.all(cover <= 0.996), dict(zip(NAMES, cover, strict=True))
 
 
+@pytest.mark.slow
 def test_low_friction_layer_coverage_with_absolute_force_noise():
     """A low-friction layer: the arm transducer's absolute noise dominates the short elastic
     branch, so a purely relative noise model would make the L_mue interval too narrow."""

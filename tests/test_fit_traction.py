@@ -35,6 +35,7 @@ def test_model_is_predicts_model():
     np.testing.assert_allclose(traction_model(sc)(TRUTH, xi), ref, rtol=0, atol=1e-14)
 
 
+@pytest.mark.slow
 def test_recovery_and_coverage_over_seeds():
     """Synthetic curves (model at known parameters + white noise): the 95 % intervals cover
     the truth in at least 25 of 30 seeds for each parameter (binomial: 28.5 expected)."""

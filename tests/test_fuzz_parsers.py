@@ -158,10 +158,7 @@ def _parse_and_reduce(kind: str, data: bytes, name: str) -> None:
         reduce_viscometer(df, meta, calibration=Calibration(1.9e-8))
 
 
-@settings(max_examples=300, deadline=None, derandomize=True, database=None,
-          suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
-@given(src=st.integers(0, len(SOURCES) - 1), data=st.data())
-def test_mutated_committed_files(src, data):
+def _committed(src, data):
     kind, raw = SOURCES[src]
     mutated = _mutate(raw, data.draw)
     _check_outcome(kind, mutated, f"fuzz-{kind}-{src}.txt")
@@ -170,16 +167,28 @@ def test_mutated_committed_files(src, data):
 REAL = ["demo_3.txt", "demo_5.txt", "ETM_slim_mapper.txt"]
 
 
-@pytest.mark.realdata
-@settings(max_examples=40, deadline=None, derandomize=True, database=None,
-          suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
-@given(which=st.integers(0, 2), data=st.data())
-def test_mutated_real_pcs_files(which, data):
+def _real(which, data):
     path = REAL_PCS / REAL[which]
     if not path.exists():
         pytest.skip(f"real PCS data not available ({path})")
     raw = path.read_bytes()
     _check_outcome("pcs", _mutate(raw, data.draw), REAL[which])
+
+
+def _fuzz(fn, examples: int, **strategies):
+    return settings(max_examples=examples, deadline=None, derandomize=True, database=None,
+                    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])(
+        given(**strategies)(fn))
+
+
+# each runs a few examples in the quick suite, and its full count in CI's slow step
+_SRC = {"src": st.integers(0, len(SOURCES) - 1), "data": st.data()}
+_WHICH = {"which": st.integers(0, 2), "data": st.data()}
+test_mutated_committed_files = _fuzz(_committed, 50, **_SRC)
+test_mutated_committed_files_all = pytest.mark.slow(_fuzz(_committed, 300, **_SRC))
+test_mutated_real_pcs_files = pytest.mark.realdata(_fuzz(_real, 6, **_WHICH))
+test_mutated_real_pcs_files_all = pytest.mark.realdata(pytest.mark.slow(_fuzz(_real, 40,
+                                                                              **_WHICH)))
 
 
 @pytest.mark.parametrize("i", range(len(SOURCES)))

@@ -71,12 +71,33 @@ def test_predict_traction_cli_dry(cli, tmp_path):
     s = json.loads((out / "summary.json").read_text())
     assert s["trend_after_saturation"]["trend"] in ("negative", "neutral", "positive")
     assert any("EHL film: not modelled" in m for m in s["modelled"])
-    assert (out / "traction.png").stat().st_size > 10_000 and (out / "traction.svg").exists()
+    assert (out / "traction.png").stat().st_size > 10_000
+    assert not (out / "traction.svg").exists()  # PNG by default; SVG/PDF on request
     assert "trend after saturation" in r.output
     assert sha(scene) == before
     # never silently over earlier results
     r2 = cli("predict", "traction", scene, "-o", out)
     assert r2.exit_code == 2 and "--force" in r2.output
+
+
+def test_predict_traction_formats_and_no_plot(cli, tmp_path):
+    scene = SCENES / "wheel_rail_tab54.yaml"
+    r = cli("predict", "traction", scene, "-o", tmp_path / "all", "--formats", "png,svg,pdf")
+    assert r.exit_code == 0, r.output
+    out = tmp_path / "all"
+    assert (out / "traction.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert b"<svg" in (out / "traction.svg").read_bytes()[:400]
+    assert (out / "traction.pdf").read_bytes()[:5] == b"%PDF-"
+    # --no-plot: the same table and summary, no figure
+    r = cli("predict", "traction", scene, "-o", tmp_path / "np", "--no-plot")
+    assert r.exit_code == 0, r.output
+    assert sorted(p.name for p in (tmp_path / "np").iterdir()) == [
+        "summary.json", "torlab-manifest.json", "traction.csv"]
+    assert (tmp_path / "np" / "traction.csv").read_bytes() == (out / "traction.csv").read_bytes()
+    # an unknown format is a one-line user error, nothing written
+    r = cli("predict", "traction", scene, "-o", tmp_path / "bad", "--formats", "png,jpeg")
+    assert r.exit_code == 2 and "jpeg" in r.output and "--formats" in r.output
+    assert not (tmp_path / "bad").exists()
 
 
 def test_predict_traction_params_file_overrides_scene(cli, tmp_path):

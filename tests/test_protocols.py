@@ -467,7 +467,7 @@ def test_report_files_and_provenance(request, fixture):
         pngs = sorted(folder.glob("*.png"))
         assert pngs, sec
         for p in pngs:
-            assert p.with_suffix(".svg").is_file()
+            assert not p.with_suffix(".svg").exists()  # PNG only unless asked
             assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
             assert f"{sec}/{p.name}" in md
         for c in folder.glob("*.csv"):
@@ -508,19 +508,54 @@ def test_rerun_reuses_cache_and_refuses_overwrite(tmp_path):
     p.write_text(SMALL)
     out = tmp_path / "out"
     r1 = run_protocol(p, out)
-    assert r1.cache_hits == 0 and r1.cache_misses == 5
+    # five reductions and the amount section's crossings; two figures (amount, mass) drawn
+    assert r1.cache_hits == 0 and r1.cache_misses == 6
+    assert (r1.timing["figures_drawn"], r1.timing["figures_reused"]) == (2, 0)
+    png = (out / "amount" / "amount_applied.png").read_bytes()
     with pytest.raises(OutputExistsError):
         run_protocol(p, out)
     r2 = run_protocol(p, out, force=True)
-    assert (r2.cache_hits, r2.cache_misses) == (5, 0)
+    assert (r2.cache_hits, r2.cache_misses) == (6, 0)
+    assert (r2.timing["figures_drawn"], r2.timing["figures_reused"]) == (0, 2)
+    assert (out / "amount" / "amount_applied.png").read_bytes() == png
     assert r2.summary["reports"] == r1.summary["reports"]
-    # a changed input file is recomputed, the others are reused
+    # a changed input file is recomputed, the others are reused; so are the crossings and
+    # the figure, whose data did not change (only a comment of the log did)
     f = tmp_path / "hpt_OFM1_8uL_25C.txt"
     f.write_text(f.read_text().replace("# operator: torlab synth", "# operator: someone else"))
     r3 = run_protocol(p, out, force=True)
-    assert (r3.cache_hits, r3.cache_misses) == (4, 1)
+    assert (r3.cache_hits, r3.cache_misses) == (5, 1)
+    assert r3.timing["figures_reused"] == 2
     assert r3.summary["inputs"]["hpt_OFM1_8uL_25C.txt"] == sha(f)
-    assert len(list((out / ".cache").glob("*.tlc"))) == 5   # the stale entry was dropped
+    assert len(list((out / ".cache").glob("*.tlc"))) == 6   # the stale entry was dropped
+    # a changed number is a changed figure: drawn again, the old one dropped
+    p.write_text(SMALL.replace("curve: interpolation", "curve: interpolation\n    threshold: 0.2"))
+    r4 = run_protocol(p, out, force=True)
+    assert (r4.timing["figures_drawn"], r4.timing["figures_reused"]) == (2, 0)
+    assert (out / "amount" / "amount_applied.png").read_bytes() != png
+    assert len(list((out / ".cache").glob("fig-*.png"))) == 2
+    assert len(list((out / ".cache").glob("fig-*.png.mac"))) == 2
+
+
+def test_cached_figure_that_was_changed_is_drawn_again(tmp_path):
+    """A cached figure is authenticated like every cache entry: an edited one is redrawn."""
+    from torlab.protocols.runner import run_protocol
+
+    for f in sorted((ROOT / "sample_data/hpt").glob("hpt_OFM1_*uL_25C.txt")):
+        shutil.copy(f, tmp_path / f.name)
+    p = tmp_path / "small.yaml"
+    p.write_text(SMALL + "  figure_formats: png, svg\n")
+    out = tmp_path / "out"
+    run_protocol(p, out)
+    assert (out / "amount" / "amount_applied.svg").is_file()
+    figs = sorted((out / ".cache").glob("fig-*.png"))
+    assert len(figs) == 2
+    good = (out / "amount" / "amount_applied.png").read_bytes()
+    for fig in figs:  # a picture changed in the cache (its authentication left as it was)
+        fig.write_bytes(fig.read_bytes() + b"tampered")
+    r = run_protocol(p, out, force=True)
+    assert (r.timing["figures_drawn"], r.timing["figures_reused"]) == (2, 0)
+    assert (out / "amount" / "amount_applied.png").read_bytes() == good
 
 
 def test_missing_output_option(tmp_path, cli):

@@ -171,8 +171,8 @@ def test_predict_retention_outputs_and_crossings(fitted, cli, tmp_path):
         assert np.interp(cr["passes"], t["passes"], t["mu"]) == pytest.approx(level, abs=2e-3)
     assert s["passes_to_enter_band"]["passes"] < s["passes_to_leave_band"]["passes"]
     assert s["law"] == "first_order" and s["modelled"] and "notes" in s
-    for f in ("retention.png", "retention.svg"):
-        assert (tmp_path / "p" / f).stat().st_size > 1000
+    assert (tmp_path / "p" / "retention.png").stat().st_size > 1000
+    assert not (tmp_path / "p" / "retention.svg").exists()  # PNG unless --formats says more
     assert "enters the band" in r.output and "leaves the band" in r.output
 
 
@@ -253,7 +253,7 @@ def test_sweep_steady_curve_is_the_traction_model_at_the_applied_amount(fitted, 
     assert 0.0 <= s["probability_sweep_positive"] <= 1.0
     assert s["trend_steady"]["trend"] in ("neutral", "positive", "negative")
     assert "verdict:" in r.output and s["verdict"] in r.output
-    assert (tmp_path / "s" / "sweep.csv").exists() and (tmp_path / "s" / "traction.svg").exists()
+    assert (tmp_path / "s" / "sweep.csv").exists() and (tmp_path / "s" / "traction.png").exists()
 
 
 # --------------------------------------------------------------------------- bad input
@@ -388,7 +388,7 @@ def test_retention_protocol_against_truth(protocol_run):
     assert sw["trend_steady"] in ("neutral", "positive", "negative")
     assert 0.0 <= sw["probability_positive_by_removal"] <= sw["probability_sweep_positive"] <= 1
     assert "removal:OFM1" in res.summary["fits"]
-    for f in ("retention/retention.png", "retention/retention.svg", "retention/removal_fit.png",
+    for f in ("retention/retention.png", "retention/removal_fit.png",
               "retention/amount_layer.png", "retention/sweep.png", "retention/retention.csv",
               "retention/crossings.csv", "fits/removal_OFM1.yaml"):
         assert (out / f).exists(), f

@@ -473,13 +473,17 @@ def test_force_refuses_a_user_file_inside_a_result_subfolder(tmp_path):
 @pytest.mark.parametrize("err, fragment", [(28, "no space left"), (30, "read-only"),
                                            (13, "permission denied")])
 def test_write_failures_are_exit_2_and_leave_nothing(cli, tmp_path, monkeypatch, err, fragment):
+    import pathlib
+
     import pandas as pd
 
     def full(self, *a, **k):
         raise OSError(err, os.strerror(err))
 
     out = tmp_path / "out"
+    # the table is written through pandas or, without it, as bytes: both fail
     monkeypatch.setattr(pd.DataFrame, "to_csv", full)
+    monkeypatch.setattr(pathlib.Path, "write_bytes", full)
     r = cli("predict", "traction", SCENE, "--creepage", "0:0.05:3", "-o", out)
     assert r.exit_code == 2
     (line,) = error_lines(r)

@@ -46,7 +46,7 @@ import stat
 import sys
 import tempfile
 import time
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -58,11 +58,42 @@ __all__ = [
     "OutputDir",
     "atomic_write_bytes",
     "atomic_write_text",
+    "columns_csv",
     "safe_name",
     "sha256_file",
 ]
 
 MANIFEST = "torlab-manifest.json"
+
+
+def columns_csv(cols: Mapping[str, Any], float_format: str = "%.10g") -> str:
+    """CSV text of named 1-D columns, as ``pandas.DataFrame.to_csv(index=False,
+    float_format=...)`` writes it: floats with ``float_format`` (NaN as an empty cell),
+    integers and booleans as Python prints them, text quoted where it must be."""
+    import csv
+    import io
+
+    import numpy as np
+
+    names = list(cols)
+    n = len(next(iter(cols.values()))) if cols else 0
+    cells = []
+    for k in names:
+        v = np.asarray(cols[k])
+        if v.shape != (n,):
+            raise ValueError(f"column {k!r} has {v.size} values, expected {n}")
+        if v.dtype.kind == "f":
+            cells.append(["" if x != x else float_format % x for x in v.tolist()])
+        elif v.dtype.kind in "biu":
+            cells.append([str(x) for x in v.tolist()])
+        else:
+            cells.append(["" if x is None or (isinstance(x, float) and x != x) else str(x)
+                          for x in v.tolist()])
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(names)
+    w.writerows(zip(*cells, strict=True))
+    return buf.getvalue()
 
 
 def sha256_file(path: str | os.PathLike[str], chunk: int = 1 << 20) -> str:
@@ -344,6 +375,8 @@ class OutputDir:
         self.keep = list(keep)
         self.files: list[str] = []
         self.notes: list[str] = []
+        #: seconds spent writing files (for a command's honest time split)
+        self.io_seconds = 0.0
         self._staging: Path | None = None
         t = self.target
         if t.exists() and not t.is_dir():
@@ -462,16 +495,15 @@ class OutputDir:
 
     def write_text(self, name: str, text: str) -> Path:
         """Write a UTF-8 text file."""
-        p = self.path(name)
-        with _writing(self.final_path(name)):
-            p.write_text(text, encoding="utf-8")
-        return self.final_path(name)
+        return self.write_bytes(name, text.encode("utf-8"))
 
     def write_bytes(self, name: str, data: bytes) -> Path:
         """Write a binary file."""
+        t0 = time.perf_counter()
         p = self.path(name)
         with _writing(self.final_path(name)):
             p.write_bytes(data)
+        self.io_seconds += time.perf_counter() - t0
         return self.final_path(name)
 
     def write_json(self, name: str, obj: Any) -> Path:
@@ -480,7 +512,8 @@ class OutputDir:
 
     def write_csv(self, name: str, df: Any, *, float_format: str = "%.10g",
                   allow_missing: tuple[str, ...] = ()) -> Path:
-        """Write a pandas DataFrame as CSV (no index).
+        """Write a table as CSV (no index): a pandas DataFrame, or a mapping of column name
+        to a 1-D array (written without importing pandas, byte for byte as pandas would).
 
         Numbers must be finite: a NaN or inf is refused (a numerical bug must not
         reach a result file), except NaN in the ``allow_missing`` columns, which
@@ -488,10 +521,16 @@ class OutputDir:
         """
         import numpy as np
 
-        num = df.select_dtypes(include="number")
+        t0 = time.perf_counter()
+        if isinstance(df, Mapping):
+            cols = {str(k): np.asarray(v) for k, v in df.items()}
+            num = {k: v for k, v in cols.items() if v.dtype.kind in "biuf"}
+        else:
+            cols = None
+            num = {c: df[c] for c in df.select_dtypes(include="number").columns}
         bad = []
-        for c in num.columns:
-            v = num[c].to_numpy(dtype=float)
+        for c, col in num.items():
+            v = np.asarray(col, dtype=float)
             ok = np.isfinite(v) | (np.isnan(v) if c in allow_missing else False)
             if not ok.all():
                 bad.append(c)
@@ -499,22 +538,22 @@ class OutputDir:
             raise ValueError(f"refusing to write non-finite values to {name}: columns {bad}")
         p = self.path(name)
         with _writing(self.final_path(name)):
-            df.to_csv(p, index=False, float_format=float_format, lineterminator="\n")
+            if cols is None:
+                df.to_csv(p, index=False, float_format=float_format, lineterminator="\n")
+            else:
+                p.write_bytes(columns_csv(cols, float_format).encode("utf-8"))
+        self.io_seconds += time.perf_counter() - t0
         return self.final_path(name)
 
     def save_figure(self, name: str, fig: Any, **kw: Any) -> Path:
-        """Save a matplotlib figure (format from the suffix) and close it."""
-        import matplotlib.pyplot as plt
+        """Save a figure (format from the suffix): a :class:`~torlab.reports.render.Plot`
+        or a matplotlib figure (closed after saving).  No ``bbox_inches="tight"`` pass:
+        torlab's figures have a fixed layout (:mod:`torlab.reports.plotting`)."""
+        from torlab.reports.render import render_figures
 
-        p = self.path(name)
-        kw.setdefault("dpi", 150)
-        kw.setdefault("bbox_inches", "tight")
-        try:
-            with _writing(self.final_path(name)):
-                fig.savefig(p, **kw)
-        finally:
-            plt.close(fig)
-        return self.final_path(name)
+        stem, _, fmt = name.rpartition(".")
+        images, _ = render_figures([(stem, fig)], (fmt.lower() or "png",), dpi=kw.get("dpi"))
+        return self.write_bytes(name, images[stem][fmt.lower() or "png"])
 
     # -- commit -------------------------------------------------------------
     def commit(self) -> Path:

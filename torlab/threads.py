@@ -12,7 +12,10 @@ one run).  The fits therefore run with one BLAS/OpenMP thread
 process each.
 
 The limit holds for the duration of the call only: a notebook's own numpy work
-keeps its thread pools.
+keeps its thread pools.  The command line starts the BLAS libraries with one
+thread in the first place (``OPENBLAS_NUM_THREADS=1`` before numpy loads, unless
+the user set it; :func:`torlab.cli.main`); :func:`limit_threads` then has
+nothing to do and does not load threadpoolctl and scipy's BLAS for it.
 """
 
 from __future__ import annotations
@@ -30,6 +33,9 @@ SMALL_PROBLEM_THREADS = 1
 F = TypeVar("F", bound=Callable[..., Any])
 
 _CONTROLLER: list[Any] = []
+
+#: set by the command line when the BLAS libraries were started with one thread
+STARTED_SINGLE_THREADED = [False]
 
 
 def _controller() -> Any:
@@ -50,6 +56,9 @@ def _controller() -> Any:
 @contextmanager
 def limit_threads(n: int = SMALL_PROBLEM_THREADS) -> Iterator[None]:
     """Limit every BLAS and OpenMP pool of the process to ``n`` threads inside the block."""
+    if STARTED_SINGLE_THREADED[0] and int(n) >= 1:
+        yield
+        return
     with _controller().limit(limits=int(n)):
         yield
 

@@ -407,7 +407,7 @@ class Propagation:
         method: Student-t (or normal) distribution of the output; sampling: the
         fraction of draws; ``none``: the class of the estimate with probability 1.
         """
-        from scipy.stats import t as student
+        from torlab._stats import t_cdf  # scipy.stats.t.cdf, without its import
 
         key = self._key(output)
         e = np.asarray(edges, dtype=float)
@@ -421,7 +421,7 @@ class Propagation:
         if self.method == "linear":
             nu = float(np.ravel(self._design.get("nu", {}).get(key, np.array([math.inf])))[0])
             s = float(np.ravel(self.sd[key])[0])
-            cdf = student.cdf((e - c) / s, nu) if math.isfinite(nu) else _norm_cdf((e - c) / s)
+            cdf = t_cdf((e - c) / s, nu) if math.isfinite(nu) else _norm_cdf((e - c) / s)
         else:
             x = np.asarray(self._design["stacked"][key], dtype=float).reshape(-1)
             cdf = np.array([np.mean(x < v) if i == 0 else np.mean(x <= v)
@@ -569,13 +569,12 @@ def _norm_cdf(x: np.ndarray) -> np.ndarray:
 
 def _quantile(confidence: float, nu: Any) -> Any:
     """Two-sided quantile (Student t for finite ``nu``, normal for inf), elementwise."""
-    from scipy.stats import norm
-    from scipy.stats import t as student
+    from torlab._stats import norm_ppf, t_ppf  # scipy.stats's, without its import
 
     nu = np.asarray(nu, dtype=float)
     q = 0.5 + confidence / 2.0
-    out = np.where(np.isfinite(nu), student.ppf(q, np.where(np.isfinite(nu), np.maximum(nu, 1.0),
-                                                            1.0)), norm.ppf(q))
+    out = np.where(np.isfinite(nu), t_ppf(q, np.where(np.isfinite(nu), np.maximum(nu, 1.0),
+                                                      1.0)), norm_ppf(q))
     return float(out) if out.ndim == 0 else out
 
 
@@ -609,34 +608,90 @@ def _evaluate_rows(model: Model, dist: ParameterDistribution, thetas: np.ndarray
     return [_as_outputs(model(dist.params(t))) for t in thetas]
 
 
+#: parameter draws per task of the sampling method (:mod:`torlab.parallel`), and blocks per
+#: round (after each round the evaluation stops if too many draws failed); both fixed, so
+#: the split -- and the result -- never depends on how many workers evaluate the blocks
+SAMPLE_BLOCK = 10
+SAMPLE_ROUND = 4
+
+
+@dataclass
+class _Block:
+    """Evaluate the model at a block of draws, row by row (a picklable executor task)."""
+
+    model: Any
+    dist: ParameterDistribution
+
+    def __call__(self, thetas: np.ndarray) -> list[tuple[dict[str, np.ndarray] | None, str]]:
+        from torlab.errors import NumericalError, TorlabInputError
+
+        out: list[tuple[dict[str, np.ndarray] | None, str]] = []
+        for t in thetas:
+            try:
+                out.append((_as_outputs(self.model(self.dist.params(t))), ""))
+            except (NumericalError, TorlabInputError, FloatingPointError, ValueError) as e:
+                out.append((None, str(e)))
+        return out
+
+
+def _block_executor(task: _Block) -> Any:
+    """The executor in use for the draws; serial when local processes cannot take the model
+    (a closure: standard pickling cannot send it) -- the same blocks, the same result."""
+    from torlab.parallel import SerialExecutor, current
+
+    ex = current()
+    if ex.kind == "processes":
+        import pickle
+
+        try:
+            pickle.dumps(task)
+        except (pickle.PicklingError, TypeError, AttributeError):
+            return SerialExecutor()
+    return ex
+
+
 def _evaluate_many(model: Model, dist: ParameterDistribution, thetas: np.ndarray,
                    vectorized: bool) -> tuple[dict[str, np.ndarray], np.ndarray]:
-    """Outputs at the draws, stacked; draws whose evaluation fails numerically are left out."""
-    from torlab.errors import NumericalError, TorlabInputError
+    """Outputs at the draws, stacked; draws whose evaluation fails numerically are left out.
 
+    A vectorised model takes every draw in one call.  Otherwise the draws go in fixed
+    blocks of :data:`SAMPLE_BLOCK` to the executor in use (:mod:`torlab.parallel`), each
+    evaluated row by row, :data:`SAMPLE_ROUND` blocks at a time; after a round in which
+    more than 5 % of all the draws have failed, the rest are not evaluated (the model
+    does not hold there, and the answer is already known).  The rounds are the same
+    whatever evaluates them, so the result and the failure count are the same serially,
+    on processes and on a cluster.
+    """
     m = thetas.shape[0]
     failed = np.zeros(m, dtype=bool)
+    first = ""
     if vectorized:
         out = _as_outputs(model(dist.params(thetas)))
         for v in out.values():
             bad = ~np.all(np.isfinite(v.reshape(m, -1)) | np.isnan(v.reshape(m, -1)), axis=1)
             failed |= bad
         stacked = {k: v[~failed] for k, v in out.items()}
-    first = ""
-    if not vectorized:
+    else:
+        from torlab.parallel import chunks
+
+        task = _Block(model, dist)
+        ex = _block_executor(task)
+        blocks = [thetas[s] for s in chunks(m, SAMPLE_BLOCK)]
         rows = []
-        for i in range(m):
-            try:
-                rows.append(_as_outputs(model(dist.params(thetas[i]))))
-            except (NumericalError, TorlabInputError, FloatingPointError, ValueError) as e:
-                failed[i] = True
-                first = first or str(e)
-                if failed.sum() > 0.05 * m:
-                    break  # too many already: no need to evaluate the rest
-        if not rows:
-            stacked = {}
-        else:
-            stacked = {k: np.stack([r[k] for r in rows]) for k in rows[0]}
+        i = 0
+        for r0 in range(0, len(blocks), SAMPLE_ROUND):
+            results = ex.map(task, blocks[r0:r0 + SAMPLE_ROUND],
+                             description="band: parameter draws")
+            for res, err in (r for block in results for r in block):
+                if res is None:
+                    failed[i] = True
+                    first = first or err
+                else:
+                    rows.append(res)
+                i += 1
+            if failed.sum() > 0.05 * m:
+                break
+        stacked = {k: np.stack([r[k] for r in rows]) for k in rows[0]} if rows else {}
     if failed.sum() > 0.05 * m:
         from torlab.errors import NumericalError as NE
 

@@ -228,7 +228,9 @@ def _walk(node: Any, path: tuple[Any, ...], lines: LineMap, spath: str | None) -
 
 
 def dump_yaml(data: Any) -> str:
-    """YAML text for ``data`` with keys in insertion order."""
+    """YAML text for ``data`` with keys in insertion order (libyaml's emitter where PyYAML has
+    it: the same text as the pure-Python one, three times faster)."""
     import yaml
 
-    return yaml.safe_dump(data, sort_keys=False, allow_unicode=True, default_flow_style=False)
+    return yaml.dump(data, Dumper=getattr(yaml, "CSafeDumper", yaml.SafeDumper), sort_keys=False,
+                     allow_unicode=True, default_flow_style=False)

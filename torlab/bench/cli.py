@@ -13,10 +13,16 @@ In the same run, interleaved round by round, are timed
 * the library call *in this process*, warm (imports done): the computation and
   the writing alone.
 
-Times are medians over the rounds.  The ratios (command over ``--help``, command
-over the library script, in-process share of the command's wall time) are what
-to read: the machine is shared and noisy.  The commands write into fresh folders
-of a temporary directory; the sample data are only read.
+Times are medians over the rounds: wall time, and the CPU time (user + system) of
+the command and every process it started, which a busy machine inflates much less
+than the wall time.  The ratios (command over ``--help``, command over the library
+script, in-process share of the command's wall time) are what to read: the machine
+is shared and noisy.  The commands write into fresh folders of a temporary
+directory; the sample data are only read.
+
+The three shipped protocols are timed *cold* (a fresh output folder: everything
+reduced, fitted, predicted and drawn) and *warm* (``--force`` into a folder of an
+earlier run, nothing changed: every result and figure comes from its cache).
 """
 
 from __future__ import annotations
@@ -59,6 +65,9 @@ class Case:
     in_process
         Also time the library call in this process (not for whole protocols, whose
         library call is the command's work by definition).
+    warm
+        ``{out}`` is one folder, filled by an untimed first run of the command without
+        ``--force`` before the rounds (a re-run that finds everything in its cache).
     """
 
     name: str
@@ -66,6 +75,7 @@ class Case:
     library: str | None = None
     rounds: int | None = None
     in_process: bool = True
+    warm: bool = False
 
 
 def _files(folder: Path, pattern: str, n: int | None = None) -> list[str]:
@@ -73,15 +83,9 @@ def _files(folder: Path, pattern: str, n: int | None = None) -> list[str]:
     return found[:n] if n else found
 
 
-def _has_option(argv: list[str], option: str) -> bool:
-    """Whether ``torlab ARGV --help`` lists ``option`` (options added by later versions)."""
-    res = subprocess.run([sys.executable, "-m", "torlab", *argv, "--help"], capture_output=True,
-                         text=True, check=False, env=_env())
-    return option in res.stdout
-
-
 def cases(quick: bool = False) -> list[Case]:
-    """The commands measured: all, or with ``quick`` ``--help`` and ``predict traction``."""
+    """The commands measured: all, or with ``quick`` ``--help`` and ``predict traction`` with
+    and without its figure."""
     wr = str(SCENES / "wheel_rail_tab54.yaml")
     rough = str(SCENES / "optical_paper_a_rough.yaml")
     hpt = _files(SAMPLES / "hpt", "hpt_OFM1_*uL_25C.txt", 4)
@@ -102,10 +106,9 @@ json.dump(p.summary, open(OUT + '/summary.json', 'w'), default=str)
         Case("torlab --help", ["--help"]),
         Case("predict traction (Tab. 5.4, 101 creepages)",
              ["predict", "traction", wr, "-o", "{out}"], traction_lib),
+        Case("predict traction --no-plot", ["predict", "traction", wr, "-o", "{out}",
+                                            "--no-plot"], traction_lib),
     ]
-    if not quick and _has_option(["predict", "traction"], "--no-plot"):
-        out.append(Case("predict traction --no-plot", ["predict", "traction", wr, "-o", "{out}",
-                                                        "--no-plot"], traction_lib))
     if quick:
         return out
     out.append(Case(f"hpt reduce ({len(hpt)} logs)", ["hpt", "reduce", *hpt, "-o", "{out}"], f"""
@@ -174,12 +177,15 @@ from torlab.reduce.hpt import reduce_hpt
 res = fit_layer_hpt([reduce_hpt(*read_hpt({fit_log!r}))], joint=True)
 open(OUT + '/params.yaml', 'w').write(dump_yaml({{k: float(v) for k, v in res.params.items()}}))
 """),
-        Case("run protocols/paper_b.yaml (cold)",
-             ["run", str(REPO / "protocols" / "paper_b.yaml"), "-o", "{out}"], f"""
-from torlab.protocols.runner import run_protocol
-run_protocol({str(REPO / "protocols" / "paper_b.yaml")!r}, OUT + '/run')
-""", rounds=2, in_process=False),
     ]
+    for name in ("paper_a", "paper_b", "paper_c"):
+        proto = str(REPO / "protocols" / f"{name}.yaml")
+        out += [Case(f"run protocols/{name}.yaml (cold)", ["run", proto, "-o", "{out}"], f"""
+from torlab.protocols.runner import run_protocol
+run_protocol({proto!r}, OUT + '/run')
+""", rounds=2, in_process=False),
+                Case(f"run protocols/{name}.yaml (warm)", ["run", proto, "-o", "{out}", "--force"],
+                     rounds=3, in_process=False, warm=True)]
     return out
 
 
@@ -190,16 +196,21 @@ def _env() -> dict[str, str]:
     return env
 
 
-def _timed(argv: list[str], cwd: Path) -> float:
-    """Wall time of one subprocess (s); raises with its last error line if it fails."""
+def _timed(argv: list[str], cwd: Path) -> tuple[float, float]:
+    """Wall and CPU time (user + system, the process and what it started) of one
+    subprocess (s); raises with its last error line if it fails."""
+    import resource
+
+    r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     res = subprocess.run(argv, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                          text=True, check=False, env=_env())
     dt = time.perf_counter() - t0
+    r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
     if res.returncode != 0:
         last = (res.stderr.strip().splitlines() or ["(no output)"])[-1]
         raise RuntimeError(f"{' '.join(argv[2:])[:120]} exited with {res.returncode}: {last}")
-    return dt
+    return dt, (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
 
 
 def _in_process(code: str, out: Path, rounds: int) -> float:
@@ -217,27 +228,44 @@ def _in_process(code: str, out: Path, rounds: int) -> float:
 
 def run(quick: bool = False) -> list[BenchRow]:
     """Wall time of each command against ``torlab --help`` and the library call (module doc)."""
+    from torlab.progress import current as progress
+
     todo = cases(quick)
     default_rounds = 2 if quick else 3
     cmd_t: dict[str, list[float]] = {c.name: [] for c in todo}
+    cmd_cpu: dict[str, list[float]] = {c.name: [] for c in todo}
     lib_t: dict[str, list[float]] = {c.name: [] for c in todo}
     py = sys.executable
-    with tempfile.TemporaryDirectory(prefix="torlab-bench-cli-") as tmp:
+    n_runs = sum((c.rounds or default_rounds) * (2 if c.library else 1) + c.warm for c in todo)
+    with tempfile.TemporaryDirectory(prefix="torlab-bench-cli-") as tmp, \
+            progress().task("cli: commands", n_runs) as advance:
         root = Path(tmp)
+        warm_dirs: dict[str, Path] = {}
+        for k, c in enumerate(todo):
+            if c.warm:  # the folder a warm run finds: filled by one untimed cold run
+                warm_dirs[c.name] = root / f"warm{k}"
+                argv = [a.replace("{out}", str(warm_dirs[c.name])) for a in c.argv
+                        if a != "--force"]
+                _timed([py, "-m", "torlab", *argv], root)
+                advance()
         n = 0
         for rnd in range(max(c.rounds or default_rounds for c in todo)):
             for c in todo:
                 if rnd >= (c.rounds or default_rounds):
                     continue
                 n += 1
-                out = root / f"cmd{n}"
+                out = warm_dirs.get(c.name, root / f"cmd{n}")
                 argv = [a.replace("{out}", str(out)) for a in c.argv]
-                cmd_t[c.name].append(_timed([py, "-m", "torlab", *argv], root))
+                wall, cpu = _timed([py, "-m", "torlab", *argv], root)
+                cmd_t[c.name].append(wall)
+                cmd_cpu[c.name].append(cpu)
+                advance()
                 if c.library is not None:
                     out = root / f"lib{n}"
                     out.mkdir()
                     code = f"OUT = {str(out)!r}\n{c.library}"
-                    lib_t[c.name].append(_timed([py, "-c", code], root))
+                    lib_t[c.name].append(_timed([py, "-c", code], root)[0])
+                    advance()
         inproc = {}
         for c in todo:
             if c.library is not None and c.in_process:
@@ -245,14 +273,18 @@ def run(quick: bool = False) -> list[BenchRow]:
                 d.mkdir()
                 inproc[c.name] = _in_process(c.library, d, 2)
     t_help = float(np.median(cmd_t["torlab --help"]))
+    c_help = float(np.median(cmd_cpu["torlab --help"]))
     rows = []
     for c in todo:
         t = float(np.median(cmd_t[c.name]))
-        extra: dict[str, Any] = {"ratio_to_help": t / t_help, "rounds": len(cmd_t[c.name]),
+        cpu = float(np.median(cmd_cpu[c.name]))
+        extra: dict[str, Any] = {"ratio_to_help": t / t_help, "cpu_s": cpu,
+                                 "cpu_ratio_to_help": cpu / c_help,
+                                 "rounds": len(cmd_t[c.name]),
                                  "command": "torlab " + " ".join(
                                      Path(a).name if os.sep in a else a.replace("{out}", "OUT")
                                      for a in c.argv)}
-        if c.library is not None:
+        if c.library is not None and lib_t[c.name]:
             t_lib = float(np.median(lib_t[c.name]))
             extra.update(library_script_s=t_lib, ratio_to_library_script=t / t_lib)
         if c.name in inproc:
@@ -260,8 +292,8 @@ def run(quick: bool = False) -> list[BenchRow]:
                          in_process_share_of_command=inproc[c.name] / t)
         rows.append(BenchRow(
             component="command wall time", variant=c.name, time_s=t, error=None,
-            reference="", default=c.library is None, unit_of_work="one command, start to exit "
-            "(subprocess)", extra=extra))
+            reference="", default=c.library is None and not c.warm,
+            unit_of_work="one command, start to exit (subprocess)", extra=extra))
     return rows
 
 

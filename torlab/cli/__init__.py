@@ -187,7 +187,45 @@ def _register() -> None:
 _register()
 
 
+#: BLAS/OpenMP thread variables set to 1 for a command unless the user set them
+BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def _one_blas_thread(argv: Sequence[str]) -> None:
+    """Start numpy's and scipy's BLAS with one thread (before they are imported).
+
+    torlab's linear algebra is small (:mod:`torlab.threads`: its fits already run with
+    one thread) and its parallel work runs in processes (:mod:`torlab.parallel`);
+    OpenBLAS creating its thread pool at import costs a command about 0.1 s of
+    start-up on a 2-core machine.  A variable the user set is kept; ``torlab bench``
+    keeps the libraries' defaults, because it measures them.
+
+    pydantic (which typer loads for every command) is told not to look for plugins:
+    torlab uses none, and the search reads every installed package's metadata
+    (about 30 ms).  matplotlib, when a figure is drawn, skips its 3-D toolkit
+    (:func:`torlab.reports.plotting._mpl`).
+    """
+    import os
+
+    os.environ.setdefault("PYDANTIC_DISABLE_PLUGINS", "__all__")
+    from torlab.reports.plotting import LEAN_IMPORT
+
+    LEAN_IMPORT[0] = True
+    if list(argv[:1]) == ["bench"] or "numpy" in sys.modules:
+        return
+    for v in BLAS_THREAD_VARIABLES:
+        os.environ.setdefault(v, "1")
+    if all(os.environ[v] == "1" for v in BLAS_THREAD_VARIABLES):
+        from torlab.threads import STARTED_SINGLE_THREADED
+
+        STARTED_SINGLE_THREADED[0] = True
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Console entry point (``torlab``)."""
+    import time
+
+    _STATE["t_start"] = time.perf_counter()
+    _one_blas_thread(list(sys.argv[1:] if argv is None else argv))
     cmd = typer.main.get_command(app)
     return cmd.main(args=argv, prog_name="torlab", standalone_mode=True)

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import shlex
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -14,13 +15,18 @@ from torlab.grids import parse_values
 
 __all__ = [
     "ForceOpt",
+    "FormatsOpt",
+    "JobsOpt",
     "OutOpt",
+    "QuietOpt",
+    "SchedulerOpt",
     "XlsxOpt",
     "command_line",
     "console",
     "parse_values",
     "print_table",
     "require_files",
+    "session",
 ]
 
 OutOpt = Annotated[Path, typer.Option("-o", "--out", help="Output folder (created; must not "
@@ -30,6 +36,20 @@ ForceOpt = Annotated[bool, typer.Option("--force", help="Replace torlab's earlie
 XlsxOpt = Annotated[bool, typer.Option("--xlsx", help="Also write tables.xlsx: every table as a "
                                        "sheet of one Excel workbook (needs openpyxl: pip install "
                                        "'torlab[xlsx]').")]
+FormatsOpt = Annotated[str | None, typer.Option(
+    "--formats", metavar="FORMATS", help="Figure formats, comma-separated: png (default), svg, "
+    "pdf; e.g. 'png,svg'.")]
+JobsOpt = Annotated[int | None, typer.Option(
+    "--jobs", "-j", metavar="N", help="Worker processes for independent tasks (default: "
+    "$TORLAB_JOBS, else every usable core; 1: serial, in this process).")]
+SchedulerOpt = Annotated[str | None, typer.Option(
+    "--scheduler", metavar="ADDRESS", help="Run the tasks on a Dask cluster instead "
+    "(tcp://host:8786; needs pip install 'torlab[dask]'; see docs/performance.md).")]
+NoPlotOpt = Annotated[bool, typer.Option("--no-plot", help="Write the tables only (no figure: "
+                                         "no plotting library is loaded).")]
+QuietOpt = Annotated[bool, typer.Option(
+    "--quiet", "-q", help="No progress bars (they are never shown when the output is not a "
+    "terminal).")]
 
 
 def console() -> Any:
@@ -92,3 +112,17 @@ def print_table(rows: Sequence[dict[str, Any]], title: str = "", formats: dict[s
                 cells.append(str(v))
         t.add_row(*cells)
     console().print(t)
+
+
+@contextmanager
+def session(jobs: int | None = None, scheduler: str | None = None, quiet: bool = False,
+            parallel: bool = True) -> Iterator[Any]:
+    """A command's executor (``--jobs``, ``--scheduler``; :mod:`torlab.parallel`) and its
+    progress bars (``--quiet``; :mod:`torlab.progress`), in that order: worker processes
+    are started before any progress-bar thread.  Yields the executor."""
+    from torlab.parallel import SerialExecutor, get_executor
+    from torlab.progress import Progress, enabled_for
+
+    ex = get_executor(jobs, scheduler) if parallel else SerialExecutor()
+    with ex, Progress(enabled_for(quiet)):
+        yield ex

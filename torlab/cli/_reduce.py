@@ -36,12 +36,17 @@ def _extra_inputs(opts: dict[str, Any]) -> list[Path]:
 
 def reduce_command(inputs: list[Path], out: Path, *, instrument: str | None, force: bool,
                    options: dict[str, Any], xlsx: bool = False, what: str = "input",
-                   filter_folders: bool = True, flags: bool = True) -> list[Any]:
+                   filter_folders: bool = True, flags: bool = True, formats: str | None = None,
+                   jobs: int | None = None, scheduler: str | None = None,
+                   quiet: bool = False, no_plot: bool = False) -> list[Any]:
     """Expand the inputs, reduce them through the registry, write and print the results.
 
     Option errors are reported with their command-line spelling: ``--window``
-    (``flags``), or ``--option window`` (``torlab reduce``).
+    (``flags``), or ``--option window`` (``torlab reduce``).  Files are reduced and
+    figures drawn on the executor of ``--jobs``/``--scheduler`` (:mod:`torlab.parallel`),
+    with progress bars unless ``--quiet``; figures in ``--formats`` (none with ``--no-plot``).
     """
+    from torlab.cli._common import session
     from torlab.instruments import (
         expand_inputs,
         get_instrument,
@@ -50,22 +55,26 @@ def reduce_command(inputs: list[Path], out: Path, *, instrument: str | None, for
     )
     from torlab.instruments.output import write_reductions
     from torlab.outputs import OutputDir
+    from torlab.reports.render import parse_formats
 
-    try:
-        keep = None if not filter_folders else \
-            is_instrument(get_instrument(instrument).name if instrument else None)
-        files, notes = expand_inputs(inputs, what, keep)
-        reds, prepared = reduce_batch(files, instrument, **options)
-    except TorlabInputError as e:
-        flag = _flag(e.key) if flags else (None if e.key is None or e.key.startswith("-")
-                                           else f"--option {e.key}")
-        if flag is None or e.path is not None:
-            raise
-        raise TorlabInputError(e.message, key=flag) from None
-    extra = [p for o in prepared.values() for p in _extra_inputs(o)]
-    dest = OutputDir(out, force=force, inputs=[*files, *extra], command=command_line())
-    with dest:
-        written = write_reductions(dest, reds, prepared, xlsx=xlsx)
+    fmts = parse_formats(formats)
+    with session(jobs, scheduler, quiet):
+        try:
+            keep = None if not filter_folders else \
+                is_instrument(get_instrument(instrument).name if instrument else None)
+            files, notes = expand_inputs(inputs, what, keep)
+            reds, prepared = reduce_batch(files, instrument, **options)
+        except TorlabInputError as e:
+            flag = _flag(e.key) if flags else (None if e.key is None or e.key.startswith("-")
+                                               else f"--option {e.key}")
+            if flag is None or e.path is not None:
+                raise
+            raise TorlabInputError(e.message, key=flag) from None
+        extra = [p for o in prepared.values() for p in _extra_inputs(o)]
+        dest = OutputDir(out, force=force, inputs=[*files, *extra], command=command_line())
+        with dest:
+            written = write_reductions(dest, reds, prepared, xlsx=xlsx, formats=fmts,
+                                       figures=not no_plot)
     show_reductions(reds, notes, out, len(written))
     return reds
 

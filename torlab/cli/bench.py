@@ -6,7 +6,7 @@ from typing import Annotated, Any
 
 import typer
 
-from torlab.cli._common import ForceOpt, OutOpt, command_line, console
+from torlab.cli._common import ForceOpt, OutOpt, QuietOpt, command_line, console
 
 
 def register(root: typer.Typer) -> None:
@@ -22,6 +22,7 @@ def bench_cmd(
         "--only", help="Run only this benchmark (repeat, or a comma list): hertz, fastsim, "
         "temperature, asperity, loadshare, optical, ... (the modules of torlab/bench/).")] = None,
     force: ForceOpt = False,
+    quiet: QuietOpt = False,
 ) -> None:
     """Measure time against error for each numerical choice against its reference.
 
@@ -33,13 +34,22 @@ def bench_cmd(
     """
     from rich.console import Console
 
-    from torlab.bench.runner import run_benchmarks, write_bench_outputs
+    from torlab.bench.runner import _select, run_benchmarks, write_bench_outputs
     from torlab.outputs import OutputDir
+    from torlab.progress import Progress, enabled_for
 
     cmd = command_line()
     dest = OutputDir(out, force=force, command=cmd)  # refuses an occupied folder before the run
     err = Console(stderr=True, highlight=False, soft_wrap=True)
-    result = run_benchmarks(quick=quick, only=only, progress=lambda m: err.print(m))
+    with Progress(enabled_for(quiet)) as prog, \
+            prog.task("benchmark modules", len(_select(only))) as advance:
+        def say(m: str) -> None:
+            with prog.pause():
+                err.print(m)
+            if not m.endswith("..."):
+                advance()
+
+        result = run_benchmarks(quick=quick, only=only, progress=say)
     try:
         written = write_bench_outputs(result, dest, cmd)
     except BaseException:

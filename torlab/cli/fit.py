@@ -16,7 +16,15 @@ from typing import Annotated, Any
 
 import typer
 
-from torlab.cli._common import ForceOpt, OutOpt, command_line, console, print_table, require_files
+from torlab.cli._common import (
+    ForceOpt,
+    FormatsOpt,
+    OutOpt,
+    command_line,
+    console,
+    print_table,
+    require_files,
+)
 from torlab.instruments.measured import film_data, hpt_items, is_hpt_input, traction_data
 
 app = typer.Typer(help="Fit the model's parameters (third-body layer, temperature coefficients, "
@@ -33,8 +41,12 @@ def register(root: typer.Typer) -> None:
 # shared output
 # ------------------------------------------------------------------------------------------
 def write_fit(dest: Any, result: Any, prefix: str = "", title: str | None = None,
-              model_curve: tuple[Any, Any] | None = None) -> None:
-    """Write one :class:`~torlab.fit.result.FitResult` into an OutputDir (under ``prefix``)."""
+              model_curve: tuple[Any, Any] | None = None, formats: Any = None) -> None:
+    """Write one :class:`~torlab.fit.result.FitResult` into an OutputDir (under ``prefix``);
+    its figure (the result's own :meth:`plot`) in ``formats`` (``--formats``; PNG by
+    default)."""
+    from torlab.reports.fit import result_figure
+    from torlab.reports.render import parse_formats, plot, write_figures
     from torlab.yamlio import dump_yaml
 
     pre = f"{prefix}/" if prefix else ""
@@ -48,7 +60,8 @@ def write_fit(dest: Any, result: Any, prefix: str = "", title: str | None = None
     dest.write_csv(f"{pre}correlation.csv", corr, allow_missing=tuple(result.names))
     dest.write_csv(f"{pre}fit_data.csv", result.data)
     dest.write_json(f"{pre}summary.json", result.summary())
-    dest.save_figure(f"{pre}fit.png", result.plot(title=title, model_curve=model_curve))
+    write_figures(dest, [(f"{pre}fit", plot(result_figure, result, title=title,
+                                            model_curve=model_curve))], parse_formats(formats))
 
 
 def print_fit(result: Any, title: str) -> None:
@@ -112,6 +125,7 @@ def hpt_cmd(
         help="Rig compliance (curve file or constant such as '0.012 um/MPa'); default: the one "
         "the reduction subtracted.")] = None,
     force: ForceOpt = False,
+    formats: FormatsOpt = None,
 ) -> None:
     """Layer parameters mu_c1, mu_c2, L_mue, L_mup from HPT curves (thesis Eqs. 5.24-5.29).
 
@@ -131,7 +145,8 @@ def hpt_cmd(
         names = []
         for i, r in enumerate(results):
             pre = "" if len(results) == 1 else _stem(files[i], names)
-            write_fit(dest, r, pre, title=f"HPT layer fit: {r.meta.get('source', '')}")
+            write_fit(dest, r, pre, title=f"HPT layer fit: {r.meta.get('source', '')}",
+                      formats=formats)
         if len(results) > 1:
             import pandas as pd
 
@@ -168,6 +183,7 @@ def traction_cmd(
                                       "roughness: (automatic for a dry_traction optical log).")]
     = False,
     force: ForceOpt = False,
+    formats: FormatsOpt = None,
 ) -> None:
     """Layer parameters from a measured traction curve mu(SRR), fitted with FASTSIM
     (the model of 'torlab predict traction', thesis Eqs. 5.14-5.30).
@@ -197,7 +213,8 @@ def traction_cmd(
     curve = (dense, traction_model(sc)(res.params, dense))
     dest = OutputDir(out, force=force, inputs=files, command=command_line())
     with dest:
-        write_fit(dest, res, title=f"Traction fit: {data.name}", model_curve=curve)
+        write_fit(dest, res, title=f"Traction fit: {data.name}", model_curve=curve,
+                  formats=formats)
     print_fit(res, f"Traction fit: {data.name}")
     console().print(f"wrote {', '.join(_FILES)} to {out}")
 
@@ -229,6 +246,7 @@ def temperature_cmd(
              "is fixed to 0; 'none': every coefficient is kept and its uncertainty carried "
              "into predictions.", case_sensitive=False)] = "test",
     force: ForceOpt = False,
+    formats: FormatsOpt = None,
 ) -> None:
     """Temperature coefficients mu_c1_T, mu_c2_T (thesis Eqs. 5.26-5.27) from one layer fit
     per run: ln mu_ci against T; each coefficient kept or fixed to 0 (--selection)."""
@@ -251,10 +269,10 @@ def temperature_cmd(
     res = fit_temperature_coefficients(fits, reference_temperature_C=Tref, selection=sel)
     dest = OutputDir(out, force=force, inputs=[*files, *extra], command=command_line())
     with dest:
-        write_fit(dest, res, title="Temperature coefficients of the layer")
+        write_fit(dest, res, title="Temperature coefficients of the layer", formats=formats)
         names: list[str] = []
         for f, r in zip(files, fits, strict=True):
-            write_fit(dest, r, f"runs/{_stem(f, names)}")
+            write_fit(dest, r, f"runs/{_stem(f, names)}", formats=formats)
     print_fit(res, "Temperature coefficients")
     console().print(f"wrote {', '.join(_FILES)} and runs/ (one layer fit per run) to {out}")
 
@@ -271,6 +289,7 @@ def film_cmd(
     min_speed: Annotated[str | None, typer.Option(help="Fit only speeds at or above this, e.g. "
                                                   "'50 mm/s'.")] = None,
     force: ForceOpt = False,
+    formats: FormatsOpt = None,
 ) -> None:
     """Speed exponent of the film (Hamrock-Dowson predicts 0.67, Eq. 5.32) and, with a scene,
     the effective pressure-viscosity coefficient alpha. An EHD2 file with several film
@@ -294,7 +313,7 @@ def film_cmd(
         for label, r in results:
             write_fit(dest, r, label.replace(" °C", "C").replace(" ", "_")
                       if len(results) > 1 else "",
-                      title=f"Film thickness: {r.meta['source']}")
+                      title=f"Film thickness: {r.meta['source']}", formats=formats)
     for _label, r in results:
         print_fit(r, f"Film fit: {r.meta['source']}")
     console().print(f"wrote the film fit{'s' if len(results) > 1 else ''} to {out}")
@@ -308,6 +327,7 @@ def visc_cmd(
     out: OutOpt,
     law: Annotated[str, typer.Option(help="barus or roelands.")] = "roelands",
     force: ForceOpt = False,
+    formats: FormatsOpt = None,
 ) -> None:
     """Viscosity law (eta0, alpha or Z; thesis Eqs. 5.38-5.39) from reduced viscometer data,
     written as the scene's lubricant: keys."""
@@ -336,7 +356,7 @@ def visc_cmd(
     res.meta["source"] = ", ".join(f.name for f in files)
     dest = OutputDir(out, force=force, inputs=files, command=command_line())
     with dest:
-        write_fit(dest, res, title=f"Viscosity fit ({law})")
+        write_fit(dest, res, title=f"Viscosity fit ({law})", formats=formats)
     print_fit(res, f"Viscosity fit ({law})")
     console().print(f"wrote {', '.join(_FILES)} to {out}")
 
@@ -354,6 +374,7 @@ def polach_cmd(
                                                 "creepage and speed.")] = None,
     spin: Annotated[str | None, typer.Option(help="Optional spins (1/m) added likewise.")] = None,
     force: ForceOpt = False,
+    formats: FormatsOpt = None,
 ) -> None:
     """Polach's creep-force parameters mu0, A, B, kA, kS (Polach 2005; spin of 1999) fitted
     to torlab's predicted creep forces of a dry scene over a creepage and speed range.
@@ -377,7 +398,7 @@ def polach_cmd(
                      spin=None if spin is None else parse_values(spin, "inverse_length", "--spin"),
                      source=sc.name or files[0].stem)
     with OutputDir(out, force=force, inputs=files, command=command_line()) as dest:
-        write_fit(dest, res, title=f"Polach fit: {res.meta['source']}")
+        write_fit(dest, res, title=f"Polach fit: {res.meta['source']}", formats=formats)
     print_fit(res, f"Polach fit: {res.meta['source']}")
     console().print(f"largest difference Polach - torlab: {res.meta['max_abs_residual']:.3g} "
                     f"(F/N); wrote {', '.join(_FILES)} to {out}")
@@ -416,6 +437,7 @@ def removal_cmd(
     skip: Annotated[str, typer.Option(help="Time after the application left out of the fit "
                                       "(the film phase), or 'auto'.")] = "auto",
     force: ForceOpt = False,
+    formats: FormatsOpt = None,
 ) -> None:
     """Removal law of a product (k0 or k1, spread, transfer) from MTM time tests after
     application and its HPT amount series; the law chosen by AICc (docs/model/retention.md).
@@ -446,10 +468,13 @@ def removal_cmd(
     dest = OutputDir(out, force=force, inputs=[*files, *layer_files, *extra],
                      command=command_line())
     with dest:
-        write_fit(dest, res, title=f"Removal fit: {res.meta['source']}")
+        write_fit(dest, res, title=f"Removal fit: {res.meta['source']}", formats=formats)
         dest.write_csv("law_selection.csv", pd.DataFrame(res.meta["law_selection"]))
         dest.write_csv("amount_layer.csv", layer.table())
-        dest.save_figure("amount_layer.png", layer_figure(layer))
+        from torlab.reports.render import parse_formats, plot, write_figures
+
+        write_figures(dest, [("amount_layer", plot(layer_figure, layer))],
+                      parse_formats(formats))
     print_fit(res, f"Removal fit ({res.meta['law']}): {res.meta['source']}")
     print_table([{k: r[k] for k in ("law", "parameters", "aicc", "delta_aicc", "weight")}
                  for r in res.meta["law_selection"]], title="Law choice (AICc)",

@@ -7,7 +7,16 @@ from typing import Annotated
 
 import typer
 
-from torlab.cli._common import ForceOpt, OutOpt, XlsxOpt
+from torlab.cli._common import (
+    ForceOpt,
+    FormatsOpt,
+    JobsOpt,
+    NoPlotOpt,
+    OutOpt,
+    QuietOpt,
+    SchedulerOpt,
+    XlsxOpt,
+)
 
 app = typer.Typer(help="High-pressure torsion (HPT) rig: reduce raw logs to shear stress and "
                   "friction against displacement.", no_args_is_help=True)
@@ -35,6 +44,11 @@ def reduce_cmd(
         "shear_stress and displacement columns) or a constant such as '0.012 um/MPa'.")] = None,
     force: ForceOpt = False,
     xlsx: XlsxOpt = False,
+    no_plot: NoPlotOpt = False,
+    formats: FormatsOpt = None,
+    jobs: JobsOpt = None,
+    scheduler: SchedulerOpt = None,
+    quiet: QuietOpt = False,
 ) -> None:
     """Reduce HPT logs: S, r_e, sigma = F/S, tau = M/(r_e S), f = tau/sigma against
     displacement (thesis Eqs. 5.1-5.4), and f over the last 20 um before the maximum.
@@ -47,4 +61,6 @@ def reduce_cmd(
     opts = {"window": window, "source": source, "compliance": compliance, "map": map_}
     reduce_command(raw, out, instrument="hpt", force=force, xlsx=xlsx, what="HPT log",
                    options={k: v for k, v in opts.items() if v is not None},
-                   filter_folders=map_ is None)
+                   filter_folders=map_ is None,
+                   formats=formats, jobs=jobs, scheduler=scheduler, quiet=quiet,
+                   no_plot=no_plot)

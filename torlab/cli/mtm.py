@@ -7,7 +7,16 @@ from typing import Annotated
 
 import typer
 
-from torlab.cli._common import ForceOpt, OutOpt, XlsxOpt
+from torlab.cli._common import (
+    ForceOpt,
+    FormatsOpt,
+    JobsOpt,
+    NoPlotOpt,
+    OutOpt,
+    QuietOpt,
+    SchedulerOpt,
+    XlsxOpt,
+)
 
 app = typer.Typer(help="PCS Instruments MTM/ETM (and EHD2) exports: every step kind (traction, "
                   "Stribeck, timed, film, mapper ...); time tests after application (Paper B).",
@@ -48,6 +57,11 @@ def reduce_cmd(
         "the end of the step.")] = None,
     force: ForceOpt = False,
     xlsx: XlsxOpt = False,
+    no_plot: NoPlotOpt = False,
+    formats: FormatsOpt = None,
+    jobs: JobsOpt = None,
+    scheduler: SchedulerOpt = None,
+    quiet: QuietOpt = False,
 ) -> None:
     """Reduce PCS exports: every data step (traction, Stribeck, ball- or pin-on-disc timed,
     film, mapper, and unknown step types) as the coefficient against the x column of its own
@@ -71,4 +85,6 @@ def reduce_cmd(
 
         raise TorlabInputError(f"{threshold}: give a coefficient such as 0.15", key="--threshold")
     reduce_command(files, out, instrument="pcs", force=force, xlsx=xlsx, what="PCS export",
-                   options={k: v for k, v in opts.items() if v is not None})
+                   options={k: v for k, v in opts.items() if v is not None},
+                   formats=formats, jobs=jobs, scheduler=scheduler, quiet=quiet,
+                   no_plot=no_plot)

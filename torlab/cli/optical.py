@@ -7,7 +7,16 @@ from typing import Annotated
 
 import typer
 
-from torlab.cli._common import ForceOpt, OutOpt, XlsxOpt
+from torlab.cli._common import (
+    ForceOpt,
+    FormatsOpt,
+    JobsOpt,
+    NoPlotOpt,
+    OutOpt,
+    QuietOpt,
+    SchedulerOpt,
+    XlsxOpt,
+)
 
 app = typer.Typer(help="Optical ball-on-disc tribometer (thesis 5.1.1): windowed averages at "
                   "each set condition, traction / Stribeck / film-thickness tests (Tab. 5.2).",
@@ -36,6 +45,11 @@ def reduce_cmd(
         help="Absolute tolerance (coefficient) of the ±SRR symmetry check.")] = 0.005,
     force: ForceOpt = False,
     xlsx: XlsxOpt = False,
+    no_plot: NoPlotOpt = False,
+    formats: FormatsOpt = None,
+    jobs: JobsOpt = None,
+    scheduler: SchedulerOpt = None,
+    quiet: QuietOpt = False,
 ) -> None:
     """Reduce optical tribometer logs: mean coefficient, speeds, load and film thickness over the
     last WINDOW of every set condition; rolling speed U = (u_ball + u_disc)/2 and
@@ -50,4 +64,6 @@ def reduce_cmd(
     opts = {"window": window, "test": test, "symmetry_tolerance": symmetry_tolerance,
             "symmetry_abs": symmetry_abs}
     reduce_command(logs, out, instrument="optical", force=force, xlsx=xlsx, what="optical log",
-                   options={k: v for k, v in opts.items() if v is not None})
+                   options={k: v for k, v in opts.items() if v is not None},
+                   formats=formats, jobs=jobs, scheduler=scheduler, quiet=quiet,
+                   no_plot=no_plot)

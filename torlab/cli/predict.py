@@ -8,7 +8,18 @@ from typing import Annotated, Any
 
 import typer
 
-from torlab.cli._common import ForceOpt, OutOpt, command_line, console, require_files
+from torlab.cli._common import (
+    ForceOpt,
+    FormatsOpt,
+    JobsOpt,
+    NoPlotOpt,
+    OutOpt,
+    QuietOpt,
+    SchedulerOpt,
+    command_line,
+    console,
+    require_files,
+)
 
 app = typer.Typer(help="Predict traction and Stribeck curves of a scene (Hertz + FASTSIM with "
                   "the third-body layer, contact temperature, EHL film, asperity load sharing).",
@@ -17,6 +28,10 @@ app = typer.Typer(help="Predict traction and Stribeck curves of a scene (Hertz +
 ScenesArg = Annotated[list[Path], typer.Argument(
     help="Scene YAML, then optional parameter files (e.g. 'torlab fit' output) that override "
     "its keys, in order.")]
+
+
+def _written(names: list[str]) -> str:
+    return ", ".join(names)
 
 
 def register(root: typer.Typer) -> None:
@@ -82,12 +97,18 @@ def traction_cmd(
     pass_interval: Annotated[str | None, typer.Option(help="With --sweep: time between "
                                                       "passes on a rail.")] = None,
     force: ForceOpt = False,
+    no_plot: NoPlotOpt = False,
+    formats: FormatsOpt = None,
+    jobs: JobsOpt = None,
+    scheduler: SchedulerOpt = None,
+    quiet: QuietOpt = False,
 ) -> None:
     """Traction curve mu(creepage) at the scene's speed.
 
     Writes traction.csv (creepage, mu, and where modelled mu_boundary, mu_ehl,
-    load_share_asperity, film_thickness_m, max_temperature_C), traction.png/.svg
-    (mu against creepage with the layer's limits mu_c1, mu_c2) and summary.json
+    load_share_asperity, film_thickness_m, max_temperature_C), traction.png (--formats:
+    also .svg/.pdf; --no-plot: none) (mu against creepage with the layer's limits mu_c1,
+    mu_c2 and the 95 % band) and summary.json
     (what was modelled, the trend after saturation, thesis H4.1).  With --lateral or
     --spin (dry scenes): lateral, spin_1_m, Fx_N, Fy_N, Mz_Nm, mu_x, mu_y too (mu = mu_x).
     --sweep: the curve recorded while product is removed, beside the steady one (H4.1).
@@ -96,15 +117,16 @@ def traction_cmd(
     the CSV, the band in the figure, the method and the dominant parameters in
     summary.json, and the trend with the probability of each class.
     """
-    from torlab.cli._common import parse_values
+    from torlab.cli._common import parse_values, session
     from torlab.model.predict import predict_traction
     from torlab.outputs import OutputDir
-    from torlab.reports.predict import traction_figure
+    from torlab.reports.render import parse_formats
     from torlab.scene import load_scene
 
     files = require_files(scene, "scene")
+    fmts = parse_formats(formats)
     if sweep is not None or amount is not None:
-        return _sweep(files, out, force, creepage=creepage, seconds=sweep, amount=amount,
+        return _sweep(files, out, force, fmts, creepage=creepage, seconds=sweep, amount=amount,
                       band_length=band_length, track_radius=track_radius,
                       pass_interval=pass_interval)
     _no_retention_file(files)
@@ -113,39 +135,47 @@ def traction_cmd(
     eta = float(parse_values(lateral, "dimensionless", "--lateral")[0])
     phi = float(parse_values(spin, "inverse_length", "--spin")[0])
     dest = OutputDir(out, force=force, inputs=files, command=command_line())
-    with dest:
+    names = ["traction.csv", "summary.json"]
+    with dest, session(jobs, scheduler, quiet):
         if eta or phi:
             from torlab.model.creep import predict_creep
 
             pred = predict_creep(sc, xi, eta, phi)
         else:
-            pred = predict_traction(sc, xi)
+            pred = predict_traction(sc, xi, as_frame=False)
         dest.write_csv("traction.csv", pred.table,
                        allow_missing=("max_temperature_low95_C", "max_temperature_high95_C"))
         summary = dict(pred.summary, creepage_range=[float(xi.min()), float(xi.max())],
                        n_points=int(xi.size))
         dest.write_json("summary.json", summary)
-        for ext in ("png", "svg"):
-            fig = traction_figure([(sc.name or files[0].stem, pred.table)], boundary=sc.boundary,
-                                  title=f"Traction: {sc.name or files[0].stem}")
-            dest.save_figure(f"traction.{ext}", fig)
+        if not no_plot:
+            from torlab.reports.predict import traction_figure
+            from torlab.reports.render import plot, write_figures
+
+            fig = plot(traction_figure, [(sc.name or files[0].stem, pred.table)],
+                       boundary=sc.boundary, title=f"Traction: {sc.name or files[0].stem}")
+            names += write_figures(dest, [("traction", fig)], fmts)[0]
     _print_modelled(pred.modelled, pred.summary.get("notes", []))
     _print_band(pred.summary)
     _print_trend(pred)
-    console().print(f"wrote traction.csv, traction.png, traction.svg, summary.json to {out}")
+    console().print(f"wrote {_written(names)} to {out}")
 
 
 def _print_trend(pred: Any) -> None:
     """The largest coefficient (with its band) and the trend after saturation (H4.1)."""
+    import numpy as np
+
     t = pred.trend
     c = console()
-    mu = pred.table["mu"].abs()
-    i = mu.idxmax()
+    tab = pred.table
+    mu = np.abs(np.asarray(tab["mu"], dtype=float))
+    i = int(np.argmax(mu))
     band = ""
-    if "mu_low95" in pred.table:
-        band = (f" (95 % band {abs(pred.table['mu_low95'][i]):.4f}–"
-                f"{abs(pred.table['mu_high95'][i]):.4f})")
-    c.print(f"max |mu| = {mu.max():.4f}{band} at creepage {pred.table['creepage'][i]:.4g}")
+    if "mu_low95" in tab:
+        band = (f" (95 % band {abs(float(np.asarray(tab['mu_low95'])[i])):.4f}–"
+                f"{abs(float(np.asarray(tab['mu_high95'])[i])):.4f})")
+    c.print(f"max |mu| = {mu[i]:.4f}{band} at creepage "
+            f"{float(np.asarray(tab['creepage'])[i]):.4g}")
     if t["trend"] == "not saturated":
         c.print("trend after saturation: not saturated (the curve does not level off in this range)")
     elif t.get("trend_from_creepage") is None:  # e.g. 'too few points' after saturation
@@ -175,7 +205,8 @@ def _no_retention_file(files: Sequence[Path]) -> None:
                                    "retention'", path=f)
 
 
-def _sweep(files: list[Path], out: Path, force: bool, **kw: str | None) -> None:
+def _sweep(files: list[Path], out: Path, force: bool, formats: Sequence[str],
+           **kw: str | None) -> None:
     """``predict traction --sweep``: the recorded-looking curve beside the steady one."""
     from torlab.api import predict_sweep
     from torlab.errors import TorlabInputError
@@ -187,7 +218,7 @@ def _sweep(files: list[Path], out: Path, force: bool, **kw: str | None) -> None:
                                key="--sweep" if kw["seconds"] is None else "--amount")
     sw = predict_sweep(files[0], files[1:], kw.pop("amount"), **kw)
     with OutputDir(out, force=force, inputs=files, command=command_line()) as dest:
-        names = write_sweep(dest, sw, title="")
+        names = write_sweep(dest, sw, title="", formats=formats)
     s = sw.summary
     c = console()
     _print_modelled(s["modelled"], s["notes"])
@@ -228,6 +259,7 @@ def retention_cmd(
                                        "none).")] = 200,
     seed: Annotated[int, typer.Option(help="Seed of the draws.")] = 0,
     force: ForceOpt = False,
+    formats: FormatsOpt = None,
 ) -> None:
     """Coefficient against axle passes (disc revolutions, or time) after one application,
     with 95 % intervals, and the passes until it enters and leaves the band.
@@ -235,7 +267,7 @@ def retention_cmd(
     SCENE, then the removal params.yaml of 'torlab fit removal' (and optional scene
     parameter files). Writes retention.csv (passes, amount_mg_m2, mu, mu_low95, mu_high95,
     energy_J_m2[, time_s]), summary.json (crossings with 95 % intervals, law, what was
-    modelled), retention.png/.svg.
+    modelled), retention.png (--formats: also .svg/.pdf).
     """
     from torlab.api import predict_retention
     from torlab.errors import TorlabInputError
@@ -258,7 +290,7 @@ def retention_cmd(
         density=density, n_draws=draws, seed=seed)
     axis = "time" if time else "cycles" if track_radius else "passes"
     with OutputDir(out, force=force, inputs=files, command=command_line()) as dest:
-        names = write_retention(dest, pred, axis=axis)
+        names = write_retention(dest, pred, axis=axis, formats=formats)
     _print_modelled(pred.modelled, [])
     _print_crossings(pred.summary)
     console().print(f"wrote {', '.join(names)} to {out}")
@@ -288,25 +320,32 @@ def stribeck_cmd(
     log: Annotated[bool, typer.Option("--log/--linear", help="Space start:stop:count "
                                       "speeds geometrically (default) or linearly.")] = True,
     force: ForceOpt = False,
+    no_plot: NoPlotOpt = False,
+    formats: FormatsOpt = None,
+    jobs: JobsOpt = None,
+    scheduler: SchedulerOpt = None,
+    quiet: QuietOpt = False,
 ) -> None:
     """Stribeck curve mu(speed) at one creepage for a lubricated scene.
 
     Writes stribeck.csv (speed_m_s, mu, film_thickness_m, lambda, load_share_asperity,
-    mu_ehl, mu_boundary, separation_m, regime), stribeck.png/.svg (mu, Lambda and the
-    asperity load share against speed, regimes shaded) and summary.json.  With a
+    mu_ehl, mu_boundary, separation_m, regime), stribeck.png (--formats: also .svg/.pdf;
+    --no-plot: none) (mu, Lambda and the asperity load share against speed, regimes
+    shaded) and summary.json.  With a
     parameter file that carries its fit covariance: the 95 % bands of mu and the film
     thickness (mu_low95, mu_high95, film_thickness_low95_m ...) in the CSV and figure.
     """
     import numpy as np
 
-    from torlab.cli._common import parse_values
+    from torlab.cli._common import parse_values, session
     from torlab.errors import TorlabInputError
     from torlab.model.mixed import predict_stribeck
     from torlab.outputs import OutputDir
-    from torlab.reports.predict import stribeck_figure
+    from torlab.reports.render import parse_formats
     from torlab.scene import load_scene
 
     files = require_files(scene, "scene")
+    fmts = parse_formats(formats)
     sc = load_scene(*files)
     if sc.lubricant is None:
         raise TorlabInputError("a Stribeck curve needs a lubricated scene (lubricant: section)",
@@ -321,22 +360,27 @@ def stribeck_cmd(
     if xi.size != 1:
         raise TorlabInputError("give one creepage", key="--creepage")
     dest = OutputDir(out, force=force, inputs=files, command=command_line())
-    with dest:
+    names = ["stribeck.csv", "summary.json"]
+    with dest, session(jobs, scheduler, quiet):
         pred = predict_stribeck(sc, v, float(xi[0]))
         dest.write_csv("stribeck.csv", pred.table,
                        allow_missing=("lambda", "mu_ehl", "mu_boundary", "max_temperature_C",
                                       "max_temperature_low95_C", "max_temperature_high95_C"))
         dest.write_json("summary.json", pred.summary)
-        for ext in ("png", "svg"):
-            fig = stribeck_figure(pred.table, title=f"Stribeck: {sc.name or files[0].stem}",
-                                  creepage=pred.creepage)
-            dest.save_figure(f"stribeck.{ext}", fig)
+        if not no_plot:
+            from torlab.reports.predict import stribeck_figure
+            from torlab.reports.render import plot, write_figures
+
+            fig = plot(stribeck_figure, pred.table,
+                       title=f"Stribeck curve: {sc.name or files[0].stem}",
+                       creepage=pred.creepage)
+            names += write_figures(dest, [("stribeck", fig)], fmts)[0]
     _print_modelled(pred.modelled, pred.summary.get("notes", []))
     _print_band(pred.summary)
     s = pred.summary
     console().print(f"mu from {s['mu_min']:.4g} to {s['mu_max']:.4g}; regimes: "
                     + ", ".join(f"{k} ({n} speeds)" for k, n in s["regimes"].items()))
-    console().print(f"wrote stribeck.csv, stribeck.png, stribeck.svg, summary.json to {out}")
+    console().print(f"wrote {_written(names)} to {out}")
 
 
 @app.command("table")
@@ -356,13 +400,16 @@ def table_cmd(
                                              "xi*, eta*, phi* instead of fractions and 1/m.")]
     = False,
     force: ForceOpt = False,
+    jobs: JobsOpt = None,
+    scheduler: SchedulerOpt = None,
+    quiet: QuietOpt = False,
 ) -> None:
     """Creep-force table over creepage x lateral x spin (x speed x amount) for a dry scene.
 
     Writes creep_table.nc (netCDF3: axes, units, Kalker's normalisation, the scene's
     provenance), creep_table.csv (one row per point) and summary.json.
     """
-    from torlab.cli._common import parse_values
+    from torlab.cli._common import parse_values, session
     from torlab.model.creep_table import scene_creep_table
     from torlab.outputs import OutputDir
     from torlab.scene import load_scene
@@ -376,10 +423,11 @@ def table_cmd(
     pairs, unit, extra = _parse_amounts(amount or [])
     amounts = [(a, load_scene(*files, p)) for a, p in pairs] if pairs else None
     sc = load_scene(*files)
-    tab = scene_creep_table(sc, *axes, speed=v, amounts=amounts, amount_unit=unit,
-                            normalised=normalised, provenance={
-                                "scene_files": [str(f) for f in [*files, *extra]],
-                                "command": command_line()})
+    with session(jobs, scheduler, quiet):
+        tab = scene_creep_table(sc, *axes, speed=v, amounts=amounts, amount_unit=unit,
+                                normalised=normalised, provenance={
+                                    "scene_files": [str(f) for f in [*files, *extra]],
+                                    "command": command_line()})
     dest = OutputDir(out, force=force, inputs=[*files, *extra], command=command_line())
     with dest:
         names = tab.write(dest)

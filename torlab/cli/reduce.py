@@ -7,7 +7,16 @@ from typing import Annotated
 
 import typer
 
-from torlab.cli._common import ForceOpt, OutOpt, XlsxOpt
+from torlab.cli._common import (
+    ForceOpt,
+    FormatsOpt,
+    JobsOpt,
+    NoPlotOpt,
+    OutOpt,
+    QuietOpt,
+    SchedulerOpt,
+    XlsxOpt,
+)
 
 
 def register(root: typer.Typer) -> None:
@@ -34,6 +43,11 @@ def reduce_cmd(
                                         callback=lambda v: _list() if v else None)] = False,
     force: ForceOpt = False,
     xlsx: XlsxOpt = False,
+    no_plot: NoPlotOpt = False,
+    formats: FormatsOpt = None,
+    jobs: JobsOpt = None,
+    scheduler: SchedulerOpt = None,
+    quiet: QuietOpt = False,
 ) -> None:
     """Reduce files of any instrument; the instrument is detected from each file and said.
 
@@ -55,7 +69,9 @@ def reduce_cmd(
     if after_application:
         opts["after_application"] = True
     reduce_command(inputs, out, instrument=as_, force=force, xlsx=xlsx, options=opts,
-                   what="instrument", flags=False)
+                   what="instrument", flags=False,
+                   formats=formats, jobs=jobs, scheduler=scheduler, quiet=quiet,
+                   no_plot=no_plot)
 
 
 def _list() -> None:

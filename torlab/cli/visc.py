@@ -7,7 +7,16 @@ from typing import Annotated
 
 import typer
 
-from torlab.cli._common import ForceOpt, OutOpt, XlsxOpt
+from torlab.cli._common import (
+    ForceOpt,
+    FormatsOpt,
+    JobsOpt,
+    NoPlotOpt,
+    OutOpt,
+    QuietOpt,
+    SchedulerOpt,
+    XlsxOpt,
+)
 
 app = typer.Typer(help="Falling-body high-pressure viscometer (thesis 5.1.5): terminal velocities, "
                   "viscosity per pressure step, Barus and Roelands fits.", no_args_is_help=True)
@@ -41,6 +50,11 @@ def reduce_cmd(
     confidence: Annotated[float, typer.Option(help="Level of the confidence intervals.")] = 0.95,
     force: ForceOpt = False,
     xlsx: XlsxOpt = False,
+    no_plot: NoPlotOpt = False,
+    formats: FormatsOpt = None,
+    jobs: JobsOpt = None,
+    scheduler: SchedulerOpt = None,
+    quiet: QuietOpt = False,
 ) -> None:
     """Reduce viscometer logs: falls found in the LVDT trace, terminal velocity from each fall's
     steady part, eta = K (rho_body - rho_liquid) / v per fall and per pressure step; then the
@@ -56,4 +70,6 @@ def reduce_cmd(
             "tol": tol, "density_model": density_model, "law": law, "fit_eta0": fit_eta0,
             "eta0": eta0, "confidence": confidence}
     reduce_command(logs, out, instrument="visc", force=force, xlsx=xlsx, what="viscometer log",
-                   options={k: v for k, v in opts.items() if v is not None})
+                   options={k: v for k, v in opts.items() if v is not None},
+                   formats=formats, jobs=jobs, scheduler=scheduler, quiet=quiet,
+                   no_plot=no_plot)

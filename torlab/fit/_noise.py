@@ -208,10 +208,10 @@ def _meat(J: np.ndarray, scale: np.ndarray, nm: NoiseModel) -> np.ndarray:
     meat = (J * nm.white_row_var(scale)[:, None]).T @ J
     if nm.correlated:
         # AR(1) covariance applied by a forward and a backward recursion (O(n k))
-        from scipy.signal import lfilter
+        from torlab._stats import ar1_recursion  # scipy.signal.lfilter, without its import
 
-        fwd = lfilter([1.0], [1.0, -nm.rho], sj, axis=0)
-        bwd = lfilter([1.0], [1.0, -nm.rho], sj[::-1], axis=0)[::-1]
+        fwd = ar1_recursion(sj, nm.rho)
+        bwd = ar1_recursion(sj[::-1], nm.rho)[::-1]
         # sum_{s,t} rho^|s-t| a_s a_t^T = sum_t a_t (fwd_t + bwd_t - a_t)^T
         meat = meat + nm.correlated_var * (sj.T @ (fwd + bwd - sj))
     return meat

@@ -796,10 +796,10 @@ def _sum_variance(w: np.ndarray, nm: Any) -> float:
     """Variance of ``sum w_i eps_i`` for the white + AR(1) noise ``nm`` (absolute)."""
     var = nm.white_var * float(w @ w)
     if nm.correlated:
-        from scipy.signal import lfilter
+        from torlab._stats import ar1_recursion  # scipy.signal.lfilter, without its import
 
-        fwd = lfilter([1.0], [1.0, -nm.rho], w)
-        bwd = lfilter([1.0], [1.0, -nm.rho], w[::-1])[::-1]
+        fwd = ar1_recursion(w, nm.rho)
+        bwd = ar1_recursion(w[::-1], nm.rho)[::-1]
         var += nm.correlated_var * float(w @ (fwd + bwd - w))
     return var
 

@@ -66,9 +66,9 @@ def student_t(dof: float, confidence: float = 0.95) -> float:
 
     ``dof`` may be fractional (Satterthwaite degrees of freedom); below 1 it is 1.
     """
-    from scipy.stats import t as student
+    from torlab._stats import t_ppf  # scipy.stats.t.ppf, without its import
 
-    return float(student.ppf(0.5 + confidence / 2.0, max(float(dof), 1.0)))
+    return float(t_ppf(0.5 + confidence / 2.0, max(float(dof), 1.0)))
 
 
 def covariance_from_jacobian(jac: np.ndarray, residuals: np.ndarray, n_params: int

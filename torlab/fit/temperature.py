@@ -90,8 +90,8 @@ def fit_temperature_coefficients(fits_or_curves: Any, temperatures_K: Any = None
         unknown ``selection``.
     """
     import pandas as pd
-    from scipy.stats import f as fdist
 
+    from torlab._stats import f_sf  # scipy.stats.f.sf, without its import
     from torlab.fit.layer import fit_layer_hpt
 
     if selection == "test":
@@ -140,7 +140,7 @@ def fit_temperature_coefficients(fits_or_curves: Any, temperatures_K: Any = None
         tq = student_t(full.dof)
         lo, hi = b - tq * se_b, b + tq * se_b
         fstat = (b / se_b) ** 2 if se_b > 0 else math.inf
-        pval = float(fdist.sf(fstat, 1, max(full.dof, 1))) if math.isfinite(fstat) else 0.0
+        pval = float(f_sf(fstat, 1, max(full.dof, 1))) if math.isfinite(fstat) else 0.0
         resolved = pval < selection_level
         keep[key] = selection == "none" or resolved
         decision = ("kept" if resolved else

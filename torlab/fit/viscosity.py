@@ -288,11 +288,11 @@ def _check(p: Any, eta: Any, k: int, law: str) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _t(confidence: float, dof: int) -> float:
-    from scipy.stats import t as student_t
+    from torlab._stats import t_ppf  # scipy.stats.t.ppf, without its import
 
     if not (0 < confidence < 1):
         raise TorlabInputError(f"confidence must be in (0, 1), got {confidence}", key="confidence")
-    return float(student_t.ppf(0.5 + confidence / 2, dof))
+    return float(t_ppf(0.5 + confidence / 2, dof))
 
 
 @small_problem  # one BLAS thread: small matrices (torlab.threads)

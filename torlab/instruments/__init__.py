@@ -365,7 +365,8 @@ def reduce_batch(paths: Sequence[str | os.PathLike[str]], instrument: str | None
 
     Options are converted once per instrument, and what an instrument
     prepares once for a batch runs once (the viscometer's calibration from
-    reference logs).  Without ``instrument`` each file's instrument is
+    reference logs).  The files are reduced on the executor in use
+    (:func:`torlab.parallel.current`: ``--jobs`` of the reduce commands).  Without ``instrument`` each file's instrument is
     detected and gets the options it knows; an option no detected instrument
     knows is an error.
     """
@@ -388,13 +389,19 @@ def reduce_batch(paths: Sequence[str | os.PathLike[str]], instrument: str | None
         preset = next(pr for i, pr, _ in how.values() if i.name == name)
         mine = {k: v for k, v in options.items() if k.replace("-", "_") in inst.options}
         prepared[name] = prepare_options(inst, {**preset, **mine})
-    reds = []
-    for p in order:
-        inst, _, why = how[p]
-        red = inst.impl().reduce(p, **prepared[inst.name])
-        red.detected = why
-        reds.append(red)
+    from torlab.parallel import current
+
+    jobs = [(how[p][0].name, p, prepared[how[p][0].name], how[p][2]) for p in order]
+    reds = current().map(_reduce_one, jobs, description="reducing files")
     return reds, prepared
+
+
+def _reduce_one(job: tuple[str, Path, dict[str, Any], str]) -> Any:
+    """Reduce one file (a task of the executor in use, :mod:`torlab.parallel`)."""
+    name, p, opts, why = job
+    red = get_instrument(name).impl().reduce(p, **opts)
+    red.detected = why
+    return red
 
 
 def prepare_options(inst: Instrument, options: dict[str, Any]) -> dict[str, Any]:

@@ -77,7 +77,9 @@ def collect(reds: list[Reduction], options: dict[str, Any]) -> tuple[dict, dict,
     from torlab.reports.hpt import hpt_figure
 
     rows = pd.DataFrame([r.detail.summary() for r in reds])
-    fig = hpt_figure([r.detail for r in reds], title="HPT: shear stress and friction")
+    from torlab.reports.render import plot
+
+    fig = plot(hpt_figure, [r.detail for r in reds], title="HPT: shear stress and friction")
     return ({"summary": rows}, {"summary": ("applied_amount", "temperature_C")}, {"hpt": fig})
 
 

@@ -85,10 +85,11 @@ def reduce(path: Path, **opts: Any) -> Reduction:
 
 
 def figures(red: Reduction) -> dict[str, Any]:
-    """The log's figure (by test type), written as ``<name>.png``."""
+    """The log's figure (by test type), written as ``<name>.png`` (declared, drawn later)."""
     from torlab.reports.optical import optical_figure
+    from torlab.reports.render import plot
 
-    return {"": optical_figure(red.detail)}
+    return {"": plot(optical_figure, red.detail)}
 
 
 def collect(reds: list[Reduction], options: dict[str, Any]) -> tuple[dict, dict, dict]:
@@ -138,7 +139,8 @@ def traction_curves(red: Reduction) -> list[Curve]:
         sub = fd[g == k].sort_values("srr")
         v = float(sub["rolling_speed_m_s"].mean())
         out.append(Curve(f"{v:.3g} m/s", sub["srr"].to_numpy(dtype=float),
-                         sub["traction_coefficient"].to_numpy(dtype=float), speed_m_s=v))
+                         sub["traction_coefficient"].to_numpy(dtype=float), speed_m_s=v,
+                         y_sd=_sd(sub, "traction_coefficient_sd")))
     return out
 
 
@@ -147,11 +149,16 @@ def stribeck_curves(red: Reduction) -> list[Curve]:
     p = red.detail.points
     if "traction_coefficient" not in p or p["traction_coefficient"].isna().all():
         return []
-    d = p[["rolling_speed_m_s", "srr", "traction_coefficient"]].dropna()
+    d = p.dropna(subset=["rolling_speed_m_s", "srr", "traction_coefficient"])
     d = d.sort_values("rolling_speed_m_s")
     return [Curve("", d["rolling_speed_m_s"].to_numpy(dtype=float),
                   d["traction_coefficient"].to_numpy(dtype=float),
-                  srr=d["srr"].to_numpy(dtype=float))]
+                  srr=d["srr"].to_numpy(dtype=float), y_sd=_sd(d, "traction_coefficient_sd"))]
+
+
+def _sd(d: Any, col: str) -> Any:
+    """The spread column ``col`` as an array (None when the table has none)."""
+    return d[col].to_numpy(dtype=float) if col in d and d[col].notna().any() else None
 
 
 def film_curves(red: Reduction) -> list[Curve]:
@@ -171,7 +178,8 @@ def film_curves(red: Reduction) -> list[Curve]:
         T = _temp(g)
         label = "" if st is None else step_label(_FilmStep(int(st)), g)
         out.append(Curve(label, g["rolling_speed_m_s"].to_numpy(dtype=float),
-                         g["film_thickness_m"].to_numpy(dtype=float), temperature_C=T))
+                         g["film_thickness_m"].to_numpy(dtype=float), temperature_C=T,
+                         y_sd=_sd(g, "film_thickness_sd_m")))
     return out
 
 

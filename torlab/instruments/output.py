@@ -30,7 +30,8 @@ def _unique_stems(reds: list[Any]) -> list[str]:
 
 
 def write_reductions(dest: Any, reds: list[Any], options: dict[str, dict[str, Any]] | None = None,
-                     *, figures: bool = True, xlsx: bool = False) -> list[str]:
+                     *, figures: bool = True, xlsx: bool = False,
+                     formats: Any = None) -> list[str]:
     """Write reductions into an :class:`~torlab.outputs.OutputDir` (staged; the caller commits).
 
     Parameters
@@ -43,7 +44,9 @@ def write_reductions(dest: Any, reds: list[Any], options: dict[str, dict[str, An
         Instrument name -> the (prepared) options of its reductions, for the
         tables over all files (the viscometer's calibration rows).
     figures
-        Write PNG figures.
+        Write figures.
+    formats
+        Their file formats (default PNG; :data:`torlab.reports.render.FORMATS`).
     xlsx
         Also write ``tables.xlsx``: one sheet per table (needs openpyxl).
 
@@ -57,6 +60,7 @@ def write_reductions(dest: Any, reds: list[Any], options: dict[str, dict[str, An
     options = options or {}
     written: list[str] = []
     sheets: dict[str, Any] = {}
+    figs: list[tuple[str, Any]] = []
     for red, stem in zip(reds, _unique_stems(reds), strict=True):
         for name, df in red.tables.items():
             fn = f"{stem}_{name}.csv"
@@ -71,24 +75,25 @@ def write_reductions(dest: Any, reds: list[Any], options: dict[str, dict[str, An
                 dest.write_text(fn, str(content))
             written.append(fn)
         if figures:
-            for name, fig in red.figures().items():
-                fn = f"{stem}_{name}.png" if name else f"{stem}.png"
-                dest.save_figure(fn, fig)
-                written.append(fn)
+            for name, fig in red.plots().items():
+                figs.append((f"{stem}_{name}" if name else stem, fig))
     kinds = list(dict.fromkeys(r.instrument for r in reds))
     for kind in kinds:
         mine = [r for r in reds if r.instrument == kind]
         impl = get_instrument(kind).impl()
-        tables, optional, figs = impl.collect(mine, options.get(kind, {}))
+        tables, optional, figs_all = impl.collect(mine, options.get(kind, {}))
         pre = "" if len(kinds) == 1 else f"{kind}_"
         for name, df in tables.items():
             dest.write_csv(f"{pre}{name}.csv", df, allow_missing=optional.get(name, ()))
             written.append(f"{pre}{name}.csv")
             sheets[f"{pre}{name}"] = df
         if figures:
-            for name, fig in figs.items():
-                dest.save_figure(f"{pre}{name}.png", fig)
-                written.append(f"{pre}{name}.png")
+            figs += [(f"{pre}{name}", fig) for name, fig in figs_all.items()]
+    if figs:
+        from torlab.reports.render import parse_formats, write_figures
+
+        names, _ = write_figures(dest, figs, parse_formats(formats))
+        written += names
     if xlsx:
         import io
 

@@ -86,13 +86,14 @@ def reduce(path: Path, **opts: Any) -> Reduction:
 
 
 def figures(red: Reduction) -> dict[str, Any]:
-    """One figure per step kind, and the time tests."""
+    """One figure per step kind, and the time tests (declared, drawn later)."""
     from torlab.reports.mtm import curve_figure, time_test_figure
+    from torlab.reports.render import plot
 
     d = red.detail
-    figs = {kind: curve_figure(d, kind) for kind in d.curves}
+    figs = {kind: plot(curve_figure, d, kind) for kind in d.curves}
     if d.time_tests:
-        figs["time_test"] = time_test_figure(d, d.time_tests)
+        figs["time_test"] = plot(time_test_figure, d, d.time_tests)
     return figs
 
 

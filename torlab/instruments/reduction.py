@@ -30,6 +30,9 @@ class Curve:
         Mean temperature of the curve, if logged.
     srr
         SRR of each point of a Stribeck curve (NaN where not logged).
+    y_sd
+        Spread (standard deviation) of each ``y`` over its averaging window, where
+        the reduction has it (None otherwise): the error bars of the figures.
     """
 
     label: str
@@ -38,6 +41,7 @@ class Curve:
     speed_m_s: float | None = None
     temperature_C: float | None = None
     srr: Any = None
+    y_sd: Any = None
 
 
 @dataclass
@@ -122,6 +126,11 @@ class Reduction:
 
     def figures(self) -> dict[str, Any]:
         """Name -> matplotlib figure of this file (``""`` names the file's main figure)."""
+        return {k: p.draw() if hasattr(p, "draw") else p for k, p in self.plots().items()}
+
+    def plots(self) -> dict[str, Any]:
+        """Name -> the declared figure (:class:`torlab.reports.render.Plot`) of this file:
+        what :meth:`figures` draws, for drawing later, in parallel or from a cache."""
         return self._impl().figures(self)
 
     # -- measured curves for fits and reports ---------------------------------------------

@@ -164,12 +164,13 @@ def _summary_row(path: Path, meta: Any, res: Any, fits: list[Any], T: float | No
 
 def figures(red: Reduction) -> dict[str, Any]:
     """The falls (``falls``) and, with fits, the data against the laws (``fit``)."""
+    from torlab.reports.render import plot
     from torlab.reports.viscometer import falls_figure, fit_figure
 
     res = red.detail
-    figs = {"falls": falls_figure(res)}
+    figs = {"falls": plot(falls_figure, res)}
     if res.fits:
-        figs["fit"] = fit_figure(res, res.fits)
+        figs["fit"] = plot(fit_figure, res, res.fits)
     return figs
 
 

@@ -167,45 +167,71 @@ def traction_band(scene: Any, creepage: np.ndarray, table: Any, su: SceneUncerta
     ``options`` go to :func:`torlab.uncertainty.propagate` (``method``,
     ``n_samples`` ...).
     """
-    from torlab.model.fastsim import boundary_traction
-    from torlab.model.predict import fastsim_grid, fastsim_problem, predict_traction
+    from torlab.model.predict import fastsim_grid, fastsim_problem
 
     xi = np.asarray(creepage, dtype=float)
     outs = tuple(k for k in BAND_COLUMNS if k in table)
     f0 = _outputs(table, outs)
     if scene.lubricant is None:
-        prob = fastsim_problem(scene)
-        grid = fastsim_grid(scene)
-        boundary_names = set(BOUNDARY_KEYS)
-
-        def model(p: dict[str, float]) -> dict[str, np.ndarray]:
-            layer = replace(prob.layer, **{k: v for k, v in p.items() if k in boundary_names})
-            res = boundary_traction(replace(prob, layer=layer), xi, grid)
-            out = {"mu": res.mu}
-            if "max_temperature_C" in outs:
-                out["max_temperature_C"] = res.max_temperature_C
-            return out
+        model: Any = _DryTractionModel(fastsim_problem(scene), fastsim_grid(scene), xi, outs)
     else:
-        def model(p: dict[str, float]) -> dict[str, np.ndarray]:
-            t = predict_traction(_with_params(scene, p), xi, band=False).table
-            return _outputs(t, outs)
-
+        model = _SceneModel("traction", scene, xi, None, outs)
     return propagate(model, su.dist, f0=f0, seed=seed, **options)
 
 
 def stribeck_band(scene: Any, speed: np.ndarray, creepage: float, table: Any,
                   su: SceneUncertainty, *, seed: int = 0) -> Propagation:
     """Band of a Stribeck curve (``table`` is the curve at the estimate)."""
-    from torlab.model.mixed import predict_stribeck
-
     outs = tuple(k for k in BAND_COLUMNS if k in table)
     f0 = _outputs(table, outs)
+    return propagate(_SceneModel("stribeck", scene, np.asarray(speed, dtype=float), creepage,
+                                 outs), su.dist, f0=f0, seed=seed)
 
-    def model(p: dict[str, float]) -> dict[str, np.ndarray]:
-        t = predict_stribeck(_with_params(scene, p), speed, creepage, band=False).table
-        return _outputs(t, outs)
 
-    return propagate(model, su.dist, f0=f0, seed=seed)
+# the models of the bands: picklable objects (their draws may be evaluated on worker
+# processes, torlab.parallel), called with a parameter dict
+@dataclass
+class _DryTractionModel:
+    """FASTSIM of a dry scene with the layer's parameters replaced."""
+
+    prob: Any
+    grid: Any
+    xi: np.ndarray
+    outs: tuple[str, ...]
+
+    def __call__(self, p: dict[str, float]) -> dict[str, np.ndarray]:
+        from torlab.model.fastsim import boundary_traction
+
+        layer = replace(self.prob.layer, **{k: v for k, v in p.items() if k in BOUNDARY_KEYS})
+        res = boundary_traction(replace(self.prob, layer=layer), self.xi, self.grid)
+        out = {"mu": res.mu}
+        if "max_temperature_C" in self.outs:
+            out["max_temperature_C"] = res.max_temperature_C
+        return out
+
+
+@dataclass
+class _SceneModel:
+    """The whole prediction (``traction``: at creepages ``x``; ``stribeck``: at speeds ``x``
+    and one creepage) of the scene with the parameters replaced."""
+
+    kind: str
+    scene: Any
+    x: np.ndarray
+    creepage: float | None
+    outs: tuple[str, ...]
+
+    def __call__(self, p: dict[str, float]) -> dict[str, np.ndarray]:
+        if self.kind == "traction":
+            from torlab.model.predict import predict_traction
+
+            t = predict_traction(_with_params(self.scene, p), self.x, band=False).table
+        else:
+            from torlab.model.mixed import predict_stribeck
+
+            t = predict_stribeck(_with_params(self.scene, p), self.x, self.creepage,
+                                 band=False).table
+        return _outputs(t, self.outs)
 
 
 def add_band_columns(table: Any, band: Propagation) -> Any:

@@ -135,6 +135,12 @@ def _chunk(prob: CreepProblem, grid: CreepGrid | None, xi: np.ndarray, eta: np.n
     return out
 
 
+def _executor_map(fn: Callable[[Any], Any], items: Iterable[Any]) -> list[Any]:
+    from torlab.parallel import current
+
+    return current().map(fn, items, description="creep-force table")
+
+
 def _chunk_star(args: tuple) -> dict[str, np.ndarray]:
     return _chunk(*args)
 
@@ -193,7 +199,9 @@ def creep_table(problem: CreepProblem | Sequence[tuple[float, CreepProblem]], cr
     chunk
         Creepage triples per unit of work.
     map_fn
-        ``map``-like callable evaluating the chunks (default: the builtin ``map``).
+        ``map``-like callable evaluating the chunks (default: the executor in use,
+        :func:`torlab.parallel.current` -- serial unless a command's ``--jobs`` or
+        ``--scheduler`` set one; the chunks are the same whatever evaluates them).
     provenance
         Extra attributes (scene name and files, command line ...), stored as JSON text.
 
@@ -253,7 +261,7 @@ def creep_table(problem: CreepProblem | Sequence[tuple[float, CreepProblem]], cr
             variants.append((amount, v, pv))
             for s in range(0, UX.size, chunk):
                 work.append((pv, grid, UX[s:s + chunk], UE[s:s + chunk], UP[s:s + chunk]))
-    results = list((map_fn or map)(_chunk_star, work))
+    results = list((map_fn or _executor_map)(_chunk_star, work))
     per_variant = math.ceil(UX.size / chunk)
     sign = {"Fx_N": sx, "mu_x": sx, "Fy_N": sy, "mu_y": sy, "Mz_Nm": sy}
     names = list(results[0])

@@ -220,7 +220,8 @@ class _SceneLike:
         self.boundary = mc.problem.layer if mc.problem is not None else None
 
 
-def predict_traction_mixed(scene: Any, creepage: Any, *, trend_tolerance: float = 0.01):
+def predict_traction_mixed(scene: Any, creepage: Any, *, trend_tolerance: float = 0.01,
+                           as_frame: bool = True):
     """Traction curve of a lubricated scene at the scene's speed (Eq. 5.47).
 
     Parameters
@@ -237,10 +238,9 @@ def predict_traction_mixed(scene: Any, creepage: Any, *, trend_tolerance: float 
     torlab.model.predict.TractionPrediction
         ``table`` adds ``mu_boundary`` (where the asperities carry load),
         ``mu_ehl`` (where the film does), ``load_share_asperity`` and
-        ``film_thickness_m`` to ``creepage`` and ``mu``.
+        ``film_thickness_m`` to ``creepage`` and ``mu`` (a dict of numpy columns with
+        ``as_frame=False``).
     """
-    import pandas as pd
-
     from torlab.model.ehl import mu_ehl
     from torlab.model.loadshare import solve_load_sharing
     from torlab.model.prediction import TractionPrediction, _summary, classify_trend
@@ -255,7 +255,7 @@ def predict_traction_mixed(scene: Any, creepage: Any, *, trend_tolerance: float 
     share = float(ls.load_share_asperity)
     _need_boundary(mc, np.array([share]), f"at {v:g} m/s")
     h = float(ls.film_thickness)
-    table = pd.DataFrame({"creepage": xi})
+    table: Any = {"creepage": xi}
     mu = np.zeros_like(xi)
     mu_e = None
     if ls.F_EHL > 0:
@@ -273,10 +273,14 @@ def predict_traction_mixed(scene: Any, creepage: Any, *, trend_tolerance: float 
         table["adhesion_fraction"] = bl.adhesion_fraction
     if mu_e is not None:
         table["mu_ehl"] = mu_e
-    table["load_share_asperity"] = share
-    table["film_thickness_m"] = h
+    table["load_share_asperity"] = np.full(xi.shape, share)
+    table["film_thickness_m"] = np.full(xi.shape, h)
     if bl is not None and bl.max_temperature_C is not None:
         table["max_temperature_C"] = bl.max_temperature_C
+    if as_frame:
+        import pandas as pd
+
+        table = pd.DataFrame(table)
     modelled = _modelled(mc, {str(ls.regime)}, bl is not None, loop)
     trend = classify_trend(xi, mu, tolerance=trend_tolerance)
     summary = _summary(scene, mc.contact, modelled, trend, table)

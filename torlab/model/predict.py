@@ -50,7 +50,7 @@ __all__ = [
 
 def predict_traction(scene: Any, creepage: Any, *, trend_tolerance: float = TREND_TOLERANCE,
                      trend_threshold: float = TREND_PROBABILITY, band: bool = True,
-                     seed: int = 0) -> TractionPrediction:
+                     seed: int = 0, as_frame: bool = True) -> TractionPrediction:
     """Predict ``mu`` against creepage for a scene.
 
     Parameters
@@ -73,6 +73,10 @@ def predict_traction(scene: Any, creepage: Any, *, trend_tolerance: float = TREN
         but the summary's note.
     seed
         Seed of the band's parameter draws (when it samples).
+    as_frame
+        ``table`` as a pandas DataFrame (default); False: a dict of numpy columns
+        (no pandas import: what a command that only writes the CSV needs).  With a
+        band the table is a DataFrame either way.
 
     Returns
     -------
@@ -81,9 +85,10 @@ def predict_traction(scene: Any, creepage: Any, *, trend_tolerance: float = TREN
     if scene.lubricant is not None:
         from torlab.model.mixed import predict_traction_mixed
 
-        pred = predict_traction_mixed(scene, creepage, trend_tolerance=trend_tolerance)
+        pred = predict_traction_mixed(scene, creepage, trend_tolerance=trend_tolerance,
+                                      as_frame=as_frame)
     else:
-        pred = _predict_traction_dry(scene, creepage, trend_tolerance)
+        pred = _predict_traction_dry(scene, creepage, trend_tolerance, as_frame)
     if band:
         _attach_band(scene, pred, trend_tolerance, trend_threshold, seed)
     return pred
@@ -92,6 +97,10 @@ def predict_traction(scene: Any, creepage: Any, *, trend_tolerance: float = TREN
 def _attach_band(scene: Any, pred: TractionPrediction, tolerance: float, threshold: float,
                  seed: int) -> None:
     """The band, its summary and the trend with probabilities (:mod:`torlab.model.bands`)."""
+    fit = getattr(scene, "fit", None)
+    if fit is None or not fit.covariances:  # nothing to propagate (the band code stays unloaded)
+        pred.summary["band"] = {"method": "not computed", "notes": [NO_COVARIANCE]}
+        return
     from torlab.model.bands import add_band_columns, band_summary, scene_uncertainty, traction_band
 
     su = scene_uncertainty(scene)
@@ -100,6 +109,10 @@ def _attach_band(scene: Any, pred: TractionPrediction, tolerance: float, thresho
         return
     from torlab.errors import NumericalError
 
+    if not hasattr(pred.table, "columns"):  # columns of as_frame=False: the band needs a frame
+        import pandas as pd
+
+        pred.table = pd.DataFrame(pred.table)
     xi = pred.table["creepage"].to_numpy(dtype=float)
     try:
         band = traction_band(scene, xi, pred.table, su, seed=seed)
@@ -118,10 +131,13 @@ def _attach_band(scene: Any, pred: TractionPrediction, tolerance: float, thresho
                          f"({pred.band.method} propagation of {', '.join(pred.band.names)})")
 
 
-def _predict_traction_dry(scene: Any, creepage: Any, trend_tolerance: float
-                          ) -> TractionPrediction:
-    import pandas as pd
+#: the band's note for a scene without a fit covariance (as :mod:`torlab.model.bands` says it)
+NO_COVARIANCE = ("no band: the scene carries no fit covariance (its parameters are taken as "
+                 "exact); predict with the params.yaml of a torlab fit to get one")
 
+
+def _predict_traction_dry(scene: Any, creepage: Any, trend_tolerance: float,
+                          as_frame: bool = True) -> TractionPrediction:
     xi = np.atleast_1d(np.asarray(creepage, dtype=float))
     if scene.boundary is None:
         from torlab.errors import TorlabInputError
@@ -131,10 +147,14 @@ def _predict_traction_dry(scene: Any, creepage: Any, trend_tolerance: float
     contact = build_contact(scene)
     prob = fastsim_problem(scene, contact)
     res = boundary_traction(prob, xi, fastsim_grid(scene))
-    table = pd.DataFrame({"creepage": xi, "mu": res.mu, "mu_boundary": res.mu,
-                          "adhesion_fraction": res.adhesion_fraction})
+    table: Any = {"creepage": xi, "mu": res.mu, "mu_boundary": res.mu,
+                  "adhesion_fraction": res.adhesion_fraction}
     if res.max_temperature_C is not None:
         table["max_temperature_C"] = res.max_temperature_C
+    if as_frame:
+        import pandas as pd
+
+        table = pd.DataFrame(table)
     modelled = [f"Hertz contact ({contact.patch.method})",
                 "boundary friction: FASTSIM with the third-body layer (elastic + Voce)",
                 "EHL film: not modelled (dry scene, no lubricant:)",

@@ -28,7 +28,8 @@ class TractionPrediction:
     Attributes
     ----------
     table
-        DataFrame with the scene-contract columns ``creepage`` (fraction) and
+        DataFrame (a dict of numpy columns with ``as_frame=False``) with the
+        scene-contract columns ``creepage`` (fraction) and
         ``mu``, and where the scene has them ``mu_boundary``, ``mu_ehl``,
         ``load_share_asperity``, ``film_thickness_m``, ``max_temperature_C``;
         also ``adhesion_fraction`` (load fraction still elastic).
@@ -209,7 +210,7 @@ def classify_trend(creepage: np.ndarray, mu: np.ndarray, *, saturation: float = 
         out["relative_change_high95"] = float(np.ravel(d.high())[0])
         out["basis"] = f"the parameters' uncertainty ({d.method} propagation)"
     elif measured and xs.size >= 3:
-        from scipy.stats import t as student
+        from torlab._stats import t_cdf, t_ppf  # scipy.stats.t, without its import
 
         xc = xs - xs.mean()
         resid = ys - ys.mean() - slope * xc
@@ -217,9 +218,9 @@ def classify_trend(creepage: np.ndarray, mu: np.ndarray, *, saturation: float = 
         se_slope = math.sqrt(float(resid @ resid) / dof / float(xc @ xc))
         se = se_slope * (xs[-1] - xs[0]) / ys[0]
         if se > 0:
-            cdf = student.cdf((np.array(edges) - change) / se, dof)
+            cdf = t_cdf((np.array(edges) - change) / se, dof)
             probs = np.diff(np.concatenate(([0.0], cdf, [1.0])))
-            tq = float(student.ppf(0.975, dof))
+            tq = float(t_ppf(0.975, dof))
             out["relative_change_low95"] = float(change - tq * se)
             out["relative_change_high95"] = float(change + tq * se)
         else:
@@ -254,7 +255,7 @@ def _summary(scene: Any, contact: ContactModel, modelled: list[str], trend: dict
     from torlab import __version__
     from torlab.model.plausible import result_notes
 
-    mu = table["mu"].to_numpy()
+    mu = np.asarray(table["mu"])
     s = {
         "torlab_version": __version__,
         "scene": scene.name,

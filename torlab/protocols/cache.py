@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import base64
 import contextlib
+import contextvars
 import dataclasses
 import hashlib
 import hmac
@@ -43,13 +44,14 @@ import os
 import re
 import secrets
 import sys
+import time
 from collections.abc import Callable
 from functools import cache
 from pathlib import Path
 from typing import Any, TypeVar
 
-__all__ = ["CACHE_DIR", "FORMAT", "FORMAT_VERSION", "ResultCache", "cache_key_file",
-           "decode_value", "encode_value", "file_sha256"]
+__all__ = ["CACHE_DIR", "FORMAT", "FORMAT_VERSION", "FigureStore", "ResultCache", "cache_key_file",
+           "decode_value", "digest_value", "encode_value", "file_sha256"]
 
 CACHE_DIR = ".cache"
 FORMAT = "torlab-cache"
@@ -196,8 +198,28 @@ def _enc_array(a: Any) -> Any:
     if a.dtype.kind == "O":
         return {"__t": "ndo", "shape": list(a.shape), "v": [encode_value(x) for x in a.ravel()]}
     a = np.ascontiguousarray(a)
+    if _DIGEST.get():  # digest_value: the bytes' hash stands for them
+        return {"__t": "nd", "dtype": _dtype_str(a.dtype), "shape": list(a.shape),
+                "sha256": hashlib.sha256(a.reshape(-1).view(np.uint8)).hexdigest()}
     return {"__t": "nd", "dtype": _dtype_str(a.dtype), "shape": list(a.shape),
             "b64": base64.b64encode(a.tobytes()).decode("ascii")}
+
+
+_DIGEST: contextvars.ContextVar[bool] = contextvars.ContextVar("torlab_cache_digest",
+                                                               default=False)
+
+
+def digest_value(v: Any) -> str:
+    """SHA-256 (hex) of a value as :func:`encode_value` encodes it, each array's bytes hashed
+    where the encoding would carry them as base64 (a content key without the cost of
+    writing the data out); raises :class:`NotCacheable` like :func:`encode_value`."""
+    token = _DIGEST.set(True)
+    try:
+        tree = encode_value(v)
+    finally:
+        _DIGEST.reset(token)
+    blob = json.dumps(tree, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(blob.encode("utf-8")).hexdigest()
 
 
 def _enc_column(s: Any) -> Any:
@@ -400,10 +422,12 @@ def _dec_pandas(t: dict, d: int) -> Any:
         s.name = decode_value(t["name"], depth=d)
         return s
     cols = _dec_index(t["columns"], d)
-    data = [_dec_column(c, d) for c in _list(t["data"])]
-    if len(cols) != len(data) or any(len(s) != len(index) for s in data):
+    data = [_dec_column_values(c, d) for c in _list(t["data"])]
+    if len(cols) != len(data) or any(len(v) != len(index) for v in data):
         raise BadEntry("table columns do not match")
-    df = pd.concat([s.set_axis(index) for s in data], axis=1, ignore_index=True) if data \
+    # one constructor call from the columns' values (numpy arrays or Series of an extension
+    # dtype): much faster than joining one Series per column
+    df = pd.DataFrame(dict(enumerate(data)), index=index, copy=False) if data \
         else pd.DataFrame(index=index)
     df.columns = cols
     attrs = decode_value(t.get("attrs", {"__t": "dict", "v": []}), depth=d)
@@ -411,6 +435,16 @@ def _dec_pandas(t: dict, d: int) -> Any:
         raise BadEntry("bad table attributes")
     df.attrs.update(attrs)
     return df
+
+
+def _dec_column_values(c: Any, d: int) -> Any:
+    """A column's values: a numpy array, or a Series for an extension dtype (no index)."""
+    if isinstance(c, dict) and "ext" not in c and "v" in c:
+        arr = _dec_array(c["v"], d)
+        if arr.ndim != 1:
+            raise BadEntry("a column must be one-dimensional")
+        return arr
+    return _dec_column(c, d).array
 
 
 def _resolve_type(name: Any) -> type:
@@ -463,6 +497,9 @@ class ResultCache:
     ----------
     hits, misses
         Entries reused and computed.
+    io_seconds, compute_seconds
+        Time spent on reading and writing entries, and computing the missing ones
+        (through :meth:`get_or_compute`).
     rejected
         Stored entries that failed the authentication or schema check (recomputed).
     not_cacheable
@@ -479,6 +516,10 @@ class ResultCache:
         self.used: set[str] = set()
         self._key: bytes | None = None
         self.persistent_key = False
+        #: seconds spent reading, checking, encoding and writing entries; computing misses
+        self.io_seconds = 0.0
+        self.compute_seconds = 0.0
+        self._figures: FigureStore | None = None
 
     @property
     def secret(self) -> bytes:
@@ -540,15 +581,20 @@ class ResultCache:
             return None
         return None if len(data) > MAX_ENTRY_BYTES else data
 
-    def get_or_compute(self, kind: str, compute: Callable[[], T], **parts: Any) -> T:
-        """The cached value for ``(kind, parts)``, or ``compute()`` stored under it."""
+    def lookup(self, kind: str, **parts: Any) -> tuple[bool, Any]:
+        """``(True, value)`` for a valid stored entry of ``(kind, parts)``, else ``(False, None)``.
+
+        The entry counts as used (kept by :meth:`prune`); a hit counts in :attr:`hits`.
+        """
         if self.folder is None:
-            self.misses += 1
-            return compute()
-        name = f"{self.key(kind, **parts)}{SUFFIX}"
-        self.used.add(name)
-        p = self.folder / name
-        if p.exists() or p.is_symlink():
+            return False, None
+        t0 = time.perf_counter()
+        try:
+            name = f"{self.key(kind, **parts)}{SUFFIX}"
+            self.used.add(name)
+            p = self.folder / name
+            if not (p.exists() or p.is_symlink()):
+                return False, None
             data = self._read(p)
             try:
                 if data is None:
@@ -558,26 +604,59 @@ class ResultCache:
                 self.rejected += 1
                 with contextlib.suppress(OSError):
                     p.unlink()
-            else:
-                self.hits += 1
-                if self.register is not None:
-                    self.register(f"{CACHE_DIR}/{name}")
-                return value
-        self.misses += 1
-        value = compute()
+                return False, None
+            self.hits += 1
+            if self.register is not None:
+                self.register(f"{CACHE_DIR}/{name}")
+            return True, value
+        finally:
+            self.io_seconds += time.perf_counter() - t0
+
+    def store(self, kind: str, value: Any, **parts: Any) -> None:
+        """Store ``value`` under ``(kind, parts)`` (silently not, if it is not plain data)."""
+        if self.folder is None:
+            return
+        t0 = time.perf_counter()
         try:
-            blob = self.dumps(name, kind, value)
-        except (NotCacheable, ValueError, TypeError):
-            self.not_cacheable.add(kind)
-            self.used.discard(name)
-            return value
+            name = f"{self.key(kind, **parts)}{SUFFIX}"
+            try:
+                blob = self.dumps(name, kind, value)
+            except (NotCacheable, ValueError, TypeError):
+                self.not_cacheable.add(kind)
+                self.used.discard(name)
+                return
+            self.used.add(name)
+            self._write(name, blob)
+        finally:
+            self.io_seconds += time.perf_counter() - t0
+
+    def _write(self, name: str, blob: bytes) -> None:
         from torlab.outputs import _writing
 
+        p = self.folder / name  # type: ignore[operator]
         target = self.register(f"{CACHE_DIR}/{name}") if self.register is not None else p
         with _writing(target):
             target.parent.mkdir(parents=True, exist_ok=True)
             target.write_bytes(blob)
+
+    def get_or_compute(self, kind: str, compute: Callable[[], T], **parts: Any) -> T:
+        """The cached value for ``(kind, parts)``, or ``compute()`` stored under it."""
+        hit, value = self.lookup(kind, **parts)
+        if hit:
+            return value
+        self.misses += 1
+        t0 = time.perf_counter()
+        value = compute()
+        self.compute_seconds += time.perf_counter() - t0
+        self.store(kind, value, **parts)
         return value
+
+    @property
+    def figures(self) -> FigureStore:
+        """The cached figures of this cache (:class:`FigureStore`)."""
+        if self._figures is None:
+            self._figures = FigureStore(self)
+        return self._figures
 
     def prune(self) -> int:
         """Delete everything in the folder this run did not use (old entries, other files)."""
@@ -596,6 +675,80 @@ class ResultCache:
                     p.unlink()
             n += 1
         return n
+
+
+class FigureStore:
+    """Cached figures of a :class:`ResultCache`: ``fig-<key>.<format>`` files, authenticated.
+
+    A cached figure is the PNG/SVG/PDF file itself, named by its content key
+    (:func:`torlab.reports.render.figure_key`: the hash of the plotted data and
+    style), next to a one-line sidecar ``fig-<key>.<format>.mac`` holding the
+    HMAC-SHA256 of the file's bytes under the cache's key.  A figure whose
+    sidecar is missing or does not match (written elsewhere, edited) is drawn
+    again, so a crafted ``.cache`` cannot put a wrong picture into a report.
+
+    Attributes
+    ----------
+    hits, misses
+        Figures reused and not found.
+    """
+
+    def __init__(self, cache: ResultCache) -> None:
+        self.cache = cache
+        self.hits = 0
+        self.misses = 0
+
+    def _mac(self, name: str, data: bytes) -> str:
+        return hmac.new(self.cache.secret, f"{FORMAT} figure {name}\n".encode() + data,
+                        hashlib.sha256).hexdigest()
+
+    def get(self, key: str, fmt: str) -> bytes | None:
+        """The cached bytes of figure ``key`` in ``fmt``, or None."""
+        c = self.cache
+        if c.folder is None:
+            return None
+        t0 = time.perf_counter()
+        try:
+            name = f"fig-{key}.{fmt}"
+            p = c.folder / name
+            if not p.exists():
+                self.misses += 1
+                return None
+            data, mac = c._read(p), c._read(p.with_name(name + ".mac"))
+            head = (mac or b"").decode("ascii", "replace").split()
+            ok = data is not None and len(head) == 3 and head[0] == FORMAT \
+                and head[1] == str(FORMAT_VERSION) and hmac.compare_digest(
+                    head[2], self._mac(name, data))
+            if not ok:
+                c.rejected += 1
+                for q in (p, p.with_name(name + ".mac")):
+                    with contextlib.suppress(OSError):
+                        q.unlink()
+                self.misses += 1
+                return None
+            c.used.update((name, name + ".mac"))
+            if c.register is not None:
+                c.register(f"{CACHE_DIR}/{name}")
+                c.register(f"{CACHE_DIR}/{name}.mac")
+            self.hits += 1
+            return data
+        finally:
+            c.io_seconds += time.perf_counter() - t0
+
+    def put(self, key: str, fmt: str, data: bytes) -> None:
+        """Store figure ``key`` in ``fmt``."""
+        c = self.cache
+        if c.folder is None:
+            return
+        t0 = time.perf_counter()
+        try:
+            name = f"fig-{key}.{fmt}"
+            c.used.update((name, name + ".mac"))
+            c._write(name, data)
+            c._write(name + ".mac", f"{FORMAT} {FORMAT_VERSION} {self._mac(name, data)}\n"
+                     .encode("ascii"))
+        finally:
+            c.io_seconds += time.perf_counter() - t0
 
 
 def _jsonable(o: Any) -> Any:

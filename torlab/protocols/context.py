@@ -9,7 +9,6 @@ The runner (:mod:`torlab.protocols.runner`) only sequences; the stages
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -18,6 +17,7 @@ import numpy as np
 
 from torlab.errors import FitError, TorlabInputError
 from torlab.outputs import safe_name
+from torlab.progress import Progress
 
 __all__ = ["Progress", "RunContext", "add_covariance", "finite"]
 
@@ -39,46 +39,6 @@ def finite(v: Any) -> Any:
     return v
 
 
-class Progress:
-    """Rich progress bars for the long steps (no output when disabled)."""
-
-    def __init__(self, enabled: bool) -> None:
-        self.enabled = enabled
-        self._p: Any = None
-
-    def __enter__(self) -> Progress:
-        if self.enabled:
-            from rich.progress import (
-                BarColumn,
-                MofNCompleteColumn,
-                TextColumn,
-                TimeElapsedColumn,
-            )
-            from rich.progress import (
-                Progress as RichProgress,
-            )
-
-            self._p = RichProgress(TextColumn("{task.description}"), BarColumn(),
-                                   MofNCompleteColumn(), TimeElapsedColumn(), transient=False)
-            self._p.__enter__()
-        return self
-
-    def __exit__(self, *exc: Any) -> None:
-        if self._p is not None:
-            self._p.__exit__(*exc)
-
-    def track(self, items: Iterable[Any], description: str) -> Iterator[Any]:
-        """Yield ``items`` while advancing a bar."""
-        items = list(items)
-        if self._p is None:
-            yield from items
-            return
-        task = self._p.add_task(description, total=len(items))
-        for it in items:
-            yield it
-            self._p.advance(task)
-
-
 @dataclass
 class RunContext:
     """State of one protocol run.
@@ -88,7 +48,9 @@ class RunContext:
     lp
         The loaded protocol (:class:`~torlab.protocols.loader.LoadedProtocol`).
     dest, cache, prog
-        Output folder, result cache, progress bars.
+        Output folder, result cache, progress bars (:class:`torlab.progress.Progress`).
+    executor
+        Where independent tasks run (:mod:`torlab.parallel`; serial by default).
     reductions
         Data section (``hpt``, ``mtm``, ``optical``, ``visc``) -> the
         :class:`~torlab.instruments.reduction.Reduction` of each file, in order.
@@ -106,6 +68,7 @@ class RunContext:
     dest: Any
     cache: Any
     prog: Progress
+    executor: Any = None
     reductions: dict[str, list[Any]] = field(default_factory=dict)
     keys: dict[int, str] = field(default_factory=dict)
     param_sets: dict[str, dict[str, Any]] = field(default_factory=dict)
@@ -225,26 +188,54 @@ class RunContext:
         A scene with fit covariances gets its 95 % band and, for traction, the
         trend with class probabilities (``trend_tolerance``, ``trend_probability``).
         """
-        def compute() -> Any:
-            from torlab.scene import scene_from_dict
+        return self.predict_many(kind, [(scene, kw)])[0]
 
-            sc = scene_from_dict(scene)
-            if kind == "traction":
-                from torlab.model.predict import predict_traction
+    def predict_many(self, kind: str, jobs: list[tuple[dict[str, Any], dict[str, Any]]],
+                     description: str = "") -> list[Any]:
+        """Cached predictions ``(scene dict, options)`` of one ``kind``, the missing ones
+        computed on the run's executor (in order)."""
+        tasks = []
+        for scene, kw in jobs:
+            kw = dict(kw)
+            ck = kw.pop("cache_kind", kind)
+            tasks.append((ck, {"scene": scene, **kw}, (kind, scene, kw)))
+        out: list[Any] = [None] * len(tasks)
+        by_kind: dict[str, list[int]] = {}
+        for i, t in enumerate(tasks):
+            by_kind.setdefault(t[0], []).append(i)
+        for ck, idx in by_kind.items():
+            vals = self.cached_map(ck, _predict_task, [(tasks[i][1], tasks[i][2]) for i in idx],
+                                   description)
+            for i, v in zip(idx, vals, strict=True):
+                out[i] = v
+        return out
 
-                pred = predict_traction(sc, kw["creepage"],
-                                        trend_tolerance=kw.get("trend_tolerance", 0.01),
-                                        trend_threshold=kw.get("trend_probability", 0.9))
+    def cached_map(self, kind: str, fn: Any, tasks: list[tuple[dict[str, Any], Any]],
+                   description: str = "") -> list[Any]:
+        """``fn(arg)`` for ``(cache parts, arg)`` tasks: entries in the cache are reused, the
+        others computed on the run's executor (:mod:`torlab.parallel`) and stored."""
+        import time
+
+        from torlab.parallel import current
+
+        out: list[Any] = [None] * len(tasks)
+        todo = []
+        for i, (parts, _) in enumerate(tasks):
+            hit, v = self.cache.lookup(kind, **parts)
+            if hit:
+                out[i] = v
             else:
-                from torlab.model.mixed import predict_stribeck
-
-                pred = predict_stribeck(sc, kw["speed"], kw["creepage"])
-            band = getattr(pred, "band", None)
-            if band is not None:  # the model function is not data: the cache keeps the design
-                band._design.pop("model", None)
-            return pred
-
-        return self.cache.get_or_compute(kw.pop("cache_kind", kind), compute, scene=scene, **kw)
+                todo.append(i)
+        if todo:
+            ex = self.executor if self.executor is not None else current()
+            t0 = time.perf_counter()
+            vals = ex.map(fn, [tasks[i][1] for i in todo], description=description)
+            self.cache.compute_seconds += time.perf_counter() - t0
+            self.cache.misses += len(todo)
+            for i, v in zip(todo, vals, strict=True):
+                out[i] = v
+                self.cache.store(kind, v, **tasks[i][0])
+        return out
 
 
 def add_covariance(scene_dict: dict[str, Any], res: Any, *, first: bool = False) -> None:
@@ -268,3 +259,29 @@ def _covariances(d: dict[str, Any]) -> list[Any]:
     if c is None:
         return []
     return copy.deepcopy(c if isinstance(c, list) else [c])
+
+
+def _predict_task(job: tuple[str, dict[str, Any], dict[str, Any]]) -> Any:
+    """One prediction of a scene dict (an executor task).
+
+    A scene with fit covariances gets its 95 % band and, for traction, the trend with
+    class probabilities.
+    """
+    from torlab.scene import scene_from_dict
+
+    kind, scene, kw = job
+    sc = scene_from_dict(scene)
+    if kind == "traction":
+        from torlab.model.predict import predict_traction
+
+        pred = predict_traction(sc, kw["creepage"],
+                                trend_tolerance=kw.get("trend_tolerance", 0.01),
+                                trend_threshold=kw.get("trend_probability", 0.9))
+    else:
+        from torlab.model.mixed import predict_stribeck
+
+        pred = predict_stribeck(sc, kw["speed"], kw["creepage"])
+    band = getattr(pred, "band", None)
+    if band is not None:  # the model function is not data: the cache keeps the design
+        band._design.pop("model", None)
+    return pred

@@ -53,20 +53,25 @@ def reduce_data(ctx: RunContext) -> None:
         inst = get_instrument(name)
         opts, key = section_options(ctx, section)
         prepared = prepare_options(inst, {k: v for k, v in opts.items() if v is not None})
-        reds = []
-        for f in ctx.prog.track(ctx.lp.data_files(section), f"{section}: reducing files"):
-            def compute(f: Path = f, inst: Any = inst, prepared: dict = prepared,
-                        section: str = section) -> Any:
-                red = inst.impl().reduce(f, **prepared)
-                red.detected = f"protocol data.{section}"
-                return red
-
-            parts = {"sha": ctx.sha(f), "name": f.name, "options": key}
-            red = ctx.cache.get_or_compute(section, compute, **parts)
-            ctx.keys[id(red)] = ctx.cache.key(section, **parts)
-            reds.append(red)
+        files = ctx.lp.data_files(section)
+        parts = [{"sha": ctx.sha(f), "name": f.name, "options": key} for f in files]
+        reds = ctx.cached_map(section, _reduce_task,
+                              [(pt, (name, f, prepared, section)) for pt, f in
+                               zip(parts, files, strict=True)], f"{section}: reducing files")
+        for red, pt in zip(reds, parts, strict=True):
+            ctx.keys[id(red)] = ctx.cache.key(section, **pt)
         ctx.reductions[section] = reds
         _WRITERS[section](ctx, reds)
+
+
+def _reduce_task(job: tuple[str, Path, dict[str, Any], str]) -> Any:
+    """Reduce one data file with its section's prepared options (an executor task)."""
+    from torlab.instruments import get_instrument
+
+    name, f, prepared, section = job
+    red = get_instrument(name).impl().reduce(f, **prepared)
+    red.detected = f"protocol data.{section}"
+    return red
 
 
 def _write_hpt(ctx: RunContext, reds: list[Any]) -> None:

@@ -62,12 +62,14 @@ def _amount_ok(cfg: Any, m: Any) -> bool:
 
 
 def fit_hpt_layers(ctx: RunContext) -> None:
-    """``hpt:<product>`` parameter sets (layer and temperature coefficients)."""
-    from torlab.fit.layer import fit_layer_hpt
+    """``hpt:<product>`` parameter sets (layer and temperature coefficients).
 
+    The products' layer fits, then their temperature fits, run on the run's executor.
+    """
     cfg = ctx.p.fits.hpt_layers
     groups = _hpt_groups(ctx, cfg)
-    for label in ctx.prog.track(sorted(groups), "fits: HPT layers"):
+    plan = []  # (label, runs at the temperature, runs at other temperatures)
+    for label in sorted(groups):
         runs = [r for r in groups[label] if _amount_ok(cfg, r.meta)]
         at_t = [r for r in runs if r.meta.temperature is None
                 or abs(r.meta.temperature - cfg.temperature) <= cfg.temperature_tolerance]
@@ -80,36 +82,54 @@ def fit_hpt_layers(ctx: RunContext) -> None:
                 f"{label}: {len(at_t)} runs match the amounts and temperature "
                 f"({', '.join(r.label for r in at_t)}); set joint: true to "
                 "fit them together, or list one amount", key="fits.hpt_layers.amounts")
-        res = ctx.cache.get_or_compute(
-            "fit_hpt", lambda at_t=at_t: fit_layer_hpt([r.detail for r in at_t]),
-            runs=[ctx.keys[id(r)] for r in at_t])
-        scene_dict = res.to_scene_dict()
         others = [r for r in runs if all(r is not x for x in at_t)
                   and r.meta.temperature is not None]
+        plan.append((label, at_t, others))
+    layers = ctx.cached_map("fit_hpt", _fit_hpt_task, [
+        ({"runs": [ctx.keys[id(r)] for r in at_t]}, [r.detail for r in at_t])
+        for _, at_t, _ in plan], "fits: HPT layers")
+    temp_jobs = []
+    for label, at_t, others in plan:
         if cfg.temperature_coefficients and others:
             # every run of the layer's amounts: those at the fit temperature (all of them
             # when fitted jointly: repeats) and those at the other temperatures
-            _temperature(ctx, cfg, label, at_t + sorted(others, key=lambda r: r.meta.temperature),
-                         scene_dict)
+            curves = at_t + sorted(others, key=lambda r: r.meta.temperature)
+            temps_K = [c.meta.temperature + 273.15 if c.meta.temperature is not None
+                       else cfg.temperature + 273.15 for c in curves]
+            temp_jobs.append((label, ({"runs": [ctx.keys[id(c)] for c in curves],
+                                       "temps": temps_K, "selection": cfg.selection},
+                                      ([c.detail for c in curves], temps_K, cfg.selection))))
         elif cfg.temperature_coefficients and any("thermal" in sd for sd in ctx.lp.scenes.values()):
             ctx.notes.append(f"fits.hpt_layers: {label} has no run at another temperature: its "
                              "temperature coefficients are not measured (the scene's values "
                              "are used as exact)")
+    temps = dict(zip([lab for lab, _ in temp_jobs], ctx.cached_map(
+        "fit_temperature", _fit_temperature_task, [j for _, j in temp_jobs],
+        "fits: temperature coefficients"), strict=True))
+    for (label, _, _), res in zip(plan, layers, strict=True):
+        scene_dict = res.to_scene_dict()
+        if label in temps:
+            _temperature(ctx, label, temps[label], scene_dict)
         ctx.add_fit(f"hpt:{label}", res, scene_dict)
 
 
-def _temperature(ctx: RunContext, cfg: Any, label: str, curves: list[Any],
-                 scene_dict: dict[str, Any]) -> None:
-    """Temperature coefficients of a product's layer, merged into its scene dict."""
+def _fit_hpt_task(details: list[Any]) -> Any:
+    """The HPT layer fit of one product's runs (an executor task)."""
+    from torlab.fit.layer import fit_layer_hpt
+
+    return fit_layer_hpt(details)
+
+
+def _fit_temperature_task(job: tuple[list[Any], list[float], str]) -> Any:
+    """The temperature coefficients of one product's runs (an executor task)."""
     from torlab.fit.temperature import fit_temperature_coefficients
 
-    temps_K = [c.meta.temperature + 273.15 if c.meta.temperature is not None
-               else cfg.temperature + 273.15 for c in curves]
-    tres = ctx.cache.get_or_compute(
-        "fit_temperature",
-        lambda: fit_temperature_coefficients([c.detail for c in curves], temps_K,
-                                             selection=cfg.selection),
-        runs=[ctx.keys[id(c)] for c in curves], temps=temps_K, selection=cfg.selection)
+    details, temps_K, selection = job
+    return fit_temperature_coefficients(details, temps_K, selection=selection)
+
+
+def _temperature(ctx: RunContext, label: str, tres: Any, scene_dict: dict[str, Any]) -> None:
+    """Temperature coefficients of a product's layer, merged into its scene dict."""
     tb = tres.to_scene_dict().get("boundary", {})
     scene_dict.setdefault("boundary", {}).update(
         {k: v for k, v in tb.items() if k in ("mu_c1_T", "mu_c2_T")})

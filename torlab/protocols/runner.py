@@ -20,7 +20,17 @@ only sequences the stages, each a library module working on one
 Results go through :class:`torlab.outputs.OutputDir` (atomic, never over
 earlier results without ``force``).  Intermediate results are cached in
 ``OUT/.cache`` keyed by input hashes and options (:mod:`torlab.protocols.cache`),
-so a re-run with ``--force`` reuses what did not change.
+and so are the figures, keyed by what they show (:mod:`torlab.reports.render`), so
+a re-run with ``--force`` reuses what did not change -- and, when nothing changed,
+neither computes nor draws anything.
+
+Independent tasks -- the files of a data section, the products' fits, the
+predicted curves of a report, the figures -- run on one executor
+(:mod:`torlab.parallel`: serial, local processes, or a Dask cluster), with the
+same results in all three.  The run's time is split honestly
+(:attr:`RunResult.timing`): computing (reductions, fits, predictions, the
+reports' own numbers), drawing figures, reading and writing (cache entries,
+tables, figures, the reports), and the rest (loading the protocol, imports).
 """
 
 from __future__ import annotations
@@ -44,12 +54,14 @@ class RunResult:
     cache_hits: int
     cache_misses: int
     notes: list[str] = field(default_factory=list)
+    #: seconds: ``compute``, ``figures``, ``io``, ``other``, ``total``; figures drawn/reused
+    timing: dict[str, Any] = field(default_factory=dict)
 
 
 # --------------------------------------------------------------------------- entry point
 def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[str], *,
                  force: bool = False, command: str = "", progress: bool = False,
-                 cache: bool = True) -> RunResult:
+                 cache: bool = True, formats: Any = None, executor: Any = None) -> RunResult:
     """Run a protocol from raw logs to reports (``torlab run``).
 
     Parameters
@@ -65,7 +77,13 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
     progress
         Show rich progress bars.
     cache
-        Reuse and store intermediate results in ``out/.cache``.
+        Reuse and store intermediate results and figures in ``out/.cache``.
+    formats
+        Figure formats (``["png", "svg"]``; default the protocol's
+        ``reports.figure_formats``, else PNG).
+    executor
+        Where independent tasks run (:mod:`torlab.parallel`); default
+        :func:`torlab.parallel.current` (serial unless the caller set one).
 
     Returns
     -------
@@ -80,29 +98,47 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
     """
     from torlab import __version__
     from torlab.outputs import OutputDir
+    from torlab.parallel import current
+    from torlab.progress import Progress
     from torlab.protocols.cache import CACHE_DIR, ResultCache, file_sha256
-    from torlab.protocols.context import Progress, RunContext, finite
+    from torlab.protocols.context import RunContext, finite
     from torlab.protocols.data import reduce_data
     from torlab.protocols.fits import fit_all
     from torlab.protocols.loader import LoadedProtocol, load_protocol
     from torlab.protocols.sections import build_sections
-    from torlab.reports.html import render_html, render_markdown, write_sections
-    from torlab.reports.plotting import pyplot
+    from torlab.reports.html import render_html, render_markdown, write_figures, write_tables
+    from torlab.reports.render import parse_formats
 
     t0 = time.perf_counter()
     lp = protocol if isinstance(protocol, LoadedProtocol) else load_protocol(protocol)
+    p = lp.protocol
+    formats = parse_formats(formats if formats is not None
+                            else getattr(p.reports, "figure_formats", None) or None)
+    ex = executor if executor is not None else current()
     inputs = lp.input_files()
+    t1 = time.perf_counter()
     dest = OutputDir(out, force=force, inputs=inputs, command=command,
                      keep=[CACHE_DIR] if cache else [])
-    pyplot()
     try:
         rc = ResultCache(dest.staging / CACHE_DIR if cache else None, register=dest.path)
+        t_io = time.perf_counter() - t1  # the output folder and its carried-over cache
         with Progress(progress) as prog:
-            run = RunContext(lp, dest, rc, prog)
+            run = RunContext(lp, dest, rc, prog, executor=ex)
+            t1 = time.perf_counter()
+            io0 = rc.io_seconds + dest.io_seconds
             reduce_data(run)
             fit_all(run)
             sections = build_sections(run)
-        write_sections(dest, sections)
+            t_stages = time.perf_counter() - t1
+            io_stages = rc.io_seconds + dest.io_seconds - io0
+            t1 = time.perf_counter()
+            io0 = rc.io_seconds + dest.io_seconds
+            fig = write_figures(dest, sections, formats, store=rc.figures if cache else None,
+                                executor=ex)
+            t_figures = time.perf_counter() - t1
+            io_figures = rc.io_seconds + dest.io_seconds - io0
+        t2 = time.perf_counter()
+        write_tables(dest, sections)
         base = lp.base
         prov = {
             "torlab_version": __version__,
@@ -112,7 +148,6 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
             "inputs": {_rel(p, base): file_sha256(p) for p in inputs if lp.path is None
                        or p != lp.path},
         }
-        p = lp.protocol
         summary = {
             "torlab_version": __version__,
             "protocol": {"name": p.name, "title": p.title, "version": p.version,
@@ -131,15 +166,29 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
         dest.write_text("report.html", render_html(title, intro, sections, prov))
         dest.write_text("report.md", render_markdown(title, intro, sections, prov))
         rc.prune()
+        # honest split: reading and writing (cache entries, cached figures, result files)
+        # is I/O wherever it happened; what remains of each stage is its own work
+        timing = {"compute": max(t_stages - io_stages, 0.0),
+                  "figures": max(t_figures - io_figures, 0.0),
+                  "io": t_io + io_stages + io_figures + time.perf_counter() - t2,
+                  "figures_drawn": fig.drawn, "figures_reused": fig.reused,
+                  "executor": ex.describe()}
         summary["run"] = {"seconds": round(time.perf_counter() - t0, 2), "cache_hits": rc.hits,
-                          "cache_misses": rc.misses, "command": command}
+                          "cache_misses": rc.misses, "command": command,
+                          "figures_drawn": fig.drawn, "figures_reused": fig.reused}
         dest.write_json("summary.json", summary)
     except BaseException:
         dest.abort()
         raise
+    t3 = time.perf_counter()
     dest.commit()
+    timing["io"] += time.perf_counter() - t3
+    timing["total"] = time.perf_counter() - t0
+    timing["other"] = max(timing["total"] - timing["compute"] - timing["figures"]
+                          - timing["io"], 0.0)
     return RunResult(out=Path(out), summary=summary, sections=[s.key for s in sections],
-                     cache_hits=rc.hits, cache_misses=rc.misses, notes=summary["notes"])
+                     cache_hits=rc.hits, cache_misses=rc.misses, notes=summary["notes"],
+                     timing=timing)
 
 
 def _rel(p: Path, base: Path) -> str:

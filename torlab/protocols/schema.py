@@ -96,13 +96,14 @@ Fraction = Annotated[float, _q("dimensionless")]
 
 def _amount(v: Any) -> Any:
     """An applied amount: a volume (``4 uL``) or a mass (``4 mg``) -> ``(kind, SI value)``."""
-    from torlab.units import to_si
+    from torlab.units import known_kinds, to_si
 
     if isinstance(v, (int, float)) and not isinstance(v, bool):
         raise ValueError(f"{v!r}: give the amount with its unit, e.g. '4 uL' or '4 mg'")
     if not isinstance(v, str):
         return v
-    for kind in ("volume", "mass"):
+    known = known_kinds(v)  # a common unit's kind first (no pint for a failing try)
+    for kind in sorted(("volume", "mass"), key=lambda k: k not in known):
         try:
             return (kind, to_si(v, kind))
         except TorlabInputError:
@@ -602,6 +603,14 @@ class TimeTestReport(_Model):
     initial_drop: InitialDrop | None = None
 
 
+def _formats(v: Any) -> Any:
+    """``png, svg`` or a list -> ``["png", "svg"]`` (lower case)."""
+    if isinstance(v, str):
+        v = v.split(",")
+    return [x.strip().lower().lstrip(".") if isinstance(x, str) else x for x in v] \
+        if isinstance(v, list) else v
+
+
 def _retention_amount(v: Any) -> Any:
     """An applied amount for the retention model: volume, mass or per area, with its unit."""
     from torlab.model.amount import parse_amount
@@ -718,6 +727,9 @@ class Reports(_Model):
     stribeck: StribeckReport | None = None
     film: FilmReport | None = None
     retention: RetentionReport | None = None
+    #: file formats of every figure (``torlab run --formats`` overrides)
+    figure_formats: Annotated[list[Literal["png", "svg", "pdf"]],
+                              BeforeValidator(_formats)] = Field(default=["png"], min_length=1)
 
 
 # --------------------------------------------------------------------------- protocol

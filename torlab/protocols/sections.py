@@ -49,7 +49,17 @@ def amount(ctx: RunContext) -> Any:
         if missing:
             raise TorlabInputError(f"no HPT run with an applied amount for "
                                    f"{', '.join(missing)}", key="reports.amount.products")
-    return amount_section(series, cfg)
+    fits = None
+    if series is not None and len(series):
+        from torlab.protocols.cache import digest_value
+        from torlab.reports.amount import fit_crossings
+
+        opts = {"threshold": cfg.threshold, "band": tuple(cfg.band), "curve": cfg.curve,
+                "confidence": cfg.confidence}
+        fits = ctx.cache.get_or_compute("amount_crossings",
+                                        lambda: fit_crossings(series, **opts),
+                                        series=digest_value(series), options=opts)
+    return amount_section(series, cfg, fits)
 
 
 def _initial_drop(ctx: RunContext, idp: Any) -> dict[str, Any]:
@@ -57,7 +67,8 @@ def _initial_drop(ctx: RunContext, idp: Any) -> dict[str, Any]:
     ((_, sc, sd),) = ctx.scenes_for(idp.scene, idp.params)
     model: dict[str, Any] = {"mu": {}, "creepage": {}, "load_share": {}, "modelled": {},
                              "scene": sc.name or idp.scene[0].path, "params": list(idp.params)}
-    for label, red in ctx.prog.track(ctx.labelled("mtm"), "time tests: initial-drop model"):
+    jobs = []
+    for label, red in ctx.labelled("mtm"):
         d, tts = red.detail.curves.get("timed"), red.detail.time_tests
         if d is None or not tts:
             continue
@@ -73,7 +84,10 @@ def _initial_drop(ctx: RunContext, idp: Any) -> dict[str, Any]:
             if "rolling_speed_m_s" in after and after["rolling_speed_m_s"].notna().any() \
             else sc.kinematics.speed
         sdv = dict(sd, kinematics={**sd.get("kinematics", {}), "speed": v})
-        pred = ctx.predict("traction", sdv, creepage=np.array([xi]), cache_kind="initial_drop_v3")
+        jobs.append((label, xi, (sdv, {"creepage": np.array([xi]),
+                                       "cache_kind": "initial_drop_v3"})))
+    preds = ctx.predict_many("traction", [j for _, _, j in jobs], "time tests: initial-drop model")
+    for (label, xi, _), pred in zip(jobs, preds, strict=True):
         row = pred.table.iloc[0]
         model["mu"][label] = float(abs(row["mu"]))
         if "mu_low95" in pred.table:  # the band of the fitted layer's and viscosity law's uncertainty
@@ -138,7 +152,8 @@ def _measured_curves(ctx: RunContext, ci: int, c: Any) -> list[Any]:
         lab = c.measured.path.rsplit("/", 1)[-1] + at
         out.append(TractionCurve(
             label=f"measured {lab}" if c.scene else c.label + at, kind="measured",
-            table=pd.DataFrame({"creepage": cv.x, "mu": cv.y}),
+            table=pd.DataFrame({"creepage": cv.x, "mu": cv.y} if cv.y_sd is None else
+                               {"creepage": cv.x, "mu": cv.y, "mu_sd": cv.y_sd}),
             trend=classify_trend(cv.x, cv.y, tolerance=cfg.trend_tolerance,
                                  threshold=cfg.trend_probability, measured=True),
             source=str(c.measured.path), speed_m_s=v,
@@ -168,10 +183,12 @@ def traction(ctx: RunContext) -> Any:
             speeds = list(c.speeds)
         for setname, sc, sd in ctx.scenes_for(c.scene, c.params):
             jobs += [(ci, c, setname, sc, sd, v, len(speeds) > 1) for v in speeds]
-    for ci, c, setname, sc, sd, v, many in ctx.prog.track(jobs, "traction: predicting curves"):
-        sdv = sd if v is None else dict(sd, kinematics={**sd.get("kinematics", {}), "speed": v})
-        pred = ctx.predict("traction", sdv, creepage=xi, trend_tolerance=cfg.trend_tolerance,
-                           trend_probability=cfg.trend_probability)
+    preds = ctx.predict_many("traction", [
+        (sd if v is None else dict(sd, kinematics={**sd.get("kinematics", {}), "speed": v}),
+         {"creepage": xi, "trend_tolerance": cfg.trend_tolerance,
+          "trend_probability": cfg.trend_probability})
+        for _, _, _, _, sd, v, _ in jobs], "traction: predicting curves")
+    for (ci, c, setname, sc, _sd, v, many), pred in zip(jobs, preds, strict=True):
         speed = sc.kinematics.speed if v is None else v
         label = c.label.replace("{set}", setname) + (f" @ {speed:.3g} m/s" if many else "")
         ctx.notes += [f"traction {label}: {n}" for n in result_notes(pred.table)]
@@ -212,8 +229,10 @@ def _measured_stribeck(ctx: RunContext, path: Any) -> Any:
     import pandas as pd
 
     cv = ctx.reduction(path).stribeck_curve()
-    return pd.DataFrame({"rolling_speed_m_s": cv.x, "srr": cv.srr,
-                         "traction_coefficient": cv.y}).reset_index(drop=True)
+    d = {"rolling_speed_m_s": cv.x, "srr": cv.srr, "traction_coefficient": cv.y}
+    if cv.y_sd is not None:
+        d["traction_coefficient_sd"] = cv.y_sd
+    return pd.DataFrame(d).reset_index(drop=True)
 
 
 def stribeck(ctx: RunContext) -> Any:
@@ -236,8 +255,10 @@ def stribeck(ctx: RunContext) -> Any:
                                         measured_label=c.measured.path.rsplit("/", 1)[-1],
                                         source=str(c.measured.path)))
             continue
-        for setname, _sc, sd in ctx.scenes_for(c.scene, c.params):
-            pred = ctx.predict("stribeck", sd, speed=v, creepage=xi)
+        sets = ctx.scenes_for(c.scene, c.params)
+        preds = ctx.predict_many("stribeck", [(sd, {"speed": v, "creepage": xi})
+                                              for _, _, sd in sets])
+        for (setname, _sc, _sd), pred in zip(sets, preds, strict=True):
             ctx.notes += [f"Stribeck {c.label.replace('{set}', setname)}: {n}"
                           for n in result_notes(pred.table)]
             curves.append(StribeckCurve(
@@ -268,14 +289,17 @@ def film(ctx: RunContext) -> Any:
                                        key="reports.film") from None
             d = pd.DataFrame({"rolling_speed_m_s": np.concatenate([cv.x for cv in cvs]),
                               "film_thickness_m": np.concatenate([cv.y for cv in cvs])})
+            if all(cv.y_sd is not None for cv in cvs):
+                d["film_thickness_sd_m"] = np.concatenate([cv.y_sd for cv in cvs])
             d = d.sort_values("rolling_speed_m_s")
             measured.append((c.label, d))
         scs = ctx.scenes_for(c.scene, c.params) if c.scene else []
-        for setname, _sc, sd in scs:
-            lo, hi = (float(d["rolling_speed_m_s"].min()), float(d["rolling_speed_m_s"].max())) \
-                if d is not None else (0.01, 3.0)
-            pred = ctx.predict("stribeck", sd, speed=np.geomspace(lo, hi, 40), creepage=0.0,
-                               cache_kind="film_model")
+        lo, hi = (float(d["rolling_speed_m_s"].min()), float(d["rolling_speed_m_s"].max())) \
+            if d is not None else (0.01, 3.0)
+        preds = ctx.predict_many("stribeck", [
+            (sd, {"speed": np.geomspace(lo, hi, 40), "creepage": 0.0, "cache_kind": "film_model"})
+            for _, _, sd in scs])
+        for (setname, _sc, _sd), pred in zip(scs, preds, strict=True):
             models.append((c.label.replace("{set}", setname), pred.table))
         if d is not None:
             fr = fit_film_thickness(d["rolling_speed_m_s"].to_numpy(),
@@ -379,9 +403,11 @@ def fits_section(ctx: RunContext) -> Any:
     """The fitted parameter sets: table, data-against-model figures, warnings."""
     import pandas as pd
 
+    from torlab.reports.fit import fit_figure
     from torlab.reports.html import Figure, Section, Table
+    from torlab.reports.render import plot
 
-    figs = [Figure(f"fit_{safe_name(name.replace(':', '_'))}", res.plot(),
+    figs = [Figure(f"fit_{safe_name(name.replace(':', '_'))}", plot(fit_figure, res),
                    f"{name}: data against the fitted model, residuals")
             for name, res in ctx.fit_results]
     warn = [f"{name}: {w}" for name, res in ctx.fit_results for w in res.warnings]

@@ -423,7 +423,9 @@ def fold_traction(points: Any, *, rel_tol: float = DEFAULT_SYM_REL, abs_tol: flo
     folded : pandas.DataFrame
         Per speed group and |SRR|: ``rolling_speed_m_s``, ``srr`` (>= 0),
         ``traction_coefficient`` (mean of the available sides),
-        ``traction_coefficient_pos``, ``traction_coefficient_neg_folded`` (NaN
+        ``traction_coefficient_sd`` (the spread of the coefficient in the averaging
+        window; for a pair, of both windows' samples together:
+        ``sqrt((sd+^2 + sd-^2)/2 + (difference/2)^2)``), ``traction_coefficient_pos``, ``traction_coefficient_neg_folded`` (NaN
         where a side is missing), ``difference`` (pos - folded neg),
         ``symmetric``, ``n_points``.
     symmetry : dict
@@ -436,6 +438,8 @@ def fold_traction(points: Any, *, rel_tol: float = DEFAULT_SYM_REL, abs_tol: flo
     U = points["rolling_speed_m_s"].to_numpy(dtype=float)
     s = points["srr"].to_numpy(dtype=float)
     mu = points["traction_coefficient"].to_numpy(dtype=float)
+    sd = points["traction_coefficient_sd"].to_numpy(dtype=float) \
+        if "traction_coefficient_sd" in points else np.full(mu.shape, np.nan)
     groups = speed_groups(U)
     rows = []
     diffs, rels, oks = [], [], []
@@ -449,7 +453,7 @@ def fold_traction(points: Any, *, rel_tol: float = DEFAULT_SYM_REL, abs_tol: flo
         used: set[int] = set()
         for i in zero:
             rows.append({"rolling_speed_m_s": Ug, "srr": 0.0, "traction_coefficient": mu[i],
-                         "traction_coefficient_pos": mu[i],
+                         "traction_coefficient_sd": sd[i], "traction_coefficient_pos": mu[i],
                          "traction_coefficient_neg_folded": float("nan"),
                          "difference": float("nan"), "symmetric": "", "n_points": 1})
         for i in neg:
@@ -458,6 +462,7 @@ def fold_traction(points: Any, *, rel_tol: float = DEFAULT_SYM_REL, abs_tol: flo
             if not cand:
                 unpaired += 1
                 rows.append({"rolling_speed_m_s": Ug, "srr": a, "traction_coefficient": -mu[i],
+                             "traction_coefficient_sd": sd[i],
                              "traction_coefficient_pos": float("nan"),
                              "traction_coefficient_neg_folded": -mu[i], "difference": float("nan"),
                              "symmetric": "", "n_points": 1})
@@ -472,7 +477,11 @@ def fold_traction(points: Any, *, rel_tol: float = DEFAULT_SYM_REL, abs_tol: flo
             rels.append(abs(d) / scale if scale > 0 else 0.0)
             oks.append(ok)
             rows.append({"rolling_speed_m_s": Ug, "srr": 0.5 * (s[j] + a),
-                         "traction_coefficient": 0.5 * (p + q), "traction_coefficient_pos": p,
+                         "traction_coefficient": 0.5 * (p + q),
+                         # spread of both windows' samples together (equal counts)
+                         "traction_coefficient_sd": float(np.sqrt(0.5 * (sd[i] ** 2 + sd[j] ** 2)
+                                                                  + 0.25 * d * d)),
+                         "traction_coefficient_pos": p,
                          "traction_coefficient_neg_folded": q, "difference": d,
                          "symmetric": "yes" if ok else "no", "n_points": 2})
         for j in pos:
@@ -481,7 +490,7 @@ def fold_traction(points: Any, *, rel_tol: float = DEFAULT_SYM_REL, abs_tol: flo
             if neg:
                 unpaired += 1
             rows.append({"rolling_speed_m_s": Ug, "srr": s[j], "traction_coefficient": mu[j],
-                         "traction_coefficient_pos": mu[j],
+                         "traction_coefficient_sd": sd[j], "traction_coefficient_pos": mu[j],
                          "traction_coefficient_neg_folded": float("nan"),
                          "difference": float("nan"), "symmetric": "", "n_points": 1})
     folded = pd.DataFrame(rows).sort_values(["rolling_speed_m_s", "srr"], ignore_index=True)
@@ -500,7 +509,8 @@ def fold_traction(points: Any, *, rel_tol: float = DEFAULT_SYM_REL, abs_tol: flo
 
 
 #: columns of the folded table that may be empty
-FOLDED_OPTIONAL = ("traction_coefficient_pos", "traction_coefficient_neg_folded", "difference")
+FOLDED_OPTIONAL = ("traction_coefficient_sd", "traction_coefficient_pos",
+                   "traction_coefficient_neg_folded", "difference")
 
 
 def reduce_ehd2(df: Any, meta: Any, *, test: str | None = None, sym_rel: float = DEFAULT_SYM_REL,

@@ -125,8 +125,7 @@ def time_test_uncertainty(t: np.ndarray, mu: np.ndarray, result: Any, options: d
         ``p_recovered`` and ``recovered_verdict``; ``replicates``,
         ``block_s``; ``basis`` (what the intervals hold).
     """
-    from scipy.stats import t as student
-
+    from torlab._stats import t_cdf, t_ppf  # scipy.stats.t, without its import
     from torlab.reduce.mtm import _window_samples, running_median, time_test_metrics
 
     nan = float("nan")
@@ -148,8 +147,8 @@ def time_test_uncertainty(t: np.ndarray, mu: np.ndarray, result: Any, options: d
         after = (t >= result.recovery_at_s) & (t <= end)
         m, se, dof = hac_mean(mu[after])
         if math.isfinite(se):
-            tq = float(student.ppf(0.975, dof))
-            cdf = student.cdf((np.array(band, dtype=float) - m) / se, dof) if se > 0 else \
+            tq = float(t_ppf(0.975, dof))
+            cdf = t_cdf((np.array(band, dtype=float) - m) / se, dof) if se > 0 else \
                 np.array([float(band[0] > m), float(band[1] >= m)])
             p_in = float(cdf[1] - cdf[0])
             out.update(mean_after_recovery_se=se, mean_after_recovery_low95=m - tq * se,

@@ -2,7 +2,7 @@
 
 For every product the HPT runs at one temperature form a series of the friction
 ``f`` (mean over the window before the maximum displacement, thesis Fig. 5.10)
-against the applied amount (µl for liquids, mg for solids).  The report gives
+against the applied amount (µL for liquids, mg for solids).  The report gives
 
 * ``f`` against the amount as applied and against the applied *mass* (volume x
   product density), so liquid and solid products compare on one axis;
@@ -41,9 +41,19 @@ import numpy as np
 from torlab.fit.result import FitResult
 from torlab.reports.html import Figure, Section, Table
 from torlab.reports.plotting import subplots
+from torlab.reports.render import plot
 
-__all__ = ["CROSSING_PROBABILITY", "CrossingFit", "amount_section", "amount_series",
-           "crossing_probabilities", "fit_crossings", "logistic", "mass_homogeneity"]
+__all__ = [
+    "CROSSING_PROBABILITY",
+    "CrossingFit",
+    "amount_figure",
+    "amount_section",
+    "amount_series",
+    "crossing_probabilities",
+    "fit_crossings",
+    "logistic",
+    "mass_homogeneity",
+]
 
 UL = 1e-9  # m^3 per µl
 MG = 1e-6  # kg per mg
@@ -158,7 +168,7 @@ class CrossingFit(FitResult):
     Attributes
     ----------
     product, unit
-        Product (with condition) and the unit of its amounts (µl, mg).
+        Product (with condition) and the unit of its amounts (µL, mg).
     method
         ``"logistic"``, ``"interpolation"`` or ``"none"`` (no crossing).
     status
@@ -273,7 +283,8 @@ def crossing_probabilities(params: dict[str, float], cov: Any, amounts: Any, thr
         ``p_inside >= probability``, else ``"undetermined"``.
     """
     from scipy.special import expit
-    from scipy.stats import t as student
+
+    from torlab._stats import t_cdf  # scipy.stats.t.cdf, without its import
 
     a = np.asarray(amounts, dtype=float)
     x_lo, x_hi = math.log(float(a.min())), math.log(float(a.max()))
@@ -290,15 +301,15 @@ def crossing_probabilities(params: dict[str, float], cov: Any, amounts: Any, thr
     for x, key, below in ((x_hi, "p_below_at_largest", True), (x_lo, "p_above_at_smallest", False)):
         f, g = f_and_grad(x)
         se = math.sqrt(max(float(g @ C @ g), 0.0))
-        cdf = float(student.cdf((threshold - f) / se, dof)) if se > 0 else float(f < threshold)
+        cdf = float(t_cdf((threshold - f) / se, dof)) if se > 0 else float(f < threshold)
         out[key] = cdf if below else 1.0 - cdf
     if fl < threshold < fh:
         lc = _ln_crossing(params, threshold)
         gr = _ln_crossing_grad(params, threshold)
         se = math.sqrt(max(float(gr @ C @ gr), 0.0))
         if se > 0:
-            out["p_inside"] = float(student.cdf((x_hi - lc) / se, dof)
-                                    - student.cdf((x_lo - lc) / se, dof))
+            out["p_inside"] = float(t_cdf((x_hi - lc) / se, dof)
+                                    - t_cdf((x_lo - lc) / se, dof))
         else:
             out["p_inside"] = float(x_lo <= lc <= x_hi)
     else:
@@ -417,11 +428,11 @@ def _intervals(fits: list[_Crossing], jacs: dict[str, Any], ss: float, dof: int,
                threshold: float, confidence: float, series: Any = None,
                probability: float = CROSSING_PROBABILITY) -> None:
     """Pooled residual variance -> delta-method intervals on ln A*."""
-    from scipy.stats import t as student
+    from torlab._stats import t_ppf  # scipy.stats.t.ppf, without its import
 
     if dof >= 1:
         s2 = ss / dof
-        tq = float(student.ppf(0.5 + confidence / 2, dof))
+        tq = float(t_ppf(0.5 + confidence / 2, dof))
         for cf in fits:
             if cf.product not in jacs:
                 continue
@@ -479,7 +490,7 @@ def _status_evidence(series: Any, cf: CrossingFit, thr: float, pooled: tuple[flo
     from the pooled run-to-run scatter (Student t).  NaN without a pooled scatter
     or for a crossing product.
     """
-    from scipy.stats import t as student
+    from torlab._stats import t_cdf  # scipy.stats.t.cdf, without its import
 
     out: dict[str, Any] = {"p_status": _NAN, "status_verdict": ""}
     s, dof = pooled
@@ -490,7 +501,7 @@ def _status_evidence(series: Any, cf: CrossingFit, thr: float, pooled: tuple[flo
     above = cf.status.startswith("above")
     i = mean.idxmin() if above else mean.idxmax()
     z = (float(mean[i]) - thr) / (s / math.sqrt(float(n[i])))
-    p = float(student.cdf(z if above else -z, dof))
+    p = float(t_cdf(z if above else -z, dof))
     out["p_status"] = p
     out["status_verdict"] = cf.status if p >= prob else "undetermined"
     return out
@@ -504,13 +515,13 @@ def mass_homogeneity(rows: list[dict[str, Any]], tq: float) -> dict[str, Any] | 
     weighted mean: ``chi2 = sum((m_i - m)^2 / se_i^2)`` on ``k - 1`` degrees of
     freedom.  None with fewer than two products with a crossing interval.
     """
-    from scipy.stats import chi2 as chi2dist
-    from scipy.stats import norm
+    from torlab._stats import chi2_sf, norm_ppf  # scipy.stats's, without its import
 
-    z = float(norm.ppf(0.975))
+    z = float(norm_ppf(0.975))
     ms, ses, names = [], [], []
     for r in rows:
-        lo, hi, m = r.get("crossing_mass_low_mg"), r.get("crossing_mass_high_mg"),             r.get("crossing_mass_mg")
+        lo, hi, m = r.get("crossing_mass_low_mg"), r.get("crossing_mass_high_mg"), \
+            r.get("crossing_mass_mg")
         if not all(isinstance(v, float) and math.isfinite(v) and v > 0 for v in (lo, hi, m)):
             continue
         ms.append(math.log(m))
@@ -524,7 +535,7 @@ def mass_homogeneity(rows: list[dict[str, Any]], tq: float) -> dict[str, Any] | 
     sebar = float(1 / math.sqrt(np.sum(w)))
     c2 = float(np.sum(w * (m - mbar) ** 2))
     k = len(ms)
-    return {"products": names, "chi2": c2, "dof": k - 1, "p_value": float(chi2dist.sf(c2, k - 1)),
+    return {"products": names, "chi2": c2, "dof": k - 1, "p_value": float(chi2_sf(c2, k - 1)),
             "mass_mg": math.exp(mbar), "mass_low_mg": math.exp(mbar - z * sebar),
             "mass_high_mg": math.exp(mbar + z * sebar),
             "ratio_largest_to_smallest": math.exp(float(m.max() - m.min()))}
@@ -540,7 +551,7 @@ def _mass_factor(series: Any, product: str) -> float:
     return float(r["mass_mg"] / r["applied_amount"]) if math.isfinite(r["mass_mg"]) else float("nan")
 
 
-def amount_section(series: Any, cfg: Any) -> Section:
+def amount_section(series: Any, cfg: Any, fits: list[CrossingFit] | None = None) -> Section:
     """The amount-dependency report (figures, tables, key numbers) of an amount series.
 
     Parameters
@@ -549,6 +560,9 @@ def amount_section(series: Any, cfg: Any) -> Section:
         From :func:`amount_series`.
     cfg
         The protocol's ``reports.amount`` (:class:`~torlab.protocols.schema.AmountReport`).
+    fits
+        :func:`fit_crossings` of the series with ``cfg``'s settings, if already made (the
+        protocol runner caches them); computed here otherwise.
     """
     import pandas as pd
 
@@ -560,8 +574,9 @@ def amount_section(series: Any, cfg: Any) -> Section:
             f"{cfg.temperature_tolerance:g} °C", key="reports.amount")
     band, thr = tuple(cfg.band), cfg.threshold
     prob = getattr(cfg, "probability", CROSSING_PROBABILITY)
-    fits = fit_crossings(series, threshold=thr, band=band, curve=cfg.curve,
-                         confidence=cfg.confidence, probability=prob)
+    if fits is None:
+        fits = fit_crossings(series, threshold=thr, band=band, curve=cfg.curve,
+                             confidence=cfg.confidence, probability=prob)
     pooled = _pooled_scatter(fits)
     rows, key = [], {}
     notes: list[str] = []
@@ -626,9 +641,9 @@ def amount_section(series: Any, cfg: Any) -> Section:
                   f"with probability {r['p_below_at_largest']:.3f}.")
         paragraphs.append(f"{r['product']}: f falls below {thr:g} at {r['crossing_amount']:.3g}"
                           f"{iv} {r['amount_unit']}{ms} ({r['method']}).{ev}")
-    from scipy.stats import t as student
+    from torlab._stats import t_ppf
 
-    tq = float(student.ppf(0.5 + cfg.confidence / 2, pooled[1])) if pooled[1] > 0 else _NAN
+    tq = float(t_ppf(0.5 + cfg.confidence / 2, pooled[1])) if pooled[1] > 0 else _NAN
     same = mass_homogeneity(rows, tq) if math.isfinite(tq) else None
     if same is not None:
         paragraphs.append(
@@ -639,12 +654,14 @@ def amount_section(series: Any, cfg: Any) -> Section:
             f"at the 5 % level; common mass {same['mass_mg']:.3g} mg, 95 % interval "
             f"[{same['mass_low_mg']:.3g}, {same['mass_high_mg']:.3g}] mg; the crossings share "
             "the pooled scatter, which the test neglects).")
-    figs = [Figure("amount_applied", _figure(series, fits, cfg, mass=False),
-                   "Friction f against the applied amount (µl for liquids, mg for solids) with "
-                   "the fitted curves, the optimal band and the threshold crossings"),]
+    figs = [Figure("amount_applied", plot(amount_figure, series, fits, cfg, mass=False),
+                   "Friction f against the applied amount (µL for liquids, mg for solids), "
+                   "error bars one standard deviation of f over the reduction window, with the "
+                   "fitted curves and their 95 % bands, the optimal band and the threshold "
+                   "crossings"),]
     missing = sorted(set(series.loc[series["mass_mg"].isna(), "product"]))
     if cfg.basis == "mass" and series["mass_mg"].notna().any():
-        figs.append(Figure("amount_mass", _figure(series, fits, cfg, mass=True),
+        figs.append(Figure("amount_mass", plot(amount_figure, series, fits, cfg, mass=True),
                            "Mass-based comparison across product types: f against applied mass"))
         if missing:
             notes.append(f"no density for {', '.join(missing)}: left out of the mass comparison "
@@ -678,38 +695,95 @@ def amount_section(series: Any, cfg: Any) -> Section:
         summary=summary, notes=notes)
 
 
-def _figure(series: Any, fits: list[CrossingFit], cfg: Any, *, mass: bool) -> Any:
-    fig, ax = subplots(figsize=(8.0, 5.0))
-    band, thr = cfg.band, cfg.threshold
-    ax.axhspan(band[0], band[1], color="#d9ead3", alpha=0.7, lw=0,
-               label=f"optimal band {band[0]:g}–{band[1]:g}")
-    ax.axhline(thr, color="C3", ls="--", lw=1.0, label=f"low-friction threshold {thr:g}")
-    for i, cf in enumerate(fits):
+def _logistic_band(x: np.ndarray, cf: CrossingFit) -> tuple[np.ndarray, np.ndarray] | None:
+    """95 % band of the fitted logistic mean curve at ``x = ln amount`` (delta method on the
+    parameters' covariance, Student t on the pooled degrees of freedom), None without one."""
+    if cf.cov is None or cf.method != "logistic":
+        return None
+    from scipy.special import expit, stdtrit
+
+    C = np.asarray(cf.cov, dtype=float)
+    if C.shape != (4, 4) or not np.all(np.isfinite(C)):
+        return None
+    p = cf.params
+    s = expit(-p["k"] * (x - p["c"]))
+    d = p["f_high"] - p["f_low"]
+    ds = s * (1.0 - s)
+    J = np.stack([1.0 - s, s, -d * ds * (x - p["c"]), d * ds * p["k"]], axis=1)
+    se = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", J, C, J), 0.0))
+    q = float(stdtrit(max(cf.dof, 1), 0.975))
+    y = logistic(x, **p)
+    return y - q * se, y + q * se
+
+
+def amount_figure(series: Any, fits: list[CrossingFit], cfg: Any, *, mass: bool) -> Any:
+    """Friction f against the applied amount (or mass) per product (:class:`Plot` function).
+
+    Measured f with error bars (the standard deviation of f over the reduction's
+    window), the fitted logistic with its 95 % band, the optimal band, the threshold
+    and each crossing with its interval (diamond).
+    """
+    from torlab.reports.plotting import (
+        axis_label,
+        band,
+        colours,
+        legend,
+        plain_log_ticks,
+        points,
+        unit,
+    )
+
+    fig, ax = subplots(figsize=(7.0, 4.6))
+    lo_b, hi_b = cfg.band
+    thr = cfg.threshold
+    ax.axhspan(lo_b, hi_b, color="#d9ead3", alpha=0.6, lw=0,
+               label=f"optimal band {lo_b:g}–{hi_b:g}")
+    ax.axhline(thr, color="#7f7f7f", ls="--", lw=1.0, label=f"low-friction threshold {thr:g}")
+    col = colours(cf.product for cf in fits)
+    units = sorted({unit(cf.unit) for cf in fits})
+    alpha = 0.22 if len(fits) <= 2 else 0.12
+    xs_all = []
+    for cf in fits:
         g = series[series["product"] == cf.product].sort_values("applied_amount")
         mf = _mass_factor(series, cf.product) if mass else 1.0
-        if not math.isfinite(mf):
+        if not math.isfinite(mf) or not len(g):
             continue
         a = g["applied_amount"].to_numpy(dtype=float)
-        color = f"C{i % 10}"
-        unit = "" if mass else f" ({cf.unit})"
-        ax.errorbar(a * mf, g["f"], yerr=g["f_sd"], fmt="o", ms=5, color=color, capsize=2,
-                    label=f"{cf.product}{unit}")
+        xs_all.append(a * mf)
+        color = col[cf.product]
+        name = f"{cf.product}" if mass or len(units) == 1 else f"{cf.product} ({unit(cf.unit)})"
+        points(ax, a * mf, g["f"].to_numpy(dtype=float), g["f_sd"].to_numpy(dtype=float),
+               color=color, label=name, filled=True)
         if cf.params and cf.method == "logistic":
             xs = np.geomspace(a.min(), a.max(), 100)
-            ax.plot(xs * mf, logistic(np.log(xs), **cf.params), color=color, lw=1.2)
+            ax.plot(xs * mf, logistic(np.log(xs), **cf.params), color=color, lw=1.3)
+            b = _logistic_band(np.log(xs), cf)
+            if b is not None:
+                band(ax, xs * mf, b[0], b[1], color=color, alpha=alpha)
         else:
             ax.plot(a * mf, g["f"], color=color, lw=0.8, alpha=0.6)
         if math.isfinite(cf.crossing):
             lo = cf.crossing - cf.crossing_low if math.isfinite(cf.crossing_low) else 0.0
             hi = cf.crossing_high - cf.crossing if math.isfinite(cf.crossing_high) else 0.0
             ax.errorbar([cf.crossing * mf], [thr], xerr=[[lo * mf], [hi * mf]], fmt="D", ms=6,
-                        color=color, mfc="white", capsize=3)
+                        color=color, mfc="white", capsize=3, elinewidth=1.0)
     ax.set_xscale("log")
-    ax.set_xlabel("applied mass (mg)" if mass else "applied amount (µl for liquids, mg for solids)")
-    ax.set_ylabel("friction coefficient f (–)")
+    if not mass and xs_all:
+        plain_log_ticks(ax.xaxis, np.concatenate(xs_all))
+    if mass:
+        ax.set_xlabel(axis_label("applied mass", "m", "mg"))
+    else:
+        ax.set_xlabel(axis_label("applied amount", "", " or ".join(units) or "–")
+                      if len(units) > 1 else axis_label("applied amount", "", units[0]))
+    ax.set_ylabel(axis_label("friction coefficient", "f"))
     ax.set_ylim(bottom=0)
-    ax.legend(loc="upper right", fontsize=7)
-    ax.set_title(("Mass-based comparison" if mass else "Friction against applied amount")
-                 + f" at {cfg.temperature:g} °C (diamonds: threshold crossing"
-                 + (f", {100 * cfg.confidence:g} % interval)" if cfg.curve == "logistic" else ")"))
+    # legend entries for what the marks mean
+    ax.plot([], [], "-", color="0.3", lw=1.3, label="fitted logistic (95 % band shaded)"
+            if cfg.curve == "logistic" else "interpolation")
+    ax.errorbar([], [], xerr=[], fmt="D", ms=6, color="0.3", mfc="white", capsize=3,
+                label="crossing of the threshold"
+                + (f" ({100 * cfg.confidence:g} % interval)" if cfg.curve == "logistic" else ""))
+    legend(ax)
+    ax.set_title(("Friction against applied mass" if mass else
+                  "Friction against applied amount") + f" at {cfg.temperature:g} °C")
     return fig

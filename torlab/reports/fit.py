@@ -6,28 +6,39 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["fit_figure"]
+__all__ = ["KIND_TITLES", "fit_figure", "result_figure"]
 
 #: per kind: (x column, x label, x factor, y measured, y model, y label, y factor, residual, log-log)
 _LAYOUT: dict[str, tuple[str, str, float, str, str, str, float, str, bool]] = {
     "layer_hpt": ("displacement_m", "layer displacement u (µm)", 1e6, "shear_stress_measured_Pa",
                   "shear_stress_model_Pa", "shear stress τ (MPa)", 1e-6, "residual_Pa", False),
-    "layer_traction": ("creepage", "creepage ξ (= SRR) (%)", 100.0, "mu_measured", "mu_model",
-                       "traction coefficient μ (-)", 1.0, "residual", False),
+    "layer_traction": ("creepage", "creepage ξ = SRR (%)", 100.0, "mu_measured", "mu_model",
+                       "traction coefficient μ (–)", 1.0, "residual", False),
     "temperature": ("temperature_C", "temperature T (°C)", 1.0, "mu_c2_measured", "mu_c2_model",
-                    "μc1, μc2 (-)", 1.0, "residual_mu_c2", False),
+                    "limits μc1, μc2 (–)", 1.0, "residual_mu_c2", False),
     "film": ("speed_m_s", "rolling speed v (m/s)", 1.0, "film_thickness_measured_m",
              "film_thickness_model_m", "central film thickness h (nm)", 1e9, "residual_m", True),
     "viscosity": ("pressure_Pa", "pressure p (MPa)", 1e-6, "viscosity_measured_Pa_s",
                   "viscosity_model_Pa_s", "viscosity η (mPa·s)", 1e3, "residual_ln_eta", False),
     "polach": ("creepage", "creepage ξ (%)", 100.0, "mu_torlab", "mu_polach",
-               "F/N: torlab (points), Polach (lines)", 1.0, "residual", False),
+               "creep force F/N (–)", 1.0, "residual", False),
 }
-_RES_LABEL = {"layer_hpt": ("residual (MPa)", 1e-6), "layer_traction": ("residual μ (-)", 1.0),
-              "temperature": ("residual μ (-)", 1.0), "film": ("residual (nm)", 1e9),
-              "viscosity": ("residual ln η (-)", 1.0), "polach": ("Polach - torlab (-)", 1.0)}
+_RES_LABEL = {"layer_hpt": ("residual (MPa)", 1e-6), "layer_traction": ("residual μ (–)", 1.0),
+              "temperature": ("residual μ (–)", 1.0), "film": ("residual (nm)", 1e9),
+              "viscosity": ("residual ln η (–)", 1.0), "polach": ("Polach − torlab (–)", 1.0)}
 #: legend names of the data and the model where they are not a measurement and a model
-_LEGEND = {"polach": ("torlab", "Polach")}
+_LEGEND = {"polach": ("torlab", "Polach"), "temperature": ("μc2 measured", "μc2 model")}
+
+
+#: figure titles of the fit kinds, in words
+KIND_TITLES = {"layer_hpt": "Third-body layer from HPT tests",
+               "layer_traction": "Third-body layer from a traction curve",
+               "temperature": "Temperature coefficients of the layer",
+               "film": "Film thickness against rolling speed",
+               "viscosity": "Viscosity against pressure",
+               "polach": "Polach's law against torlab's creep forces",
+               "amount_crossing": "Friction against applied amount",
+               "removal": "Removal of the layer"}
 
 
 def fit_figure(result: Any, title: str | None = None,
@@ -39,7 +50,7 @@ def fit_figure(result: Any, title: str | None = None,
     result
         A :class:`~torlab.fit.result.FitResult`.
     title
-        Figure title; default from the result's kind and source.
+        Figure title; default: what was fitted, in words, and the data's source.
     model_curve
         ``(x, y)`` of the fitted model on a dense grid (x in the data's SI unit); drawn
         instead of the model joined at the measured points.
@@ -48,36 +59,45 @@ def fit_figure(result: Any, title: str | None = None,
     -------
     matplotlib.figure.Figure
     """
-    from torlab.reports.plotting import subplots
+    from torlab.reports.plotting import colours, legend, subplots
 
-    fig, (ax, axr) = subplots(2, 1, sharex=True, figsize=(7.0, 6.0),
-                              gridspec_kw={"height_ratios": [3, 1]})
+    fig, (ax, axr) = subplots(2, 1, sharex=True, figsize=(7.0, 5.6), height_ratios=[3, 1])
     d = result.data
     xc, xl, xf, ym, ymod, yl, yf, rc, loglog = _layout(result)
     groups = [(None, d)] if "curve" not in d or d["curve"].nunique() == 1 else list(d.groupby("curve"))
+    col = colours(g for g, _ in groups)
+    many = len(groups) > 1
     for g, sub in groups:
         x = sub[xc].to_numpy() * xf
         order = np.argsort(x, kind="stable")
         lab = "" if g is None else f" {g}"
+        c = col[g]
         data_name, model_name = _LEGEND.get(result.kind, ("measured", "model"))
-        ax.plot(x, sub[ym].to_numpy() * yf, ".", ms=3, alpha=0.6, label=f"{data_name}{lab}")
+        dense = len(x) > 200
+        ms, alpha = (2.0, 0.55) if dense else (4.5, 1.0)
+        ax.plot(x, sub[ym].to_numpy() * yf, "o", ms=ms, mew=0, alpha=alpha, color=c,
+                label=f"{data_name}{lab}")
         if model_curve is None or g is not None:
-            ax.plot(x[order], sub[ymod].to_numpy()[order] * yf, "-", lw=1.2,
-                    label=f"{model_name}{lab}")
+            ax.plot(x[order], sub[ymod].to_numpy()[order] * yf, "-", lw=1.3,
+                    color="0.1" if not many else c, label=f"{model_name}{lab}")
         else:
-            ax.plot(np.asarray(model_curve[0]) * xf, np.asarray(model_curve[1]) * yf, "-", lw=1.2,
-                    label="model")
-        axr.plot(x, sub[rc].to_numpy() * _res_label(result)[1], ".", ms=3)
+            ax.plot(np.asarray(model_curve[0]) * xf, np.asarray(model_curve[1]) * yf, "-", lw=1.3,
+                    color="0.1", label="model")
+        axr.plot(x, sub[rc].to_numpy() * _res_label(result)[1], "o", ms=ms, mew=0, alpha=alpha,
+                 color=c)
     if result.kind == "temperature":
         x = d[xc].to_numpy()
         order = np.argsort(x)
-        ax.plot(x, d["mu_c1_measured"], "s", ms=4, label="μc1 measured")
-        ax.plot(x[order], d["mu_c1_model"].to_numpy()[order], "--", label="μc1 model")
-        axr.plot(x, d["residual_mu_c1"], "s", ms=3)
+        ax.plot(x, d["mu_c1_measured"], "s", ms=5, color=col[groups[0][0]], mfc="white",
+                label="μc1 measured")
+        ax.plot(x[order], d["mu_c1_model"].to_numpy()[order], "--", color="0.1",
+                label="μc1 model")
+        axr.plot(x, d["residual_mu_c1"], "s", ms=4.5, mfc="white", color=col[groups[0][0]])
     if result.kind == "film" and "film_thickness_hamrock_dowson_m" in d:
         x = d[xc].to_numpy()
         order = np.argsort(x)
         ax.plot(x[order], d["film_thickness_hamrock_dowson_m"].to_numpy()[order] * yf, ":",
+                color="0.3",
                 label=f"Hamrock–Dowson, α = {result.params['alpha'] * 1e9:.3g} 1/GPa")
     if loglog:
         ax.set_xscale("log")
@@ -87,10 +107,20 @@ def fit_figure(result: Any, title: str | None = None,
     ax.set_ylabel(yl)
     axr.set_ylabel(_res_label(result)[0])
     axr.set_xlabel(xl)
-    ax.legend(loc="best")
+    legend(ax)
     txt = ", ".join(f"{n} = {_fmt(n, result.params[n])}" for n in result.names[:4])
-    ax.set_title(title or f"{result.kind} fit: {result.meta.get('source', '')}\n{txt}", fontsize=9)
+    src = result.meta.get("source", "")
+    head = title or (KIND_TITLES.get(result.kind, f"{result.kind.replace('_', ' ')} fit")
+                     + (f": {src}" if src else ""))
+    ax.set_title(f"{head}\n{txt}" if txt and not title else head, fontsize=9)
     return fig
+
+
+def result_figure(result: Any, title: str | None = None,
+                  model_curve: tuple[Any, Any] | None = None) -> Any:
+    """The result's own figure, :meth:`~torlab.fit.result.FitResult.plot` (a result class
+    may draw its own; :class:`~torlab.reports.render.Plot` function)."""
+    return result.plot(title=title, model_curve=model_curve)
 
 
 def _layout(result: Any) -> tuple[str, str, float, str, str, str, float, str, bool]:

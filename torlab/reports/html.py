@@ -1,11 +1,14 @@
-"""Report assembly: sections -> figures (PNG + SVG), CSV tables, ``report.html``, ``report.md``.
+"""Report assembly: sections -> figures (PNG; SVG/PDF on request), CSV tables, ``report.html``,
+``report.md``.
 
 Every protocol report (:mod:`torlab.reports.amount`, :mod:`~torlab.reports.timetest`,
 :mod:`~torlab.reports.traction`, :mod:`~torlab.reports.stribeck`) returns a
-:class:`Section`.  :func:`write_sections` writes each section's figures (PNG
-and SVG) and tables (CSV) into its own sub-folder, then one self-contained
-``report.html`` (figures embedded as base64 PNG, tables inline, no external
-file or script) and a ``report.md`` that links the files.
+:class:`Section`.  :func:`write_sections` writes each section's figures (in the
+formats asked for; declared :class:`~torlab.reports.render.Plot` figures are
+drawn in parallel and cached by content, :mod:`torlab.reports.render`) and tables
+(CSV) into its own sub-folder, then one self-contained ``report.html`` (figures
+embedded as base64 PNG -- SVG when no PNG is written --, tables inline, no
+external file or script) and a ``report.md`` that links the files.
 """
 
 from __future__ import annotations
@@ -16,12 +19,17 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["Figure", "Section", "Table", "render_html", "render_markdown", "write_sections"]
+__all__ = ["Figure", "Section", "Table", "render_html", "render_markdown", "write_figures",
+           "write_sections", "write_tables"]
 
 
 @dataclass
 class Figure:
-    """A figure of a section: file stem, matplotlib figure, caption."""
+    """A figure of a section: file stem, the figure, caption.
+
+    ``fig`` is a :class:`~torlab.reports.render.Plot` (drawn when needed, cached by
+    content) or a finished matplotlib figure.
+    """
 
     name: str
     fig: Any
@@ -59,28 +67,54 @@ class Section:
     notes: list[str] = field(default_factory=list)
     files: list[str] = field(default_factory=list)
     images: dict[str, bytes] = field(default_factory=dict)
+    image_types: dict[str, str] = field(default_factory=dict)
+    figure_files: dict[str, list[str]] = field(default_factory=dict)
 
 
-def write_sections(dest: Any, sections: list[Section]) -> None:
-    """Write every section's figures (``<key>/<name>.png|.svg``) and tables (``.csv``).
+def write_figures(dest: Any, sections: list[Section], formats: Any = None, *, store: Any = None,
+                  executor: Any = None) -> Any:
+    """Write every section's figures (``<key>/<name>.<format>``); returns the
+    :class:`~torlab.reports.render.RenderStats`.
 
-    The PNG bytes are kept on the section (:attr:`Section.images`) for the HTML.
-    Figures are closed after saving.
+    The bytes shown in the HTML (PNG, else SVG) are kept on the section
+    (:attr:`Section.images`).
     """
-    import matplotlib.pyplot as plt
+    from torlab.reports.render import DEFAULT_FORMATS, render_figures
 
+    formats = tuple(formats or DEFAULT_FORMATS)
+    items = [(f"{s.key}/{f.name}", f.fig) for s in sections for f in s.figures]
+    images, stats = render_figures(items, formats, store=store, executor=executor)
     for s in sections:
         for f in s.figures:
-            svg = dest.path(f"{s.key}/{f.name}.svg")
-            f.fig.savefig(svg, bbox_inches="tight")
-            png = dest.path(f"{s.key}/{f.name}.png")
-            f.fig.savefig(png, dpi=130, bbox_inches="tight")
-            plt.close(f.fig)
-            s.images[f.name] = png.read_bytes()
-            s.files += [f"{s.key}/{f.name}.png", f"{s.key}/{f.name}.svg"]
+            got = images[f"{s.key}/{f.name}"]
+            names = []
+            for fmt in formats:
+                dest.write_bytes(f"{s.key}/{f.name}.{fmt}", got[fmt])
+                names.append(f"{s.key}/{f.name}.{fmt}")
+            show = next((x for x in ("png", "svg") if x in got), None)
+            if show is not None:
+                s.images[f.name] = got[show]
+                s.image_types[f.name] = show
+            s.figure_files[f.name] = names
+            s.files += names
+    return stats
+
+
+def write_tables(dest: Any, sections: list[Section]) -> None:
+    """Write every section's tables (``<key>/<name>.csv``)."""
+    for s in sections:
         for t in s.tables:
             dest.write_csv(f"{s.key}/{t.name}.csv", t.df, allow_missing=t.allow_missing)
             s.files.append(f"{s.key}/{t.name}.csv")
+
+
+def write_sections(dest: Any, sections: list[Section], formats: Any = None, *, store: Any = None,
+                   executor: Any = None) -> Any:
+    """Write every section's figures and tables (:func:`write_figures`, :func:`write_tables`);
+    returns the figures' :class:`~torlab.reports.render.RenderStats`."""
+    stats = write_figures(dest, sections, formats, store=store, executor=executor)
+    write_tables(dest, sections)
+    return stats
 
 
 def _fmt(v: Any, fmt: str) -> str:
@@ -142,12 +176,15 @@ def render_html(title: str, intro: list[str], sections: list[Section],
             out.append("</table>")
         for f in s.figures:
             data = s.images.get(f.name)
+            files = s.figure_files.get(f.name) or [f"{s.key}/{f.name}.png"]
+            links = ", ".join(f"<code>{e(x)}</code>" for x in files)
             if data is None:
+                out.append(f"<p><b>{e(f.caption)}</b> ({links})</p>")
                 continue
+            mime = "image/svg+xml" if s.image_types.get(f.name) == "svg" else "image/png"
             b64 = base64.b64encode(data).decode("ascii")
-            out.append(f"<figure><img alt='{e(f.caption)}' src='data:image/png;base64,{b64}'>"
-                       f"<figcaption>{e(f.caption)} (<code>{e(s.key)}/{e(f.name)}.svg</code>)"
-                       "</figcaption></figure>")
+            out.append(f"<figure><img alt='{e(f.caption)}' src='data:{mime};base64,{b64}'>"
+                       f"<figcaption>{e(f.caption)} ({links})</figcaption></figure>")
     out.append("<h2 id='provenance'>Provenance</h2><div class='prov'><table>")
     for k in ("torlab_version", "protocol_file", "protocol_sha256", "command"):
         if k in provenance:
@@ -222,9 +259,14 @@ def render_markdown(title: str, intro: list[str], sections: list[Section],
             out += ["| " + " | ".join(e(c) for c in r) + " |" for r in rows]
             out.append("")
         for f in s.figures:
-            png, svg = f"{s.key}/{f.name}.png", f"{s.key}/{f.name}.svg"
-            out += [f"![{e(f.caption)}]({_md_link(png)})", "",
-                    f"*{e(f.caption)}* ([SVG]({_md_link(svg)}))", ""]
+            files = s.figure_files.get(f.name) or [f"{s.key}/{f.name}.png"]
+            shown = next((x for x in files if x.endswith((".png", ".svg"))), None)
+            if shown is not None:
+                out += [f"![{e(f.caption)}]({_md_link(shown)})", ""]
+            others = [x for x in files if x != shown]
+            more = (" (" + ", ".join(f"[{x.rsplit('.', 1)[1].upper()}]({_md_link(x)})"
+                                     for x in others) + ")") if others else ""
+            out += [f"*{e(f.caption)}*{more}", ""]
     out += ["## Provenance", "", f"- torlab {e(provenance.get('torlab_version', ''))}",
             f"- protocol {_md_code(provenance.get('protocol_file', ''))} (SHA-256 "
             f"{_md_code(provenance.get('protocol_sha256', ''))})", ""]

@@ -6,13 +6,13 @@ from typing import Any
 
 import numpy as np
 
-from torlab.reports.plotting import subplots
+from torlab.reports.plotting import PALETTE, legend, subplots
 
 __all__ = ["axis_label", "curve_figure", "time_test_figure"]
 
 #: axis label and scale of the usual columns
 _AXES = {
-    "srr": ("SRR (%)", 100.0),
+    "srr": ("slide-to-roll ratio SRR (%)", 100.0),
     "rolling_speed_m_s": ("rolling speed (m/s)", 1.0),
     "sliding_speed_m_s": ("sliding speed (m/s)", 1.0),
     "step_time_s": ("step time (s)", 1.0),
@@ -31,7 +31,7 @@ def axis_label(column: str) -> tuple[str, float]:
     for suffix, unit in _UNITS:
         if column.endswith(suffix):
             return f"{column[:-len(suffix)].replace('_', ' ')} ({unit})", 1.0
-    return column.replace("_", " "), 1.0
+    return f"{column.replace('_', ' ')} (–)", 1.0
 
 
 def curve_figure(red: Any, kind: str) -> Any:
@@ -65,7 +65,7 @@ def curve_figure(red: Any, kind: str) -> Any:
     for i, st in enumerate(steps):
         sel = step_arr == st
         x = d.loc[sel, xcol].to_numpy() * xs
-        color = f"C{i}" if n <= 10 else cmap(i / max(1, n - 1))
+        color = PALETTE[i] if n <= 10 else cmap(i / max(1, n - 1))
         label = (str(labels[sel][0]) if labels is not None else f"step {st}") if n <= 12 else None
         marker = "o" if sel.sum() < 60 else None
         ax.plot(x, d.loc[sel, ycol].to_numpy() * ys, "-", lw=lw, color=color, label=label,
@@ -82,12 +82,12 @@ def curve_figure(red: Any, kind: str) -> Any:
     if ycol == "film_thickness_m" and np.nanmin(d[ycol]) > 0:
         ax.set_yscale("log")
     if n <= 12:
-        ax.legend(loc="best")
+        legend(ax)
     else:
         sm = matplotlib.cm.ScalarMappable(cmap=cmap, norm=matplotlib.colors.Normalize(
             vmin=min(steps), vmax=max(steps)))
         fig.colorbar(sm, ax=ax, label="step number")
-    fig.suptitle(f"{red.label}: {kind.replace('_', ' ')} steps ({n})")
+    fig.suptitle(f"{kind.replace('_', ' ').capitalize()} steps ({n}): {red.label}")
     return fig
 
 
@@ -106,7 +106,7 @@ def time_test_figure(red: Any, results: list[Any]) -> Any:
         sel = step_arr == st
         t = d.loc[sel, "step_time_s"].to_numpy()
         mu = d.loc[sel, "traction_coefficient"].to_numpy()
-        color = f"C{i % 10}"
+        color = PALETTE[i % len(PALETTE)]
         r = by_step.get(st)
         if r is None:
             continue
@@ -127,6 +127,6 @@ def time_test_figure(red: Any, results: list[Any]) -> Any:
     ax.text(0.01, 0.98, "dashed: application · dot: minimum · triangle: recovery · bar: mean "
             "after recovery · dotted: low-adhesion threshold (shaded: below)",
             transform=ax.transAxes, fontsize=7, va="top", alpha=0.7)
-    ax.legend(loc="lower right")
-    fig.suptitle(f"{red.label}: time test after application (thesis Fig. 5.9)")
+    legend(ax)
+    fig.suptitle(f"Time test after application (thesis Fig. 5.9): {red.label}")
     return fig

@@ -6,9 +6,12 @@ from typing import Any
 
 import numpy as np
 
-from torlab.reports.plotting import subplots
+from torlab.reports.plotting import PALETTE, legend, subplots
 
 __all__ = ["optical_figure"]
+
+_TEST_TITLES = {"traction": "traction curve", "dry_traction": "dry traction curve",
+                "stribeck": "Stribeck curve", "film_thickness": "film thickness"}
 
 
 def optical_figure(res: Any) -> Any:
@@ -22,7 +25,7 @@ def optical_figure(res: Any) -> Any:
       the coefficient where measured.
     """
     p = res.points
-    title = f"{res.label}: {res.test.replace('_', ' ')}"
+    title = _TEST_TITLES.get(res.test, res.test.replace('_', ' ')).capitalize()
     if res.test in ("traction", "dry_traction") and "traction_coefficient" in p:
         from torlab.reduce.optical import speed_groups
 
@@ -33,18 +36,18 @@ def optical_figure(res: Any) -> Any:
             U = float(p.loc[sel, "rolling_speed_m_s"].mean())
             sub = p.loc[sel].sort_values("srr")
             ax1.plot(sub["srr"] * 100, sub["traction_coefficient"], "o-", ms=3, lw=1,
-                     color=f"C{k % 10}", label=f"{U:.3g} m/s")
+                     color=PALETTE[k % len(PALETTE)], label=f"{U:.3g} m/s")
         ax1.axhline(0, color="k", lw=0.5)
         ax1.axvline(0, color="k", lw=0.5)
-        ax1.set_xlabel("SRR (%)")
+        ax1.set_xlabel("slide-to-roll ratio SRR (%)")
         ax1.set_ylabel("traction coefficient μ (–)")
-        ax1.legend(title="rolling speed")
+        legend(ax1, outside=False, loc="upper left", title="rolling speed")
         f = res.folded
         if f is not None:
             fg = speed_groups(f["rolling_speed_m_s"].to_numpy())
             for k in np.unique(fg):
                 sub = f.loc[fg == k]
-                c = f"C{k % 10}"
+                c = PALETTE[k % len(PALETTE)]
                 ax2.plot(sub["srr"] * 100, sub["traction_coefficient_pos"], "o-", ms=4, lw=1,
                          color=c)
                 ax2.plot(sub["srr"] * 100, sub["traction_coefficient_neg_folded"], "o", ms=6,
@@ -66,15 +69,15 @@ def optical_figure(res: Any) -> Any:
             if label and tcol:
                 label += f", {sub[tcol].mean():.1f} °C"
             ax1.plot(sub["rolling_speed_m_s"], sub["film_thickness_m"] * 1e9, "o-", ms=4,
-                     color=f"C{k % 10}", label=label)
+                     color=PALETTE[k % len(PALETTE)], label=label)
             if "traction_coefficient" in sub:
                 ax2.plot(sub["rolling_speed_m_s"], sub["traction_coefficient"], "o-", ms=4,
-                         color=f"C{k % 10}")
+                         color=PALETTE[k % len(PALETTE)])
         ax1.set_xscale("log")
         ax1.set_yscale("log")
         ax1.set_ylabel("film thickness h (nm)")
         if "step" in p:
-            ax1.legend()
+            legend(ax1)
         ax2.set_ylabel("traction coefficient μ (–)")
         ax2.set_xlabel("rolling speed U (m/s)")
     else:
@@ -88,5 +91,5 @@ def optical_figure(res: Any) -> Any:
         ax1.set_ylabel("traction coefficient μ (–)")
         srr = float(np.median(p["srr"]))
         title += f" at SRR {srr * 100:.3g} %"
-    fig.suptitle(title)
+    fig.suptitle(f"{title}: {res.label}")
     return fig

@@ -1,39 +1,307 @@
-"""Matplotlib set-up shared by every torlab figure (lazy import, Agg backend)."""
+"""torlab's figure style, in one place: the look, the layout and the pieces every plot shares.
+
+Every torlab figure is a :class:`matplotlib.figure.Figure` on the Agg canvas, made
+by :func:`subplots` -- never through ``matplotlib.pyplot``, whose import and
+figure manager a command that writes a PNG does not need.  matplotlib itself is
+imported on the first figure only.
+
+* **Look** (:data:`STYLE`): sans-serif 9 pt, light grid, no top/right spines,
+  150 dpi.  :data:`STYLE_VERSION` is part of every cached figure's key
+  (:mod:`torlab.reports.render`): bump it when the look changes.
+* **Layout**: fixed margins in inches (no layout engine, no ``bbox_inches="tight"``
+  second pass); a legend outside the axes (:func:`legend`) widens the figure by
+  the legend's measured width, so the plotting area keeps its size and nothing
+  overlaps the data.
+* **Pieces**: :func:`colours` (distinct, stable colours per product or curve),
+  :func:`band` (a 95 % prediction band), :func:`points` (measured points with
+  error bars from the per-point spread), :func:`unit` ("µL", "µm" ...) and
+  :func:`axis_label` (quantity, symbol and unit).
+"""
 
 from __future__ import annotations
 
+import math
+import re
+from collections.abc import Iterable, Sequence
 from typing import Any
 
-__all__ = ["pyplot", "subplots"]
+__all__ = ["DIMENSIONLESS", "PALETTE", "STYLE", "STYLE_VERSION", "axis_label", "band",
+           "colours", "finish", "legend", "plain_log_ticks", "points", "pretty", "pyplot",
+           "subplots", "unit"]
 
-_STYLE = {
+#: bump when the look of the figures changes (invalidates cached figures)
+STYLE_VERSION = 2
+
+STYLE: dict[str, Any] = {
     "figure.figsize": (7.0, 4.5),
+    "figure.dpi": 100,
+    "font.size": 9,
+    "axes.titlesize": 10,
+    "axes.labelsize": 9,
+    "xtick.labelsize": 8,
+    "ytick.labelsize": 8,
     "axes.grid": True,
     "grid.alpha": 0.3,
+    "grid.linewidth": 0.6,
     "axes.spines.top": False,
     "axes.spines.right": False,
+    "lines.linewidth": 1.5,
+    "lines.markersize": 4,
+    "errorbar.capsize": 2,
     "legend.frameon": False,
     "legend.fontsize": 8,
+    "legend.handlelength": 1.8,
     "savefig.dpi": 150,
+    "savefig.facecolor": "white",
+    "path.simplify": True,
+    "agg.path.chunksize": 10000,
     "svg.hashsalt": "torlab",  # reproducible SVG ids
     "svg.fonttype": "none",
+    "pdf.fonttype": 42,
 }
+
+#: distinct colours (Okabe-Ito, readable by colour-blind readers), then tab10's
+PALETTE = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000",
+           "#F0E442", "#8c564b", "#7f7f7f", "#bcbd22", "#17becf", "#9467bd", "#d62728")
+
+#: the unit written for a dimensionless quantity
+DIMENSIONLESS = "–"
+
+# margins of the fixed layout (inches)
+_LEFT, _RIGHT, _BOTTOM, _TOP, _HSPACE, _WSPACE = 0.78, 0.22, 0.52, 0.38, 0.22, 0.62
+_LINE = 0.17  # one extra line of 9-pt text
+
+_READY: list[Any] = []
+#: set by the command line: matplotlib's projections may skip its 3-D toolkit (see :func:`_mpl`)
+LEAN_IMPORT = [False]
+
+
+def _mpl() -> Any:
+    """matplotlib, imported once, with torlab's style as the default rc parameters.
+
+    In a ``torlab`` command (:data:`LEAN_IMPORT`), matplotlib's registration of the 3-D
+    projection (``mpl_toolkits.mplot3d``, about 80 ms of a figure's 0.5 s of imports)
+    is skipped: no torlab figure is 3-D.  The toolkit stays importable afterwards.
+    """
+    if not _READY:
+        import sys
+        import warnings
+
+        block = LEAN_IMPORT[0] and "mpl_toolkits.mplot3d" not in sys.modules
+        if block:
+            sys.modules["mpl_toolkits.mplot3d"] = None  # type: ignore[assignment]
+        try:
+            with warnings.catch_warnings():
+                warnings.filterwarnings("ignore", message="Unable to import Axes3D")
+                import matplotlib
+                import matplotlib.figure
+        finally:
+            if block and sys.modules.get("mpl_toolkits.mplot3d", 0) is None:
+                del sys.modules["mpl_toolkits.mplot3d"]
+        from cycler import cycler
+
+        style = dict(STYLE, **{"axes.prop_cycle": cycler(color=PALETTE)})
+        matplotlib.rcParams.update(style)
+        _READY.append(matplotlib)
+    return _READY[0]
 
 
 def pyplot() -> Any:
-    """``matplotlib.pyplot`` on the Agg backend with torlab's style."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=True)
+    """``matplotlib.pyplot`` on the Agg backend with torlab's style (for notebooks;
+    torlab's own figures do not use it)."""
+    mpl = _mpl()
+    mpl.use("Agg", force=True)
     import matplotlib.pyplot as plt
 
-    plt.rcParams.update(_STYLE)
-    plt.rcParams["path.simplify"] = True
     return plt
 
 
-def subplots(*args: Any, **kw: Any) -> tuple[Any, Any]:
-    """``plt.subplots`` with torlab's style and constrained layout."""
-    plt = pyplot()
-    kw.setdefault("layout", "constrained")
-    return plt.subplots(*args, **kw)
+def _lines(text: str | None) -> int:
+    return 0 if not text else text.count("\n") + 1
+
+
+def subplots(nrows: int = 1, ncols: int = 1, *, figsize: tuple[float, float] | None = None,
+             sharex: bool = False, sharey: bool = False,
+             height_ratios: Sequence[float] | None = None,
+             gridspec_kw: dict[str, Any] | None = None, left: float | None = None,
+             top: float | None = None, **_: Any) -> tuple[Any, Any]:
+    """A figure and its axes (like ``pyplot.subplots``) on the Agg canvas, fixed layout.
+
+    Parameters
+    ----------
+    nrows, ncols, sharex, sharey, height_ratios, gridspec_kw
+        As for :meth:`matplotlib.figure.Figure.subplots`.
+    figsize
+        Width and height in inches of the plotting region plus margins (a legend
+        outside the axes widens it, :func:`legend`).
+    left, top
+        Margins in inches (default 0.78 and 0.38); :func:`finish` adds room for
+        multi-line titles and axis labels.
+
+    Other keywords (``layout=`` of older callers) are ignored: the layout is fixed.
+    """
+    _mpl()
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    w, h = figsize or STYLE["figure.figsize"]
+    fig = Figure(figsize=(w, h))
+    FigureCanvasAgg(fig)
+    gs = dict(gridspec_kw or {})
+    if height_ratios is not None:
+        gs["height_ratios"] = list(height_ratios)
+    axes = fig.subplots(nrows, ncols, sharex=sharex, sharey=sharey, squeeze=True,
+                        gridspec_kw=gs or None)
+    fig._torlab_margins = {"left": _LEFT if left is None else left,  # type: ignore[attr-defined]
+                           "top": _TOP if top is None else top}
+    _place(fig)
+    return fig, axes
+
+
+def _place(fig: Any, extra_right: float = 0.0) -> None:
+    """Set the fixed margins (inches -> fractions of the current figure size)."""
+    w, h = fig.get_size_inches()
+    m = getattr(fig, "_torlab_margins", {"left": _LEFT, "top": _TOP})
+    axes = fig.axes
+    top = m["top"] + _LINE * max([_lines(ax.get_title()) - 1 for ax in axes] + [0])
+    left = m["left"] + _LINE * max([_lines(ax.get_ylabel()) - 1 for ax in axes] + [0])
+    bottom = _BOTTOM + _LINE * max([_lines(ax.get_xlabel()) - 1 for ax in axes] + [0])
+    gs = axes[0].get_gridspec() if axes and axes[0].get_subplotspec() is not None else None
+    nrows, ncols = gs.get_geometry() if gs is not None else (1, 1)
+    inner_h = max(h - top - bottom, 0.5)
+    inner_w = max(w - left - _RIGHT - extra_right, 0.5)
+    ax_h = inner_h / max(nrows, 1)
+    ax_w = inner_w / max(ncols, 1)
+    titles = any(_lines(ax.get_title()) for ax in axes[ncols:]) if nrows > 1 else False
+    hspace = (_HSPACE + (0.3 if titles else 0.0)) / max(ax_h, 0.1)
+    wspace = _WSPACE / max(ax_w, 0.1)
+    fig.subplots_adjust(left=left / w, right=1 - (_RIGHT + extra_right) / w, bottom=bottom / h,
+                        top=1 - top / h, hspace=hspace, wspace=wspace)
+
+
+def legend(ax: Any, *, outside: bool = True, loc: str = "upper right", ncol: int = 1,
+           title: str | None = None, **kw: Any) -> Any:
+    """A legend: outside the axes on the right (default; the figure grows to fit it) or
+    inside at a fixed corner (``outside=False``, ``loc``). Never ``loc="best"``, whose
+    search over every data point costs more than the rest of the figure.
+
+    Returns the legend (None when nothing is labelled).
+    """
+    handles, labels = ax.get_legend_handles_labels()
+    if not handles:
+        return None
+    labels = [pretty(x) for x in labels]
+    if outside:
+        lg = ax.legend(handles, labels, loc="upper left", bbox_to_anchor=(1.02, 1.0),
+                       borderaxespad=0.0, ncol=ncol, title=title, **kw)
+        lg._torlab_outside = True
+    else:
+        lg = ax.legend(handles, labels, loc=loc, ncol=ncol, title=title, **kw)
+    return lg
+
+
+def finish(fig: Any) -> Any:
+    """Final layout: margins for multi-line labels and titles, room for outside legends.
+
+    An outside legend's width is measured with the Agg renderer's font metrics
+    (no drawing) and the figure is widened by it.  Returns ``fig``.
+    """
+    for ax in fig.axes:
+        if ax.get_title():
+            ax.set_title(pretty(ax.get_title()))
+    if getattr(fig, "_suptitle", None) is not None:
+        fig._suptitle.set_text(pretty(fig._suptitle.get_text()))
+    need = 0.0
+    outside = [ax.get_legend() for ax in fig.axes
+                if ax.get_legend() is not None and getattr(ax.get_legend(), "_torlab_outside",
+                                                           False)]
+    if outside:
+        r = fig.canvas.get_renderer()
+        dpi = fig.dpi
+        need = max(lg.get_window_extent(r).width / dpi for lg in outside) + 0.12
+        w, h = fig.get_size_inches()
+        fig.set_size_inches(w + need, h)
+    _place(fig, extra_right=need)
+    fig._torlab_finished = True  # type: ignore[attr-defined]
+    return fig
+
+
+def colours(keys: Iterable[Any]) -> dict[Any, str]:
+    """A distinct colour per key, in the order given (stable: the same keys in the same
+    order get the same colours in every figure of a report)."""
+    out: dict[Any, str] = {}
+    for k in keys:
+        if k not in out:
+            out[k] = PALETTE[len(out) % len(PALETTE)]
+    return out
+
+
+def band(ax: Any, x: Any, low: Any, high: Any, *, color: str, label: str | None = None,
+         alpha: float = 0.22) -> Any:
+    """A shaded 95 % band between ``low`` and ``high`` (no edge line)."""
+    return ax.fill_between(x, low, high, color=color, alpha=alpha, lw=0, label=label)
+
+
+def points(ax: Any, x: Any, y: Any, yerr: Any = None, *, color: str, label: str | None = None,
+           marker: str = "o", ms: float = 4.5, filled: bool = False, xerr: Any = None) -> Any:
+    """Measured points, with error bars where a spread is given (NaN: no bar)."""
+    import numpy as np
+
+    mfc = color if filled else "white"
+    if yerr is None and xerr is None:
+        return ax.plot(x, y, marker, ms=ms, color=color, mfc=mfc, mew=1.0, ls="none",
+                       label=label)
+    ye = None if yerr is None else np.where(np.isfinite(np.asarray(yerr, float)),
+                                            np.asarray(yerr, float), 0.0)
+    return ax.errorbar(x, y, yerr=ye, xerr=xerr, fmt=marker, ms=ms, color=color, mfc=mfc,
+                       mew=1.0, elinewidth=0.8, capsize=2, label=label)
+
+
+_UNITS = {"ul": "µL", "uL": "µL", "µl": "µL", "μl": "µL", "μL": "µL", "ml": "mL",
+          "nl": "nL", "um": "µm", "μm": "µm", "ug": "µg", "μg": "µg", "us": "µs"}
+
+
+def unit(u: str) -> str:
+    """A unit as printed on a figure: ``uL``/``ul`` -> ``µL``, ``um`` -> ``µm`` ..."""
+    u = str(u).strip()
+    return _UNITS.get(u, re.sub(r"\bu(?=[LlmgsN]\b)", "µ", u).replace("µl", "µL"))
+
+
+_AMOUNT = re.compile(r"(\d)(\s*)(?:[uμµ]L|[uμµ]l)\b")
+
+
+def pretty(text: str) -> str:
+    """Text as shown on a figure: an amount in microlitres written ``µL`` (``5 uL``, ``5 ul``,
+    ``5µl`` -> ``5 µL``, ``5µL``); a file name (``hpt_4uL_25C.txt``) is left as it is."""
+    return _AMOUNT.sub(r"\1\2µL", str(text))
+
+
+def axis_label(quantity: str, symbol: str = "", unit_: str = DIMENSIONLESS) -> str:
+    """``"traction coefficient μ (–)"``: words, the symbol, the unit in parentheses."""
+    sym = f" {symbol}" if symbol else ""
+    return f"{quantity}{sym} ({unit(unit_) if unit_ else DIMENSIONLESS})"
+
+
+def plain_log_ticks(axis: Any, values: Any) -> None:
+    """Ticks of a logarithmic axis at ``values`` written as plain numbers (1, 2, 4, 8, 16
+    rather than 10^0, 10^1), when there are few of them."""
+    import numpy as np
+    from matplotlib.ticker import FixedLocator, NullFormatter, ScalarFormatter
+
+    v = np.unique(np.asarray(values, dtype=float))
+    v = v[np.isfinite(v) & (v > 0)]
+    if not 1 < v.size <= 12:
+        return
+    axis.set_major_locator(FixedLocator(v))
+    f = ScalarFormatter()
+    f.set_scientific(False)
+    axis.set_major_formatter(f)
+    axis.set_minor_formatter(NullFormatter())
+
+
+def finite(values: Any) -> bool:
+    """Whether any value is finite (something to draw)."""
+    try:
+        return any(math.isfinite(float(v)) for v in values)
+    except TypeError:
+        return False

@@ -16,51 +16,66 @@ REGIME_COLOURS = {"boundary": "#f4cccc", "mixed": "#fff2cc", "full_film": "#d9ea
                   "smooth": "#d9ead3"}
 
 
+def _columns(table: Any) -> dict[str, np.ndarray]:
+    """A table's columns as arrays (a DataFrame or a mapping of columns)."""
+    if hasattr(table, "columns") and hasattr(table, "to_numpy"):
+        return {str(c): table[c].to_numpy() for c in table.columns}
+    return {str(k): np.asarray(v) for k, v in table.items()}
+
+
 def traction_figure(curves: Sequence[tuple[str, Any]], *, boundary: Any = None,
-                    title: str = "", measured: Sequence[tuple[str, Any, Any]] = ()) -> Any:
+                    title: str = "", measured: Sequence[tuple[Any, ...]] = ()) -> Any:
     """``mu`` against creepage (%) for one or more predictions.
 
     Parameters
     ----------
     curves
-        ``(label, table)`` pairs; ``table`` has ``creepage`` and ``mu`` and optionally
-        ``mu_boundary`` and ``mu_ehl`` (drawn thin and dashed when they differ from ``mu``)
-        and the 95 % band ``mu_low95``, ``mu_high95`` (shaded).
+        ``(label, table)`` pairs; ``table`` (a DataFrame or a mapping of columns) has
+        ``creepage`` and ``mu`` and optionally ``mu_boundary`` and ``mu_ehl`` (drawn thin
+        and dashed) and the 95 % band ``mu_low95``, ``mu_high95`` (shaded).
     boundary
         The scene's ``boundary:`` (``mu_c1``, ``mu_c2``): drawn as the layer's limits.
     title
         Figure title.
     measured
-        Optional ``(label, creepage, mu)`` measured points.
+        Optional ``(label, creepage, mu[, mu_sd])`` measured points (error bars: the spread).
     """
+    from torlab.reports.plotting import axis_label, band, colours, legend, points
+
     fig, ax = subplots()
-    for label, t in curves:
+    col = colours([lab for lab, _ in curves] + [m[0] for m in measured])
+    xs_all = []
+    for label, table in curves:
+        t = _columns(table)
+        c = col[label]
         x = 100.0 * np.asarray(t["creepage"], dtype=float)
-        (line,) = ax.plot(x, t["mu"], lw=1.8, label=label)
+        xs_all.append(x)
+        ax.plot(x, t["mu"], lw=1.7, color=c, label=label)
         if "mu_low95" in t and "mu_high95" in t:
-            ax.fill_between(x, t["mu_low95"], t["mu_high95"], color=line.get_color(), alpha=0.25,
-                            lw=0, label=f"{label}: 95 % band (fit uncertainty)")
+            band(ax, x, t["mu_low95"], t["mu_high95"], color=c,
+                 label=f"{label}: 95 % band (fit uncertainty)")
         if "mu_boundary" in t and "mu_ehl" in t:
-            ax.plot(x, t["mu_boundary"], lw=0.9, ls="--", color=line.get_color(),
+            ax.plot(x, t["mu_boundary"], lw=0.9, ls="--", color=c,
                     label=f"{label}: boundary part μ_BL")
-            ax.plot(x, t["mu_ehl"], lw=0.9, ls=":", color=line.get_color(),
-                    label=f"{label}: film part μ_EHL")
-    for label, x, y in measured:
-        ax.plot(100.0 * np.asarray(x, dtype=float), y, "o", ms=4, mfc="none", label=label)
+            ax.plot(x, t["mu_ehl"], lw=0.9, ls=":", color=c, label=f"{label}: film part μ_EHL")
+    for m in measured:
+        label, x, y = m[:3]
+        sd = m[3] if len(m) > 3 else None
+        points(ax, 100.0 * np.asarray(x, dtype=float), y, sd, color=col[label], label=label)
     if boundary is not None:
+        xs = np.concatenate(xs_all) if xs_all else np.zeros(1)
         for name, val, ls in (("μ_c1 (elastic limit)", boundary.mu_c1, "-."),
                               ("μ_c2 (plastic limit)", boundary.mu_c2, "--")):
             for sgn in (1, -1):
-                xs = np.concatenate([np.asarray(t["creepage"]) for _, t in curves])
                 if sgn < 0 and not np.any(xs < 0):
                     continue
                 ax.axhline(sgn * val, color="0.35", lw=0.9, ls=ls,
                            label=f"{name} = {val:g}" if sgn > 0 else None)
-    ax.set_xlabel("creepage = SRR (%)")
-    ax.set_ylabel("traction coefficient μ (-)")
+    ax.set_xlabel(axis_label("creepage ξ = SRR", "", "%"))
+    ax.set_ylabel(axis_label("traction coefficient", "μ"))
     if title:
         ax.set_title(title)
-    ax.legend(loc="best")
+    legend(ax)
     return fig
 
 
@@ -87,57 +102,65 @@ def shade_regimes(ax: Any, speed: np.ndarray, regime: Sequence[str], *, label: b
 
 
 def stribeck_figure(table: Any, *, title: str = "", creepage: float | None = None,
-                    measured: Sequence[tuple[str, Any, Any]] = ()) -> Any:
+                    measured: Sequence[tuple[Any, ...]] = ()) -> Any:
     """Stribeck figure: ``mu``, film parameter Lambda and asperity load share against speed.
 
     Regimes (boundary / mixed / full film) are shaded.  Speeds of 0 are left out of
     the logarithmic axis.  The 95 % bands of ``mu`` and the film thickness
-    (``mu_low95`` ... from the fit's covariance) are drawn where the table has them.
+    (``mu_low95`` ... from the fit's covariance) are drawn where the table has them;
+    measured points ``(label, speed, mu[, mu_sd])`` with error bars from their spread.
     """
-    t = table[table["speed_m_s"] > 0]
-    v = t["speed_m_s"].to_numpy(dtype=float)
-    fig, axes = subplots(3, 1, sharex=True, figsize=(7.0, 8.0))
+    from torlab.reports.plotting import PALETTE, axis_label, band, legend, points
+
+    t0 = _columns(table)
+    keep = np.asarray(t0["speed_m_s"], dtype=float) > 0
+    t = {k: v[keep] for k, v in t0.items()}
+    v = t["speed_m_s"].astype(float)
+    fig, axes = subplots(3, 1, sharex=True, figsize=(7.0, 7.6), height_ratios=[2.2, 1, 1])
     ax_mu, ax_lam, ax_sh = axes
     for ax in axes:
-        shade_regimes(ax, v, list(t["regime"]), label=ax is ax_mu)
+        shade_regimes(ax, v, [str(r) for r in t["regime"]], label=ax is ax_mu)
         ax.set_xscale("log")
     ax_mu.plot(v, t["mu"], lw=1.8, color="k", label="μ (mixed, Eq. 5.47)")
     if "mu_low95" in t and "mu_high95" in t:
-        ax_mu.fill_between(v, t["mu_low95"], t["mu_high95"], color="0.3", alpha=0.3, lw=0,
-                           label="95 % band of μ (fit uncertainty)")
-    hb = ("film_thickness_low95_m" in t and "film_thickness_high95_m" in t)
-    if "mu_ehl" in t and t["mu_ehl"].notna().any():
-        ax_mu.plot(v, t["mu_ehl"], lw=0.9, ls=":", color="C0", label="film part μ_EHL")
-    if "mu_boundary" in t and t["mu_boundary"].notna().any():
-        ax_mu.plot(v, t["mu_boundary"], lw=0.9, ls="--", color="C3", label="boundary part μ_BL")
-    for label, x, y in measured:
-        ax_mu.plot(x, y, "o", ms=4, mfc="none", label=label)
-    ax_mu.set_ylabel("traction coefficient μ (-)")
+        band(ax_mu, v, t["mu_low95"], t["mu_high95"], color="0.3", alpha=0.3,
+             label="95 % band of μ (fit uncertainty)")
+    hb = "film_thickness_low95_m" in t and "film_thickness_high95_m" in t
+    if "mu_ehl" in t and np.isfinite(np.asarray(t["mu_ehl"], dtype=float)).any():
+        ax_mu.plot(v, t["mu_ehl"], lw=0.9, ls=":", color=PALETTE[0], label="film part μ_EHL")
+    if "mu_boundary" in t and np.isfinite(np.asarray(t["mu_boundary"], dtype=float)).any():
+        ax_mu.plot(v, t["mu_boundary"], lw=0.9, ls="--", color=PALETTE[1],
+                   label="boundary part μ_BL")
+    for k, m in enumerate(measured):
+        label, x, y = m[:3]
+        sd = m[3] if len(m) > 3 else None
+        points(ax_mu, x, y, sd, color=PALETTE[(k + 2) % len(PALETTE)], label=label)
+    ax_mu.set_ylabel(axis_label("traction coefficient", "μ"))
     ttl = title + (f" (creepage {100 * creepage:g} %)" if creepage is not None else "")
     if ttl:
         ax_mu.set_title(ttl)
-    ax_mu.legend(loc="best")
-    lam = t["lambda"].to_numpy(dtype=float)
-    h = t["film_thickness_m"].to_numpy(dtype=float)
+    legend(ax_mu)
+    lam = np.asarray(t["lambda"], dtype=float) if "lambda" in t else np.full(v.shape, np.nan)
+    h = np.asarray(t["film_thickness_m"], dtype=float)
+    green = PALETTE[2]
     if np.isfinite(lam).any():
-        ax_lam.plot(v, lam, color="C2")
+        ax_lam.plot(v, lam, color=green)
         if hb:
             with np.errstate(divide="ignore", invalid="ignore"):
                 per_h = np.where(h > 0, lam / h, np.nan)
-            ax_lam.fill_between(v, t["film_thickness_low95_m"] * per_h,
-                                t["film_thickness_high95_m"] * per_h, color="C2", alpha=0.25,
-                                lw=0)
+            band(ax_lam, v, np.asarray(t["film_thickness_low95_m"], dtype=float) * per_h,
+                 np.asarray(t["film_thickness_high95_m"], dtype=float) * per_h, color=green)
         ax_lam.set_yscale("log")
-        ax_lam.set_ylabel("film parameter Λ = h/σ (-)")
+        ax_lam.set_ylabel("film parameter\n" + axis_label("Λ = h/σ", ""))
     else:
-        ax_lam.plot(v, h * 1e9, color="C2")
+        ax_lam.plot(v, h * 1e9, color=green)
         if hb:
-            ax_lam.fill_between(v, t["film_thickness_low95_m"] * 1e9,
-                                t["film_thickness_high95_m"] * 1e9, color="C2", alpha=0.25, lw=0)
+            band(ax_lam, v, np.asarray(t["film_thickness_low95_m"], dtype=float) * 1e9,
+                 np.asarray(t["film_thickness_high95_m"], dtype=float) * 1e9, color=green)
         ax_lam.set_yscale("log")
-        ax_lam.set_ylabel("film thickness h (nm)\n(smooth: Λ undefined)")
-    ax_sh.plot(v, t["load_share_asperity"], color="C1")
+        ax_lam.set_ylabel("film thickness\nh (nm), Λ undefined")
+    ax_sh.plot(v, t["load_share_asperity"], color=PALETTE[4])
     ax_sh.set_ylim(-0.02, 1.02)
-    ax_sh.set_ylabel("asperity load share F_BL/F (-)")
-    ax_sh.set_xlabel("rolling speed v (m/s)")
+    ax_sh.set_ylabel("asperity load\n" + axis_label("share F_BL/F", ""))
+    ax_sh.set_xlabel(axis_label("rolling speed", "v", "m/s"))
     return fig

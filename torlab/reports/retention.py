@@ -20,7 +20,8 @@ from typing import Any
 
 import numpy as np
 
-from torlab.reports.plotting import subplots
+from torlab.reports.plotting import PALETTE, legend, subplots
+from torlab.reports.render import plot
 
 __all__ = ["crossing_text", "layer_figure", "removal_figure", "retention_figure", "retention_section",
            "sweep_figure", "write_retention", "write_sweep"]
@@ -43,7 +44,7 @@ def removal_figure(result: Any, title: str | None = None) -> Any:
     fig, (ax, axm) = subplots(2, 1, sharex=True, figsize=(7.5, 6.0),
                               gridspec_kw={"height_ratios": [3, 1.4]})
     for i, (name, g) in enumerate(d.groupby("test", sort=False)):
-        col = f"C{i % 10}"
+        col = PALETTE[i % len(PALETTE)]
         t = g["time_s"].to_numpy()
         win = g["in_fit"].to_numpy(dtype=bool)
         ax.plot(t, g["mu_measured"], ".", ms=2, color=col, alpha=0.35, label=f"{name} measured")
@@ -52,7 +53,7 @@ def removal_figure(result: Any, title: str | None = None) -> Any:
         axm.plot(t, g["amount_mg_m2"], "-", lw=1.2, color=col)
     ax.set_ylabel("traction coefficient μ (–)")
     ax.set_ylim(bottom=0)
-    ax.legend(loc="lower right", fontsize=7)
+    legend(ax)
     axm.set_xlabel("time after application t (s)")
     axm.set_ylabel("remaining amount m (mg/m²)")
     if (d["amount_mg_m2"] > 0).any():
@@ -81,7 +82,7 @@ def layer_figure(layer: Any, title: str = "") -> Any:
     p = layer.params_at(m)
     fig, ax = subplots()
     for i, (name, mk) in enumerate((("μc1 (elastic limit)", "s"), ("μc2 (plastic limit)", "o"))):
-        col = f"C{i}"
+        col = PALETTE[i]
         ax.plot(m / MG_M2, p[:, i], "-", color=col, lw=1.2)
         ax.errorbar(nodes[1:] / MG_M2, allp[1:, i], yerr=1.96 * se[1:, i], fmt=mk, ms=4,
                     color=col, capsize=2, label=f"{name}, HPT fit ±95 %")
@@ -94,7 +95,7 @@ def layer_figure(layer: Any, title: str = "") -> Any:
     ax.set_xlabel("areal density of product m (mg/m²)")
     ax.set_ylabel("layer limit μc (–)")
     ax.set_ylim(bottom=0)
-    ax.legend(loc="best", fontsize=7)
+    legend(ax)
     ax.set_title(title or "Layer of the remaining amount (HPT amount series, PCHIP in ln m)",
                  fontsize=9)
     return fig
@@ -128,12 +129,12 @@ def retention_figure(pred: Any, *, axis: str = "passes", title: str = "") -> Any
     lo, hi = s["band"]
     ax.axhspan(lo, hi, color="#d9ead3", alpha=0.6, lw=0, label=f"band {lo:g}–{hi:g}")
     if t["mu_low95"].notna().all():
-        ax.fill_between(x, t["mu_low95"], t["mu_high95"], color="C0", alpha=0.25, lw=0,
+        ax.fill_between(x, t["mu_low95"], t["mu_high95"], color=PALETTE[0], alpha=0.25, lw=0,
                         label=f"{100 * s.get('confidence', 0.95):g} % interval")
-    ax.plot(x, t["mu"], color="C0", lw=1.8, label="μ (estimate)")
+    ax.plot(x, t["mu"], color=PALETTE[0], lw=1.8, label="μ (estimate)")
     ax.axhline(s["mu_dry"], color="0.4", ls=":", lw=0.9, label=f"dry μ = {s['mu_dry']:.3f}")
-    for key, col, word in (("passes_to_enter_band", "C2", "enters"),
-                           ("passes_to_leave_band", "C3", "leaves")):
+    for key, col, word in (("passes_to_enter_band", PALETTE[2], "enters"),
+                           ("passes_to_leave_band", PALETTE[1], "leaves")):
         cr = s[key]
         if cr["passes"] is None or cr["passes"] == 0.0:
             continue
@@ -146,8 +147,8 @@ def retention_figure(pred: Any, *, axis: str = "passes", title: str = "") -> Any
                     label=f"{word} the band: {cr['passes']:.3g} passes")
     ax.set_ylabel("traction coefficient μ (–)")
     ax.set_ylim(bottom=0)
-    ax.legend(loc="best", fontsize=7)
-    axm.plot(x, t["amount_mg_m2"], color="C1", lw=1.4)
+    legend(ax)
+    axm.plot(x, t["amount_mg_m2"], color=PALETTE[4], lw=1.4)
     for v, lab in ((min(s["tested_amounts_mg_m2"]), "smallest tested amount"),
                    (s["dry_anchor_mg_m2"], "dry anchor")):
         axm.axhline(v, color="0.5", lw=0.8, ls="--" if lab.startswith("smallest") else ":",
@@ -156,7 +157,7 @@ def retention_figure(pred: Any, *, axis: str = "passes", title: str = "") -> Any
         axm.set_yscale("log")
     axm.set_ylabel("remaining amount m (mg/m²)")
     axm.set_xlabel(xlabel)
-    axm.legend(loc="best", fontsize=7)
+    legend(axm)
     ax.set_title(title or f"Retention: {s.get('scene', '')}, creepage "
                  f"{100 * s['creepage']:.3g} %, {s['law']}", fontsize=9)
     return fig
@@ -170,17 +171,17 @@ def sweep_figure(sweep: Any, title: str = "") -> Any:
     x = 100.0 * t["creepage"].to_numpy(dtype=float)
     fig, (ax, axm) = subplots(2, 1, sharex=True, figsize=(7.5, 6.2),
                               gridspec_kw={"height_ratios": [3, 1.4]})
-    for col, name, c in (("mu_steady", "steady (applied amount, no removal)", "C0"),
-                         ("mu_sweep", f"recorded during a {s['seconds']:g} s sweep", "C3")):
+    for col, name, c in (("mu_steady", "steady (applied amount, no removal)", PALETTE[0]),
+                         ("mu_sweep", f"recorded during a {s['seconds']:g} s sweep", PALETTE[1])):
         if f"{col}_low95" in t:
             ax.fill_between(x, t[f"{col}_low95"], t[f"{col}_high95"], color=c, alpha=0.2, lw=0)
         ax.plot(x, t[col], color=c, lw=1.8, label=f"{name}: {_trend(s, col)}")
     ax.set_ylabel("traction coefficient μ (–)")
     ax.set_ylim(bottom=0)
-    ax.legend(loc="best", fontsize=7)
-    axm.plot(x, t["amount_mg_m2"], color="C1", lw=1.4)
+    legend(ax)
+    axm.plot(x, t["amount_mg_m2"], color=PALETTE[4], lw=1.4)
     axm.set_ylabel("remaining amount m (mg/m²)")
-    axm.set_xlabel("creepage ξ = SRR (%), rising linearly with time")
+    axm.set_xlabel("creepage ξ = SRR, rising linearly with time (%)")
     p = s.get("probability_sweep_positive")
     ax.set_title(title or (f"Slip sweep with removal ({s['law']}); shaded: 95 % of the "
                            "parameter draws" + ("" if p is None else
@@ -195,27 +196,34 @@ def _trend(s: dict[str, Any], col: str) -> str:
 
 
 # --------------------------------------------------------------------------- command outputs
-def write_retention(dest: Any, pred: Any, *, axis: str = "passes", title: str = "") -> list[str]:
-    """``retention.csv``, ``summary.json``, ``retention.png``/``.svg`` of a prediction."""
+def write_retention(dest: Any, pred: Any, *, axis: str = "passes", title: str = "",
+                    formats: Any = None) -> list[str]:
+    """``retention.csv``, ``summary.json``, ``retention.png`` (and the other ``formats``) of a
+    prediction."""
+    from torlab.reports.render import parse_formats, write_figures
+
     dest.write_csv("retention.csv", pred.table, allow_missing=("mu_low95", "mu_high95"))
     dest.write_json("summary.json", pred.summary)
-    for ext in ("png", "svg"):
-        dest.save_figure(f"retention.{ext}", retention_figure(pred, axis=axis, title=title))
-    return ["retention.csv", "retention.png", "retention.svg", "summary.json"]
+    names, _ = write_figures(dest, [("retention", plot(retention_figure, pred, axis=axis,
+                                                       title=title))], parse_formats(formats))
+    return ["retention.csv", *names, "summary.json"]
 
 
-def write_sweep(dest: Any, sweep: Any, *, title: str = "") -> list[str]:
+def write_sweep(dest: Any, sweep: Any, *, title: str = "", formats: Any = None) -> list[str]:
     """``traction.csv`` (the steady curve as ``mu``, the recorded one as ``mu_sweep``),
-    ``sweep.csv`` (every column), ``summary.json`` and ``traction.png``/``.svg``."""
+    ``sweep.csv`` (every column), ``summary.json`` and ``traction.png`` (and the other
+    ``formats``)."""
+    from torlab.reports.render import parse_formats, write_figures
+
     t = sweep.table
     keep = [c for c in t.columns if c != "time_s"]
     tab = t[["creepage", "mu_steady", *[c for c in keep if c not in ("creepage", "mu_steady")]]]
     dest.write_csv("traction.csv", tab.rename(columns={"mu_steady": "mu"}))
     dest.write_csv("sweep.csv", t)
     dest.write_json("summary.json", sweep.summary)
-    for ext in ("png", "svg"):
-        dest.save_figure(f"traction.{ext}", sweep_figure(sweep, title=title))
-    return ["traction.csv", "sweep.csv", "traction.png", "traction.svg", "summary.json"]
+    names, _ = write_figures(dest, [("traction", plot(sweep_figure, sweep, title=title))],
+                             parse_formats(formats))
+    return ["traction.csv", "sweep.csv", *names, "summary.json"]
 
 
 # --------------------------------------------------------------------------- protocol section
@@ -292,14 +300,14 @@ def retention_section(product: str, fit: Any, layer: Any, pred: Any, sweep: Any 
         f"{crossing_text(s['passes_to_leave_band'])}.",
         "Modelled: " + "; ".join(m for m in s["modelled"] if m not in pred.notes) + ".",
     ]
-    figs = [Figure("removal_fit", removal_figure(fit),
+    figs = [Figure("removal_fit", plot(removal_figure, fit),
                    "Time tests after application: measured coefficient (points) against the "
                    "fitted removal model (lines; dotted: the film phase, not fitted) and the "
                    "modelled remaining amount"),
-            Figure("amount_layer", layer_figure(layer),
+            Figure("amount_layer", plot(layer_figure, layer),
                    "Layer limits of the HPT amount series against the areal density, with their "
                    "95 % error bars and the monotone interpolation"),
-            Figure("retention", retention_figure(pred, axis=axis),
+            Figure("retention", plot(retention_figure, pred, axis=axis),
                    "Coefficient against passes after one application with its 95 % interval "
                    "(layer and law drawn together), the band and its crossings; remaining "
                    "amount below")]
@@ -336,7 +344,7 @@ def retention_section(product: str, fit: Any, layer: Any, pred: Any, sweep: Any 
     ]
     if sweep is not None:
         ss = sweep.summary
-        figs.append(Figure("sweep", sweep_figure(sweep),
+        figs.append(Figure("sweep", plot(sweep_figure, sweep),
                            "Traction curve recorded during a slip sweep while product is "
                            "removed, beside the steady curve at the applied amount (thesis "
                            "H4.1)"))

@@ -23,7 +23,8 @@ import numpy as np
 from torlab.reports.html import Figure, Section, Table
 from torlab.reports.plotting import subplots
 
-__all__ = ["FILM_RATIO_MIN_NM", "StribeckCurve", "film_ratio", "film_section", "stribeck_section"]
+__all__ = ["FILM_RATIO_MIN_NM", "StribeckCurve", "film_figure", "film_ratio", "film_section",
+           "lambda_figure", "measured_stribeck_figure", "stribeck_section"]
 
 
 @dataclass
@@ -72,31 +73,33 @@ def stribeck_section(curves: list[StribeckCurve]) -> Section:
     import pandas as pd
 
     from torlab.reports.predict import stribeck_figure
+    from torlab.reports.render import plot
 
     figs: list[Figure] = []
     rows, long = [], []
-    fig_l, ax_l = subplots(figsize=(7.5, 4.8))
-    for i, c in enumerate(curves):
-        color = f"C{i % 10}"
+    lam_lines: list[tuple[str, Any, Any, str]] = []  # (label, Λ, |μ|, "model"/"measured")
+    for c in curves:
         meas = []
-        mv = mm = None
+        mv = mm = sd = None
         if c.measured is not None and len(c.measured):
             mv = c.measured["rolling_speed_m_s"].to_numpy(dtype=float)
             mm = np.abs(c.measured["traction_coefficient"].to_numpy(dtype=float))
-            meas = [(c.measured_label or "measured", mv, mm)]
+            if "traction_coefficient_sd" in c.measured:
+                sd = c.measured["traction_coefficient_sd"].to_numpy(dtype=float)
+            meas = [(c.measured_label or "measured", mv, mm, sd)]
         row: dict[str, Any] = {"curve": c.label, "source": c.source,
                                "creepage": c.creepage if c.creepage is not None else float("nan")}
         if c.table is not None:
             t = c.table
             figs.append(Figure(f"stribeck_{_safe(c.label)}",
-                               stribeck_figure(t, title=f"Stribeck: {c.label}", creepage=c.creepage,
-                                               measured=meas),
+                               plot(stribeck_figure, t, title=f"Stribeck curve: {c.label}",
+                                    creepage=c.creepage, measured=meas),
                                f"{c.label}: μ, film parameter Λ and asperity load share against "
                                "rolling speed, regimes shaded"))
             ok = t["lambda"].notna() & (t["speed_m_s"] > 0)
             if ok.any():
-                ax_l.plot(t.loc[ok, "lambda"], t.loc[ok, "mu"].abs(), color=color, lw=1.6,
-                          label=f"{c.label} (model)")
+                lam_lines.append((f"{c.label} (model)", t.loc[ok, "lambda"].to_numpy(dtype=float),
+                                  t.loc[ok, "mu"].abs().to_numpy(dtype=float), c.label))
             mu = t["mu"].abs().to_numpy(dtype=float)
             row.update({
                 "mu_min": float(mu.min()), "mu_max": float(mu.max()),
@@ -129,32 +132,20 @@ def stribeck_section(curves: list[StribeckCurve]) -> Section:
                                    .max(axis=1))
                     row["measured_in_band"] = int(np.sum((mm >= lo) & (mm <= hi)))
             if np.isfinite(lam).any():
-                ax_l.plot(lam, mm, "o", ms=4, mfc="none", color=color,
-                          label=f"{c.measured_label or c.label} (measured, Λ of the model)")
+                lam_lines.append((f"{c.measured_label or c.label} (measured, Λ of the model)",
+                                  lam, mm, c.label))
             d = pd.DataFrame({"curve": c.label, "kind": "measured", "speed_m_s": mv, "mu": mm,
                               "lambda": lam})
             long.append(d)
             if c.table is None:
-                f2, a2 = subplots()
-                a2.plot(mv, mm, "o-", ms=4)
-                a2.set_xscale("log")
-                a2.set_xlabel("rolling speed v (m/s)")
-                a2.set_ylabel("traction coefficient μ (-)")
-                figs.append(Figure(f"stribeck_{_safe(c.label)}", f2,
+                figs.append(Figure(f"stribeck_{_safe(c.label)}",
+                                   plot(measured_stribeck_figure, c.label, mv, mm, sd),
                                    f"{c.label}: measured μ against rolling speed"))
         rows.append(row)
-    ax_l.set_xscale("log")
-    ax_l.set_xlabel("film parameter Λ = h/σ (-)")
-    ax_l.set_ylabel("traction coefficient μ (-)")
-    ax_l.set_title("μ against Λ")
-    ax_l.legend(loc="best", fontsize=7)
-    if ax_l.lines:
-        figs.append(Figure("stribeck_lambda", fig_l, "Traction coefficient against the film "
-                           "parameter Λ: model and measured points"))
-    else:
-        import matplotlib.pyplot as plt
-
-        plt.close(fig_l)
+    if lam_lines:
+        figs.append(Figure("stribeck_lambda", plot(lambda_figure, lam_lines),
+                           "Traction coefficient against the film parameter Λ: model (lines) "
+                           "and measured points"))
     table = pd.DataFrame(rows)
     curves_df = pd.concat(long, ignore_index=True) if long else pd.DataFrame()
     show = {"curve": ("curve", ""), "creepage": ("creepage", ".3g"), "μ min": ("mu_min", ".4f"),
@@ -239,32 +230,17 @@ def film_section(measured: list[tuple[str, Any]], models: list[tuple[str, Any]],
     """
     import pandas as pd
 
-    fig, ax = subplots(figsize=(7.0, 4.8))
-    for i, (label, d) in enumerate(measured):
-        ax.plot(d["rolling_speed_m_s"], d["film_thickness_m"] * 1e9, "o", ms=4, mfc="none",
-                color=f"C{i}", label=f"{label} (measured)")
-    for label, t in models:
-        ax.plot(t["speed_m_s"], t["film_thickness_m"] * 1e9, lw=1.6, label=f"{label} (model hc)")
+    from torlab.reports.render import plot
+
+    fig = plot(film_figure, measured, models, fits)
     rows = []
-    for i, (label, fr) in enumerate(fits):
-        d = fr.data
-        xcol = fr.x_column or d.columns[0]
-        mcol = next((c for c in d.columns if c.endswith("_model") or "model" in c), None)
-        if mcol is not None:
-            ax.plot(d[xcol], d[mcol] * 1e9, ls="--", lw=1.0, color=f"C{i}",
-                    label=f"{label}: fitted power law")
+    for label, fr in fits:
         row = {"curve": label, "n_points": fr.n_points, "residual_rms": fr.residual_norm,
                "residual_unit": fr.residual_unit}
         for n in fr.names:
             row[n] = fr.params[n]
             row[f"{n}_ci95_low"], row[f"{n}_ci95_high"] = fr.ci95[n]
         rows.append(row)
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("rolling speed U (m/s)")
-    ax.set_ylabel("central film thickness h (nm)")
-    ax.legend(loc="best", fontsize=7)
-    ax.set_title("Film thickness against rolling speed")
     table = pd.DataFrame(rows)
     summary = {"fits": {r["curve"]: {k: _nan_none(v) if isinstance(v, float) else v
                                      for k, v in r.items() if k != "curve"} for r in rows}}
@@ -309,7 +285,7 @@ def film_ratio(measured: Any, model: Any) -> dict[str, Any] | None:
     speed range are left out.  The interval is Student t on the log ratios
     (``n - 1`` degrees of freedom).  None with fewer than three points.
     """
-    from scipy.stats import t as student
+    from torlab._stats import t_ppf  # scipy.stats.t.ppf, without its import
 
     v = measured["rolling_speed_m_s"].to_numpy(dtype=float)
     h = measured["film_thickness_m"].to_numpy(dtype=float)
@@ -325,7 +301,7 @@ def film_ratio(measured: Any, model: Any) -> dict[str, Any] | None:
     lr = np.log(h[ok]) - np.interp(np.log(v[ok]), lv, lh)
     n = int(lr.size)
     m, se = float(lr.mean()), float(lr.std(ddof=1) / math.sqrt(n))
-    tq = float(student.ppf(0.975, n - 1))
+    tq = float(t_ppf(0.975, n - 1))
     return {"ratio": math.exp(m), "ratio_low95": math.exp(m - tq * se),
             "ratio_high95": math.exp(m + tq * se), "n_points": n,
             "min_speed_m_s": float(v[ok].min())}
@@ -333,3 +309,79 @@ def film_ratio(measured: Any, model: Any) -> dict[str, Any] | None:
 
 def _safe(s: str) -> str:
     return "".join(c if c.isalnum() or c in "-_." else "_" for c in s)
+
+
+# ------------------------------------------------------------------------------ figures
+def lambda_figure(lines: list[tuple[str, Any, Any, str]]) -> Any:
+    """|μ| against the film parameter Λ: model lines and measured points, a colour per curve
+    (:class:`~torlab.reports.render.Plot` function)."""
+    from torlab.reports.plotting import axis_label, colours, legend, points
+
+    fig, ax = subplots(figsize=(7.0, 4.6))
+    col = colours(group for _, _, _, group in lines)
+    for label, lam, mu, group in lines:
+        if label.endswith("(model)"):
+            ax.plot(lam, mu, color=col[group], lw=1.6, label=label)
+        else:
+            points(ax, lam, mu, color=col[group], label=label)
+    ax.set_xscale("log")
+    ax.set_xlabel(axis_label("film parameter", "Λ = h/σ"))
+    ax.set_ylabel(axis_label("traction coefficient", "|μ|"))
+    ax.set_title("Traction coefficient against the film parameter")
+    legend(ax)
+    return fig
+
+
+def measured_stribeck_figure(label: str, speed: Any, mu: Any, sd: Any = None) -> Any:
+    """Measured |μ| against rolling speed, error bars from the per-point spread."""
+    from torlab.reports.plotting import PALETTE, axis_label, legend, points
+
+    fig, ax = subplots(figsize=(7.0, 4.4))
+    points(ax, speed, mu, sd, color=PALETTE[0], label=f"{label} (measured)")
+    ax.plot(speed, mu, color=PALETTE[0], lw=0.7, alpha=0.6)
+    ax.set_xscale("log")
+    ax.set_xlabel(axis_label("rolling speed", "v", "m/s"))
+    ax.set_ylabel(axis_label("traction coefficient", "|μ|"))
+    ax.set_title(f"Measured Stribeck curve: {label}")
+    legend(ax)
+    return fig
+
+
+def film_figure(measured: list[tuple[str, Any]], models: list[tuple[str, Any]],
+                fits: list[tuple[str, Any]]) -> Any:
+    """Film thickness against rolling speed (log-log): measured points with their spread,
+    the model's hc with its 95 % band where the parameters carry one, the fitted power law."""
+    from torlab.reports.plotting import axis_label, band, colours, legend, points
+
+    fig, ax = subplots(figsize=(7.0, 4.6))
+    col = colours([lab for lab, _ in measured] + [lab for lab, _ in models]
+                  + [lab for lab, _ in fits])
+    for label, d in measured:
+        sd = d["film_thickness_sd_m"].to_numpy(dtype=float) * 1e9 \
+            if "film_thickness_sd_m" in d else None
+        points(ax, d["rolling_speed_m_s"].to_numpy(dtype=float),
+               d["film_thickness_m"].to_numpy(dtype=float) * 1e9, sd, color=col[label],
+               label=f"{label} (measured)")
+    for label, t in models:
+        v = t["speed_m_s"].to_numpy(dtype=float)
+        ax.plot(v, t["film_thickness_m"].to_numpy(dtype=float) * 1e9, lw=1.6,
+                color=col[label], label=f"{label} (model hc)")
+        if "film_thickness_low95_m" in t and "film_thickness_high95_m" in t:
+            band(ax, v, t["film_thickness_low95_m"].to_numpy(dtype=float) * 1e9,
+                 t["film_thickness_high95_m"].to_numpy(dtype=float) * 1e9, color=col[label],
+                 label=f"{label}: 95 % band (fit uncertainty)")
+    for label, fr in fits:
+        d = fr.data
+        xcol = fr.x_column or d.columns[0]
+        mcol = next((c for c in d.columns if c.endswith("_model") or "model" in c), None)
+        if mcol is not None:
+            o = np.argsort(d[xcol].to_numpy(dtype=float))
+            ax.plot(d[xcol].to_numpy(dtype=float)[o], d[mcol].to_numpy(dtype=float)[o] * 1e9,
+                    ls="--", lw=1.0, color=col[label], label=f"{label}: fitted power law")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel(axis_label("rolling speed", "U", "m/s"))
+    ax.set_ylabel(axis_label("central film thickness", "h", "nm"))
+    ax.set_title("Film thickness against rolling speed")
+    legend(ax)
+    return fig

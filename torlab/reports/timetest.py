@@ -19,8 +19,9 @@ import numpy as np
 
 from torlab.reports.html import Figure, Section, Table
 from torlab.reports.plotting import subplots
+from torlab.reports.render import plot
 
-__all__ = ["time_test_section"]
+__all__ = ["time_test_section", "time_tests_figure"]
 
 
 def time_test_section(reductions: list[tuple[str, Any]], cfg: Any,
@@ -85,14 +86,15 @@ def time_test_section(reductions: list[tuple[str, Any]], cfg: Any,
                 row["model_creepage"] = model["creepage"].get(label, float("nan"))
             rows.append(row)
         if red.time_tests:
-            figs.append(Figure(f"time_test_{_safe(label)}", time_test_figure(red, red.time_tests),
+            figs.append(Figure(f"time_test_{_safe(label)}",
+                               plot(time_test_figure, red, red.time_tests),
                                f"{label}: coefficient against step time with the time-test "
                                "figures marked (thesis Fig. 5.9)"))
     if not rows:
         raise TorlabInputError("reports.time_test: no timed step with a traction coefficient in "
                                "the MTM files", key="reports.time_test")
     table = pd.DataFrame(rows)
-    figs.insert(0, Figure("time_tests", _overlay(reductions, cfg, model),
+    figs.insert(0, Figure("time_tests", plot(time_tests_figure, reductions, cfg, model),
                           "Coefficient against time since the application, every composition; "
                           "optimal band shaded, low-adhesion threshold dotted"
                           + ("; dashed: modelled coefficient of the lubricated contact "
@@ -209,8 +211,13 @@ def _evidence_sentence(r: dict[str, Any], band: tuple[float, float], prob: float
     return "; ".join(out) + "."
 
 
-def _overlay(reductions: list[tuple[str, Any]], cfg: Any, model: dict[str, Any] | None) -> Any:
-    fig, ax = subplots(figsize=(8.5, 5.0))
+def time_tests_figure(reductions: list[tuple[str, Any]], cfg: Any,
+                      model: dict[str, Any] | None) -> Any:
+    """Every composition's coefficient against time since its application, on one axis
+    (:class:`~torlab.reports.render.Plot` function)."""
+    from torlab.reports.plotting import PALETTE, axis_label, legend
+
+    fig, ax = subplots(figsize=(7.0, 4.6))
     band = cfg.band
     ax.axhspan(band[0], band[1], color="#d9ead3", alpha=0.6, lw=0,
                label=f"optimal band {band[0]:g}–{band[1]:g}")
@@ -227,7 +234,7 @@ def _overlay(reductions: list[tuple[str, Any]], cfg: Any, model: dict[str, Any] 
                 continue
             sel = d["step"].to_numpy() == st
             t = d.loc[sel, "step_time_s"].to_numpy() - r.application_time_s
-            color = f"C{i % 10}"
+            color = PALETTE[i % len(PALETTE)]
             ax.plot(t, d.loc[sel, "traction_coefficient"].to_numpy(), lw=0.8, color=color,
                     label=label)
             ax.plot([r.minimum_time_s - r.application_time_s], [r.minimum], "o", color=color,
@@ -239,9 +246,9 @@ def _overlay(reductions: list[tuple[str, Any]], cfg: Any, model: dict[str, Any] 
             i += 1
     if thr is not None:
         ax.axhline(thr, color="k", ls=":", lw=0.8, label=f"threshold {thr:g}")
-    ax.set_xlabel("time since application (s)")
-    ax.set_ylabel("traction coefficient μ (–)")
-    ax.legend(loc="upper right", fontsize=7)
+    ax.set_xlabel(axis_label("time since application", "t", "s"))
+    ax.set_ylabel(axis_label("traction coefficient", "μ"))
+    legend(ax)
     ax.set_title("Time tests after application (dots: minimum)")
     return fig
 

@@ -18,7 +18,7 @@ import numpy as np
 
 from torlab.reports.html import Figure, Section, Table
 
-__all__ = ["TractionCurve", "traction_section"]
+__all__ = ["TractionCurve", "traction_report_figure", "traction_section"]
 
 
 @dataclass
@@ -87,7 +87,9 @@ def traction_section(curves: list[TractionCurve], cfg: Any) -> Section:
     """
     import pandas as pd
 
-    fig = _figure(curves, cfg)
+    from torlab.reports.render import plot
+
+    fig = plot(traction_report_figure, curves, cfg)
     threshold = getattr(cfg, "trend_probability", 0.9)
     rows, long = [], []
     for c in curves:
@@ -171,7 +173,8 @@ def traction_section(curves: list[TractionCurve], cfg: Any) -> Section:
     return Section(
         key="traction", title="Traction curves", paragraphs=paragraphs,
         figures=[Figure("traction", fig, "Traction coefficient against creepage: modelled "
-                        "(lines; dashed/dotted: boundary and film parts) and measured (circles)")],
+                        "(lines, with the 95 % band of the fit's uncertainty where the "
+                        "parameters carry one) and measured (circles)")],
         tables=[Table("trends", table, "Trend after saturation per curve", show,
                       allow_missing=optional),
                 Table("curves", curves_df, "Every curve point (long format)", {
@@ -265,28 +268,41 @@ def _curve_sentence(r: dict[str, Any], c: TractionCurve) -> str:
     return out
 
 
-def _figure(curves: list[TractionCurve], cfg: Any) -> Any:
-    """μ against creepage (%): modelled lines, measured circles, one colour per group."""
-    from torlab.reports.plotting import subplots
+def traction_report_figure(curves: list[TractionCurve], cfg: Any) -> Any:
+    """|μ| against creepage (%): modelled lines with their 95 % bands, measured circles, one
+    colour per group (:class:`~torlab.reports.render.Plot` function)."""
+    from torlab.reports.plotting import axis_label, band, colours, legend, points, subplots
 
-    fig, ax = subplots(figsize=(9.0, 5.0))
-    colours: dict[str, str] = {}
+    fig, ax = subplots(figsize=(7.0, 4.6))
+    col = colours(c.group or c.label for c in curves)
+    banded = False
     for c in curves:
-        key = c.group or c.label
-        col = colours.setdefault(key, f"C{len(colours) % 10}")
+        color = col[c.group or c.label]
         x = 100.0 * np.abs(c.table["creepage"].to_numpy(dtype=float))
         y = np.abs(c.table["mu"].to_numpy(dtype=float))
+        order = np.argsort(x, kind="stable")
         if c.kind == "model":
-            ax.plot(x, y, lw=1.8, color=col, label=c.label)
+            ax.plot(x[order], y[order], lw=1.6, color=color, label=c.label)
+            if "mu_low95" in c.table and "mu_high95" in c.table:
+                lo = np.abs(c.table["mu_low95"].to_numpy(dtype=float))
+                hi = np.abs(c.table["mu_high95"].to_numpy(dtype=float))
+                band(ax, x[order], np.minimum(lo, hi)[order], np.maximum(lo, hi)[order],
+                     color=color)
+                banded = True
         else:
-            ax.plot(x, y, "o", ms=4.5, mfc="none", color=col, label=c.label)
+            err = c.table["mu_sd"].to_numpy(dtype=float) if "mu_sd" in c.table else None
+            points(ax, x, y, err, color=color, label=c.label)
     if cfg.band is not None:
         ax.axhspan(cfg.band[0], cfg.band[1], color="#d9ead3", alpha=0.5, lw=0,
-                   label=f"band {cfg.band[0]:g}–{cfg.band[1]:g}")
-    ax.set_xlabel("creepage = SRR (%)")
-    ax.set_ylabel("traction coefficient |μ| (-)")
+                   label=f"optimal band {cfg.band[0]:g}–{cfg.band[1]:g}")
+    if banded:
+        ax.fill_between([], [], [], color="0.5", alpha=0.22, lw=0,
+                        label="95 % band (fit uncertainty)")
+    ax.set_xlabel(axis_label("creepage ξ = SRR", "", "%"))
+    ax.set_ylabel(axis_label("traction coefficient", "|μ|"))
     ax.set_ylim(bottom=0)
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7)
+    ax.set_xlim(left=0)
+    legend(ax)
     kinds = {c.kind for c in curves}
     parts = [p for k, p in (("model", "modelled (lines)"), ("measured", "measured (circles)"))
              if k in kinds]

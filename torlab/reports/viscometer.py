@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from torlab.reports.plotting import subplots
+from torlab.reports.plotting import PALETTE, legend, subplots
 
 __all__ = ["falls_figure", "fit_figure"]
 
@@ -21,13 +21,13 @@ def falls_figure(res: Any) -> Any:
                                gridspec_kw={"height_ratios": [3, 1]})
     ax1.plot(t, x, lw=0.6, color="0.6")
     for f in res.fall_list:
-        ax1.plot(t[f.s0:f.s1], x[f.s0:f.s1], lw=1.6, color="C0")
+        ax1.plot(t[f.s0:f.s1], x[f.s0:f.s1], lw=1.6, color=PALETTE[0])
     ax1.set_ylabel("position (mm, downward)")
     ax1.set_title("grey: LVDT trace; blue: steady parts (terminal velocity fits)", fontsize=8)
-    ax2.plot(t, d["pressure_Pa"].to_numpy() / 1e6, lw=0.8, color="C3")
+    ax2.plot(t, d["pressure_Pa"].to_numpy() / 1e6, lw=0.8, color=PALETTE[1])
     ax2.set_ylabel("pressure (MPa)")
     ax2.set_xlabel("time (s)")
-    fig.suptitle(f"{res.label}: falls")
+    fig.suptitle(f"Falling-body runs: {res.label}")
     return fig
 
 
@@ -42,12 +42,12 @@ def fit_figure(res: Any, fits: Sequence[Any]) -> Any:
     for i, f in enumerate(fits):
         lab = (f"Barus α = {f.alpha * 1e9:.3g} ± {f.alpha_se * 1e9:.2g} 1/GPa" if f.law == "barus"
                else f"Roelands Z = {f.Z:.3g} ± {f.Z_se:.2g} (α* = {f.alpha * 1e9:.3g} 1/GPa)")
-        ax1.semilogy(pp / 1e6, f.predict(pp) * 1e3, lw=1.2, color=f"C{i}", label=lab)
-        ax2.plot(f.pressures_Pa / 1e6, f.residuals * 100, "o", ms=3, color=f"C{i}")
+        ax1.semilogy(pp / 1e6, f.predict(pp) * 1e3, lw=1.2, color=PALETTE[i % len(PALETTE)], label=lab)
+        ax2.plot(f.pressures_Pa / 1e6, f.residuals * 100, "o", ms=3, color=PALETTE[i % len(PALETTE)])
     ax2.axhline(0, color="k", lw=0.5)
     ax1.set_ylabel("viscosity η (mPa·s)")
     ax2.set_ylabel("residual of ln η (%)")
     ax2.set_xlabel("pressure p (MPa)")
-    ax1.legend(loc="upper left")
-    fig.suptitle(f"{res.label}: pressure-viscosity (Eqs. 5.38-5.39)")
+    legend(ax1)
+    fig.suptitle(f"Pressure–viscosity law (Eqs. 5.38–5.39): {res.label}")
     return fig

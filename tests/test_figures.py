@@ -1,0 +1,272 @@
+"""Figures a tribologist would publish: units on every axis, µL, titles in words, error bars
+where the data have a spread, the 95 % band on every predicted curve, distinct colours and
+a legend that leaves the data alone; drawn without pyplot; cached by what they show."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENE = ROOT / "protocols" / "scenes" / "wheel_rail_tab54.yaml"
+HPT = ROOT / "sample_data" / "hpt"
+
+_UNIT = re.compile(r"\((?:[^()]|\([^()]*\))+\)$")  # "... (unit)" at the end, e.g. (W/(m K))
+_MICROLITRE_WRONG = re.compile(r"\d\s*[uμ][lL]\b|\bu[lL]\b")
+_INTERNAL = re.compile(r"\b[a-z]+_[a-z_]+\b")  # snake_case words: layer_hpt, amount_crossing
+
+
+def _texts(fig):
+    out = [t.get_text() for t in fig.texts]
+    for ax in fig.axes:
+        out += [ax.get_title(), ax.get_xlabel(), ax.get_ylabel()]
+        lg = ax.get_legend()
+        if lg is not None:
+            out += [t.get_text() for t in lg.get_texts()]
+    if getattr(fig, "_suptitle", None) is not None:
+        out.append(fig._suptitle.get_text())
+    return [t for t in out if t]
+
+
+def assert_publishable(fig, *, file_names=()):
+    """Every axis with data labelled with a unit; no 'uL'; titles in words; the legend
+    outside the plotting area (or inside at a fixed corner) and inside the figure."""
+    axes = [ax for ax in fig.axes if ax.has_data()]
+    assert axes
+    for ax in axes:
+        assert _UNIT.search(ax.get_ylabel().strip()), ax.get_ylabel()
+        # an x axis shared by stacked panels is labelled once, on one of them
+        shared = ax.get_shared_x_axes().get_siblings(ax)
+        label = ax.get_xlabel() or next((a.get_xlabel() for a in shared if a.get_xlabel()), "")
+        assert _UNIT.search(label.strip()), label
+    for t in _texts(fig):
+        clean = t
+        for f in file_names:
+            clean = clean.replace(f, "")
+        assert not _MICROLITRE_WRONG.search(clean), t
+    titles = [ax.get_title() for ax in fig.axes if ax.get_title()]
+    if getattr(fig, "_suptitle", None) is not None:
+        titles.append(fig._suptitle.get_text())
+    assert titles, "no title"
+    for t in titles:
+        head = t.split("\n")[0].split(":")[0]  # the words before a source or file name
+        assert not _INTERNAL.search(head), t
+    r = fig.canvas.get_renderer()
+    fw = fig.bbox.width
+    for ax in fig.axes:
+        lg = ax.get_legend()
+        if lg is None:
+            continue
+        lb, ab = lg.get_window_extent(r), ax.get_window_extent(r)
+        assert lb.x1 <= fw + 1, "legend cut off"
+        if getattr(lg, "_torlab_outside", False):
+            assert lb.x0 >= ab.x1, "legend over the data"
+
+
+def _draw(p):
+    from torlab.reports.render import render
+
+    fig = p.draw()
+    assert render(fig, "png")[:8] == b"\x89PNG\r\n\x1a\n"
+    return fig
+
+
+def _bands(ax):
+    from matplotlib.collections import PolyCollection
+
+    return [c for c in ax.collections if isinstance(c, PolyCollection)]  # fill_between
+
+
+def _errorbars(ax):
+    from matplotlib.container import ErrorbarContainer
+
+    return [c for c in ax.containers if isinstance(c, ErrorbarContainer)
+            and c.has_yerr and len(c.lines[2]) and len(c.lines[2][0].get_segments())]
+
+
+# ------------------------------------------------------------------------------ predictions
+def _banded_table():
+    from torlab.model.predict import predict_traction
+    from torlab.scene import load_scene
+
+    sc = load_scene(SCENE)
+    p = predict_traction(sc, np.linspace(0, 0.05, 41))
+    t = p.table.copy()
+    t["mu_low95"], t["mu_high95"] = 0.95 * t["mu"], 1.05 * t["mu"]
+    return sc, t
+
+
+def test_traction_figure_has_band_units_limits_and_measured_error_bars():
+    from torlab.reports.predict import traction_figure
+    from torlab.reports.render import plot
+
+    sc, t = _banded_table()
+    meas = ("measured 5 uL", np.array([0.01, 0.02]), np.array([0.3, 0.4]),
+            np.array([0.01, 0.02]))
+    fig = _draw(plot(traction_figure, [("product A", t), ("product B", t.assign(mu=t["mu"] * 0.8))],
+                     boundary=sc.boundary, title="Traction: wheel-rail", measured=[meas]))
+    assert_publishable(fig)
+    (ax,) = fig.axes
+    assert len(_bands(ax)) == 2                      # one band per predicted curve
+    assert len(_errorbars(ax)) == 1                  # the measured points' spread
+    lines = [ln for ln in ax.lines if ln.get_label() in ("product A", "product B")]
+    assert len({ln.get_color() for ln in lines}) == 2  # distinct colours
+    assert any("5 µL" in t.get_text() for t in ax.get_legend().get_texts())
+
+
+def test_stribeck_figure_bands_and_units():
+    from torlab.model.mixed import predict_stribeck
+    from torlab.reports.predict import stribeck_figure
+    from torlab.reports.render import plot
+    from torlab.scene import load_scene
+
+    sc = load_scene(ROOT / "protocols" / "scenes" / "optical_paper_a_rough.yaml")
+    t = predict_stribeck(sc, np.geomspace(0.01, 2, 20), 0.05).table
+    t["mu_low95"], t["mu_high95"] = 0.9 * t["mu"], 1.1 * t["mu"]
+    t["film_thickness_low95_m"] = 0.9 * t["film_thickness_m"]
+    t["film_thickness_high95_m"] = 1.1 * t["film_thickness_m"]
+    meas = [("measured", np.array([0.1, 0.5]), np.array([0.08, 0.05]), np.array([0.004, 0.003]))]
+    fig = _draw(plot(stribeck_figure, t, title="Stribeck curve: rough ball", creepage=0.05,
+                     measured=meas))
+    assert_publishable(fig)
+    assert _bands(fig.axes[0]) and _bands(fig.axes[1])
+    assert _errorbars(fig.axes[0])
+
+
+def test_prediction_figures_accept_plain_columns():
+    """The CLI passes the columns without pandas (--no-plot's path draws from the same)."""
+    from torlab.model.predict import predict_traction
+    from torlab.reports.predict import traction_figure
+    from torlab.reports.render import plot
+    from torlab.scene import load_scene
+
+    sc = load_scene(SCENE)
+    cols = predict_traction(sc, np.linspace(0, 0.05, 21), as_frame=False).table
+    assert isinstance(cols, dict) and "pandas" not in type(cols["mu"]).__module__
+    assert_publishable(_draw(plot(traction_figure, [("wheel-rail", cols)], boundary=sc.boundary,
+                                  title="Traction: wheel-rail")))
+
+
+# ------------------------------------------------------------------------------ reports
+@pytest.fixture(scope="module")
+def amount_inputs():
+    from torlab.parsers.hpt import read_hpt
+    from torlab.protocols.schema import AmountReport
+    from torlab.reduce.hpt import reduce_hpt
+    from torlab.reports.amount import amount_series, fit_crossings
+
+    files = sorted(HPT.glob("hpt_OFM[12]_*uL_25C.txt")) + sorted(HPT.glob("hpt_SFM_*mg_25C.txt"))
+    res = [reduce_hpt(*read_hpt(f)) for f in files]
+    cfg = AmountReport()
+    series = amount_series(res, {}, temperature=25.0, temperature_tolerance=2.0)
+    fits = fit_crossings(series, threshold=cfg.threshold, band=tuple(cfg.band))
+    return series, fits, cfg
+
+
+def test_amount_figure_error_bars_band_colours_and_microlitres(amount_inputs):
+    from torlab.reports.amount import amount_figure
+    from torlab.reports.render import plot
+
+    series, fits, cfg = amount_inputs
+    fig = _draw(plot(amount_figure, series, fits, cfg, mass=False))
+    assert_publishable(fig)
+    (ax,) = fig.axes
+    assert "µL" in ax.get_xlabel() and "mg" in ax.get_xlabel()
+    bars = _errorbars(ax)
+    assert len(bars) >= 3                              # every product's measured f with its sd
+    assert len(_bands(ax)) == sum(cf.cov is not None for cf in fits)  # fitted curves' bands
+    colours = {c.lines[0].get_color() for c in bars if c.get_label() in {"OFM1 (µL)",
+                                                                         "OFM2 (µL)", "SFM (mg)"}}
+    assert len(colours) == 3
+    ticks = [t.get_text() for t in ax.get_xticklabels()]
+    assert "16" in ticks and "1" in ticks             # plain amounts, not 10^0, 10^1
+
+
+def test_fit_figure_titles_in_words():
+    from torlab.fit.layer import fit_layer_hpt
+    from torlab.parsers.hpt import read_hpt
+    from torlab.reduce.hpt import reduce_hpt
+    from torlab.reports.fit import fit_figure
+    from torlab.reports.render import plot
+
+    f = HPT / "hpt_OFM1_4uL_25C.txt"
+    res = fit_layer_hpt([reduce_hpt(*read_hpt(f))])
+    fig = _draw(plot(fit_figure, res))
+    assert_publishable(fig, file_names=(f.name,))
+    assert fig.axes[0].get_title().startswith("Third-body layer from HPT tests")
+
+
+# ------------------------------------------------------------------------------ machinery
+def test_pretty_writes_microlitres_and_leaves_file_names():
+    from torlab.reports.plotting import pretty, unit
+
+    assert pretty("base medium 5 uL") == "base medium 5 µL"
+    assert pretty("TOR A 20ul") == "TOR A 20µL"
+    assert pretty("hpt_OFM1_4uL_25C.txt") == "hpt_OFM1_4uL_25C.txt"
+    assert unit("uL") == unit("ul") == "µL" and unit("um") == "µm" and unit("mg") == "mg"
+
+
+def test_formats_and_reproducible_bytes(tmp_path):
+    from torlab.reports.predict import traction_figure
+    from torlab.reports.render import parse_formats, plot, render_figures
+
+    _, t = _banded_table()
+    p = plot(traction_figure, [("a", t)], title="Traction")
+    a, st = render_figures([("x", p)], parse_formats("png,svg,pdf"))
+    b, _ = render_figures([("x", p)], ("png", "svg", "pdf"))
+    assert st.drawn == 1
+    assert a["x"]["svg"] == b["x"]["svg"] and a["x"]["pdf"] == b["x"]["pdf"]  # reproducible
+    assert a["x"]["png"] == b["x"]["png"]
+    assert a["x"]["pdf"][:5] == b"%PDF-" and b"<svg" in a["x"]["svg"][:400]
+    from torlab.errors import TorlabInputError
+
+    with pytest.raises(TorlabInputError, match="jpeg"):
+        parse_formats("png, jpeg")
+
+
+def test_figure_key_follows_the_data_not_the_object():
+    from torlab.reports.predict import traction_figure
+    from torlab.reports.render import figure_key, plot
+
+    _, t = _banded_table()
+    k1 = figure_key(plot(traction_figure, [("a", t)], title="T"), "png")
+    k2 = figure_key(plot(traction_figure, [("a", t.copy())], title="T"), "png")
+    assert k1 == k2 and len(k1) == 40
+    t2 = t.copy()
+    t2.loc[3, "mu"] += 1e-12                          # any change of a plotted number
+    assert figure_key(plot(traction_figure, [("a", t2)], title="T"), "png") != k1
+    assert figure_key(plot(traction_figure, [("a", t)], title="T2"), "png") != k1
+    assert figure_key(plot(traction_figure, [("a", t)], title="T"), "svg") != k1
+
+
+def test_figures_need_no_pyplot():
+    code = ("import sys, numpy as np\n"
+            "from torlab.reports.plotting import subplots\n"
+            "from torlab.reports.render import render\n"
+            "fig, ax = subplots(); ax.plot([0, 1], [0, 1]); ax.set_title('t')\n"
+            "assert render(fig, 'png')[:4] == b'\\x89PNG'\n"
+            "print('matplotlib.pyplot' in sys.modules)\n")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert r.stdout.strip() == "False"
+
+
+def test_reduction_figures_declared_and_drawn():
+    """Instrument figures are declared plots; Reduction.figures() still gives drawn figures."""
+    from torlab.api import reduce_file
+    from torlab.reports.render import Plot
+
+    red = reduce_file(ROOT / "sample_data" / "optical" / "stribeck_rough.csv")
+    plots = red.plots()
+    assert plots and all(isinstance(p, Plot) for p in plots.values())
+    figs = red.figures()
+    assert set(figs) == set(plots)
+    for fig in figs.values():
+        assert_publishable(fig, file_names=("stribeck_rough.csv",))
+        assert _errorbars(fig.axes[0])     # each point's spread over its averaging window
+    pd.testing.assert_index_equal(pd.Index(sorted(figs)), pd.Index(sorted(plots)))

@@ -1,0 +1,224 @@
+"""One executor for independent tasks: serial, local processes, a Dask cluster -- same results.
+
+The three executors of :mod:`torlab.parallel` run the same work (a creep-force table in
+chunks, the Monte-Carlo draws of a prediction band, a whole protocol: reductions, fits,
+predictions, figures) and must give the same bytes.  The Dask part runs on a
+``LocalCluster`` (two workers in this process); it is skipped where Dask's
+``distributed`` package is not installed (``pip install 'torlab[dask]'``).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import shutil
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from torlab.errors import TorlabInputError, TorlabWarning
+from torlab.parallel import ProcessExecutor, SerialExecutor, current, get_executor, use
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENE = ROOT / "protocols" / "scenes" / "wheel_rail_tab54.yaml"
+
+
+# ------------------------------------------------------------------------------ tasks
+def _square(x: int) -> int:
+    return x * x
+
+
+def _warn(x: int) -> int:
+    warnings.warn(TorlabWarning(f"task {x} says so"), stacklevel=1)
+    return x
+
+
+def _fail(x: int) -> int:
+    if x in (3, 5):
+        raise TorlabInputError(f"bad {x}", key="k")
+    return x
+
+
+def _inner(x: int) -> str:
+    return current().kind  # a task never starts tasks of its own: serial inside workers
+
+
+@pytest.fixture(scope="module")
+def dask_client():
+    pytest.importorskip("distributed")
+    from distributed import Client, LocalCluster
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # Dask's own start-up chatter
+        cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                               dashboard_address=None, silence_logs=logging.ERROR)
+        client = Client(cluster)
+    yield client
+    client.close()
+    cluster.close()
+
+
+def _executors(dask_client=None):
+    out = [SerialExecutor(), ProcessExecutor(2)]
+    if dask_client is not None:
+        from torlab.parallel import DaskExecutor
+
+        out.append(DaskExecutor(dask_client))
+    return out
+
+
+@pytest.fixture(scope="module")
+def executors(request):
+    try:
+        client = request.getfixturevalue("dask_client")
+    except pytest.skip.Exception:
+        client = None
+    exs = _executors(client)
+    yield exs
+    for ex in exs:
+        ex.close()
+
+
+# ------------------------------------------------------------------------------ semantics
+def test_map_keeps_order_reissues_warnings_and_raises_the_first_error(executors):
+    for ex in executors:
+        assert ex.map(_square, range(7)) == [x * x for x in range(7)], ex.kind
+        with warnings.catch_warnings(record=True) as w:
+            warnings.simplefilter("always")
+            assert ex.map(_warn, [1, 2]) == [1, 2]
+        got = sorted(str(x.message) for x in w if issubclass(x.category, TorlabWarning))
+        assert got == ["task 1 says so", "task 2 says so"], ex.kind
+        with pytest.raises(TorlabInputError, match="bad 3"):
+            ex.map(_fail, range(7))
+        assert set(ex.map(_inner, range(4))) == {"serial"}, ex.kind
+
+
+def test_get_executor_from_the_options():
+    assert get_executor(1).kind == "serial"
+    ex = get_executor(2)
+    assert ex.kind == "processes" and ex.workers == 2
+    assert current().kind == "serial"
+    with use(ex):
+        assert current() is ex
+    assert current().kind == "serial"
+    pytest.importorskip("distributed")
+    from torlab.parallel import DaskExecutor
+
+    with pytest.raises(TorlabInputError, match="--scheduler"):
+        DaskExecutor("tcp://127.0.0.1:1", timeout="2s")  # nothing listens there
+
+
+# ------------------------------------------------------------------------------ same bytes
+def _same(a, b, what):
+    assert type(a) is type(b), what
+    if isinstance(a, dict):
+        assert a.keys() == b.keys(), what
+        for k in a:
+            _same(a[k], b[k], f"{what}.{k}")
+    elif isinstance(a, np.ndarray):
+        assert a.dtype == b.dtype and a.shape == b.shape, what
+        assert a.tobytes() == b.tobytes(), what  # bit for bit, NaN included
+    else:
+        assert a == b, what
+
+
+def test_creep_table_chunks_bit_for_bit(executors):
+    from torlab.model.creep import creep_problem
+    from torlab.model.creep_table import creep_table
+    from torlab.scene import load_scene
+
+    prob = creep_problem(load_scene(SCENE))
+    axes = (np.linspace(-0.004, 0.004, 5), np.linspace(-0.002, 0.002, 3), [-0.5, 0.0, 0.5])
+    results = []
+    for ex in executors:
+        with use(ex):
+            tab = creep_table(prob, *axes, chunk=4)  # 45 points, several chunks
+        results.append({k: tab.dataset[k].values for k in tab.dataset.data_vars})
+    for r in results[1:]:
+        _same(results[0], r, "creep table")
+
+
+def test_band_draws_bit_for_bit(executors):
+    from torlab.model.bands import _DryTractionModel
+    from torlab.model.predict import fastsim_grid, fastsim_problem
+    from torlab.scene import load_scene
+    from torlab.uncertainty import SAMPLE_BLOCK, SAMPLE_ROUND, ParameterDistribution, propagate
+
+    sc = load_scene(SCENE)
+    xi = np.linspace(0.0, 0.02, 11)
+    model = _DryTractionModel(fastsim_problem(sc), fastsim_grid(sc), xi, ("mu",))
+    dist = ParameterDistribution.from_covariance(
+        ("mu_c1", "mu_c2", "L_mue"), [0.30, 0.45, 1e-5],
+        [[4e-4, 1e-4, 0.0], [1e-4, 4e-4, 0.0], [0.0, 0.0, 4e-12]], log_scale=("L_mue",), dof=12)
+    n = (SAMPLE_ROUND + 2) * SAMPLE_BLOCK + 7  # two rounds of blocks, the last block short
+    bands = []
+    for ex in executors:
+        with use(ex):
+            b = propagate(model, dist, method="sampling", n_samples=n, seed=11)
+        assert b.method == "sampling"
+        bands.append({"low": b.low("mu"), "high": b.high("mu"), "center": b.center["mu"]})
+    for b in bands[1:]:
+        _same(bands[0], b, "band")
+    assert np.all(bands[0]["low"] <= bands[0]["high"])
+
+
+PROTOCOL = """\
+version: 1
+name: parallel
+products:
+  OFM1: {density: 930 kg/m^3}
+data:
+  hpt:
+    files: [hpt_*.txt]
+fits:
+  hpt_layers:
+    amounts: [4 uL]
+    temperature: 25 degC
+reports:
+  amount: {curve: interpolation}
+  traction:
+    creepage: {from: 0, to: 0.03, points: 16}
+    curves:
+      - label: "{set}"
+        scene: wheel_rail_tab54.yaml
+        params: ["hpt:*"]
+  figure_formats: [png, svg]
+"""
+
+
+def _files(folder: Path) -> dict[str, bytes]:
+    out = {}
+    for p in sorted(folder.rglob("*")):
+        rel = p.relative_to(folder).as_posix()
+        if p.is_file() and not rel.startswith(".cache") and rel != "torlab-manifest.json":
+            out[rel] = p.read_bytes()
+    return out
+
+
+def test_protocol_run_bit_for_bit(tmp_path, executors):
+    from torlab.protocols.runner import run_protocol
+
+    for a in (1, 4, 16):
+        f = ROOT / "sample_data" / "hpt" / f"hpt_OFM1_{a}uL_25C.txt"
+        shutil.copy(f, tmp_path / f.name)
+    shutil.copy(SCENE, tmp_path / SCENE.name)
+    p = tmp_path / "parallel.yaml"
+    p.write_text(PROTOCOL)
+    runs = []
+    for i, ex in enumerate(executors):
+        res = run_protocol(p, tmp_path / f"out{i}", executor=ex, command="test")
+        assert res.timing["figures_drawn"] == 4 and res.cache_misses > 4, ex.kind
+        files = _files(tmp_path / f"out{i}")
+        summary = json.loads(files.pop("summary.json"))
+        summary.pop("run")  # timings
+        runs.append((files, summary))
+    names = sorted(runs[0][0])
+    assert {"amount/amount_applied.png", "amount/amount_applied.svg", "traction/traction.png",
+            "fits/hpt_OFM1.yaml", "traction/curves.csv"} <= set(names)
+    for files, summary in runs[1:]:
+        assert sorted(files) == names
+        for n in names:
+            assert files[n] == runs[0][0][n], n
+        assert summary == runs[0][1]

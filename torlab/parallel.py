@@ -1,0 +1,381 @@
+"""One executor for torlab's independent tasks: in this process, on local processes, or on a
+Dask cluster -- with the same results, bit for bit, in all three.
+
+What goes through it: the reductions of a protocol's files, its fits, its predicted
+curves and its figures (:mod:`torlab.protocols`), the Monte-Carlo draws of a
+prediction band (:mod:`torlab.uncertainty`), the chunks of a creep-force table
+(:mod:`torlab.model.creep_table`).  Each of these is a list of tasks that do not
+depend on each other; :meth:`Executor.map` runs a picklable function over them and
+returns the results *in order*.
+
+* :class:`SerialExecutor` -- one after the other in this process (``--jobs 1``);
+* :class:`ProcessExecutor` -- a pool of local worker processes (``--jobs N``; the
+  commands' default is every core this process may use);
+* :class:`DaskExecutor` -- the workers of a Dask distributed cluster
+  (``--scheduler tcp://host:8786``; needs ``pip install 'torlab[dask]'``).
+
+**Same results.**  A task's result depends only on its arguments: the split of
+the work into tasks is fixed by the work itself (a creep table's chunk size, a
+band's block of draws), never by the number of workers; random draws are made
+from their seed before the work is split; every task runs with one BLAS/OpenMP
+thread (:func:`torlab.threads.limit_threads`) wherever it runs, so a sum inside
+a matrix product is never split differently.  ``tests/test_parallel.py``
+compares the three executors' results byte for byte.
+
+**Warnings and errors.**  A task's warnings are recorded where it runs and
+issued again, with their original file and line, in the calling process, so
+the command line shows them as it would for serial work.  An error in a task
+stops the map and is raised in the caller (the first in task order).
+
+**Choosing.**  :func:`get_executor` makes one from the command line's options;
+:func:`current` is the one in use (serial unless a block ``with
+use(executor):`` says otherwise), so library code deep inside a computation
+(a band's draws) finds it without a parameter.  Inside a worker, :func:`current`
+is serial: tasks never start tasks of their own.
+"""
+
+from __future__ import annotations
+
+import contextvars
+import os
+import sys
+import warnings
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from contextlib import contextmanager
+from typing import Any
+
+__all__ = ["DaskExecutor", "Executor", "ProcessExecutor", "SerialExecutor", "activate", "chunks",
+           "current", "get_executor", "map_tasks", "usable_cores", "use"]
+
+_CURRENT: contextvars.ContextVar[Executor | None] = contextvars.ContextVar(
+    "torlab_executor", default=None)
+
+
+def usable_cores() -> int:
+    """Cores this process may run on (its CPU affinity where the system has one)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):  # macOS, Windows
+        return max(1, os.cpu_count() or 1)
+
+
+# ------------------------------------------------------------------------------ the task
+def _run(fn: Callable[[Any], Any], item: Any) -> tuple[Any, list[tuple[Any, ...]]]:
+    """Run one task with one BLAS thread; return its result and the warnings it issued."""
+    from torlab.threads import limit_threads
+
+    with warnings.catch_warnings(record=True) as caught, limit_threads(1):
+        out = fn(item)
+    return out, [(w.message, w.category, w.filename, w.lineno) for w in caught]
+
+
+def _reissue(records: Sequence[tuple[Any, ...]]) -> None:
+    for message, category, filename, lineno in records:
+        warnings.warn_explicit(message, category, filename, lineno)
+
+
+def _worker_init() -> None:
+    """A worker runs its tasks serially and leaves Ctrl-C to the parent."""
+    import signal
+
+    _CURRENT.set(None)
+    try:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    except (ValueError, OSError):  # not the main thread (a threaded Dask worker)
+        pass
+
+
+# ------------------------------------------------------------------------------ executors
+class Executor:
+    """Runs independent tasks; use :meth:`map`.  Base class: serial.
+
+    Attributes
+    ----------
+    kind
+        ``serial``, ``processes`` or ``dask``.
+    workers
+        How many tasks run at a time.
+    """
+
+    kind = "serial"
+    workers = 1
+
+    def describe(self) -> str:
+        """One line for reports and logs."""
+        return "serial (this process)"
+
+    def map(self, fn: Callable[[Any], Any], items: Iterable[Any], *,
+            description: str = "") -> list[Any]:
+        """``[fn(item) for item in items]``, in order (``fn`` picklable for other executors).
+
+        ``description`` labels the progress bar (:mod:`torlab.progress`) shown while the
+        tasks run; nothing is shown for a single task.
+        """
+        from torlab.progress import current as progress
+
+        items = list(items)
+        out = []
+        with progress().task(description, len(items) if description and len(items) > 1
+                             else 0) as advance:
+            for it in items:
+                res, ws = _run(fn, it)
+                _reissue(ws)
+                out.append(res)
+                advance()
+        return out
+
+    def close(self) -> None:
+        """Release workers (nothing for the serial executor)."""
+
+    def __enter__(self) -> Executor:
+        self._token = _CURRENT.set(self)
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        _CURRENT.reset(self._token)
+        self.close()
+
+
+class SerialExecutor(Executor):
+    """Every task in this process, one after the other."""
+
+
+class ProcessExecutor(Executor):
+    """A pool of local worker processes.
+
+    Workers are started on the first :meth:`map` of more than one task (a command
+    that never has parallel work never starts them), by ``fork`` on Linux -- they
+    inherit the modules already imported, so a worker starts in milliseconds --
+    and by ``spawn`` elsewhere.  Every worker is forked at once, with the
+    progress bars' refresh thread stopped meanwhile, so no lock is copied into a
+    worker while another thread holds it.
+
+    Parameters
+    ----------
+    jobs
+        Worker processes (default: :func:`usable_cores`).
+    """
+
+    kind = "processes"
+
+    def __init__(self, jobs: int | None = None) -> None:
+        self.workers = max(1, int(jobs or usable_cores()))
+        self._pool: Any = None
+
+    def describe(self) -> str:
+        return f"{self.workers} local processes"
+
+    def _start(self) -> Any:
+        if self._pool is None:
+            import multiprocessing as mp
+            from concurrent.futures import ProcessPoolExecutor
+
+            from torlab.progress import current as progress
+
+            method = "fork" if sys.platform.startswith("linux") else "spawn"
+            ctx = mp.get_context(method)
+            with progress().pause():
+                self._pool = ProcessPoolExecutor(self.workers, mp_context=ctx,
+                                                 initializer=_worker_init)
+                if method == "fork":  # fork every worker now, while no other thread runs
+                    for f in [self._pool.submit(_noop, i) for i in range(self.workers)]:
+                        f.result()
+        return self._pool
+
+    def map(self, fn: Callable[[Any], Any], items: Iterable[Any], *,
+            description: str = "") -> list[Any]:
+        items = list(items)
+        if len(items) <= 1:  # one task: no round trip through a worker
+            return super().map(fn, items, description=description)
+        from concurrent.futures import FIRST_EXCEPTION, wait
+
+        from torlab.progress import current as progress
+
+        pool = self._start()
+        futs = [pool.submit(_run, fn, it) for it in items]
+        index = {f: i for i, f in enumerate(futs)}
+        out: list[Any] = [None] * len(items)
+        try:
+            with progress().task(description, len(items) if description else 0) as advance:
+                pending = set(futs)
+                while pending:
+                    done, pending = wait(pending, return_when=FIRST_EXCEPTION)
+                    for f in done:
+                        if f.exception() is None:
+                            out[index[f]] = f.result()
+                        advance()
+                    failed = [index[f] for f in done if f.exception() is not None]
+                    if failed:
+                        # the first error in task order: later tasks are cancelled, earlier
+                        # ones finish (one of them may fail first in order)
+                        first = min(failed)
+                        for f in futs[first + 1:]:
+                            f.cancel()
+                        wait(futs[:first])
+                        for f in futs[:first + 1]:
+                            if f.exception() is not None:
+                                raise f.exception()
+        except BaseException:
+            for f in futs:
+                f.cancel()
+            raise
+        results = []
+        for res, ws in out:
+            _reissue(ws)
+            results.append(res)
+        return results
+
+    def close(self) -> None:
+        if self._pool is not None:
+            pool, self._pool = self._pool, None
+            pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _noop(i: int) -> int:
+    return i
+
+
+class DaskExecutor(Executor):
+    """The workers of a Dask distributed cluster.
+
+    Parameters
+    ----------
+    scheduler
+        The scheduler's address (``tcp://host:8786``), or a
+        ``distributed.Client`` / ``LocalCluster`` to use as it is.
+    timeout
+        How long to try to reach a scheduler given by address.
+
+    Notes
+    -----
+    Tasks and their results travel between this process and the workers as
+    pickles (that is how Dask works): connect only to a cluster you control.
+    The workers read input files by the paths this process gives them, so they
+    must see the same file system (a cluster on this machine, or a shared disk).
+    """
+
+    kind = "dask"
+
+    def __init__(self, scheduler: Any, timeout: str = "20s") -> None:
+        try:
+            from distributed import Client
+        except ImportError:
+            from torlab.errors import TorlabInputError
+
+            raise TorlabInputError("--scheduler needs Dask's distributed package: pip install "
+                                   "'torlab[dask]'", key="--scheduler") from None
+        self._own = False
+        if isinstance(scheduler, Client):
+            self.client = scheduler
+        elif isinstance(scheduler, str):
+            try:
+                self.client = Client(scheduler, timeout=timeout, set_as_default=False)
+            except OSError as e:
+                from torlab.errors import TorlabInputError
+
+                raise TorlabInputError(f"cannot reach the Dask scheduler at {scheduler}: {e}",
+                                       key="--scheduler") from None
+            self._own = True
+        else:  # a cluster object
+            self.client = Client(scheduler, set_as_default=False)
+            self._own = True
+        info = self.client.scheduler_info()
+        self.workers = max(1, sum(int(w.get("nthreads", 1)) for w in info["workers"].values()))
+        self.address = getattr(self.client.scheduler, "address", str(scheduler))
+
+    def describe(self) -> str:
+        return f"Dask cluster {self.address} ({self.workers} worker threads)"
+
+    def map(self, fn: Callable[[Any], Any], items: Iterable[Any], *,
+            description: str = "") -> list[Any]:
+        items = list(items)
+        if not items:
+            return []
+        from torlab.progress import current as progress
+
+        futs = self.client.map(_dask_run, [fn] * len(items), items, pure=False)
+        out = []
+        try:
+            with progress().task(description, len(items) if description else 0) as advance:
+                for f in futs:  # in order: the first error in task order is the one raised
+                    out.append(f.result())
+                    advance()
+        except BaseException:
+            self.client.cancel(futs)
+            raise
+        results = []
+        for res, ws in out:
+            _reissue(ws)
+            results.append(res)
+        return results
+
+    def close(self) -> None:
+        if self._own:
+            self.client.close()
+            self._own = False
+
+
+def _dask_run(fn: Callable[[Any], Any], item: Any) -> tuple[Any, list[tuple[Any, ...]]]:
+    _CURRENT.set(None)  # a task on a threaded worker starts no tasks of its own
+    return _run(fn, item)
+
+
+# ------------------------------------------------------------------------------ choosing
+_SERIAL = SerialExecutor()
+
+
+def current() -> Executor:
+    """The executor in use (serial outside any ``with use(...)`` block and inside workers)."""
+    return _CURRENT.get() or _SERIAL
+
+
+@contextmanager
+def use(executor: Executor) -> Iterator[Executor]:
+    """Make ``executor`` the :func:`current` one inside the block (and close it after)."""
+    with executor:
+        yield executor
+
+
+@contextmanager
+def activate(executor: Executor) -> Iterator[Executor]:
+    """Make ``executor`` the :func:`current` one inside the block, leaving it open (for an
+    executor used by several blocks)."""
+    token = _CURRENT.set(executor)
+    try:
+        yield executor
+    finally:
+        _CURRENT.reset(token)
+
+
+def get_executor(jobs: int | None = None, scheduler: str | None = None) -> Executor:
+    """The executor for the command-line options ``--jobs`` and ``--scheduler``.
+
+    ``scheduler`` wins; else ``jobs`` 1 is serial and anything else (default: the
+    environment variable ``TORLAB_JOBS``, else every usable core) a
+    :class:`ProcessExecutor` -- serial too where only one core is usable.
+    """
+    if scheduler:
+        return DaskExecutor(scheduler)
+    if jobs is None and os.environ.get("TORLAB_JOBS", "").strip():
+        try:
+            jobs = int(os.environ["TORLAB_JOBS"])
+        except ValueError:
+            from torlab.errors import TorlabInputError
+
+            raise TorlabInputError(f"TORLAB_JOBS={os.environ['TORLAB_JOBS']!r} is not a whole "
+                                   "number of worker processes", key="TORLAB_JOBS") from None
+    n = usable_cores() if jobs is None or jobs <= 0 else int(jobs)
+    if n <= 1:
+        return SerialExecutor()
+    return ProcessExecutor(n)
+
+
+def map_tasks(fn: Callable[[Any], Any], items: Iterable[Any], *, description: str = "") -> list:
+    """:meth:`Executor.map` on the :func:`current` executor."""
+    return current().map(fn, items, description=description)
+
+
+def chunks(n: int, size: int) -> list[slice]:
+    """``n`` items in fixed blocks of ``size`` (the split never depends on the workers)."""
+    size = max(1, int(size))
+    return [slice(i, min(i + size, n)) for i in range(0, n, size)]
