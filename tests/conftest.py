@@ -61,20 +61,50 @@ def real_pcs_file(name: str) -> Path:
 
 
 @pytest.fixture(scope="session")
-def shipped_run(tmp_path_factory):
+def shipped_run(tmp_path_factory, request):
     """Run a shipped protocol (``protocols/<name>.yaml``) once per session: ``(out, RunResult)``.
 
-    The protocol regression tests and the thesis validation table read the same runs.
+    The protocol regression tests and the thesis validation table read the same runs.  Under
+    pytest-xdist the test modules sit on different workers: the first worker to ask runs the
+    protocol (under a file lock) and leaves a copy of its results folder; another worker
+    copies that folder and reruns the protocol into it with ``force`` -- torlab's own cache
+    (authenticated by the session's key) makes that rerun warm, and its result is the same.
     """
+    import shutil
+
     from torlab.protocols.runner import run_protocol
 
+    try:
+        import fcntl
+    except ImportError:  # no POSIX locks: every worker runs its own
+        fcntl = None
+    worker = getattr(request.config, "workerinput", None)
+    shared = (tmp_path_factory.getbasetemp().parent / "shipped-runs"
+              if worker is not None and fcntl is not None else None)
     runs: dict[str, tuple[Path, object]] = {}
 
+    def run(name: str, out: Path, force: bool = False):
+        return run_protocol(ROOT / "protocols" / f"{name}.yaml", out, force=force,
+                            command=f"test {name}")
+
     def get(name: str):
-        if name not in runs:
-            out = tmp_path_factory.mktemp(name) / "out"
-            runs[name] = (out, run_protocol(ROOT / "protocols" / f"{name}.yaml", out,
-                                            command=f"test {name}"))
+        if name in runs:
+            return runs[name]
+        out = tmp_path_factory.mktemp(name) / "out"
+        if shared is None:
+            runs[name] = (out, run(name, out))
+            return runs[name]
+        shared.mkdir(exist_ok=True)
+        done = shared / name
+        with open(shared / f"{name}.lock", "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            if (done / "summary.json").is_file():
+                shutil.copytree(done, out)
+                runs[name] = (out, run(name, out, force=True))
+            else:
+                runs[name] = (out, run(name, out))
+                shutil.copytree(out, shared / f".{name}.partial")
+                (shared / f".{name}.partial").rename(done)
         return runs[name]
 
     return get

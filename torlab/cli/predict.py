@@ -195,11 +195,14 @@ def _print_trend(pred: Any) -> None:
 
 def _no_retention_file(files: Sequence[Path]) -> None:
     """A removal parameter file among a plain prediction's files: say what it is for."""
+    params = [f for f in files[1:] if f.suffix.lower() in (".yaml", ".yml")]
+    if not params:  # a scene alone: nothing to check, nothing to import
+        return
     from torlab.errors import TorlabInputError
     from torlab.fit.removal import is_retention_file
 
-    for f in files[1:]:
-        if f.suffix.lower() in (".yaml", ".yml") and is_retention_file(f):
+    for f in params:
+        if is_retention_file(f):
             raise TorlabInputError("a removal parameter file ('torlab fit removal' output): use "
                                    "it with --sweep and --amount, or with 'torlab predict "
                                    "retention'", path=f)
