@@ -1,4 +1,4 @@
-"""Stopping rules and vectorised loops of the boundary model (issue 17, numerics).
+"""Stopping rules and vectorised loops of the boundary model.
 
 * The yield-angle Newton iteration stops on a *relative* step and takes a few
   iterations (the count is exposed as ``BoundaryResult.yield_iterations``).

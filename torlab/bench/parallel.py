@@ -2,7 +2,7 @@
 on local processes and on a Dask cluster -- its scaling, and that the results are the same.
 
 The study is what a user maps over many independent conditions: the creep-force table of
-the thesis's Tab. 5.4 wheel-rail contact with its flash temperature (the layer of issue 3)
+the thesis's Tab. 5.4 wheel-rail contact with its flash temperature and example layer
 over longitudinal creepage x lateral creepage x spin x rolling speed, in torlab's fixed
 chunks (:func:`torlab.model.creep_table.creep_table`).  Measured side by side in one run,
 rounds interleaved:
@@ -106,9 +106,15 @@ def run(quick: bool = False) -> list[BenchRow]:
     finally:
         for ex in execs.values():
             ex.close()
-        for lc, cl in clusters:
-            cl.close()
-            lc.close()
+        quiet = logging.getLogger("distributed")  # the cluster's shutdown chatter
+        level = quiet.level
+        quiet.setLevel(logging.ERROR)
+        try:
+            for lc, cl in clusters:
+                cl.close()
+                lc.close()
+        finally:
+            quiet.setLevel(level)
     t_serial = float(np.median(times["serial (--jobs 1)"]))
     ref = results["serial (--jobs 1)"]
     n_tasks = len(opts["speed"]) * -(-int(np.prod([len(a) for a in axes])) // opts["chunk"])
