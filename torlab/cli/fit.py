@@ -138,6 +138,9 @@ def print_fit(result: Any, title: str) -> None:
         c.print(f"[yellow]warning:[/yellow] {w}")
 
 
+#: the largest spread of the files' mean temperatures 'fit visc' pools into one law (K)
+VISC_TEMPERATURE_SPREAD_K = 2.0
+
 _FILES = ["params.yaml", "fit_table.csv", "correlation.csv", "fit_data.csv", "fit.png",
           "summary.json"]
 
@@ -441,7 +444,9 @@ def visc_cmd(
 ) -> None:
     """Viscosity law (eta0, alpha or Z; thesis Eqs. 5.38-5.39) from reduced viscometer data,
     written as the scene's lubricant: keys.  Every file's points together give one fit (the
-    law of one lubricant at one temperature)."""
+    law of one lubricant at one temperature: files more than 2 K apart are refused).  A
+    folder contributes its *_falls.csv (a log's *_steps.csv are the same falls averaged per
+    pressure step, taken only where the falls are not there)."""
     import numpy as np
 
     from torlab.fit.result import viscosity_result
@@ -449,12 +454,20 @@ def visc_cmd(
     from torlab.outputs import OutputDir
 
     law = _choice(law, ("barus", "roelands"), "--law")
-    keep, loaded = loads(viscosity_data)
-    files = require_files(data, "reduced viscometer", keep=keep)
+    reads, loaded = loads(viscosity_data)
+    files = require_files(data, "reduced viscometer", keep=lambda f: reads(f) and not (
+        f.name.endswith("_steps.csv") and f.with_name(f.name[:-10] + "_falls.csv").is_file()))
     p, eta, T = zip(*(loaded[f] if f in loaded else viscosity_data(f) for f in files),
                     strict=True)
     Ts = [t for t in T if t is not None]
     Tm = float(np.mean(np.concatenate(Ts))) if Ts else None
+    means = [float(np.mean(t)) for t in Ts]
+    if means and max(means) - min(means) > VISC_TEMPERATURE_SPREAD_K:
+        from torlab.errors import TorlabInputError
+
+        raise TorlabInputError(
+            f"the files are at {', '.join(f'{t:.1f}' for t in means)} degC: a viscosity law "
+            "holds at one temperature; fit each temperature apart")
     vf = fit_viscosity(np.concatenate(p), np.concatenate(eta), law, temperature_C=Tm)
     res = viscosity_result(vf)
     res.meta["source"] = ", ".join(f.name for f in files)
