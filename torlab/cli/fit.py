@@ -27,6 +27,7 @@ from torlab.cli._common import (
     XlsxOpt,
     command_line,
     console,
+    option_keys,
     print_table,
     require_files,
 )
@@ -575,11 +576,12 @@ def removal_cmd(
     layer_files = require_files([Path(h) for h in hpt], "HPT", keep=is_layer_input)
     extra = [scene] if scene else []
     comp = _compliance(compliance, extra)
-    res = fit_removal(files, layer_files, scene=scene, density=density, amount=amount,
-                      track_radius=track_radius, application_time=application_time,
-                      compliance=comp, repeatability=repeatability,
-                      laws=[x.strip() for x in laws.split(",") if x.strip()], law=law,
-                      transfer="fit" if transfer.strip() == "fit" else transfer, skip=skip)
+    with option_keys(removal_cmd):
+        res = fit_removal(files, layer_files, scene=scene, density=density, amount=amount,
+                          track_radius=track_radius, application_time=application_time,
+                          compliance=comp, repeatability=repeatability,
+                          laws=[x.strip() for x in laws.split(",") if x.strip()], law=law,
+                          transfer=transfer.strip(), skip=skip.strip())
     dest = OutputDir(out, force=force, inputs=[*files, *layer_files, *extra],
                      command=command_line())
     with dest:
