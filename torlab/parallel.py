@@ -74,6 +74,15 @@ def _reissue(records: Sequence[tuple[Any, ...]]) -> None:
         warnings.warn_explicit(message, category, filename, lineno)
 
 
+def _results(out: Sequence[tuple[Any, Sequence[tuple[Any, ...]]]]) -> list[Any]:
+    """The tasks' results, in order, each task's warnings reissued here (as a serial run would)."""
+    results = []
+    for res, ws in out:
+        _reissue(ws)
+        results.append(res)
+    return results
+
+
 def _worker_init() -> None:
     """A worker runs its tasks serially and leaves Ctrl-C to the parent."""
     import signal
@@ -219,11 +228,7 @@ class ProcessExecutor(Executor):
             for f in futs:
                 f.cancel()
             raise
-        results = []
-        for res, ws in out:
-            _reissue(ws)
-            results.append(res)
-        return results
+        return _results(out)
 
     def close(self) -> None:
         if self._pool is not None:
@@ -304,11 +309,7 @@ class DaskExecutor(Executor):
         except BaseException:
             self.client.cancel(futs)
             raise
-        results = []
-        for res, ws in out:
-            _reissue(ws)
-            results.append(res)
-        return results
+        return _results(out)
 
     def close(self) -> None:
         if self._own:
