@@ -118,3 +118,19 @@ def test_the_library_does_not_import_the_cli_or_the_facade():
             if dep.startswith("torlab.cli") or dep == "torlab.api":
                 bad.append(f"{m} -> {dep}")
     assert bad == []
+
+
+def test_the_cli_is_thin_and_the_runner_small():
+    """Every function of torlab/cli/ fits on a screen (80 lines: a command parses its
+    options and calls the library); the protocol runner sequences in 300 lines."""
+    long = []
+    for m, path in MODULES.items():
+        if not m.startswith("torlab.cli"):
+            continue
+        for n in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef)) and \
+                    n.end_lineno - n.lineno + 1 > 80:
+                long.append(f"{m}.{n.name}: {n.end_lineno - n.lineno + 1} lines")
+    assert long == []
+    runner = PKG / "protocols" / "runner.py"
+    assert len(runner.read_text(encoding="utf-8").splitlines()) <= 300
