@@ -23,6 +23,7 @@ MODULES = [
     "torlab.instruments.measured",
     "torlab.fit.result",
     "torlab.fit.viscosity",
+    "torlab.parallel",
     "torlab.scene",
     "torlab.errors",
 ]

@@ -91,7 +91,11 @@ def test_api_reference_builds_without_warnings(tmp_path):
     assert problems == []
     page = (tmp_path / "torlab" / "api.html").read_text(encoding="utf-8")
     for name in ("fit_hpt", "reduce_files", "predict_traction", "run_protocol", "predict_creep",
-                 "creep_table", "fit_polach"):
+                 "creep_table", "fit_polach", "fit_removal", "predict_retention",
+                 "predict_sweep"):
+        assert f'id="{name}"' in page, name
+    page = (tmp_path / "torlab" / "parallel.html").read_text(encoding="utf-8")
+    for name in ("get_executor", "use", "SerialExecutor", "ProcessExecutor", "DaskExecutor"):
         assert f'id="{name}"' in page, name
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any
 
-__all__ = ["did_you_mean", "key_suggestion"]
+__all__ = ["did_you_mean", "key_suggestion", "literal_suggestion", "word_or"]
 
 
 def did_you_mean(word: str, choices: Iterable[str], *, n: int = 1) -> str:
@@ -21,6 +21,35 @@ def did_you_mean(word: str, choices: Iterable[str], *, n: int = 1) -> str:
     if not hits:
         return ""
     return " (did you mean " + " or ".join(repr(lower[h]) for h in hits) + "?)"
+
+
+def literal_suggestion(err: dict[str, Any]) -> str:
+    """``did_you_mean`` for a value outside a pydantic ``Literal`` (a ``literal_error``):
+    the allowed values are the quoted ones of the error's ``expected``."""
+    import re
+
+    expected = str((err.get("ctx") or {}).get("expected", ""))
+    value = err.get("input")
+    if not isinstance(value, str):
+        return ""
+    return did_you_mean(value, re.findall(r"'([^']*)'", expected))
+
+
+def word_or(value: Any, word: str, convert: Any, error: Any = ValueError) -> Any:
+    """``word`` itself (``'fit'``, ``'auto'``), or ``convert(value)`` (a quantity).
+
+    A value ``convert`` refuses that is a misspelling of ``word`` is answered with
+    ``error(message)`` saying so ("did you mean 'auto'?"); other refusals pass unchanged.
+    """
+    if value == word:
+        return word
+    try:
+        return convert(value)
+    except Exception:
+        hint = did_you_mean(value, [word]) if isinstance(value, str) else ""
+        if not hint:
+            raise
+        raise error(f"{value!r} is neither {word!r} nor a quantity{hint}") from None
 
 
 def key_suggestion(model: Any, loc: tuple[Any, ...]) -> str:

@@ -431,6 +431,14 @@ def _si(value: Any, kind: str, name: str, quantity: str | None = None) -> float 
     return x if quantity is None else check_range(quantity, x, where=name)
 
 
+def _word_or_si(value: Any, word: str, kind: str, name: str) -> Any:
+    """``word`` itself, or a quantity (:func:`_si`); a misspelt word gets "did you mean"."""
+    from torlab._suggest import word_or
+
+    return word_or(value, word, lambda v: _si(v, kind, name),
+                   lambda m: TorlabInputError(m, key=name))
+
+
 def fit_removal(tests: Any, layer: Any, *, scene: Any = None, density: Any = None,
                 amount: Any = None, track_radius: Any = None, application_time: Any = None,
                 step: int | None = None, compliance: Any = None, repeatability: float = 0.0,
@@ -496,8 +504,8 @@ def fit_removal(tests: Any, layer: Any, *, scene: Any = None, density: Any = Non
         application_time=_si(application_time, "time", "application_time"),
         track_radius=_si(track_radius, "length", "track_radius")) for t in items]
     sc = default_tribometer_scene() if scene is None else _scene(scene)
-    sk = skip if skip == "auto" else _si(skip, "time", "skip")
-    tr = transfer if transfer == "fit" else _si(transfer, "dimensionless", "transfer")
+    sk = _word_or_si(skip, "auto", "time", "skip")
+    tr = _word_or_si(transfer, "fit", "dimensionless", "transfer")
     res = _fit(tt, lay, sc, laws=laws, law=law, transfer=tr, skip=sk,
                duration=_si(duration, "time", "duration"))
     if scene is None:

@@ -545,6 +545,18 @@ class OutputDir:
         self.io_seconds += time.perf_counter() - t0
         return self.final_path(name)
 
+    def write_xlsx(self, name: str, tables: dict[str, Any]) -> Path:
+        """Write tables as the sheets of one Excel workbook (``--xlsx`` of every command
+        that writes tables; :func:`torlab.instruments.output.write_xlsx`: sheet names cut
+        to Excel's 31 characters, the CSVs' column names with their units)."""
+        import io
+
+        from torlab.instruments.output import write_xlsx
+
+        buf = io.BytesIO()
+        write_xlsx(buf, tables)
+        return self.write_bytes(name, buf.getvalue())
+
     def save_figure(self, name: str, fig: Any, **kw: Any) -> Path:
         """Save a figure (format from the suffix): a :class:`~torlab.reports.render.Plot`
         or a matplotlib figure (closed after saving).  No ``bbox_inches="tight"`` pass:

@@ -74,6 +74,15 @@ def _reissue(records: Sequence[tuple[Any, ...]]) -> None:
         warnings.warn_explicit(message, category, filename, lineno)
 
 
+def _results(out: Sequence[tuple[Any, Sequence[tuple[Any, ...]]]]) -> list[Any]:
+    """The tasks' results, in order, each task's warnings reissued here (as a serial run would)."""
+    results = []
+    for res, ws in out:
+        _reissue(ws)
+        results.append(res)
+    return results
+
+
 def _worker_init() -> None:
     """A worker runs its tasks serially and leaves Ctrl-C to the parent."""
     import signal
@@ -219,11 +228,7 @@ class ProcessExecutor(Executor):
             for f in futs:
                 f.cancel()
             raise
-        results = []
-        for res, ws in out:
-            _reissue(ws)
-            results.append(res)
-        return results
+        return _results(out)
 
     def close(self) -> None:
         if self._pool is not None:
@@ -268,9 +273,10 @@ class DaskExecutor(Executor):
         if isinstance(scheduler, Client):
             self.client = scheduler
         elif isinstance(scheduler, str):
+            check_address(scheduler)
             try:
                 self.client = Client(scheduler, timeout=timeout, set_as_default=False)
-            except OSError as e:
+            except (OSError, ValueError) as e:
                 from torlab.errors import TorlabInputError
 
                 raise TorlabInputError(f"cannot reach the Dask scheduler at {scheduler}: {e}",
@@ -303,11 +309,7 @@ class DaskExecutor(Executor):
         except BaseException:
             self.client.cancel(futs)
             raise
-        results = []
-        for res, ws in out:
-            _reissue(ws)
-            results.append(res)
-        return results
+        return _results(out)
 
     def close(self) -> None:
         if self._own:
@@ -345,6 +347,36 @@ def activate(executor: Executor) -> Iterator[Executor]:
         yield executor
     finally:
         _CURRENT.reset(token)
+
+
+#: the protocols of a Dask scheduler address torlab passes on (``tcp://host:8786``)
+ADDRESS_PROTOCOLS = ("tcp", "tls", "ucx", "ws", "wss", "inproc")
+
+
+def check_address(address: str) -> None:
+    """Refuse a scheduler address Dask could only fail on late: an unknown protocol (with a
+    "did you mean"), or a port that is not a number from 1 to 65535 (``tcp://host:8786``).
+
+    Raises
+    ------
+    TorlabInputError
+        Keyed ``--scheduler``.
+    """
+    from torlab._suggest import did_you_mean
+    from torlab.errors import TorlabInputError
+
+    proto, sep, rest = address.strip().partition("://")
+    if not sep:
+        proto, rest = "tcp", address.strip()
+    if proto not in ADDRESS_PROTOCOLS:
+        raise TorlabInputError(f"{address!r}: unknown protocol {proto!r} (write tcp://host:8786)"
+                               f"{did_you_mean(proto, ADDRESS_PROTOCOLS)}", key="--scheduler")
+    if proto == "inproc":
+        return
+    host, colon, port = rest.rpartition(":") if not rest.endswith("]") else (rest, "", "")
+    if not rest or (colon and (not host or not port.isdigit() or not 1 <= int(port) <= 65535)):
+        raise TorlabInputError(f"{address!r} is not a scheduler address: write host:port, e.g. "
+                               "tcp://192.168.1.10:8786", key="--scheduler")
 
 
 def get_executor(jobs: int | None = None, scheduler: str | None = None) -> Executor:

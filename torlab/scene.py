@@ -536,7 +536,10 @@ def _message(err: dict) -> str:
     if t == "missing":
         return "missing (required)"
     if t == "literal_error":
-        return f"{err.get('input')!r} is not allowed: {msg.replace('Input should be ', 'use ')}"
+        from torlab._suggest import literal_suggestion
+
+        return (f"{err.get('input')!r} is not allowed: {msg.replace('Input should be ', 'use ')}"
+                f"{literal_suggestion(err)}")
     if t in ("greater_than", "greater_than_equal", "less_than", "less_than_equal"):
         return f"{err.get('input')!r} is out of range: {msg.replace('Input should be ', 'must be ')}"
     if msg.startswith("Value error, "):

@@ -23,6 +23,7 @@ __all__ = [
     "XlsxOpt",
     "command_line",
     "console",
+    "option_keys",
     "parse_values",
     "print_table",
     "require_files",
@@ -126,3 +127,39 @@ def session(jobs: int | None = None, scheduler: str | None = None, quiet: bool =
     ex = get_executor(jobs, scheduler) if parallel else SerialExecutor()
     with ex, Progress(enabled_for(quiet)):
         yield ex
+
+
+@contextmanager
+def option_keys(command: Any) -> Iterator[None]:
+    """Say a library error keyed by a keyword argument the command passes on (``skip``,
+    ``track_radius``) with the command's own option (``--skip``, ``--track-radius``).
+
+    ``command`` is the typer command function; its parameters and their option
+    names (``typer.Option("--as")``, else typer's ``--name-with-dashes``) give the
+    flags.  Errors keyed otherwise, or naming a file, pass unchanged."""
+    from torlab.errors import TorlabInputError
+
+    try:
+        yield
+    except TorlabInputError as e:
+        if e.path is not None or not e.key or type(e) is not TorlabInputError:
+            raise
+        flag = _option_flags(command).get(e.key)
+        if flag is None:
+            raise
+        raise TorlabInputError(e.message, key=flag) from None
+
+
+def _option_flags(command: Any) -> dict[str, str]:
+    """Parameter name -> its long option of a typer command function (arguments left out)."""
+    import typing
+
+    flags = {}
+    for name, hint in typing.get_type_hints(command, include_extras=True).items():
+        info = next((m for m in getattr(hint, "__metadata__", ()) if hasattr(m, "param_decls")),
+                    None)
+        if info is None or type(info).__name__ != "OptionInfo":
+            continue
+        decls = [d for d in (info.param_decls or ()) if d.startswith("--")]
+        flags[name] = decls[0].split("/")[0] if decls else "--" + name.replace("_", "-")
+    return flags

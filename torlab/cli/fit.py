@@ -5,8 +5,12 @@ Each command writes ``params.yaml`` (the scene contract's ``boundary:`` /
 ``torlab predict traction SCENE params.yaml`` reads it unchanged),
 ``fit_table.csv`` (value, standard error, 95 % interval per parameter),
 ``correlation.csv``, ``fit_data.csv`` (data, model, residuals), ``fit.png``
-(data against model and residuals) and ``summary.json``.  A fit that fails
-writes nothing.
+(data against model and residuals) and ``summary.json``; with ``--xlsx`` every
+table in ``tables.xlsx`` too.  Data arguments take files, folders and patterns
+(``'runs/*.csv'``, expanded by torlab: a folder contributes the files the fit can
+read); several curves give one fit each, in a sub-folder per curve with
+``fit_summary.csv`` over them, or with ``--joint`` one fit to all of them.  A fit
+that fails writes nothing.
 """
 
 from __future__ import annotations
@@ -20,12 +24,21 @@ from torlab.cli._common import (
     ForceOpt,
     FormatsOpt,
     OutOpt,
+    XlsxOpt,
     command_line,
     console,
+    option_keys,
     print_table,
     require_files,
 )
-from torlab.instruments.measured import film_data, hpt_items, is_hpt_input, traction_data
+from torlab.instruments.measured import (
+    film_data,
+    hpt_items,
+    is_hpt_input,
+    loads,
+    traction_data,
+    viscosity_data,
+)
 
 app = typer.Typer(help="Fit the model's parameters (third-body layer, temperature coefficients, "
                   "viscosity, film) to reduced measurements, with uncertainties.",
@@ -41,10 +54,11 @@ def register(root: typer.Typer) -> None:
 # shared output
 # ------------------------------------------------------------------------------------------
 def write_fit(dest: Any, result: Any, prefix: str = "", title: str | None = None,
-              model_curve: tuple[Any, Any] | None = None, formats: Any = None) -> None:
+              model_curve: tuple[Any, Any] | None = None, formats: Any = None
+              ) -> dict[str, Any]:
     """Write one :class:`~torlab.fit.result.FitResult` into an OutputDir (under ``prefix``);
     its figure (the result's own :meth:`plot`) in ``formats`` (``--formats``; PNG by
-    default)."""
+    default).  Returns its tables by sheet name (for ``--xlsx``)."""
     from torlab.reports.fit import result_figure
     from torlab.reports.render import parse_formats, plot, write_figures
     from torlab.yamlio import dump_yaml
@@ -62,6 +76,45 @@ def write_fit(dest: Any, result: Any, prefix: str = "", title: str | None = None
     dest.write_json(f"{pre}summary.json", result.summary())
     write_figures(dest, [(f"{pre}fit", plot(result_figure, result, title=title,
                                             model_curve=model_curve))], parse_formats(formats))
+    sheet = f"{prefix.replace('/', '_')}_" if prefix else ""
+    return {f"{sheet}fit_table": tab, f"{sheet}correlation": corr,
+            f"{sheet}fit_data": result.data}
+
+
+def write_fits(dest: Any, fits: list[tuple[str, Any]], title: str, *, xlsx: bool = False,
+               formats: Any = None, curves: dict[str, Any] | None = None,
+               sheets: dict[str, Any] | None = None) -> str:
+    """Write one fit into the folder, or several (``(name, result)``) each into a sub-folder
+    ``<name>/`` with ``fit_summary.csv`` (one row per fit: parameters, standard errors,
+    residual RMS, warnings); with ``xlsx`` every table (and ``sheets``, a command's own
+    tables) in ``tables.xlsx``.  ``title`` is the figures' title before the source;
+    ``curves`` the dense model curve by name.  Returns what was written, in words."""
+    import pandas as pd
+
+    curves = curves or {}
+    sheets = dict(sheets or {})
+    several = len(fits) > 1
+    for name, r in fits:
+        src = r.meta.get("source", "")
+        sheets.update(write_fit(dest, r, name if several else "",
+                                title=f"{title}: {src}" if src else title,
+                                model_curve=curves.get(name), formats=formats))
+    what = "params.yaml, fit_table.csv, fit.png ..."
+    if several:
+        unit = fits[0][1].residual_unit
+        rms = "residual_rms" + (f"_{unit}" if unit not in ("-", "") else "")
+        tab = pd.DataFrame([{"curve": n, **{k: r.params[k] for k in r.names},
+                             **{f"{k}_stderr": r.stderr[k] for k in r.names},
+                             rms: r.residual_norm, "warnings": "; ".join(r.warnings)}
+                            for n, r in fits])
+        dest.write_csv("fit_summary.csv", tab, allow_missing=tuple(
+            c for c in tab.columns if c != "curve"))
+        sheets["fit_summary"] = tab
+        what = f"one folder per curve ({len(fits)}) and fit_summary.csv"
+    if xlsx:
+        dest.write_xlsx("tables.xlsx", sheets)
+        what += ", tables.xlsx"
+    return what
 
 
 def print_fit(result: Any, title: str) -> None:
@@ -85,6 +138,9 @@ def print_fit(result: Any, title: str) -> None:
     for w in result.warnings:
         c.print(f"[yellow]warning:[/yellow] {w}")
 
+
+#: the largest spread of the files' mean temperatures 'fit visc' pools into one law (K)
+VISC_TEMPERATURE_SPREAD_K = 2.0
 
 _FILES = ["params.yaml", "fit_table.csv", "correlation.csv", "fit_data.csv", "fit.png",
           "summary.json"]
@@ -117,7 +173,8 @@ def _prepare_hpt(items: list[Any], compliance: Any) -> list[Any]:
 @app.command("hpt")
 def hpt_cmd(
     inputs: Annotated[list[Path], typer.Argument(help="Raw HPT logs (torlab-hpt) or reduced CSVs "
-                                                 "('torlab hpt reduce' output).")],
+                                                 "('torlab hpt reduce' output); folders and "
+                                                 "patterns such as 'logs/*.txt' expanded.")],
     out: OutOpt,
     joint: Annotated[bool, typer.Option("--joint", help="One fit of shared parameters to all "
                                         "curves (repeats of one product and amount).")] = False,
@@ -125,12 +182,13 @@ def hpt_cmd(
         help="Rig compliance (curve file or constant such as '0.012 um/MPa'); default: the one "
         "the reduction subtracted.")] = None,
     force: ForceOpt = False,
+    xlsx: XlsxOpt = False,
     formats: FormatsOpt = None,
 ) -> None:
     """Layer parameters mu_c1, mu_c2, L_mue, L_mup from HPT curves (thesis Eqs. 5.24-5.29).
 
-    One fit per curve (a sub-folder per curve when there are several) or, with
-    --joint, one fit to all curves.
+    One fit per curve (a sub-folder per curve and fit_summary.csv when there are several)
+    or, with --joint, one fit to all curves.
     """
     from torlab.fit.layer import fit_layer_hpt, fit_layers_hpt
     from torlab.outputs import OutputDir
@@ -140,29 +198,19 @@ def hpt_cmd(
     comp = _compliance(compliance, extra)
     curves = _prepare_hpt(hpt_items(files, comp), comp)
     results = [fit_layer_hpt(curves)] if joint or len(curves) == 1 else fit_layers_hpt(curves)
+    names: list[str] = []
+    fits = [(_stem(f, names), r) for f, r in zip(files, results, strict=False)]
     dest = OutputDir(out, force=force, inputs=[*files, *extra], command=command_line())
     with dest:
-        names = []
-        for i, r in enumerate(results):
-            pre = "" if len(results) == 1 else _stem(files[i], names)
-            write_fit(dest, r, pre, title=f"HPT layer fit: {r.meta.get('source', '')}",
-                      formats=formats)
-        if len(results) > 1:
-            import pandas as pd
-
-            rows = [{"curve": n, **{k: r.params[k] for k in r.names},
-                     **{f"{k}_stderr": r.stderr[k] for k in r.names},
-                     "residual_rms_Pa": r.residual_norm, "warnings": "; ".join(r.warnings)}
-                    for n, r in zip(names, results, strict=True)]
-            dest.write_csv("fit_summary.csv", pd.DataFrame(rows),
-                           allow_missing=tuple(f"{k}_stderr" for k in results[0].names))
+        what = write_fits(dest, fits, "HPT layer fit", xlsx=xlsx, formats=formats)
     for r in results:
         print_fit(r, f"HPT layer fit: {r.meta.get('source', '')}")
-    console().print(f"wrote {'params.yaml, fit_table.csv, fit.png ...' if len(results) == 1 else 'one folder per curve and fit_summary.csv'} to {out}")
+    console().print(f"wrote {what} to {out}")
 
 
-def _stem(f: Path, names: list[str]) -> str:
-    s = f.stem
+def _stem(f: Path | str, names: list[str]) -> str:
+    """A sub-folder name for ``f`` (its stem, or a label) not yet in ``names``."""
+    s = Path(f).stem if isinstance(f, Path) else f
     while s in names:
         s += "_"
     names.append(s)
@@ -174,49 +222,85 @@ def traction_cmd(
     scene: Annotated[Path, typer.Argument(help="Scene YAML of the test contact (load, radii, "
                                           "materials, speed); its boundary: values are the "
                                           "defaults of fixed parameters.")],
-    data: Annotated[Path, typer.Argument(help="Traction curve: CSV with creepage (or srr) and mu "
-                                         "(or traction_coefficient), or a torlab-optical log.")],
+    data: Annotated[list[Path], typer.Argument(
+        help="Traction curves: CSVs with creepage (or srr) and mu (or traction_coefficient), "
+        "PCS exports or torlab-optical logs; folders and patterns such as 'runs/*.csv' "
+        "expanded.")],
     out: OutOpt,
+    joint: Annotated[bool, typer.Option("--joint", help="One fit to all curves together "
+                                        "(repeats of one test in this scene).")] = False,
     fix: Annotated[list[str] | None, typer.Option(
         "--fix", help="Hold a parameter fixed: 'L_mup=20 um' (repeatable).")] = None,
     dry: Annotated[bool, typer.Option("--dry", help="Dry test: ignore the scene's lubricant: and "
                                       "roughness: (automatic for a dry_traction optical log).")]
     = False,
     force: ForceOpt = False,
+    xlsx: XlsxOpt = False,
     formats: FormatsOpt = None,
 ) -> None:
-    """Layer parameters from a measured traction curve mu(SRR), fitted with FASTSIM
+    """Layer parameters from measured traction curves mu(SRR), fitted with FASTSIM
     (the model of 'torlab predict traction', thesis Eqs. 5.14-5.30).
 
     A lubricated scene is fitted with the mixed model (film + asperities + layer); a dry
-    test (--dry, or a torlab-optical log of test dry_traction) with the dry model.
+    test (--dry, or a torlab-optical log of test dry_traction) with the dry model.  Every
+    curve is one test in the scene: several files give one fit each (a sub-folder per file
+    and fit_summary.csv), or with --joint one fit to all their points.
     """
-    from torlab.fit.traction import fit_layer_traction
     from torlab.outputs import OutputDir
     from torlab.scene import load_scene
 
-    files = require_files([scene, data], "input")
+    (scene,) = require_files([scene], "scene")
     sc = load_scene(scene)
-    xi, mu, test = traction_data(data)
-    if (dry or test == "dry_traction") and (sc.lubricant is not None or sc.roughness is not None):
-        sc = sc.model_copy(update={"lubricant": None, "roughness": None})
-        console().print("dry traction test: the scene's lubricant: and roughness: are ignored "
-                        "(Hertz + FASTSIM + layer)")
-    fixed = _parse_fixed(fix or [])
-    res = fit_layer_traction(sc, xi, mu, fixed=fixed)
-    res.meta["source"] = data.name
+    keep, loaded = loads(traction_data)
+    files = require_files(data, "traction-curve", keep=keep)
+    curves = [(f, *(loaded[f] if f in loaded else traction_data(f))) for f in files]
+    fits, model_curves = _traction_fits(sc, curves, joint=joint, dry=dry,
+                                        fixed=_parse_fixed(fix or []))
+    dest = OutputDir(out, force=force, inputs=[scene, *files], command=command_line())
+    with dest:
+        what = write_fits(dest, fits, "Traction fit", xlsx=xlsx, formats=formats,
+                          curves=model_curves)
+    for _, r in fits:
+        print_fit(r, f"Traction fit: {r.meta['source']}")
+    console().print(f"wrote {what} to {out}")
+
+
+def _traction_fits(sc: Any, curves: list[tuple[Path, Any, Any, str]], *, joint: bool,
+                   dry: bool, fixed: dict[str, float]
+                   ) -> tuple[list[tuple[str, Any]], dict[str, Any]]:
+    """One traction fit per curve ``(file, creepage, mu, test)``, or one to all (``joint``);
+    each with its dense model curve.  A dry test is fitted in the scene without its
+    lubricant and roughness."""
     import numpy as np
 
-    from torlab.fit.traction import traction_model
+    from torlab.errors import TorlabInputError
+    from torlab.fit.traction import fit_layer_traction, traction_model
 
-    dense = np.linspace(float(np.min(xi)), float(np.max(xi)), 201)
-    curve = (dense, traction_model(sc)(res.params, dense))
-    dest = OutputDir(out, force=force, inputs=files, command=command_line())
-    with dest:
-        write_fit(dest, res, title=f"Traction fit: {data.name}", model_curve=curve,
-                  formats=formats)
-    print_fit(res, f"Traction fit: {data.name}")
-    console().print(f"wrote {', '.join(_FILES)} to {out}")
+    is_dry = [dry or test == "dry_traction" for *_, test in curves]
+    if joint and len(set(is_dry)) > 1:
+        wet = [c[0].name for c, d in zip(curves, is_dry, strict=True) if not d]
+        raise TorlabInputError(f"--joint pools repeats of one test, but {', '.join(wet)} "
+                               "is lubricated and the others dry traction tests: fit them "
+                               "apart (or give --dry)", key="--joint")
+    lubricated = sc.lubricant is not None or sc.roughness is not None
+    if lubricated and any(is_dry):
+        console().print("dry traction test: the scene's lubricant: and roughness: are ignored "
+                        "(Hertz + FASTSIM + layer)")
+    groups = [curves] if joint else [[c] for c in curves]
+    names: list[str] = []
+    fits, model_curves = [], {}
+    for group in groups:
+        dry_group = is_dry[curves.index(group[0])]
+        scg = sc.model_copy(update={"lubricant": None, "roughness": None}) \
+            if dry_group and lubricated else sc
+        xi = np.concatenate([c[1] for c in group])
+        res = fit_layer_traction(scg, xi, np.concatenate([c[2] for c in group]), fixed=fixed)
+        res.meta["source"] = ", ".join(c[0].name for c in group)
+        name = _stem(group[0][0], names)
+        dense = np.linspace(float(np.min(xi)), float(np.max(xi)), 201)
+        model_curves[name] = (dense, traction_model(scg)(res.params, dense))
+        fits.append((name, res))
+    return fits, model_curves
 
 
 def _parse_fixed(items: list[str]) -> dict[str, float]:
@@ -235,7 +319,8 @@ def _parse_fixed(items: list[str]) -> dict[str, float]:
 @app.command("temperature")
 def temperature_cmd(
     inputs: Annotated[list[Path], typer.Argument(help="HPT logs (or reduced CSVs) of one product "
-                                                 "at three or more temperatures.")],
+                                                 "at three or more temperatures; folders and "
+                                                 "patterns expanded.")],
     out: OutOpt,
     compliance: Annotated[str | None, typer.Option(help="Rig compliance (curve file or "
                                                    "constant).")] = None,
@@ -246,20 +331,18 @@ def temperature_cmd(
              "is fixed to 0; 'none': every coefficient is kept and its uncertainty carried "
              "into predictions.", case_sensitive=False)] = "test",
     force: ForceOpt = False,
+    xlsx: XlsxOpt = False,
     formats: FormatsOpt = None,
 ) -> None:
     """Temperature coefficients mu_c1_T, mu_c2_T (thesis Eqs. 5.26-5.27) from one layer fit
-    per run: ln mu_ci against T; each coefficient kept or fixed to 0 (--selection)."""
-    from torlab.errors import TorlabInputError
+    per run: ln mu_ci against T; each coefficient kept or fixed to 0 (--selection).  The
+    runs together give one fit; each run's layer fit is in runs/<name>/."""
     from torlab.fit.layer import fit_layers_hpt
     from torlab.fit.temperature import fit_temperature_coefficients
     from torlab.outputs import OutputDir
     from torlab.units import to_si
 
-    sel = selection.strip().lower()
-    if sel not in ("test", "none"):
-        raise TorlabInputError(f"--selection must be 'test' or 'none', not {selection!r}",
-                               key="--selection")
+    sel = _choice(selection, ("test", "none"), "--selection")
     files = require_files(inputs, "HPT", keep=is_hpt_input)
     extra: list[Path] = []
     comp = _compliance(compliance, extra)
@@ -269,94 +352,129 @@ def temperature_cmd(
     res = fit_temperature_coefficients(fits, reference_temperature_C=Tref, selection=sel)
     dest = OutputDir(out, force=force, inputs=[*files, *extra], command=command_line())
     with dest:
-        write_fit(dest, res, title="Temperature coefficients of the layer", formats=formats)
+        sheets: dict[str, Any] = {}
         names: list[str] = []
         for f, r in zip(files, fits, strict=True):
-            write_fit(dest, r, f"runs/{_stem(f, names)}", formats=formats)
+            sheets.update(write_fit(dest, r, f"runs/{_stem(f, names)}", formats=formats))
+        write_fits(dest, [("", res)], "Temperature coefficients of the layer", xlsx=xlsx,
+                   formats=formats, sheets=sheets)
     print_fit(res, "Temperature coefficients")
     console().print(f"wrote {', '.join(_FILES)} and runs/ (one layer fit per run) to {out}")
 
 
+def _choice(value: str, choices: tuple[str, ...], key: str) -> str:
+    """``value`` (case-insensitive) if it is one of ``choices``; else one line naming them
+    (with "did you mean")."""
+    from torlab._suggest import did_you_mean
+    from torlab.errors import TorlabInputError
+
+    v = value.strip().lower()
+    if v not in choices:
+        raise TorlabInputError(f"{value!r} is not one of {', '.join(choices)}"
+                               f"{did_you_mean(v, choices)}", key=key)
+    return v
+
+
 @app.command("film")
 def film_cmd(
-    data: Annotated[Path, typer.Argument(help="Film-thickness data: PCS EHD2 export, "
-                                         "torlab-optical log, or CSV with speed_m_s (or "
-                                         "rolling_speed_m_s) and film_thickness_m.")],
+    data: Annotated[list[Path], typer.Argument(
+        help="Film-thickness data: PCS EHD2 exports, torlab-optical logs, or CSVs with "
+        "speed_m_s (or rolling_speed_m_s) and film_thickness_m; folders and patterns such as "
+        "'ehd2/*.txt' expanded.")],
     out: OutOpt,
     scene: Annotated[Path | None, typer.Option(help="Scene (contact, materials, lubricant eta0 at "
                                                "the test temperature) for the effective "
                                                "alpha.")] = None,
     min_speed: Annotated[str | None, typer.Option(help="Fit only speeds at or above this, e.g. "
                                                   "'50 mm/s'.")] = None,
+    joint: Annotated[bool, typer.Option("--joint", help="One fit to all curves together "
+                                        "(repeats at one temperature).")] = False,
     force: ForceOpt = False,
+    xlsx: XlsxOpt = False,
     formats: FormatsOpt = None,
 ) -> None:
     """Speed exponent of the film (Hamrock-Dowson predicts 0.67, Eq. 5.32) and, with a scene,
-    the effective pressure-viscosity coefficient alpha. An EHD2 file with several film
-    steps gives one fit per step (a sub-folder each)."""
+    the effective pressure-viscosity coefficient alpha.  Every film curve gets its own fit
+    (a sub-folder each, named by file and, for EHD2 film steps, by temperature, and
+    fit_summary.csv); --joint fits all curves together."""
+    import numpy as np
+
     from torlab.fit.film import fit_film_thickness
     from torlab.outputs import OutputDir
     from torlab.scene import load_scene
     from torlab.units import to_si
 
-    files = require_files([data] + ([scene] if scene else []), "input")
+    keep, loaded = loads(film_data)
+    files = require_files(data, "film-thickness", keep=keep)
+    scenes = require_files([scene], "scene") if scene else []
     vmin = None if min_speed is None else to_si(min_speed, "velocity", where="--min-speed")
-    sc = load_scene(scene) if scene else None
-    groups = film_data(data)
-    results = []
-    for label, v, h in groups:
+    sc = load_scene(scenes[0]) if scenes else None
+    groups = [(f, label, v, h) for f in files
+              for label, v, h in (loaded[f] if f in loaded else film_data(f))]
+    if joint:
+        groups = [(files[0], "", np.concatenate([g[2] for g in groups]),
+                   np.concatenate([g[3] for g in groups]))]
+    names: list[str] = []
+    fits = []
+    for f, label, v, h in groups:
         r = fit_film_thickness(v, h, scene=sc, min_speed=vmin)
-        r.meta["source"] = f"{data.name}{'' if not label else f' {label}'}"
-        results.append((label, r))
-    dest = OutputDir(out, force=force, inputs=files, command=command_line())
+        r.meta["source"] = ", ".join(x.name for x in files) if joint else \
+            f"{f.name}{'' if not label else f' {label}'}"
+        tag = label.replace(" °C", "C").replace(" ", "_")
+        fits.append((_stem(tag if len(files) == 1 and tag else
+                           f"{f.stem}_{tag}" if tag else f.stem, names), r))
+    dest = OutputDir(out, force=force, inputs=[*files, *scenes], command=command_line())
     with dest:
-        for label, r in results:
-            write_fit(dest, r, label.replace(" °C", "C").replace(" ", "_")
-                      if len(results) > 1 else "",
-                      title=f"Film thickness: {r.meta['source']}", formats=formats)
-    for _label, r in results:
+        what = write_fits(dest, fits, "Film thickness", xlsx=xlsx, formats=formats)
+    for _, r in fits:
         print_fit(r, f"Film fit: {r.meta['source']}")
-    console().print(f"wrote the film fit{'s' if len(results) > 1 else ''} to {out}")
+    console().print(f"wrote {what} to {out}")
 
 
 @app.command("visc")
 def visc_cmd(
     data: Annotated[list[Path], typer.Argument(help="'torlab visc reduce' output CSVs "
                                                "(*_steps.csv or *_falls.csv: pressure_Pa, "
-                                               "viscosity_Pa_s).")],
+                                               "viscosity_Pa_s); folders and patterns "
+                                               "expanded.")],
     out: OutOpt,
     law: Annotated[str, typer.Option(help="barus or roelands.")] = "roelands",
     force: ForceOpt = False,
+    xlsx: XlsxOpt = False,
     formats: FormatsOpt = None,
 ) -> None:
     """Viscosity law (eta0, alpha or Z; thesis Eqs. 5.38-5.39) from reduced viscometer data,
-    written as the scene's lubricant: keys."""
+    written as the scene's lubricant: keys.  Every file's points together give one fit (the
+    law of one lubricant at one temperature: files more than 2 K apart are refused).  A
+    folder contributes its *_falls.csv (a log's *_steps.csv are the same falls averaged per
+    pressure step, taken only where the falls are not there)."""
     import numpy as np
-    import pandas as pd
 
-    from torlab.errors import TorlabInputError
     from torlab.fit.result import viscosity_result
     from torlab.fit.viscosity import fit_viscosity
     from torlab.outputs import OutputDir
 
-    files = require_files(data, "viscosity")
-    p, eta, T = [], [], []
-    for f in files:
-        df = pd.read_csv(f)
-        if "pressure_Pa" not in df or "viscosity_Pa_s" not in df:
-            raise TorlabInputError("needs columns pressure_Pa and viscosity_Pa_s ('torlab visc "
-                                   "reduce' output)", path=f)
-        p.append(df["pressure_Pa"].to_numpy(dtype=float))
-        eta.append(df["viscosity_Pa_s"].to_numpy(dtype=float))
-        if "temperature_C" in df:
-            T.append(df["temperature_C"].to_numpy(dtype=float))
-    Tm = float(np.mean(np.concatenate(T))) if T else None
+    law = _choice(law, ("barus", "roelands"), "--law")
+    reads, loaded = loads(viscosity_data)
+    files = require_files(data, "reduced viscometer", keep=lambda f: reads(f) and not (
+        f.name.endswith("_steps.csv") and f.with_name(f.name[:-10] + "_falls.csv").is_file()))
+    p, eta, T = zip(*(loaded[f] if f in loaded else viscosity_data(f) for f in files),
+                    strict=True)
+    Ts = [t for t in T if t is not None]
+    Tm = float(np.mean(np.concatenate(Ts))) if Ts else None
+    means = [float(np.mean(t)) for t in Ts]
+    if means and max(means) - min(means) > VISC_TEMPERATURE_SPREAD_K:
+        from torlab.errors import TorlabInputError
+
+        raise TorlabInputError(
+            f"the files are at {', '.join(f'{t:.1f}' for t in means)} degC: a viscosity law "
+            "holds at one temperature; fit each temperature apart")
     vf = fit_viscosity(np.concatenate(p), np.concatenate(eta), law, temperature_C=Tm)
     res = viscosity_result(vf)
     res.meta["source"] = ", ".join(f.name for f in files)
     dest = OutputDir(out, force=force, inputs=files, command=command_line())
     with dest:
-        write_fit(dest, res, title=f"Viscosity fit ({law})", formats=formats)
+        write_fits(dest, [("", res)], f"Viscosity fit ({law})", xlsx=xlsx, formats=formats)
     print_fit(res, f"Viscosity fit ({law})")
     console().print(f"wrote {', '.join(_FILES)} to {out}")
 
@@ -374,6 +492,7 @@ def polach_cmd(
                                                 "creepage and speed.")] = None,
     spin: Annotated[str | None, typer.Option(help="Optional spins (1/m) added likewise.")] = None,
     force: ForceOpt = False,
+    xlsx: XlsxOpt = False,
     formats: FormatsOpt = None,
 ) -> None:
     """Polach's creep-force parameters mu0, A, B, kA, kS (Polach 2005; spin of 1999) fitted
@@ -398,7 +517,7 @@ def polach_cmd(
                      spin=None if spin is None else parse_values(spin, "inverse_length", "--spin"),
                      source=sc.name or files[0].stem)
     with OutputDir(out, force=force, inputs=files, command=command_line()) as dest:
-        write_fit(dest, res, title=f"Polach fit: {res.meta['source']}", formats=formats)
+        write_fits(dest, [("", res)], "Polach fit", xlsx=xlsx, formats=formats)
     print_fit(res, f"Polach fit: {res.meta['source']}")
     console().print(f"largest difference Polach - torlab: {res.meta['max_abs_residual']:.3g} "
                     f"(F/N); wrote {', '.join(_FILES)} to {out}")
@@ -437,6 +556,7 @@ def removal_cmd(
     skip: Annotated[str, typer.Option(help="Time after the application left out of the fit "
                                       "(the film phase), or 'auto'.")] = "auto",
     force: ForceOpt = False,
+    xlsx: XlsxOpt = False,
     formats: FormatsOpt = None,
 ) -> None:
     """Removal law of a product (k0 or k1, spread, transfer) from MTM time tests after
@@ -449,37 +569,45 @@ def removal_cmd(
     """
     from torlab.api import fit_removal
     from torlab.fit.amount import is_layer_input
-    from torlab.fit.removal import is_time_test_input, retention_from_dict
+    from torlab.fit.removal import is_time_test_input
     from torlab.outputs import OutputDir
-    from torlab.reports.retention import layer_figure
 
     files = require_files(tests, "time-test", keep=is_time_test_input)
     layer_files = require_files([Path(h) for h in hpt], "HPT", keep=is_layer_input)
     extra = [scene] if scene else []
     comp = _compliance(compliance, extra)
-    res = fit_removal(files, layer_files, scene=scene, density=density, amount=amount,
-                      track_radius=track_radius, application_time=application_time,
-                      compliance=comp, repeatability=repeatability,
-                      laws=[x.strip() for x in laws.split(",") if x.strip()], law=law,
-                      transfer="fit" if transfer.strip() == "fit" else transfer, skip=skip)
-    import pandas as pd
-
-    layer = retention_from_dict(res.parameter_file).layer
+    with option_keys(removal_cmd):
+        res = fit_removal(files, layer_files, scene=scene, density=density, amount=amount,
+                          track_radius=track_radius, application_time=application_time,
+                          compliance=comp, repeatability=repeatability,
+                          laws=[x.strip() for x in laws.split(",") if x.strip()], law=law,
+                          transfer=transfer.strip(), skip=skip.strip())
     dest = OutputDir(out, force=force, inputs=[*files, *layer_files, *extra],
                      command=command_line())
     with dest:
-        write_fit(dest, res, title=f"Removal fit: {res.meta['source']}", formats=formats)
-        dest.write_csv("law_selection.csv", pd.DataFrame(res.meta["law_selection"]))
-        dest.write_csv("amount_layer.csv", layer.table())
-        from torlab.reports.render import parse_formats, plot, write_figures
-
-        write_figures(dest, [("amount_layer", plot(layer_figure, layer))],
-                      parse_formats(formats))
+        _write_removal(dest, res, xlsx=xlsx, formats=formats)
     print_fit(res, f"Removal fit ({res.meta['law']}): {res.meta['source']}")
     print_table([{k: r[k] for k in ("law", "parameters", "aicc", "delta_aicc", "weight")}
                  for r in res.meta["law_selection"]], title="Law choice (AICc)",
                 formats={"aicc": ".1f", "delta_aicc": ".1f", "weight": ".3f"})
     for n in res.meta.get("notes", []):
         console().print(f"[yellow]note:[/yellow] {n}")
-    console().print(f"wrote {', '.join(_FILES)}, law_selection.csv, amount_layer.csv/.png to "
-                    f"{out}")
+    console().print(f"wrote {', '.join(_FILES)}, law_selection.csv, amount_layer.csv/.png"
+                    f"{', tables.xlsx' if xlsx else ''} to {out}")
+
+
+def _write_removal(dest: Any, res: Any, *, xlsx: bool, formats: Any) -> None:
+    """The removal fit's files, its law selection and its amount layer (table, figure)."""
+    import pandas as pd
+
+    from torlab.fit.removal import retention_from_dict
+    from torlab.reports.render import parse_formats, plot, write_figures
+    from torlab.reports.retention import layer_figure
+
+    layer = retention_from_dict(res.parameter_file).layer
+    own = {"law_selection": pd.DataFrame(res.meta["law_selection"]),
+           "amount_layer": layer.table()}
+    for name, tab in own.items():
+        dest.write_csv(f"{name}.csv", tab)
+    write_fits(dest, [("", res)], "Removal fit", xlsx=xlsx, formats=formats, sheets=own)
+    write_figures(dest, [("amount_layer", plot(layer_figure, layer))], parse_formats(formats))

@@ -18,6 +18,7 @@ from torlab.cli._common import (
     SchedulerOpt,
     command_line,
     console,
+    option_keys,
     require_files,
 )
 
@@ -219,7 +220,8 @@ def _sweep(files: list[Path], out: Path, force: bool, formats: Sequence[str],
     if kw["seconds"] is None or kw["amount"] is None:
         raise TorlabInputError("a slip sweep needs both --sweep (its duration) and --amount",
                                key="--sweep" if kw["seconds"] is None else "--amount")
-    sw = predict_sweep(files[0], files[1:], kw.pop("amount"), **kw)
+    with option_keys(traction_cmd):
+        sw = predict_sweep(files[0], files[1:], kw.pop("amount"), **kw)
     with OutputDir(out, force=force, inputs=files, command=command_line()) as dest:
         names = write_sweep(dest, sw, title="", formats=formats)
     s = sw.summary
@@ -286,11 +288,12 @@ def retention_cmd(
         raise TorlabInputError("cycles are revolutions of a disc track: give --track-radius",
                                key="--cycles")
     n = passes or cycles
-    pred = predict_retention(
-        files[0], files[1:], amount, creepage=creepage, time=time, speed=speed, band=band,
-        passes=None if n is None else to_si(n, "dimensionless", where=given[0]),
-        band_length=band_length, track_radius=track_radius, pass_interval=pass_interval,
-        density=density, n_draws=draws, seed=seed)
+    with option_keys(retention_cmd):
+        pred = predict_retention(
+            files[0], files[1:], amount, creepage=creepage, time=time, speed=speed, band=band,
+            passes=None if n is None else to_si(n, "dimensionless", where=given[0]),
+            band_length=band_length, track_radius=track_radius, pass_interval=pass_interval,
+            density=density, n_draws=draws, seed=seed)
     axis = "time" if time else "cycles" if track_radius else "passes"
     with OutputDir(out, force=force, inputs=files, command=command_line()) as dest:
         names = write_retention(dest, pred, axis=axis, formats=formats)

@@ -140,9 +140,12 @@ def _fit_of(item: Any, compliance: Any) -> Any:
     p = Path(item)
     if p.suffix.lower() in YAML_SUFFIXES:
         return layer_fit_from_params(p)
-    from torlab.api import fit_hpt
+    from torlab.fit.layer import fit_layer_hpt
+    from torlab.instruments import reduce_file
+    from torlab.reduce.hpt import RigCompliance
 
-    return fit_hpt(p, compliance=compliance)
+    comp = RigCompliance.from_spec(compliance)
+    return fit_layer_hpt([reduce_file(p, "hpt", compliance=comp).detail])
 
 
 def _has_amount(fit: Any) -> bool:

@@ -507,9 +507,12 @@ class _Spec:
     transfer_fit: bool
 
 
-def _spec(law: str, transfer_fit: bool) -> _Spec:
+def _spec(law: str, transfer_fit: bool, key: str = "laws") -> _Spec:
     if law not in LAWS:
-        raise TorlabInputError(f"unknown removal law {law!r}; use {', '.join(LAWS)}", key="laws")
+        from torlab._suggest import did_you_mean
+
+        raise TorlabInputError(f"unknown removal law {law!r}; use {', '.join(LAWS)}"
+                               f"{did_you_mean(law, LAWS)}", key=key)
     order = 0 if law.startswith("zero") else 1
     spread = law.endswith("+spread")
     names = (f"k{order}",) + (("spread",) if spread else ()) + (("transfer",) if transfer_fit else ())
@@ -924,7 +927,7 @@ def fit_removal(tests: TimeTest | Sequence[TimeTest], layer: Any, scene: Any, *,
     cands = list(dict.fromkeys([*laws, *([law] if law else [])]))
     if not cands:
         raise TorlabInputError("no candidate removal law", key="laws")
-    specs = [_spec(nm, fit_tr) for nm in cands]
+    specs = [_spec(nm, fit_tr, "laws" if nm in laws else "law") for nm in cands]
     preps = [_prepare(tt, scene, layer, skip=skip, duration=duration, per_interval=per_interval,
                       max_transfer=1.0 if fit_tr else float(transfer), fit_transfer=fit_tr)
              for tt in items]

@@ -12,7 +12,16 @@ from typing import Any
 
 from torlab.errors import TorlabInputError
 
-__all__ = ["detected", "film_data", "hpt_items", "is_hpt_input", "read_csv", "traction_data"]
+__all__ = [
+    "detected",
+    "film_data",
+    "hpt_items",
+    "is_hpt_input",
+    "loads",
+    "read_csv",
+    "traction_data",
+    "viscosity_data",
+]
 
 
 def detected(path: Path) -> str:
@@ -43,6 +52,27 @@ def read_csv(path: Path, need: tuple[tuple[str, ...], ...], what: str) -> tuple[
         raise TorlabInputError(f"not an instrument file torlab recognises, nor a CSV of {what} "
                                f"(columns {' and '.join(' or '.join(g) for g in need)})", path=path)
     return df, cols
+
+
+def loads(load: Any) -> tuple[Any, dict[Path, Any]]:
+    """A ``keep`` filter for :func:`torlab.instruments.expand_inputs` that keeps the files
+    ``load`` reads without a :class:`TorlabInputError`, and the results it read.
+
+    A folder or pattern given to a fit contributes the files the fit can use (a
+    folder of ``torlab reduce`` output holds summaries and figures too); a file named
+    on its own is always loaded, so its error is said.  Each file is read once:
+    ``loaded.get(path)`` is its result when the filter read it.
+    """
+    loaded: dict[Path, Any] = {}
+
+    def keep(path: Path) -> bool:
+        try:
+            loaded[path] = load(path)
+        except TorlabInputError:
+            return False
+        return True
+
+    return keep, loaded
 
 
 def is_hpt_input(path: Path) -> bool:
@@ -104,3 +134,16 @@ def film_data(path: Path) -> list[tuple[str, Any, Any]]:
     return [("", df[vc].to_numpy(dtype=float), df[hc].to_numpy(dtype=float))]
 
 
+
+
+def viscosity_data(path: Path) -> tuple[Any, Any, Any]:
+    """Pressures, viscosities and (or ``None``) temperatures of reduced viscometer data: a
+    CSV with pressure_Pa and viscosity_Pa_s ('torlab visc reduce' *_falls.csv or
+    *_steps.csv)."""
+    df, (pc, ec) = read_csv(path, (("pressure_Pa",), ("viscosity_Pa_s",)),
+                             "reduced viscometer data ('torlab visc reduce' output)")
+    try:
+        T = df["temperature_C"].to_numpy(dtype=float) if "temperature_C" in df else None
+        return df[pc].to_numpy(dtype=float), df[ec].to_numpy(dtype=float), T
+    except ValueError:
+        raise TorlabInputError(f"columns {pc}, {ec} must be numbers", path=path) from None

@@ -95,11 +95,7 @@ def write_reductions(dest: Any, reds: list[Any], options: dict[str, dict[str, An
         names, _ = write_figures(dest, figs, parse_formats(formats))
         written += names
     if xlsx:
-        import io
-
-        buf = io.BytesIO()
-        write_xlsx(buf, sheets)
-        dest.write_bytes("tables.xlsx", buf.getvalue())
+        dest.write_xlsx("tables.xlsx", sheets)
         written.append("tables.xlsx")
     return written
 

@@ -123,7 +123,15 @@ from typing import Any, Literal
 import numpy as np
 
 from torlab.errors import ConvergenceError, NumericalError, TorlabInputError
-from torlab.model.fastsim import FastsimProblem, ThermalParams, e_strip, flash_temperature_matrix
+from torlab.model.fastsim import (
+    _G,
+    FastsimProblem,
+    ThermalParams,
+    _interp_uniform,
+    converge_flash_temperature,
+    e_strip,
+    flash_temperature_matrix,
+)
 from torlab.model.layer import LayerParams
 
 __all__ = [
@@ -458,45 +466,11 @@ def _strips(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return np.sin(ph), np.cos(ph), ww
 
 
-def _G(s: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """``G(s; r) = integral_0^s x^2/(x + r) dx = s^2/2 - r s + r^2 ln(1 + s/r)`` (series for s << r)."""
-    s, r = np.broadcast_arrays(np.asarray(s, dtype=float), np.asarray(r, dtype=float))
-    out = 0.5 * s * s
-    pos = r > 0
-    if pos.any():
-        ss, rr = s[pos], r[pos]
-        z = ss / rr
-        small = z < 0.1
-        val = np.empty(ss.shape)
-        if small.any():
-            zz = z[small]
-            acc = np.zeros(zz.shape)
-            for k in range(3, 20):
-                acc += (-1) ** (k + 1) * zz**k / k
-            val[small] = rr[small] ** 2 * acc
-        big = ~small
-        if big.any():
-            val[big] = 0.5 * ss[big] ** 2 - rr[big] * ss[big] + rr[big] ** 2 * np.log1p(z[big])
-        out[pos] = val
-    return out
-
-
 def _e(theta: np.ndarray, r: np.ndarray) -> np.ndarray:
     """``e(theta; r)`` (:func:`torlab.model.fastsim.e_strip`); ``1 - cos`` when ``r = 0``."""
     if not np.any(r):
         return 2.0 * np.sin(0.5 * np.asarray(theta, dtype=float)) ** 2 + 0.0 * r
     return e_strip(theta, r)
-
-
-def _interp_uniform(theta: np.ndarray, grid_T: np.ndarray) -> np.ndarray:
-    """Linear interpolation in ``theta`` of values on uniform nodes over [0, pi] (last axis)."""
-    nT = grid_T.shape[-1]
-    pos = np.clip(theta / math.pi * (nT - 1), 0.0, nT - 1 - 1e-12)
-    i0 = pos.astype(int)
-    f = pos - i0
-    lo = np.take_along_axis(grid_T, i0, axis=-1)
-    hi = np.take_along_axis(grid_T, i0 + 1, axis=-1)
-    return lo + f * (hi - lo)
 
 
 # -------------------------------------------------------------------------------------------
@@ -1228,9 +1202,6 @@ def _march_lanes(pts: np.ndarray, telx: np.ndarray, tely: np.ndarray, gp: np.nda
     return tx, ty, plast
 
 
-#: largest |mu_T dT| the temperature iteration accepts (as in torlab.model.fastsim)
-_MAX_EXPONENT = 30.0
-
 
 def canonical_creepages(xi: np.ndarray, eta: np.ndarray, phi: np.ndarray
                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -1445,61 +1416,9 @@ def _temperature(solver: _Solver, prob: CreepProblem, grid: CreepGrid
             q = np.where(before | ~plast, 0.0, q)
         return scale * (q @ KT)
 
-    dT = np.zeros((nc, ns, nT))
-    rows = np.arange(nc)
-    its = np.ones(nc, dtype=int)
-    new = G(dT, rows)
-    peak = np.max(np.abs(new).reshape(nc, -1), axis=1)
-    sens = max(abs(lay.mu_c1_T), abs(lay.mu_c2_T))
-    single = peak * sens < 1e-6  # heating too small to change the limits: one pass
-    if sens == 0.0 or single.all():
-        return new, its, "single pass", prob.ambient_temperature + np.max(new.reshape(nc, -1),
-                                                                          axis=1)
-    if np.max(peak) * sens > _MAX_EXPONENT:
-        bad = int(np.argmax(peak))
-        raise ConvergenceError(
-            f"contact temperature runs away at {where(bad)}: the first pass already heats by "
-            f"{peak[bad]:.3g} K, and the temperature coefficients mu_c1_T = {lay.mu_c1_T:g}, "
-            f"mu_c2_T = {lay.mu_c2_T:g} 1/K would change the limits by a factor "
-            f"exp({_MAX_EXPONENT:g})", iterations=1)
-    dT[single] = new[single]
-    active = ~single
-    omega = np.ones(nc)
-    res_prev = np.full(nc, np.inf)
-    for k in range(1, th.max_iterations + 1):
-        rows = np.flatnonzero(active)
-        res = np.max(np.abs(new[rows] - dT[rows]).reshape(rows.size, -1), axis=1)
-        done = res < th.tolerance
-        dT[rows[done]] = new[rows[done]]  # converged: keep G(T), leave the active set
-        active[rows[done]] = False
-        rows, res = rows[~done], res[~done]
-        if rows.size == 0:
-            break
-        worse = res > 0.9 * res_prev[rows]
-        omega[rows] = np.where(worse, np.maximum(omega[rows] * 0.5, 1.0 / 1024), omega[rows])
-        res_prev[rows] = res
-        dT[rows] = dT[rows] + omega[rows][:, None, None] * (new[rows] - dT[rows])
-        its[rows] = k + 1
-        new[rows] = G(dT[rows], rows)
-        runaway = ~np.isfinite(new[rows]) | (sens * np.abs(new[rows]) > _MAX_EXPONENT)
-        if runaway.any():
-            bad = int(rows[np.argmax(runaway.reshape(rows.size, -1).any(axis=1))])
-            raise ConvergenceError(
-                f"contact temperature diverged at {where(bad)} (thermal runaway: the "
-                f"temperature coefficients mu_c1_T/mu_c2_T make frictional heating "
-                f"self-amplifying)", iterations=k)
-    else:
-        rows = np.flatnonzero(active)
-        res = np.max(np.abs(new[rows] - dT[rows]).reshape(rows.size, -1), axis=1)
-        j = int(np.argmax(res))
-        bad = int(rows[j])
-        raise ConvergenceError(
-            f"contact temperature did not converge at {where(bad)}: max |dT| = {res[j]:.3g} K "
-            f"after {th.max_iterations} under-relaxed iterations (relaxation {omega[bad]:.3g}); "
-            f"the temperature coefficients mu_c1_T = {lay.mu_c1_T:g}, mu_c2_T = "
-            f"{lay.mu_c2_T:g} 1/K make the heating unstable at this slip",
-            iterations=th.max_iterations, residual=float(res[j]))
-    return dT, its, "iterated", prob.ambient_temperature + np.max(dT.reshape(nc, -1), axis=1)
+    return converge_flash_temperature(G, np.zeros((nc, ns, nT)), np.ones(nc, dtype=int),
+                                      np.ones(nc, dtype=bool), th, lay, where,
+                                      prob.ambient_temperature)
 
 
 # -------------------------------------------------------------------------------------------

@@ -745,17 +745,46 @@ def _temperature(solver: _Solver, prob: FastsimProblem, grid: FastsimGrid, xi: n
 
     dT = np.zeros((nx, ns, nT))
     its = np.where(moving, 1, 0)
-    rows = np.flatnonzero(moving)
-    if rows.size == 0:
+    if not moving.any():
         return dT, its, "single pass", np.full(nx, prob.ambient_temperature)
+    return converge_flash_temperature(G, dT, its, moving, th, lay, where,
+                                      prob.ambient_temperature)
+
+
+def converge_flash_temperature(G: Any, dT: np.ndarray, its: np.ndarray, moving: np.ndarray,
+                               th: ThermalParams, lay: LayerParams, where: Any, ambient: float
+                               ) -> tuple[np.ndarray, np.ndarray, str, np.ndarray]:
+    """The flash temperature's fixed point ``dT = G(dT)``, each point on its own.
+
+    Shared by the longitudinal model (:func:`_temperature`) and the creep forces
+    (:mod:`torlab.model.creep`).  ``G(dT[rows], rows)`` is the temperature rise the
+    points ``rows`` produce at the temperature ``dT`` (the first index of ``dT``
+    numbers the points).  One pass suffices where the heating cannot change the
+    limits (``|dT| max(|mu_c1_T|, |mu_c2_T|) < 1e-6``); elsewhere each point iterates
+    with its own adaptive under-relaxation (halved whenever its residual does not
+    fall by 10 %) and leaves the active set once ``max |G(dT) - dT| < tolerance``.
+
+    Returns
+    -------
+    tuple
+        ``(dT, iterations per point, "single pass" or "iterated", Tmax per point)``.
+
+    Raises
+    ------
+    ConvergenceError
+        Thermal runaway (the limits would change by more than ``exp(30)``), or no
+        convergence within ``th.max_iterations``; the message names the point
+        (``where(i)``).
+    """
+    n = dT.shape[0]
+    rows = np.flatnonzero(moving)
     new = np.zeros_like(dT)
     new[rows] = G(dT[rows], rows)
-    peak = np.max(np.abs(new).reshape(nx, -1), axis=1)
+    peak = np.max(np.abs(new).reshape(n, -1), axis=1)
     sens = max(abs(lay.mu_c1_T), abs(lay.mu_c2_T))
     single = peak * sens < 1e-6  # heating too small to change the limits: one pass
     if sens == 0.0 or single.all():
-        tmax = prob.ambient_temperature + np.max(new.reshape(nx, -1), axis=1)
-        return new, its, "single pass", tmax
+        return new, its, "single pass", ambient + np.max(new.reshape(n, -1), axis=1)
     if np.max(peak) * sens > _MAX_EXPONENT:
         bad = int(np.argmax(peak))
         raise ConvergenceError(
@@ -765,13 +794,12 @@ def _temperature(solver: _Solver, prob: FastsimProblem, grid: FastsimGrid, xi: n
             f"by a factor exp({_MAX_EXPONENT:g})", iterations=1)
     dT[single] = new[single]
     active = moving & ~single
-    omega = np.ones(nx)
-    res_prev = np.full(nx, np.inf)
-    tol = th.tolerance
+    omega = np.ones(n)
+    res_prev = np.full(n, np.inf)
     for k in range(1, th.max_iterations + 1):
         rows = np.flatnonzero(active)
         res = np.max(np.abs(new[rows] - dT[rows]).reshape(rows.size, -1), axis=1)
-        done = res < tol
+        done = res < th.tolerance
         dT[rows[done]] = new[rows[done]]  # converged: keep G(T), leave the active set
         active[rows[done]] = False
         rows, res = rows[~done], res[~done]
@@ -801,8 +829,7 @@ def _temperature(solver: _Solver, prob: FastsimProblem, grid: FastsimGrid, xi: n
             f"{omega[bad]:.3g}); the temperature coefficients mu_c1_T = {lay.mu_c1_T:g}, "
             f"mu_c2_T = {lay.mu_c2_T:g} 1/K make the heating unstable at this slip",
             iterations=th.max_iterations, residual=float(res[j]))
-    tmax = prob.ambient_temperature + np.max(dT.reshape(nx, -1), axis=1)
-    return dT, its, "iterated", tmax
+    return dT, its, "iterated", ambient + np.max(dT.reshape(n, -1), axis=1)
 
 
 # -------------------------------------------------------------------------------------------

@@ -206,6 +206,33 @@ def _initial_amount(amount: Any, band: Band, *, band_length: float | None,
     return areal_density((val, kind), area=area, density=density, transfer=transfer), how
 
 
+def _applied(removal: Any, layer: Any, amount: Any, bnd: Any, n_draws: int, rng: Any, *,
+             transfer: float | None, band_length: Any, density: Any, notes: list[str]
+             ) -> tuple[Any, dict[str, Any], float, float, str]:
+    """What one application puts into the band, and the parameter draws around it.
+
+    The layer's node draws and the removal law's draws (:func:`removal_draws`); the
+    transfer (given, else fitted, else the law's fixed one); the amount in the band
+    (:func:`_initial_amount`, checked against the layer's tested range, a note in
+    ``notes`` below it).
+
+    Returns
+    -------
+    tuple
+        ``(node draws or None, removal draws, transfer, areal density in the band
+        (kg/m^2), how it was obtained)``.
+    """
+    node_draws = layer.draw_nodes(n_draws, rng) if n_draws > 0 else None
+    rd = removal_draws(removal, n_draws, rng, layer=layer, node_draws=node_draws)
+    est = rd["estimate"]
+    tr = transfer if transfer is not None else (est["transfer"] if est["transfer"] is not None
+                                                else _fixed_transfer(removal))
+    m0, how = _initial_amount(amount, bnd, band_length=band_length, density=density, transfer=tr)
+    layer.check(m0)
+    notes += _below_tested(m0, layer)
+    return node_draws, rd, tr, m0, how
+
+
 def predict_retention(scene: Any, layer: Any, removal: Any, amount: Any, *, creepage: float,
                       track_radius: float | None = None, band_length: float | None = None,
                       density: float | None = None, transfer: float | None = None,
@@ -276,14 +303,10 @@ def predict_retention(scene: Any, layer: Any, removal: Any, amount: Any, *, cree
     bnd = band_of(contact, track_radius)
     F = float(contact.patch.F)
     c = F * abs(creepage) / bnd.width
-    node_draws = layer.draw_nodes(n_draws, rng) if n_draws > 0 else None
-    rd = removal_draws(removal, n_draws, rng, layer=layer, node_draws=node_draws)
+    node_draws, rd, tr, m0, how = _applied(removal, layer, amount, bnd, n_draws, rng,
+                                           transfer=transfer, band_length=band_length,
+                                           density=density, notes=notes)
     est = rd["estimate"]
-    tr = transfer if transfer is not None else (est["transfer"] if est["transfer"] is not None
-                                                else _fixed_transfer(removal))
-    m0, how = _initial_amount(amount, bnd, band_length=band_length, density=density, transfer=tr)
-    layer.check(m0)
-    notes += _below_tested(m0, layer)
     m0_d = np.full(max(n_draws, 1), m0)
     if transfer is None and rd["transfer"] is not None:
         m0_d = m0 / tr * rd["transfer"]
@@ -514,14 +537,10 @@ def simulate_sweep(scene: Any, layer: Any, removal: Any, amount: Any, *,
                                "(track_radius=) at the scene's speed, or pass_interval=",
                                key="pass_interval")
     F = float(contact.patch.F)
-    node_draws = layer.draw_nodes(n_draws, rng) if n_draws > 0 else None
-    rd = removal_draws(removal, n_draws, rng, layer=layer, node_draws=node_draws)
+    node_draws, rd, tr, m0, how = _applied(removal, layer, amount, bnd, n_draws, rng,
+                                           transfer=transfer, band_length=band_length,
+                                           density=density, notes=notes)
     est = rd["estimate"]
-    tr = transfer if transfer is not None else (est["transfer"] if est["transfer"] is not None
-                                                else _fixed_transfer(removal))
-    m0, how = _initial_amount(amount, bnd, band_length=band_length, density=density, transfer=tr)
-    layer.check(m0)
-    notes += _below_tested(m0, layer)
     xi_nodes = np.linspace(xi0, xi1, max(int(points), 3))
     table = mu_table(sc, layer, xi_nodes, m_top=m0, per_interval=per_interval,
                      gradient=n_draws > 0, extra=[m0])

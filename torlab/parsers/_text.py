@@ -296,6 +296,20 @@ def sign_value(value: str, key: str, path: str, line: int | None) -> float:
     return float(value)
 
 
+def choice_value(value: str, choices: Sequence[str], what: str, key: str, path: str,
+                 line: int | None, *, sep: str = "_") -> str:
+    """A header value that names one of ``choices`` (case, spaces and ``-``/``_`` free:
+    ``Dry Traction`` is ``dry_traction``); an unknown one is refused with the known ones and
+    "did you mean"."""
+    from torlab._suggest import did_you_mean
+
+    v = re.sub(r"[\s_-]+", sep, value.strip().lower())
+    if v not in choices:
+        raise TorlabInputError(f"unknown {what} {value!r} (known: {', '.join(choices)})"
+                               f"{did_you_mean(v, choices)}", path=path, line=line, key=key)
+    return v
+
+
 def read_log_header(lines: list[str], fmt_id: str, fmt_version: int, display: str,
                     set_meta: Callable[[str, str, int], None], *, hint: str = "",
                     stop: int | None = None) -> tuple[int, int]:

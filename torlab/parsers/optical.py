@@ -44,6 +44,7 @@ from torlab.parsers._text import (
     _NUMBER_FIELD,
     LogMetadata,
     PathOrBuffer,
+    choice_value,
     header_key,
     parse_log_columns,
     read_log_header,
@@ -161,11 +162,7 @@ def _set_meta(meta: OpticalMetadata, key: str, value: str, path: str, line: int)
         return
     if kind == "text":
         if key == "test":
-            v = value.lower().replace(" ", "_").replace("-", "_")
-            if v not in TEST_TYPES:
-                raise TorlabInputError(f"unknown test type {value!r} (known: {', '.join(TEST_TYPES)})",
-                                       path=path, line=line, key=key)
-            value = v
+            value = choice_value(value, TEST_TYPES, "test type", key, path, line)
         setattr(meta, key, value)
         return
     if kind == "sign":

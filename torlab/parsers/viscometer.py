@@ -39,6 +39,7 @@ from torlab.errors import TorlabInputError
 from torlab.parsers._text import (
     LogMetadata,
     PathOrBuffer,
+    choice_value,
     header_key,
     parse_log_columns,
     parse_numeric_rows,
@@ -167,11 +168,8 @@ def _set_meta(meta: ViscometerMetadata, key: str, value: str, path: str, line: i
         return
     if kind == "text":
         if key == "density_model":
-            v = value.lower().replace("_", "-").replace(" ", "-")
-            if v not in DENSITY_MODELS:
-                raise TorlabInputError(f"unknown density model {value!r} (known: "
-                                       f"{', '.join(DENSITY_MODELS)})", path=path, line=line, key=key)
-            value = v
+            value = choice_value(value, DENSITY_MODELS, "density model", key, path, line,
+                                 sep="-")
         setattr(meta, key, value)
         return
     if kind == "sign":

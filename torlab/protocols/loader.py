@@ -201,7 +201,10 @@ def _problem(doc: Any, err: dict[str, Any], data: Any) -> TorlabInputError:
     elif t == "missing":
         text = "missing (required)"
     elif t == "literal_error":
-        text = f"{raw!r} is not allowed: {msg.replace('Input should be ', 'use ')}"
+        from torlab._suggest import literal_suggestion
+
+        text = (f"{raw!r} is not allowed: {msg.replace('Input should be ', 'use ')}"
+                f"{literal_suggestion(err)}")
     elif t in ("greater_than", "greater_than_equal", "less_than", "less_than_equal"):
         text = f"{raw!r} is out of range: {msg.replace('Input should be ', 'must be ')}"
     elif t == "string_pattern_mismatch":

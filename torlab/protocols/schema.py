@@ -629,11 +629,15 @@ RemovalLawName = Literal["zero_order", "first_order", "zero_order+spread", "firs
 
 
 def _fraction_or_fit(v: Any) -> Any:
-    return v if v == "fit" else _q("dimensionless").func(v)
+    from torlab._suggest import word_or
+
+    return word_or(v, "fit", _q("dimensionless").func)
 
 
 def _time_or_auto(v: Any) -> Any:
-    return v if v == "auto" else _q("time").func(v)
+    from torlab._suggest import word_or
+
+    return word_or(v, "auto", _q("time").func)
 
 
 class RetentionPredictionSpec(_Model):

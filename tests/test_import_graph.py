@@ -1,0 +1,136 @@
+"""The package's import graph: no cycle at import time, and the layers point one way.
+
+The graph is read from the source (every ``import`` and ``from ... import`` of every
+module, at module level and inside functions), so it holds for imports a test run
+never executes.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+from conftest import ROOT
+
+PKG = ROOT / "torlab"
+
+
+def _modules() -> dict[str, Path]:
+    mods = {}
+    for p in PKG.rglob("*.py"):
+        parts = list(p.relative_to(ROOT).with_suffix("").parts)
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        mods[".".join(parts)] = p
+    return mods
+
+
+MODULES = _modules()
+
+
+def _resolve(name: str) -> str | None:
+    """The torlab module ``name`` refers to (a name inside a module: that module)."""
+    while name and name not in MODULES:
+        name = name.rpartition(".")[0]
+    return name or None
+
+
+def _imports(module: str, top_level_only: bool) -> set[str]:
+    path = MODULES[module]
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    nodes = tree.body if top_level_only else list(ast.walk(tree))
+    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+    out: set[str] = set()
+    for n in nodes:
+        if isinstance(n, ast.Import):
+            names = [a.name for a in n.names]
+        elif isinstance(n, ast.ImportFrom):
+            base = n.module or ""
+            if n.level:
+                up = package.split(".")[: len(package.split(".")) - (n.level - 1)]
+                base = ".".join([*up, *([n.module] if n.module else [])])
+            names = [f"{base}.{a.name}" for a in n.names] + [base]
+        else:
+            continue
+        for nm in names:
+            r = _resolve(nm)
+            if r is not None and r != module and r.startswith("torlab"):
+                out.add(r)
+    return out
+
+
+def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components with more than one module (Tarjan)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on: set[str] = set()
+    found: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in sorted(graph[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                found.append(sorted(comp))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return found
+
+
+def test_the_graph_is_read():
+    # the reader sees what is there: the CLI's root module imports its commands lazily,
+    # the public API the library, the protocol runner its stages
+    assert "torlab.model.fastsim" in _imports("torlab.model.creep", True)
+    assert "torlab.instruments" in _imports("torlab.api", False)
+    assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+
+
+def test_no_import_cycle_at_import_time():
+    graph = {m: _imports(m, top_level_only=True) for m in MODULES}
+    assert _cycles(graph) == []
+
+
+def test_the_library_does_not_import_the_cli_or_the_facade():
+    """Library modules import neither ``torlab.cli`` nor the public API module
+    (``torlab.api`` sits on top of the library; the CLI on top of both)."""
+    bad = []
+    for m in MODULES:
+        if m.startswith("torlab.cli") or m in ("torlab", "torlab.api", "torlab.__main__"):
+            continue
+        for dep in _imports(m, top_level_only=False):
+            if dep.startswith("torlab.cli") or dep == "torlab.api":
+                bad.append(f"{m} -> {dep}")
+    assert bad == []
+
+
+def test_the_cli_is_thin_and_the_runner_small():
+    """Every function of torlab/cli/ fits on a screen (80 lines: a command parses its
+    options and calls the library); the protocol runner sequences in 300 lines."""
+    long = []
+    for m, path in MODULES.items():
+        if not m.startswith("torlab.cli"):
+            continue
+        for n in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef)) and \
+                    n.end_lineno - n.lineno + 1 > 80:
+                long.append(f"{m}.{n.name}: {n.end_lineno - n.lineno + 1} lines")
+    assert long == []
+    runner = PKG / "protocols" / "runner.py"
+    assert len(runner.read_text(encoding="utf-8").splitlines()) <= 300
