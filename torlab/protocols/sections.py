@@ -266,7 +266,8 @@ def stribeck(ctx: RunContext) -> Any:
                 measured=meas, measured_label="" if c.measured is None else
                 c.measured.path.rsplit("/", 1)[-1] + " (measured)",
                 source=" + ".join([*(x.path for x in c.scene), *c.params]),
-                modelled=pred.modelled, band=pred.summary.get("band", {})))
+                modelled=pred.modelled, band=pred.summary.get("band", {}),
+                transitions=pred.summary.get("transitions", {})))
     return stribeck_section(curves)
 
 
