@@ -406,3 +406,33 @@ def test_benchmark_rows_against_the_pass_by_pass_baseline():
     assert "95 % intervals" in d.variant
     coarse = next(r for r in rows if r.variant.startswith("table 2/interval"))
     assert coarse.error > d.error  # fewer friction nodes, larger error
+
+
+def test_sweep_verdict_is_called_only_at_the_threshold():
+    """The outcome probabilities over the draws decide; below the threshold: undetermined,
+    with the probabilities, whatever the curves at the estimate say."""
+    from torlab.model.retention import _sweep_verdict
+
+    j = {"made_by_removal": 0.75, "both_positive": 0.25, "never_levels_off": 0.0,
+         "not_positive": 0.0}
+    v = _sweep_verdict("positive", "neutral", 1.0, j, 0.9)
+    assert v.startswith("undetermined") and "positive by removal 0.75" in v
+    assert "H4.1" in _sweep_verdict("positive", "neutral", 1.0, j, 0.7)
+    j2 = {"made_by_removal": 0.02, "both_positive": 0.0, "never_levels_off": 0.0,
+          "not_positive": 0.98}
+    assert "does not make a positive trend" in _sweep_verdict("positive", "neutral", 0.02, j2)
+    # without draws: the classes at the estimate, said as such
+    assert "without parameter draws" in _sweep_verdict("positive", "neutral", None)
+
+
+def test_sweep_trend_classes_carry_their_probabilities(rail):
+    lay = _flat_layer()
+    sw = simulate_sweep(rail, lay, RemovalLaw(1, 3e-8), "60000 mg/m^2", creepage=(0.0, 0.03),
+                        seconds=60, pass_interval=0.2, n_draws=40, points=101)
+    p = sw.trend_sweep["probabilities"]
+    assert sum(p.values()) == pytest.approx(1.0)
+    assert sw.trend_sweep["trend"] == (max(p, key=p.get) if max(p.values()) >= 0.9
+                                       else "undetermined")
+    jp = sw.summary["verdict_probabilities"]
+    assert jp["made_by_removal"] == pytest.approx(sw.summary["probability_positive_by_removal"])
+    assert jp["made_by_removal"] >= 0.9 and "H4.1" in sw.verdict

@@ -677,6 +677,8 @@ class RetentionSweepSpec(_Model):
     amount: RetentionAmount | None = None
     pass_interval: Time | None = Field(default=None, gt=0)
     trend_tolerance: Fraction = Field(default=0.01, gt=0)
+    #: probability a trend class or the verdict needs over the draws (else "undetermined")
+    trend_probability: Fraction = Field(default=0.9, gt=0.5, lt=1)
     draws: int = Field(default=100, ge=0, le=2000)
 
 

@@ -395,7 +395,8 @@ def retention(ctx: RunContext) -> Any:
             sc, layer, fit, sw.amount or pc.amount, creepage=(float(xi[0]), float(xi[-1])),
             points=xi.size, seconds=sw.seconds, pass_interval=sw.pass_interval or
             pc.pass_interval, n_draws=sw.draws,
-            trend_tolerance=sw.trend_tolerance, **kw), spec=sw.model_dump(mode="json"),
+            trend_tolerance=sw.trend_tolerance, trend_probability=sw.trend_probability,
+            **kw), spec=sw.model_dump(mode="json"),
             amount=sw.amount or pc.amount, **key)
     return retention_section(cfg.product, fit, layer, pred, sweep, axis=cfg.axis)
 
