@@ -600,6 +600,9 @@ class TimeTestReport(_Model):
     probability: Fraction = Field(default=0.9, gt=0.5, lt=1)
     #: block-bootstrap replicates for the intervals of the time-test figures (0: none)
     replicates: int = Field(default=200, ge=0, le=5000)
+    #: repeated tests: composition -> the labels of its tests (``data.mtm.files``); their
+    #: scatter widens the intervals where larger than the records' own noise
+    repeats: dict[str, list[str]] = Field(default_factory=dict)
     initial_drop: InitialDrop | None = None
 
 
