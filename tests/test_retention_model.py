@@ -436,3 +436,23 @@ def test_sweep_trend_classes_carry_their_probabilities(rail):
     jp = sw.summary["verdict_probabilities"]
     assert jp["made_by_removal"] == pytest.approx(sw.summary["probability_positive_by_removal"])
     assert jp["made_by_removal"] >= 0.9 and "H4.1" in sw.verdict
+
+
+def test_crossing_status_is_called_only_when_the_draws_agree():
+    from torlab.model.retention import CROSSING_PROBABILITY, _crossing_status
+
+    class Lay:
+        m_min, dry_amount = 0.0, 1.0
+
+    base = {"amount_mg_m2": 100.0, "low95": 10.0, "high95": None}
+    assert _crossing_status({**base, "passes": 50.0, "p_crosses": 0.95}, Lay, "x") \
+        .startswith("crosses")
+    s = _crossing_status({**base, "passes": 50.0, "p_crosses": 0.6}, Lay, "x")
+    assert s.startswith("undetermined") and "60 %" in s
+    assert _crossing_status({**base, "passes": None, "p_crosses": 0.05}, Lay,
+                            "passes_to_enter_band").startswith("never")
+    assert _crossing_status({**base, "passes": None, "p_crosses": 0.3}, Lay,
+                            "passes_to_enter_band").startswith("undetermined")
+    assert CROSSING_PROBABILITY == 0.9
+    # without draws: the central curve's status, as before
+    assert _crossing_status({**base, "passes": 50.0}, Lay, "x").startswith("crosses")

@@ -59,6 +59,9 @@ __all__ = [
 ]
 
 DEFAULT_BAND = (0.15, 0.25)
+#: probability over the parameter draws that a crossing (or its absence) needs to be stated;
+#: below it the crossing's status is "undetermined" with the probability
+CROSSING_PROBABILITY = 0.9
 
 
 # ---------------------------------------------------------------------------------------------
@@ -326,6 +329,7 @@ def predict_retention(scene: Any, layer: Any, removal: Any, amount: Any, *, cree
             lo_c, hi_c = propagate_draws(Nc, confidence=confidence)
             crossings[key]["low95"], crossings[key]["high95"] = _num(lo_c), _num(hi_c)
             crossings[key]["never_fraction"] = float(np.mean(~np.isfinite(Nc)))
+            crossings[key]["p_crosses"] = 1.0 - crossings[key]["never_fraction"]
     else:
         cols["mu_low95"] = cols["mu_high95"] = np.full(Nq.size, np.nan)
         notes.append("no parameter draws (n_draws=0): no intervals")
@@ -402,7 +406,14 @@ def _num(v: Any) -> float | None:
 
 
 def _crossing_status(cr: dict[str, Any], layer: Any, key: str) -> str:
-    """What the crossing is and where the data stop supporting it."""
+    """What the crossing is and where the data stop supporting it.  With parameter draws a
+    crossing (or "never") is stated only when the draws agree with probability
+    :data:`CROSSING_PROBABILITY`; otherwise it is undetermined, with the probability."""
+    p = cr.get("p_crosses")
+    if p is not None and ((cr["passes"] is None and 1 - p < CROSSING_PROBABILITY)
+                          or (cr["passes"] not in (None, 0.0) and p < CROSSING_PROBABILITY)):
+        return (f"undetermined: the coefficient crosses this limit in {100 * p:.0f} % of the "
+                f"parameter draws (a verdict needs {100 * CROSSING_PROBABILITY:.0f} %)")
     if cr["passes"] is None:
         return ("never: the coefficient stays below the band" if key == "passes_to_enter_band"
                 else "never: the coefficient stays below the band's upper limit")
