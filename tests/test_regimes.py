@@ -145,3 +145,34 @@ def test_stribeck_report_prints_the_transition_with_its_interval():
     assert row["mixed_to_full_film_low95_m_s"] < row["mixed_to_full_film_m_s"]
     assert tr["verdict"] in ("within the modelled speeds", "undetermined")
     assert sec.summary["transitions"]["rough"]["mixed_to_full_film"]["status"] == "resolved"
+
+
+def test_cli_predict_stribeck_prints_and_writes_the_transition(cli, tmp_path):
+    """torlab fit film, then torlab predict stribeck: summary.json carries the transition
+    with the interval from the fitted alpha, and the console prints it."""
+    import json
+
+    import pandas as pd
+
+    from torlab.model.contact import build_contact
+    from torlab.model.ehl import hc_piezo
+
+    scene = SCENES / "mtm_paper_b.yaml"
+    sc = load_scene(scene)
+    c = build_contact(sc)
+    v = np.geomspace(0.05, 2.0, 15)
+    h = hc_piezo(v, sc.contact.load, c.E_star, c.rx, sc.lubricant.eta0, 18e-9,
+                 c.patch.b / c.patch.a) * np.exp(0.03 * np.random.default_rng(2)
+                                                 .standard_normal(15))
+    pd.DataFrame({"speed_m_s": v, "film_thickness_m": h}).to_csv(tmp_path / "film.csv",
+                                                                   index=False)
+    assert cli("fit", "film", tmp_path / "film.csv", "--scene", scene, "-o",
+               tmp_path / "fit").exit_code == 0
+    r = cli("predict", "stribeck", scene, tmp_path / "fit" / "params.yaml", "--speed",
+            "0.01:2:12", "-o", tmp_path / "pred")
+    assert r.exit_code == 0, r.output
+    s = json.loads((tmp_path / "pred" / "summary.json").read_text())
+    e = s["transitions"]["mixed_to_full_film"]
+    assert e["status"] == "resolved" and e["parameters"] == ["alpha"]
+    assert e["low95_m_s"] < e["speed_m_s"] < e["high95_m_s"]
+    assert "regime transitions: " in r.output and "mixed → full film at" in r.output
