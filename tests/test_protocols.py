@@ -602,3 +602,52 @@ reports:
     assert sha(ehd) in res.summary["inputs"].values()
     film = res.summary["fits"]["film:EHD2 demo"]["params"]
     assert 0.3 < film["speed_exponent"] < 1.0   # EHL films grow with speed, roughly U^0.67
+
+
+def test_paper_b_says_the_intervals_hold_for_the_record_only(paper_b):
+    """The sample campaign repeats no composition: the report says what its intervals hold."""
+    out, res = paper_b
+    tt = res.summary["reports"]["time_test"]["test_to_test"]
+    assert tt == {"estimated": False, "why": "no composition was repeated"}
+    md = (out / "report.md").read_text(encoding="utf-8")
+    assert "holds for its record only" in md and "is not estimated" in md
+
+
+def test_time_test_repeats_widen_the_intervals(tmp_path, cli):
+    """Two MTM records listed as repeats of one composition: their scatter is estimated and
+    used where larger than the record's own; an unknown label is a one-line error."""
+    mtm = ROOT / "sample_data" / "mtm"
+    text = f"""version: 1
+name: repeats
+data:
+  mtm:
+    files:
+      - {{path: {mtm / 'mtm_base_5uL.txt'}, label: base run 1}}
+      - {{path: {mtm / 'mtm_base-MoS2_5uL.txt'}, label: base run 2}}
+      - {{path: {mtm / 'mtm_TOR-A_5uL.txt'}, label: TOR A}}
+    time_test: {{threshold: 0.15, smooth: 10 s, duration: 20 min}}
+reports:
+  time_test:
+    replicates: 20
+    repeats:
+      base: [base run 1, base run 2]
+"""
+    p = tmp_path / "rep.yaml"
+    p.write_text(text)
+    r = cli("run", p, "-o", tmp_path / "out")
+    assert r.exit_code == 0, r.output
+    s = json.loads((tmp_path / "out" / "summary.json").read_text())["reports"]["time_test"]
+    tt = s["test_to_test"]
+    assert tt["estimated"] and tt["repeated"] == {"base": 2}
+    f = tt["figures"]["mean_after_recovery"]
+    m1 = s["compositions"]["base run 1"]["mean_after_recovery"]
+    m2 = s["compositions"]["base run 2"]["mean_after_recovery"]
+    assert f["dof"] == 1 and f["sd_test"] == pytest.approx(abs(m1 - m2) / math.sqrt(2))
+    c = tt["compositions"]["base"]["mean_after_recovery"]
+    assert c["mean"] == pytest.approx((m1 + m2) / 2)
+    md = (tmp_path / "out" / "report.md").read_text(encoding="utf-8")
+    assert "Repeated compositions: base (2 tests)" in md
+    bad = p.read_text().replace("[base run 1, base run 2]", "[base run 1, base run 3]")
+    p.write_text(bad)
+    r = cli("run", p, "-o", tmp_path / "out2")
+    assert r.exit_code == 2 and "base run 3" in r.output and "Traceback" not in r.output

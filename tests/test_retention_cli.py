@@ -251,7 +251,10 @@ def test_sweep_steady_curve_is_the_traction_model_at_the_applied_amount(fitted, 
     s = json.loads((tmp_path / "s" / "summary.json").read_text())
     assert s["passes_during_sweep"] == pytest.approx(4.0)
     assert 0.0 <= s["probability_sweep_positive"] <= 1.0
-    assert s["trend_steady"]["trend"] in ("neutral", "positive", "negative")
+    st = s["trend_steady"]
+    assert st["trend_point"] in ("neutral", "positive", "negative")
+    best = max(st["probabilities"], key=st["probabilities"].get)
+    assert st["trend"] == (best if st["probabilities"][best] >= 0.9 else "undetermined")
     assert "verdict:" in r.output and s["verdict"] in r.output
     assert (tmp_path / "s" / "sweep.csv").exists() and (tmp_path / "s" / "traction.png").exists()
 
@@ -385,7 +388,11 @@ def test_retention_protocol_against_truth(protocol_run):
     assert leave["low95"] < leave["passes"] < leave["high95"]
     sw = rep["sweep"]
     assert sw["passes_during_sweep"] == pytest.approx(4.0)
-    assert sw["trend_steady"] in ("neutral", "positive", "negative")
+    # the steady curve's class over the draws; called only at probability 0.9
+    assert sw["trend_steady"] in ("neutral", "positive", "negative", "undetermined")
+    jp = sw["verdict_probabilities"]
+    assert ("H4.1" in sw["verdict"]) == (jp["made_by_removal"] >= 0.9)
+    assert sw["verdict"].startswith("undetermined") == (max(jp.values()) < 0.9)
     assert 0.0 <= sw["probability_positive_by_removal"] <= sw["probability_sweep_positive"] <= 1
     assert "removal:OFM1" in res.summary["fits"]
     for f in ("retention/retention.png", "retention/removal_fit.png",

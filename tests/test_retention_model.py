@@ -406,3 +406,53 @@ def test_benchmark_rows_against_the_pass_by_pass_baseline():
     assert "95 % intervals" in d.variant
     coarse = next(r for r in rows if r.variant.startswith("table 2/interval"))
     assert coarse.error > d.error  # fewer friction nodes, larger error
+
+
+def test_sweep_verdict_is_called_only_at_the_threshold():
+    """The outcome probabilities over the draws decide; below the threshold: undetermined,
+    with the probabilities, whatever the curves at the estimate say."""
+    from torlab.model.retention import _sweep_verdict
+
+    j = {"made_by_removal": 0.75, "both_positive": 0.25, "never_levels_off": 0.0,
+         "not_positive": 0.0}
+    v = _sweep_verdict("positive", "neutral", 1.0, j, 0.9)
+    assert v.startswith("undetermined") and "positive by removal 0.75" in v
+    assert "H4.1" in _sweep_verdict("positive", "neutral", 1.0, j, 0.7)
+    j2 = {"made_by_removal": 0.02, "both_positive": 0.0, "never_levels_off": 0.0,
+          "not_positive": 0.98}
+    assert "does not make a positive trend" in _sweep_verdict("positive", "neutral", 0.02, j2)
+    # without draws: the classes at the estimate, said as such
+    assert "without parameter draws" in _sweep_verdict("positive", "neutral", None)
+
+
+def test_sweep_trend_classes_carry_their_probabilities(rail):
+    lay = _flat_layer()
+    sw = simulate_sweep(rail, lay, RemovalLaw(1, 3e-8), "60000 mg/m^2", creepage=(0.0, 0.03),
+                        seconds=60, pass_interval=0.2, n_draws=40, points=101)
+    p = sw.trend_sweep["probabilities"]
+    assert sum(p.values()) == pytest.approx(1.0)
+    assert sw.trend_sweep["trend"] == (max(p, key=p.get) if max(p.values()) >= 0.9
+                                       else "undetermined")
+    jp = sw.summary["verdict_probabilities"]
+    assert jp["made_by_removal"] == pytest.approx(sw.summary["probability_positive_by_removal"])
+    assert jp["made_by_removal"] >= 0.9 and "H4.1" in sw.verdict
+
+
+def test_crossing_status_is_called_only_when_the_draws_agree():
+    from torlab.model.retention import CROSSING_PROBABILITY, _crossing_status
+
+    class Lay:
+        m_min, dry_amount = 0.0, 1.0
+
+    base = {"amount_mg_m2": 100.0, "low95": 10.0, "high95": None}
+    assert _crossing_status({**base, "passes": 50.0, "p_crosses": 0.95}, Lay, "x") \
+        .startswith("crosses")
+    s = _crossing_status({**base, "passes": 50.0, "p_crosses": 0.6}, Lay, "x")
+    assert s.startswith("undetermined") and "60 %" in s
+    assert _crossing_status({**base, "passes": None, "p_crosses": 0.05}, Lay,
+                            "passes_to_enter_band").startswith("never")
+    assert _crossing_status({**base, "passes": None, "p_crosses": 0.3}, Lay,
+                            "passes_to_enter_band").startswith("undetermined")
+    assert CROSSING_PROBABILITY == 0.9
+    # without draws: the central curve's status, as before
+    assert _crossing_status({**base, "passes": 50.0}, Lay, "x").startswith("crosses")

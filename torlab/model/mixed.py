@@ -317,7 +317,9 @@ def predict_stribeck(scene: Any, speed: Any, creepage: float, *, band: bool = Tr
     band
         Propagate the scene's fit covariance into 95 % bands of ``mu``, the film
         thickness and the temperature (:mod:`torlab.model.bands`; columns
-        ``mu_low95`` ...; ``band`` in the summary).
+        ``mu_low95`` ...; ``band`` in the summary), and into 95 % intervals of the
+        regime transition speeds (rough surfaces; ``transitions`` in the summary,
+        :func:`torlab.model.regimes.transition_evidence`).
     seed
         Seed of the band's parameter draws (when it samples).
 
@@ -416,4 +418,13 @@ def predict_stribeck(scene: Any, speed: Any, creepage: float, *, band: bool = Tr
             modelled.append(f"uncertainty: 95 % band from the fit's covariance "
                             f"({pred.band.method} propagation of {', '.join(pred.band.names)})")
         summary["band"] = band_summary(pred.band, su)
+        if mc.asperity is not None:  # regime transitions with their intervals
+            from torlab.model.regimes import transition_evidence
+
+            pos = v[v > 0]
+            try:
+                summary["transitions"] = transition_evidence(
+                    scene, (float(pos.min()), float(pos.max())) if pos.size else None, seed=seed)
+            except NumericalError as e:
+                summary["transitions"] = {"error": str(e)}
     return pred

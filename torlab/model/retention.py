@@ -59,6 +59,9 @@ __all__ = [
 ]
 
 DEFAULT_BAND = (0.15, 0.25)
+#: probability over the parameter draws that a crossing (or its absence) needs to be stated;
+#: below it the crossing's status is "undetermined" with the probability
+CROSSING_PROBABILITY = 0.9
 
 
 # ---------------------------------------------------------------------------------------------
@@ -349,6 +352,7 @@ def predict_retention(scene: Any, layer: Any, removal: Any, amount: Any, *, cree
             lo_c, hi_c = propagate_draws(Nc, confidence=confidence)
             crossings[key]["low95"], crossings[key]["high95"] = _num(lo_c), _num(hi_c)
             crossings[key]["never_fraction"] = float(np.mean(~np.isfinite(Nc)))
+            crossings[key]["p_crosses"] = 1.0 - crossings[key]["never_fraction"]
     else:
         cols["mu_low95"] = cols["mu_high95"] = np.full(Nq.size, np.nan)
         notes.append("no parameter draws (n_draws=0): no intervals")
@@ -425,7 +429,14 @@ def _num(v: Any) -> float | None:
 
 
 def _crossing_status(cr: dict[str, Any], layer: Any, key: str) -> str:
-    """What the crossing is and where the data stop supporting it."""
+    """What the crossing is and where the data stop supporting it.  With parameter draws a
+    crossing (or "never") is stated only when the draws agree with probability
+    :data:`CROSSING_PROBABILITY`; otherwise it is undetermined, with the probability."""
+    p = cr.get("p_crosses")
+    if p is not None and ((cr["passes"] is None and 1 - p < CROSSING_PROBABILITY)
+                          or (cr["passes"] not in (None, 0.0) and p < CROSSING_PROBABILITY)):
+        return (f"undetermined: the coefficient crosses this limit in {100 * p:.0f} % of the "
+                f"parameter draws (a verdict needs {100 * CROSSING_PROBABILITY:.0f} %)")
     if cr["passes"] is None:
         return ("never: the coefficient stays below the band" if key == "passes_to_enter_band"
                 else "never: the coefficient stays below the band's upper limit")
@@ -492,8 +503,8 @@ def simulate_sweep(scene: Any, layer: Any, removal: Any, amount: Any, *,
                    track_radius: float | None = None, pass_interval: float | None = None,
                    band_length: float | None = None, density: float | None = None,
                    transfer: float | None = None, points: int = 101, n_draws: int = 100,
-                   seed: int = 0, trend_tolerance: float = 0.01, per_interval: int = 6
-                   ) -> SweepPrediction:
+                   seed: int = 0, trend_tolerance: float = 0.01, per_interval: int = 6,
+                   trend_probability: float | None = None) -> SweepPrediction:
     """A traction curve measured while the creepage ramps over ``seconds`` (thesis H4.1).
 
     The creepage rises linearly from ``creepage[0]`` to ``creepage[1]`` in
@@ -508,6 +519,13 @@ def simulate_sweep(scene: Any, layer: Any, removal: Any, amount: Any, *,
     curve is the coefficient at the applied amount.  Both trends are
     classified by :func:`torlab.model.predict.classify_trend`.
 
+    With parameter draws (``n_draws > 0``) each curve's class and the verdict
+    are called only when their probability over the draws reaches
+    ``trend_probability`` (:data:`~torlab.model.prediction.TREND_PROBABILITY`,
+    0.9); otherwise they are ``undetermined`` and the probabilities are given.
+    Without draws they are the classes of the curves at the estimate, and the
+    verdict says so.
+
     Raises
     ------
     TorlabInputError
@@ -519,6 +537,9 @@ def simulate_sweep(scene: Any, layer: Any, removal: Any, amount: Any, *,
 
     from torlab.model.contact import build_contact
     from torlab.model.predict import classify_trend
+    from torlab.model.prediction import TREND_PROBABILITY
+
+    thr = TREND_PROBABILITY if trend_probability is None else float(trend_probability)
 
     if not (math.isfinite(seconds) and seconds > 0):
         raise TorlabInputError(f"sweep duration must be positive, got {seconds}", key="seconds")
@@ -590,6 +611,7 @@ def simulate_sweep(scene: Any, layer: Any, removal: Any, amount: Any, *,
     trend_steady = classify_trend(xi_t, steady[:, 0], tolerance=trend_tolerance)
     p_pos = p_made = None
     p_steady = p_sweep = None
+    joint: dict[str, float] = {}
     if D:
         sw = [classify_trend(xi_t, mu_sweep[:, 1 + d], tolerance=trend_tolerance)["trend"]
               for d in range(D)]
@@ -601,7 +623,19 @@ def simulate_sweep(scene: Any, layer: Any, removal: Any, amount: Any, *,
                                 for a, b in zip(sw, st, strict=True)]))
         p_steady = {c: float(np.mean([x == c for x in st])) for c in sorted(set(st))}
         p_sweep = {c: float(np.mean([x == c for x in sw])) for c in sorted(set(sw))}
-    verdict = _sweep_verdict(trend_sweep["trend"], trend_steady["trend"], p_pos)
+        joint = {"made_by_removal": p_made,
+                 "both_positive": float(np.mean([a == b == "positive" for a, b in
+                                                 zip(sw, st, strict=True)])),
+                 "never_levels_off": float(np.mean([a == "not saturated" != b for a, b in
+                                                    zip(sw, st, strict=True)])),
+                 "not_positive": float(np.mean([a != "positive" for a in sw]))}
+        for tr, pr in ((trend_sweep, p_sweep), (trend_steady, p_steady)):
+            best = max(pr, key=pr.get)
+            tr.update(probabilities=pr, probability_threshold=thr,
+                      trend=best if pr[best] >= thr else "undetermined",
+                      basis=f"the classes of {D} parameter draws")
+    verdict = _sweep_verdict(trend_sweep["trend_point"], trend_steady["trend_point"], p_pos,
+                             joint, thr)
     cols = {"time_s": t_eval, "creepage": xi_t, "mu_sweep": mu_sweep[:, 0],
             "mu_steady": steady[:, 0], "amount_mg_m2": mt[0] / MG_M2}
     if D:
@@ -619,7 +653,8 @@ def simulate_sweep(scene: Any, layer: Any, removal: Any, amount: Any, *,
         "probability_sweep_positive": p_pos,
         "probability_positive_by_removal": p_made,
         "sweep_trend_probabilities": p_sweep, "steady_trend_probabilities": p_steady,
-        "verdict": verdict, "n_draws": int(n_draws), "notes": notes,
+        "verdict": verdict, "verdict_probabilities": joint or None,
+        "probability_threshold": thr, "n_draws": int(n_draws), "notes": notes,
         "modelled": ["boundary friction: FASTSIM with the layer of the remaining amount",
                      f"removal: {rd['law']} in the frictional energy of each pass at the "
                      "current creepage", *left_out],
@@ -629,8 +664,37 @@ def simulate_sweep(scene: Any, layer: Any, removal: Any, amount: Any, *,
                            verdict=verdict, probability_positive=p_pos, summary=summary)
 
 
-def _sweep_verdict(sweep: str, steady: str, p_pos: float | None) -> str:
+def _sweep_verdict(sweep: str, steady: str, p_pos: float | None,
+                   joint: dict[str, float] | None = None, threshold: float = 0.9) -> str:
+    """The sweep's verdict in one sentence.  With draws (``joint``: the probability of each
+    outcome over them) an outcome is called only at ``threshold``; without, the classes of
+    the curves at the estimate (``sweep``, ``steady``) are used and the sentence says so."""
+    if joint:
+        pm, pb, pn, pnp = (joint["made_by_removal"], joint["both_positive"],
+                           joint["never_levels_off"], joint["not_positive"])
+        if pm >= threshold:
+            return (f"the measured-looking curve turns positive while the steady curve at the "
+                    f"applied amount is neutral or negative in {100 * pm:.0f} % of the parameter "
+                    "draws: the positive trend is made by the removal of product during the "
+                    "sweep (thesis H4.1)")
+        if pb >= threshold:
+            return (f"both curves are positive in {100 * pb:.0f} % of the parameter draws: the "
+                    "steady curve is positive without removal")
+        if pn >= threshold:
+            return (f"the measured-looking curve never levels off in {100 * pn:.0f} % of the "
+                    "parameter draws: the removal during the sweep outpaces the saturation of "
+                    "the traction")
+        if pnp >= threshold:
+            return (f"the measured-looking curve is not positive in {100 * pnp:.0f} % of the "
+                    "parameter draws: removal during this sweep does not make a positive trend")
+        return (f"undetermined: no outcome reaches probability {threshold:g} over the parameter "
+                f"draws (positive by removal {pm:.2f}, recorded curve positive "
+                f"{p_pos if p_pos is not None else float('nan'):.2f}, both positive {pb:.2f}, "
+                f"never levels off {pn:.2f}); at the estimate the recorded curve is {sweep} and "
+                f"the steady one {steady}")
     prob = "" if p_pos is None else f" (positive in {100 * p_pos:.0f} % of the parameter draws)"
+    if p_pos is None:
+        prob = " (the curves at the estimate, without parameter draws)"
     if sweep == "positive" and steady in ("neutral", "negative"):
         return (f"the measured-looking curve turns positive{prob} while the steady curve at the "
                 f"applied amount is {steady}: the positive trend is made by the removal of product "

@@ -600,6 +600,9 @@ class TimeTestReport(_Model):
     probability: Fraction = Field(default=0.9, gt=0.5, lt=1)
     #: block-bootstrap replicates for the intervals of the time-test figures (0: none)
     replicates: int = Field(default=200, ge=0, le=5000)
+    #: repeated tests: composition -> the labels of its tests (``data.mtm.files``); their
+    #: scatter widens the intervals where larger than the records' own noise
+    repeats: dict[str, list[str]] = Field(default_factory=dict)
     initial_drop: InitialDrop | None = None
 
 
@@ -681,6 +684,8 @@ class RetentionSweepSpec(_Model):
     amount: RetentionAmount | None = None
     pass_interval: Time | None = Field(default=None, gt=0)
     trend_tolerance: Fraction = Field(default=0.01, gt=0)
+    #: probability a trend class or the verdict needs over the draws (else "undetermined")
+    trend_probability: Fraction = Field(default=0.9, gt=0.5, lt=1)
     draws: int = Field(default=100, ge=0, le=2000)
 
 

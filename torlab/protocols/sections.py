@@ -106,8 +106,42 @@ def time_test(ctx: RunContext) -> Any:
 
     cfg = ctx.p.reports.time_test
     model = _initial_drop(ctx, cfg.initial_drop) if cfg.initial_drop is not None else None
+    evidence = _time_test_evidence(ctx, cfg)
+    repeats = _time_test_repeats(ctx, cfg, evidence) if evidence else None
     return time_test_section([(lab, r.detail) for lab, r in ctx.labelled("mtm")], cfg, model,
-                             _time_test_evidence(ctx, cfg))
+                             evidence, repeats)
+
+
+def _time_test_repeats(ctx: RunContext, cfg: Any, evidence: dict[Any, Any]) -> dict[str, Any]:
+    """The test-to-test scatter of ``reports.time_test.repeats`` applied to the evidence."""
+    import copy
+
+    from torlab.reduce.time_test_uncertainty import apply_repeats
+
+    labels = [lab for lab, _ in ctx.labelled("mtm")]
+    comp: dict[Any, str] = {}
+    for name, members in cfg.repeats.items():
+        for lab in members:
+            if lab not in labels:
+                raise TorlabInputError(f"repeats of {name!r}: no MTM file labelled {lab!r} "
+                                       f"(labels: {', '.join(labels)})",
+                                       key="reports.time_test.repeats")
+            if any(c != name for (lb, _), c in comp.items() if lb == lab):
+                raise TorlabInputError(f"{lab!r} is listed under two compositions",
+                                       key="reports.time_test.repeats")
+            for key in evidence:
+                if key[0] == lab:
+                    comp[key] = name
+    for key in evidence:
+        comp.setdefault(key, f"{key[0]} step {key[1]}")
+    results = {(lab, tt.step): tt for lab, red in ctx.labelled("mtm")
+               for tt in red.detail.time_tests}
+    for key in list(evidence):
+        evidence[key] = copy.deepcopy(evidence[key])
+    out = apply_repeats(evidence, results, comp, band=tuple(cfg.band),
+                        probability=cfg.probability)
+    out["listed"] = {k: list(v) for k, v in cfg.repeats.items()}
+    return out
 
 
 def _time_test_evidence(ctx: RunContext, cfg: Any) -> dict[tuple[str, int], dict[str, Any]]:
@@ -266,7 +300,8 @@ def stribeck(ctx: RunContext) -> Any:
                 measured=meas, measured_label="" if c.measured is None else
                 c.measured.path.rsplit("/", 1)[-1] + " (measured)",
                 source=" + ".join([*(x.path for x in c.scene), *c.params]),
-                modelled=pred.modelled, band=pred.summary.get("band", {})))
+                modelled=pred.modelled, band=pred.summary.get("band", {}),
+                transitions=pred.summary.get("transitions", {})))
     return stribeck_section(curves)
 
 
@@ -394,7 +429,8 @@ def retention(ctx: RunContext) -> Any:
             sc, layer, fit, sw.amount or pc.amount, creepage=(float(xi[0]), float(xi[-1])),
             points=xi.size, seconds=sw.seconds, pass_interval=sw.pass_interval or
             pc.pass_interval, n_draws=sw.draws,
-            trend_tolerance=sw.trend_tolerance, **kw), spec=sw.model_dump(mode="json"),
+            trend_tolerance=sw.trend_tolerance, trend_probability=sw.trend_probability,
+            **kw), spec=sw.model_dump(mode="json"),
             amount=sw.amount or pc.amount, **key)
     return retention_section(cfg.product, fit, layer, pred, sweep, axis=cfg.axis)
 

@@ -23,6 +23,20 @@ determines them:
 What the intervals hold: the record's own noise.  They do not hold the scatter
 from test to test (a second application on a new track), which only repeated
 tests measure; the report says so.  Deterministic for a given ``seed``.
+
+Repeated tests (:func:`repeat_scatter`, :func:`apply_repeats`): where a
+campaign repeats compositions, a one-way random-effects model
+``x_ij = mu_i + b_ij + e_ij`` (composition ``i``, test ``j``; ``b`` the
+test-to-test offset with variance ``tau^2``, ``e`` the record's own error)
+gives the scatter of one test's figure about its composition's mean from the
+pooled within-composition variance of the repeats,
+``s^2 = sum_i sum_j (x_ij - xbar_i)^2 / sum_i (n_i - 1)``, which estimates
+``tau^2 + sigma_e^2`` on ``sum_i (n_i - 1)`` degrees of freedom (Searle, Casella
+& McCulloch 1992, Variance Components, ch. 3).  Where ``s`` is larger than the
+record's own standard error, a test's interval becomes ``x_ij +- t s`` and a
+repeated composition gets ``xbar_i +- t s / sqrt(n_i)``; the verdicts use them.
+The pooled ``s`` assumes one test-to-test scatter for every composition of the
+campaign, so it is applied to the tests that were not repeated too.
 """
 
 from __future__ import annotations
@@ -32,7 +46,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["MEAN_BATCHES", "TIME_TEST_PROBABILITY", "hac_mean", "time_test_uncertainty"]
+__all__ = ["MEAN_BATCHES", "REPEAT_FIGURES", "TIME_TEST_PROBABILITY", "apply_repeats",
+           "hac_mean", "repeat_scatter", "time_test_uncertainty"]
 
 #: probability a time-test verdict (recovered, in the band) needs to be called
 TIME_TEST_PROBABILITY = 0.9
@@ -201,3 +216,143 @@ def time_test_uncertainty(t: np.ndarray, mu: np.ndarray, result: Any, options: d
                                   "not recovered" if 1 - p_rec >= probability
                                   else "undetermined"))
     return out
+
+
+# ---------------------------------------------------------------------------------------------
+# repeated tests: the scatter from test to test
+# ---------------------------------------------------------------------------------------------
+#: the figures whose test-to-test scatter repeats estimate: evidence key -> figure attribute
+#: of :class:`~torlab.reduce.mtm.TimeTestResult`
+REPEAT_FIGURES = {"mean_after_recovery": "mean_after_recovery", "minimum": "minimum",
+                  "recovery_time": "recovery_time_s",
+                  "time_below_threshold": "time_below_threshold_s"}
+
+
+def repeat_scatter(values: Any, groups: Any, record_sd: Any = None) -> dict[str, Any]:
+    """Pooled one-way random-effects scatter of one test's figure (module docstring).
+
+    Parameters
+    ----------
+    values
+        The figure of every test.
+    groups
+        The composition of every test (tests of one composition are repeats).
+    record_sd
+        Each test's standard error from its own record (NaN where unknown).
+
+    Returns
+    -------
+    dict
+        ``sd_test`` (scatter of one test about its composition's mean, record noise
+        included; NaN without a repeat), ``dof`` (``sum (n_i - 1)``), ``sd_record``
+        (root mean square of the repeated tests' own standard errors), ``sd_between``
+        (``sqrt(max(0, sd_test^2 - sd_record^2))``: the part the records do not
+        explain), ``n_tests``, ``n_compositions`` (with at least two finite values),
+        ``means`` (``{composition: (mean, n)}``).
+    """
+    x = np.asarray(values, dtype=float)
+    g = np.asarray([str(v) for v in groups], dtype=object)
+    sd = np.full(x.shape, np.nan) if record_sd is None else np.asarray(record_sd, dtype=float)
+    ok = np.isfinite(x)
+    ss, dof, rec, n_t = 0.0, 0, [], 0
+    means: dict[str, tuple[float, int]] = {}
+    for k in dict.fromkeys(g[ok]):
+        sel = ok & (g == k)
+        xs = x[sel]
+        means[str(k)] = (float(xs.mean()), int(xs.size))
+        if xs.size >= 2:
+            ss += float(np.sum((xs - xs.mean()) ** 2))
+            dof += xs.size - 1
+            n_t += xs.size
+            rec += [v for v in sd[sel] if math.isfinite(v)]
+    s = math.sqrt(ss / dof) if dof else float("nan")
+    sr = math.sqrt(float(np.mean(np.square(rec)))) if rec else float("nan")
+    between = math.sqrt(max(0.0, s * s - sr * sr)) if math.isfinite(s) and math.isfinite(sr) \
+        else float("nan")
+    return {"sd_test": s, "dof": dof, "sd_record": sr, "sd_between": between, "n_tests": n_t,
+            "n_compositions": sum(1 for _, n in means.values() if n >= 2), "means": means}
+
+
+def apply_repeats(evidence: dict[Any, dict[str, Any]], results: dict[Any, Any],
+                  composition: dict[Any, str], *, band: tuple[float, float] = (0.15, 0.25),
+                  probability: float = TIME_TEST_PROBABILITY) -> dict[str, Any]:
+    """Widen the tests' intervals by the test-to-test scatter of the repeats, where larger.
+
+    Parameters
+    ----------
+    evidence
+        ``key -> time_test_uncertainty(...)`` of every test (updated in place).
+    results
+        ``key -> TimeTestResult`` (the figures).
+    composition
+        ``key -> composition``; tests of one composition are repeats.
+    band, probability
+        As :func:`time_test_uncertainty` (the "in band" verdicts are called again).
+
+    Returns
+    -------
+    dict
+        ``repeated`` (``{composition: n}`` with ``n >= 2``), per figure the
+        :func:`repeat_scatter` (``figures``), and per repeated composition the
+        mean of each figure over its repeats with its 95 % interval, and for the mean
+        after recovery ``p_in_band`` and ``in_band_verdict`` (``compositions``).
+        Without a repeat: ``repeated`` is empty and nothing changes.
+    """
+    from torlab._stats import t_cdf, t_ppf
+
+    keys = [k for k in evidence if k in results and k in composition]
+    counts: dict[str, int] = {}
+    for k in keys:
+        counts[composition[k]] = counts.get(composition[k], 0) + 1
+    out: dict[str, Any] = {"repeated": {c: n for c, n in counts.items() if n >= 2},
+                           "figures": {}, "compositions": {}}
+    if not out["repeated"]:
+        return out
+    for fig, attr in REPEAT_FIGURES.items():
+        vals = [float(getattr(results[k], attr)) for k in keys]
+        if fig == "mean_after_recovery":
+            rsd = [float(evidence[k].get("mean_after_recovery_se", math.nan)) for k in keys]
+        else:  # the bootstrap interval's half-width over the normal quantile
+            rsd = [(float(evidence[k].get(f"{fig}_high95", math.nan))
+                    - float(evidence[k].get(f"{fig}_low95", math.nan))) / (2 * 1.959964)
+                   for k in keys]
+        sc = repeat_scatter(vals, [composition[k] for k in keys], rsd)
+        out["figures"][fig] = {k: v for k, v in sc.items() if k != "means"}
+        s, dof = sc["sd_test"], sc["dof"]
+        if not (math.isfinite(s) and dof > 0):
+            continue
+        tq = float(t_ppf(0.975, dof))
+        for k, v, r in zip(keys, vals, rsd, strict=True):
+            ev = evidence[k]
+            if not math.isfinite(v) or (math.isfinite(r) and r >= s):
+                continue  # the record's own interval is the wider: kept
+            ev[f"{fig}_low95"], ev[f"{fig}_high95"] = v - tq * s, v + tq * s
+            ev.setdefault("widened_by_repeats", []).append(fig)
+            if fig == "mean_after_recovery" and ev.get("in_band_verdict"):
+                cdf = t_cdf((np.asarray(band, dtype=float) - v) / s, dof)
+                p_in = float(cdf[1] - cdf[0])
+                ev.update(mean_after_recovery_se=s, mean_after_recovery_dof=float(dof),
+                          p_in_band=p_in, in_band_verdict=_band_verdict(p_in, probability))
+        for c, (m, n) in sc["means"].items():
+            if n < 2:
+                continue
+            e = out["compositions"].setdefault(c, {"n_tests": counts[c]})
+            half = tq * s / math.sqrt(n)
+            e[fig] = {"mean": m, "n": n, "low95": m - half, "high95": m + half}
+            if fig == "mean_after_recovery":
+                cdf = t_cdf((np.asarray(band, dtype=float) - m) / (s / math.sqrt(n)), dof)
+                p_in = float(cdf[1] - cdf[0])
+                e[fig].update(p_in_band=p_in, in_band_verdict=_band_verdict(p_in, probability))
+    for k in keys:
+        if evidence[k].get("widened_by_repeats"):
+            evidence[k]["basis"] = (
+                "the test-to-test scatter of the repeated compositions (one-way random effects, "
+                "pooled) where it is larger than the record's own noise ("
+                + ", ".join(evidence[k]["widened_by_repeats"]) + "); the record's own noise "
+                "elsewhere")
+    return out
+
+
+def _band_verdict(p_in: float, probability: float) -> str:
+    return ("in band" if p_in >= probability else "outside the band" if 1 - p_in >= probability
+            else "undetermined")

@@ -356,7 +356,9 @@ def retention_section(product: str, fit: Any, layer: Any, pred: Any, sweep: Any 
         summary["sweep"] = {k: ss[k] for k in ("seconds", "creepage_range",
                                                 "passes_during_sweep", "verdict",
                                                 "probability_sweep_positive",
-                                                "probability_positive_by_removal")}
+                                                "probability_positive_by_removal",
+                                                "verdict_probabilities")
+                            if k in ss}
         summary["sweep"]["trend_sweep"] = ss["trend_sweep"]["trend"]
         summary["sweep"]["trend_steady"] = ss["trend_steady"]["trend"]
     notes = [*fit.warnings, *pred.notes]

@@ -39,6 +39,8 @@ class StribeckCurve:
     source: str = ""
     modelled: list[str] = field(default_factory=list)
     band: dict[str, Any] = field(default_factory=dict)  # the prediction's band summary
+    # regime transition speeds with their intervals (torlab.model.regimes.transition_evidence)
+    transitions: dict[str, Any] = field(default_factory=dict)
 
 
 def _lambda_at(table: Any, speed: np.ndarray) -> np.ndarray:
@@ -62,6 +64,66 @@ def _transition(table: Any, a: str, b: str) -> float:
         if r[i] == a and r[i + 1] == b and v[i] > 0:
             return float(math.sqrt(v[i] * v[i + 1]))
     return float("nan")
+
+
+_TRANSITION_WORDS = {"boundary_to_mixed": "boundary → mixed",
+                     "mixed_to_full_film": "mixed → full film"}
+
+
+def _transition_columns(tr: dict[str, Any]) -> dict[str, Any]:
+    """The summary table's transition columns: the exact crossing (not the grid midpoint)
+    with its 95 % interval and verdict, where the prediction computed them."""
+    out: dict[str, Any] = {}
+    for key in _TRANSITION_WORDS:
+        e = tr.get(key) if isinstance(tr, dict) else None
+        if not isinstance(e, dict):
+            continue
+        nan = float("nan")
+        out[f"{key}_m_s"] = nan if e.get("speed_m_s") is None else e["speed_m_s"]
+        out[f"{key}_low95_m_s"] = nan if e.get("low95_m_s") is None else e["low95_m_s"]
+        out[f"{key}_high95_m_s"] = nan if e.get("high95_m_s") is None else e["high95_m_s"]
+        out[f"{key}_status"] = e.get("status", "")
+        out[f"{key}_verdict"] = e.get("verdict", "")
+    return out
+
+
+def _transition_words(tr: dict[str, Any]) -> str:
+    """The regime transitions with their intervals, verdicts and what they rest on."""
+    if not tr:
+        return ""
+    if "error" in tr:
+        return f"not computed ({tr['error']})"
+    parts = []
+    for key, name in _TRANSITION_WORDS.items():
+        e = tr.get(key)
+        if not e:
+            continue
+        v = e.get("speed_m_s")
+        if v is None:
+            parts.append(f"{name}: none at a positive speed ({'; '.join(e.get('notes', []))})")
+            continue
+        st = e.get("status", "")
+        if st == "resolved":
+            dom = ", ".join(f"{d['parameter']} {100 * d['share']:.0f} %"
+                            for d in e.get("dominant", []))
+            iv = (f" (95 % interval {e['low95_m_s']:.3g}–{e['high95_m_s']:.3g} m/s, "
+                  f"{e.get('method')} propagation" + (f", dominated by {dom}" if dom else "")
+                  + ")")
+        elif st == "exact":
+            iv = (" (exact given the scene: the lubricant's parameters carry no fit "
+                  "covariance)")
+        else:
+            why = "; ".join(n for n in e.get("notes", []) if n.startswith("not resolved"))
+            iv = f" (the data cannot resolve it: {why or 'no interval'})"
+        p = e.get("p_within")
+        verdict = e.get("verdict", "")
+        if p is not None and st == "exact":
+            verdict = verdict if p in (0.0, 1.0) else "undetermined"
+        elif p is not None:
+            verdict = (f"{verdict} (P = {p:.2f})" if verdict != "undetermined" else
+                       f"within the modelled speeds undetermined (P = {p:.2f})")
+        parts.append(f"{name} at {v:.3g} m/s{iv}" + (f", {verdict}" if verdict else ""))
+    return "; ".join(parts)
 
 
 def _nan_none(v: Any) -> Any:
@@ -109,6 +171,7 @@ def stribeck_section(curves: list[StribeckCurve]) -> Section:
                 "lambda_max": float(t["lambda"].max()) if t["lambda"].notna().any() else float("nan"),
                 "boundary_to_mixed_m_s": _transition(t, "boundary", "mixed"),
                 "mixed_to_full_film_m_s": _transition(t, "mixed", "full_film"),
+                **_transition_columns(c.transitions),
                 "regimes": ", ".join(f"{k}: {n}" for k, n in
                                      t["regime"].astype(str).value_counts(sort=False).items()),
             })
@@ -151,6 +214,8 @@ def stribeck_section(curves: list[StribeckCurve]) -> Section:
     show = {"curve": ("curve", ""), "creepage": ("creepage", ".3g"), "μ min": ("mu_min", ".4f"),
             "μ max": ("mu_max", ".4f"), "boundary→mixed (m/s)": ("boundary_to_mixed_m_s", ".3g"),
             "mixed→full film (m/s)": ("mixed_to_full_film_m_s", ".3g"),
+            "→full film 95 % low": ("mixed_to_full_film_low95_m_s", ".3g"),
+            "→full film 95 % high": ("mixed_to_full_film_high95_m_s", ".3g"),
             "RMS meas.−model": ("rms_measured_minus_model", ".2g"), "regimes": ("regimes", "")}
     show = {k: v for k, v in show.items() if v[0] in table.columns}
     summary = {"curves": {r["curve"]: {k: _nan_none(v) for k, v in r.items() if k != "curve"}
@@ -165,6 +230,7 @@ def stribeck_section(curves: list[StribeckCurve]) -> Section:
     for r, c in zip(rows, curves, strict=True):
         paragraphs.append(_stribeck_sentence(r, c))
     summary["bands"] = {c.label: _band_entry(c.band) for c in curves if c.table is not None}
+    summary["transitions"] = {c.label: c.transitions for c in curves if c.transitions}
     optional = tuple(c for c in table.columns if c not in ("curve", "source", "regimes"))
     tables = [Table("stribeck_summary", table, "Per curve: range, regime transitions, "
                     "measured against model", show, allow_missing=optional)]
@@ -206,6 +272,9 @@ def _stribeck_sentence(r: dict[str, Any], c: StribeckCurve) -> str:
         hi = c.table[["mu_low95", "mu_high95"]].abs().max(axis=1)
         out += f" (band {float(lo.min()):.4f}–{float(hi.max()):.4f})"
     out += f"; {_band_words(c.band)}"
+    tw = _transition_words(c.transitions)
+    if tw:
+        out += f". Regime transitions: {tw}"
     if r.get("rms_measured_minus_model") is not None and "n_measured" in r:
         out += (f". Measured: {r['n_measured']} points, RMS measured − model "
                 f"{r['rms_measured_minus_model']:.2g}")

@@ -26,7 +26,8 @@ __all__ = ["time_test_section", "time_tests_figure"]
 
 def time_test_section(reductions: list[tuple[str, Any]], cfg: Any,
                       model: dict[str, Any] | None = None,
-                      evidence: dict[tuple[str, int], dict[str, Any]] | None = None) -> Section:
+                      evidence: dict[tuple[str, int], dict[str, Any]] | None = None,
+                      repeats: dict[str, Any] | None = None) -> Section:
     """The time-test report.
 
     Parameters
@@ -43,6 +44,10 @@ def time_test_section(reductions: list[tuple[str, Any]], cfg: Any,
         (:func:`torlab.reduce.time_test_uncertainty.time_test_uncertainty`);
         the verdicts "recovered" and "in band" are then called only at the
         protocol's ``probability``.
+    repeats
+        The test-to-test scatter of repeated compositions
+        (:func:`torlab.reduce.time_test_uncertainty.apply_repeats`, already applied to
+        ``evidence``), or None.
     """
     import pandas as pd
 
@@ -140,6 +145,7 @@ def time_test_section(reductions: list[tuple[str, Any]], cfg: Any,
             f"P(recovered) come from a block bootstrap ({ev0.get('replicates', 0)} replicates) "
             "of the record's scatter about its running median. They hold "
             f"{ev0.get('basis', 'the record own noise')}: repeated tests measure that.")
+        paragraphs.append(_repeats_sentence(repeats, band, prob))
         for r in rows:
             paragraphs.append(_evidence_sentence(r, band, prob))
     if model is not None:
@@ -167,12 +173,58 @@ def time_test_section(reductions: list[tuple[str, Any]], cfg: Any,
             if c in r}
     if evidence:
         summary["probability"] = prob
+        summary["test_to_test"] = _repeats_summary(repeats)
     optional = tuple(c for c in table.columns if c not in ("composition", "file", "step"))
     return Section(key="time_test", title="Time tests after application (Paper B)",
                    paragraphs=paragraphs, figures=figs,
                    tables=[Table("time_tests", table, "Time-test metrics per composition", show,
                                  allow_missing=optional)],
                    summary=summary)
+
+
+def _repeats_summary(rep: dict[str, Any] | None) -> dict[str, Any]:
+    if not rep or not rep.get("repeated"):
+        return {"estimated": False, "why": "no composition was repeated"}
+
+    def clean(x: Any) -> Any:
+        if isinstance(x, dict):
+            return {k: clean(v) for k, v in x.items()}
+        return None if isinstance(x, float) and not math.isfinite(x) else x
+
+    return {"estimated": True, **clean({k: rep[k] for k in ("repeated", "figures",
+                                                           "compositions")})}
+
+
+def _repeats_sentence(rep: dict[str, Any] | None, band: tuple[float, float],
+                      prob: float) -> str:
+    """What the intervals hold: the record alone, or the record and the test-to-test scatter."""
+    if not rep or not rep.get("repeated"):
+        return ("No composition was repeated (reports.time_test.repeats lists none): every "
+                "interval and verdict holds for its record only; the scatter from test to "
+                "test (a new track, a new application) is not estimated and may be larger.")
+    f = rep["figures"].get("mean_after_recovery", {})
+    comps = ", ".join(f"{c} ({n} tests)" for c, n in rep["repeated"].items())
+    out = (f"Repeated compositions: {comps}. The scatter of one test about its composition's "
+           "mean, pooled over them (one-way random effects")
+    if f and math.isfinite(f.get("sd_test", math.nan)):
+        out += (f", {f['dof']} degrees of freedom): mean after recovery {f['sd_test']:.3g} "
+                f"(the records' own standard error {f['sd_record']:.3g}, so test to test "
+                f"{f['sd_between']:.3g})")
+    else:
+        out += ")"
+    out += ("; it replaces the record's own uncertainty in every interval and verdict where it "
+            "is larger (the same scatter assumed for every composition).")
+    for c, e in rep.get("compositions", {}).items():
+        m = e.get("mean_after_recovery")
+        if m:
+            v = m.get("in_band_verdict", "")
+            out += (f" {c}: mean after recovery over {m['n']} tests {m['mean']:.4f} "
+                    f"[{m['low95']:.4f}, {m['high95']:.4f}], "
+                    + (f"{v} {band[0]:g}–{band[1]:g} (P = {m['p_in_band']:.2f})."
+                       if v != "undetermined" else
+                       f"in the band: undetermined (P = {m['p_in_band']:.2f} < {prob:g} "
+                       "either way)."))
+    return out
 
 
 def _safe(s: str) -> str:
