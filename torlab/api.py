@@ -598,10 +598,10 @@ def predict_retention(scene: Any, params: Any, amount: Any, *, creepage: Any = "
     if v is not None:
         sc = sc.model_copy(update={"kinematics": sc.kinematics.model_copy(update={"speed": v})})
     xi = _si(creepage, "dimensionless", "creepage", "creepage")
-    r = _si(track_radius, "length", "track_radius")
-    dt = _si(pass_interval, "time", "pass_interval")
+    r = _si(track_radius, "length", "track_radius", "track_radius")
+    dt = _si(pass_interval, "time", "pass_interval", "duration")
     dens = _si(density, "density", "density", "density")
-    t_end = _si(time, "time", "time")
+    t_end = _si(time, "time", "time", "duration")
     kw: dict[str, Any] = {}
     if passes is not None and t_end is not None:
         raise TorlabInputError("give passes or time, not both", key="passes")
@@ -652,9 +652,9 @@ def predict_sweep(scene: Any, params: Any, amount: Any, *, seconds: Any,
                                "start >= 0 and at least 3 points", key="creepage")
     dens = _si(density, "density", "density", "density")
     sw = simulate_sweep(sc, rp.layer, rp.removal, amount, creepage=(float(xi[0]), float(xi[-1])),
-                        seconds=_si(seconds, "time", "sweep"),
-                        track_radius=_si(track_radius, "length", "track_radius"),
-                        pass_interval=_si(pass_interval, "time", "pass_interval"),
+                        seconds=_si(seconds, "time", "sweep", "duration"),
+                        track_radius=_si(track_radius, "length", "track_radius", "track_radius"),
+                        pass_interval=_si(pass_interval, "time", "pass_interval", "duration"),
                         band_length=_si(band_length, "length", "band_length"),
                         density=dens if dens is not None else rp.density,
                         transfer=_si(transfer, "dimensionless", "transfer"), points=int(xi.size),
@@ -693,11 +693,10 @@ def predict_creep(scene: Any, creepage: Any, lateral: Any = 0.0, spin: Any = 0.0
         ``modelled``, ``summary``.
     """
     from torlab.model.creep import predict_creep as _predict
-    from torlab.units import to_si
 
     return _predict(_scene(scene, params), _grid(creepage, "dimensionless", "creepage"),
-                    to_si(lateral, "dimensionless", where="lateral"),
-                    to_si(spin, "inverse_length", where="spin"))
+                    _si(lateral, "dimensionless", "lateral", "creepage"),
+                    _si(spin, "inverse_length", "spin", "spin"))
 
 
 def _amount(value: Any) -> tuple[float, str]:

@@ -391,11 +391,13 @@ def polach_cmd(
 
     files = require_files(scene, "scene")
     sc = load_scene(*files)
-    res = fit_polach(creep_problem(sc), parse_values(creepage, "dimensionless", "--creepage"),
-                     parse_values(speed, "velocity", "--speed"),
+    res = fit_polach(creep_problem(sc), parse_values(creepage, "dimensionless", "--creepage",
+                                                     "creepage"),
+                     parse_values(speed, "velocity", "--speed", "speed"),
                      lateral=None if lateral is None else parse_values(lateral, "dimensionless",
-                                                                       "--lateral"),
-                     spin=None if spin is None else parse_values(spin, "inverse_length", "--spin"),
+                                                                       "--lateral", "creepage"),
+                     spin=None if spin is None else parse_values(spin, "inverse_length", "--spin",
+                                                                 "spin"),
                      source=sc.name or files[0].stem)
     with OutputDir(out, force=force, inputs=files, command=command_line()) as dest:
         write_fit(dest, res, title=f"Polach fit: {res.meta['source']}", formats=formats)
