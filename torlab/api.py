@@ -186,13 +186,12 @@ def fit_temperature(curves: Any, temperatures: Any = None, *,
     from torlab.fit.result import FitResult
     from torlab.fit.temperature import fit_temperature_coefficients
     from torlab.reduce.hpt import RigCompliance
-    from torlab.units import to_si
 
     comp = RigCompliance.from_spec(compliance)
     items = [c if isinstance(c, FitResult) else _hpt_item(c, comp) for c in curves]
     temps = None if temperatures is None else \
-        [to_si(t, "temperature", where="temperatures") + 273.15 for t in temperatures]
-    tref = to_si(reference_temperature, "temperature", where="reference_temperature")
+        [_si(t, "temperature", "temperatures", "temperature") + 273.15 for t in temperatures]
+    tref = _si(reference_temperature, "temperature", "reference_temperature", "temperature")
     return fit_temperature_coefficients(items, temps, reference_temperature_C=tref)
 
 

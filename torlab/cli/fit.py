@@ -254,7 +254,7 @@ def temperature_cmd(
     from torlab.fit.layer import fit_layers_hpt
     from torlab.fit.temperature import fit_temperature_coefficients
     from torlab.outputs import OutputDir
-    from torlab.units import to_si
+    from torlab.units import check_range, to_si
 
     sel = selection.strip().lower()
     if sel not in ("test", "none"):
@@ -263,7 +263,9 @@ def temperature_cmd(
     files = require_files(inputs, "HPT", keep=is_hpt_input)
     extra: list[Path] = []
     comp = _compliance(compliance, extra)
-    Tref = to_si(reference_temperature, "temperature", where="--reference-temperature")
+    Tref = check_range("temperature", to_si(reference_temperature, "temperature",
+                                            where="--reference-temperature"),
+                       where="--reference-temperature")
     curves = _prepare_hpt(hpt_items(files, comp), comp)
     fits = fit_layers_hpt(curves)
     res = fit_temperature_coefficients(fits, reference_temperature_C=Tref, selection=sel)
@@ -332,25 +334,21 @@ def visc_cmd(
     """Viscosity law (eta0, alpha or Z; thesis Eqs. 5.38-5.39) from reduced viscometer data,
     written as the scene's lubricant: keys."""
     import numpy as np
-    import pandas as pd
 
-    from torlab.errors import TorlabInputError
     from torlab.fit.result import viscosity_result
     from torlab.fit.viscosity import fit_viscosity
+    from torlab.instruments.measured import viscosity_data
     from torlab.outputs import OutputDir
 
     files = require_files(data, "viscosity")
     p, eta, T = [], [], []
     for f in files:
-        df = pd.read_csv(f)
-        if "pressure_Pa" not in df or "viscosity_Pa_s" not in df:
-            raise TorlabInputError("needs columns pressure_Pa and viscosity_Pa_s ('torlab visc "
-                                   "reduce' output)", path=f)
-        p.append(df["pressure_Pa"].to_numpy(dtype=float))
-        eta.append(df["viscosity_Pa_s"].to_numpy(dtype=float))
-        if "temperature_C" in df:
-            T.append(df["temperature_C"].to_numpy(dtype=float))
-    Tm = float(np.mean(np.concatenate(T))) if T else None
+        pf, ef, tf = viscosity_data(f)
+        p.append(pf)
+        eta.append(ef)
+        if tf is not None:
+            T.append(tf)
+    Tm = float(np.mean(T)) if T else None
     vf = fit_viscosity(np.concatenate(p), np.concatenate(eta), law, temperature_C=Tm)
     res = viscosity_result(vf)
     res.meta["source"] = ", ".join(f.name for f in files)
