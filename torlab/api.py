@@ -336,7 +336,6 @@ def fit_film(data: Any, *, curve: str | None = None, scene: Any = None,
     """
     from torlab.fit.film import fit_film_thickness
     from torlab.instruments.reduction import Reduction
-    from torlab.units import to_si
 
     if isinstance(data, (str, os.PathLike)):
         from torlab.instruments.measured import film_data
@@ -352,7 +351,7 @@ def fit_film(data: Any, *, curve: str | None = None, scene: Any = None,
         raise TorlabInputError(f"{'no' if not groups else 'several'} film curves; choose one with "
                                f"curve= (have: {', '.join(repr(g[0]) for g in groups) or 'none'})",
                                key="curve")
-    vmin = None if min_speed is None else to_si(min_speed, "velocity", where="min_speed")
+    vmin = _si(min_speed, "velocity", "min_speed", "speed")
     sc = None if scene is None else _scene(scene)
     return fit_film_thickness(groups[0][1], groups[0][2], scene=sc, min_speed=vmin)
 

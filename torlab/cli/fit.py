@@ -299,10 +299,11 @@ def film_cmd(
     from torlab.fit.film import fit_film_thickness
     from torlab.outputs import OutputDir
     from torlab.scene import load_scene
-    from torlab.units import to_si
+    from torlab.units import check_range, to_si
 
     files = require_files([data] + ([scene] if scene else []), "input")
-    vmin = None if min_speed is None else to_si(min_speed, "velocity", where="--min-speed")
+    vmin = None if min_speed is None else check_range(
+        "speed", to_si(min_speed, "velocity", where="--min-speed"), where="--min-speed")
     sc = load_scene(scene) if scene else None
     groups = film_data(data)
     results = []
