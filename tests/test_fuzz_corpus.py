@@ -1,9 +1,10 @@
 """The bad-input corpus (tests/fuzz_corpus.py) through the CLI: no traceback, no exit 1, no
 hang, no raw warning -- every case either works or ends in one clear line.
 
-Every test runs twice: on a fixed sample of the corpus (every tenth case, the first of
-every reader, every special file and named case; the commands that draw figures asked for
-their tables only, --no-plot) in the quick suite, and on the whole corpus, figures
+Every test runs twice: on a fixed sample of the corpus (every tenth case -- every
+thirtieth of the commands added later, mostly fits --, the first of every reader, every
+special file and named case; the commands that draw figures asked for their tables only,
+--no-plot) in the quick suite, and on the whole corpus, figures
 included, in the slow step CI runs (``-m slow``).  The counts of the whole-corpus run are what
 docs/reliability.md reports; set ``TORLAB_FUZZ_REPORT`` to a file name to have them
 written as JSON.

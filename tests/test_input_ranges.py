@@ -239,3 +239,22 @@ def test_protocol_lists_are_range_checked(cli, tmp_path, amount, creepage, speed
     p.write_text(PROTOCOL.format(amount=amount, creepage=creepage, speeds=speeds, scene=TAB54))
     _one_error(cli("run", p, "-o", tmp_path / "out"), "p.yaml:", *words)
     assert not (tmp_path / "out").exists()
+
+
+def test_polach_fit_over_a_lateral_range_alone(cli, tmp_path):
+    """A fit range without the pure longitudinal curve ('--lateral 0.005' only) starts from
+    the curve nearest to it (it ended in an internal error).  The fit must reproduce
+    torlab's own creep forces of that range (both components) to within 2 % of the
+    saturated coefficient (mu_c2 = 0.45 of the scene)."""
+    import pandas as pd
+    import yaml
+
+    out = tmp_path / "out"
+    r = cli("fit", "polach", TAB54, "--creepage", "0:0.05:6", "--speed", "10 m/s",
+            "--lateral", "0.005", "-o", out)
+    assert r.exit_code == 0, r.output
+    fit = yaml.safe_load((out / "params.yaml").read_text())["fit"]
+    assert fit["residual_rms"] < 0.02 * 0.45
+    data = pd.read_csv(out / "fit_data.csv")
+    assert set(data["component"]) == {"x", "y"} and (data["lateral"] == 0.005).all()
+    assert (data["residual"].abs() < 0.05 * 0.45).all()
