@@ -226,6 +226,7 @@ time.sleep(120)
 """
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="/proc and fork: Linux")
 def test_killed_run_with_worker_processes_leaves_the_folder_free(project):
     """kill -9 of a run whose process pool is busy: its forked workers neither hold the output
