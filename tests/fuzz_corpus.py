@@ -44,6 +44,7 @@ class Case:
     data: bytes | None = None
     special: str | None = None  # fifo, folder, device, missing, symlink-device
     extra: dict[str, bytes] = field(default_factory=dict)  # companion files by name
+    args: tuple[str, ...] = ()  # options replacing (or added to) the command's defaults
 
     @property
     def name(self) -> str:
@@ -370,7 +371,101 @@ def build_corpus(seed: int = 20240613) -> list[Case]:
         cases.append(Case("predict_retention", "removal.yaml", mut, b))
     for special in ("fifo", "device", "missing"):
         cases.append(Case("fit_removal", "-", special, special=special, extra=layer_files))
+    cases += _more_commands(seed, src, removal)
     return cases
+
+
+#: option values tried on every option of the commands below (a few per option, seeded)
+OPTION_VALUES = ["1e300", "-1e300", "nan", "inf", "", "x", "0", "-5", "1 kg", "1e-300",
+                 "0:1e9:3", "0:1:0", "1,,2", "5:", "3", "-0.5", "2000 1/m", "1e5 mg/m^2",
+                 "10 s", "-1 h", "0.002", "5 %", "0.5 1/m", "2 mm/s", "4 uL", "300 K"]
+
+#: command -> its options whose values are fuzzed
+OPTIONS = {
+    "predict_creep": ("--lateral", "--spin", "--creepage"),
+    "predict_sweep": ("--sweep", "--amount", "--pass-interval", "--track-radius", "--creepage"),
+    "predict_table": ("--creepage", "--lateral", "--spin", "--speed", "--amount"),
+    "fit_polach": ("--creepage", "--speed", "--lateral", "--spin"),
+    "predict_retention": ("--amount", "--time", "--passes", "--creepage", "--band",
+                          "--track-radius", "--speed"),
+    "fit_film": ("--min-speed",),
+    "fit_temperature": ("--reference-temperature",),
+}
+
+
+def visc_table() -> bytes:
+    """A reduced viscometer table (``torlab visc reduce`` ``*_steps.csv`` columns): Barus'
+    law, eta0 60 mPa s, alpha 15 1/GPa, 25 degC, 1 % scatter (seeded)."""
+    import numpy as np
+
+    rng = np.random.default_rng(3)
+    p = np.linspace(0.0, 400e6, 12)
+    eta = 0.06 * np.exp(15e-9 * p) * (1 + 0.01 * rng.standard_normal(p.size))
+    rows = "".join(f"{a:.6g},{b:.6g},25.0\n" for a, b in zip(p, eta, strict=True))
+    return ("pressure_Pa,viscosity_Pa_s,temperature_C\n" + rows).encode()
+
+
+def _more_commands(seed: int, src: dict, removal: bytes) -> list[Case]:
+    """The fits, the creep-force and retention options and ``reduce --as`` (their own
+    generator, so the cases above stay as they were)."""
+    rng = random.Random(seed + 32)
+    out: list[Case] = []
+    tab54 = (SCENES / "wheel_rail_tab54.yaml").read_bytes()
+    hpt = SAMPLE / "hpt"
+    temps = {f"hpt_OFM1_4uL_{t}C.txt": (hpt / f"hpt_OFM1_4uL_{t}C.txt").read_bytes()
+             for t in (65, 105)}
+    small = dict(src["optical"])["small_traction"]
+    dry = (SAMPLE / "optical" / "dry_traction_rough.csv").read_bytes()
+    ehd2 = (DATA / "pcs" / "ehd2_quirks.txt").read_bytes()
+    # each command's valid input first (the quick sample runs the first case of a reader)
+    for reader, source, data, extra in (
+            ("fit_traction", "dry_traction_rough", dry, {}),
+            ("fit_film", "ehd2_quirks.txt", ehd2, {}),
+            ("fit_visc", "steps.csv", visc_table(), {}),
+            ("fit_temperature", "hpt_OFM1_4uL_25C", (hpt / "hpt_OFM1_4uL_25C.txt").read_bytes(),
+             temps),
+            ("fit_polach", "wheel_rail_tab54.yaml", tab54, {}),
+            ("predict_table", "wheel_rail_tab54.yaml", tab54, {}),
+            ("predict_creep", "wheel_rail_tab54.yaml", tab54, {}),
+            ("predict_sweep", "wheel_rail_tab54.yaml", tab54, {"removal.yaml": removal}),
+            ("reduce_as", "pcs", (DATA / "pcs" / "mtm_quirks.txt").read_bytes(), {})):
+        out.append(Case(reader, source, "as_written", data, extra=extra,
+                        args=("--as", "pcs") if reader == "reduce_as" else ()))
+    for mut, b in mutate_text(dry, rng)[::3]:
+        out.append(Case("fit_traction", "dry_traction_rough", mut, b))
+    for mut, b in mutate_text(ehd2, rng)[::3]:
+        out.append(Case("fit_film", "ehd2_quirks.txt", mut, b))
+    for mut, b in mutate_text(visc_table(), rng)[::2]:
+        out.append(Case("fit_visc", "steps.csv", mut, b))
+    for mut, b in mutate_text((hpt / "hpt_OFM1_4uL_25C.txt").read_bytes(), rng)[::4]:
+        out.append(Case("fit_temperature", "hpt_OFM1_4uL_25C", mut, b, extra=temps))
+    for mut, b in mutate_yaml(tab54, rng, values=4)[::3]:
+        out.append(Case("fit_polach", "wheel_rail_tab54.yaml", mut, b))
+    for mut, b in mutate_yaml(tab54, rng, values=4)[::4]:
+        out.append(Case("predict_table", "wheel_rail_tab54.yaml", mut, b))
+    for cmd, opts in OPTIONS.items():
+        data = removal if cmd == "predict_retention" else \
+            (DATA / "pcs" / "ehd2_quirks.txt").read_bytes() if cmd == "fit_film" else \
+            (hpt / "hpt_OFM1_4uL_25C.txt").read_bytes() if cmd == "fit_temperature" else tab54
+        extra = {"removal.yaml": removal} if cmd == "predict_sweep" else \
+            temps if cmd == "fit_temperature" else {}
+        for opt in opts:
+            for v in rng.sample(OPTION_VALUES, 4):
+                out.append(Case(cmd, "option", f"{opt}={v}", data, extra=extra, args=(opt, v)))
+    # reduce --as: every instrument name on each kind of file, and mutated files read as one
+    files = {"hpt": (hpt / "hpt_OFM1_4uL_25C.txt").read_bytes(),
+             "pcs": (DATA / "pcs" / "mtm_quirks.txt").read_bytes(),
+             "optical": small, "visc": dict(src["visc"])["fall_column_crlf"]}
+    for kind, data in files.items():
+        for as_ in ("pcs", "ehd2", "hpt", "optical", "visc", "tribo"):
+            out.append(Case("reduce_as", kind, f"--as={as_}", data, args=("--as", as_)))
+        for mut, b in mutate_text(data, rng)[::6]:
+            out.append(Case("reduce_as", kind, mut, b, args=("--as", kind)))
+    for reader in ("fit_traction", "fit_film", "fit_visc", "reduce_as"):
+        for special in ("fifo", "folder", "missing"):
+            out.append(Case(reader, "-", special, special=special,
+                            args=("--as", "pcs") if reader == "reduce_as" else ()))
+    return out
 
 
 # ----------------------------------------------------------------------------- running
@@ -385,8 +480,9 @@ def _alarm(signum: int, frame: object) -> None:
 def _place(case: Case, work: Path) -> Path:
     """Write the case's input into ``work`` and return its path."""
     suffix = {"scene": ".yaml", "scene_stribeck": ".yaml", "protocol": ".yaml", "hpt_map": ".yaml",
-              "predict_retention": ".yaml", "optical": ".csv"}.get(
-        case.reader, ".txt")
+              "predict_retention": ".yaml", "optical": ".csv", "fit_visc": ".csv",
+              "fit_polach": ".yaml", "predict_table": ".yaml", "predict_creep": ".yaml",
+              "predict_sweep": ".yaml", "fit_traction": ".csv"}.get(case.reader, ".txt")
     p = work / f"input{suffix}"
     if case.special == "fifo":
         os.mkfifo(p)
@@ -405,7 +501,29 @@ def _place(case: Case, work: Path) -> Path:
 
 
 def command(case: Case, work: Path) -> list[str]:
-    """The CLI arguments of a case (its input placed in ``work``)."""
+    """The CLI arguments of a case (its input placed in ``work``), with ``case.args``
+    replacing the value of an option the command already gives (or added)."""
+    args = _command(case, work)
+    if case.args:
+        opt, value = case.args
+        if opt in args:
+            i = args.index(opt)
+            args[i + 1] = value
+        else:
+            args += [opt, value]
+    return args
+
+
+def _companions(case: Case, work: Path) -> list[Path]:
+    paths = []
+    for k, v in case.extra.items():
+        if not k.startswith("__"):
+            (work / k).write_bytes(v)
+            paths.append(work / k)
+    return paths
+
+
+def _command(case: Case, work: Path) -> list[str]:
     p = _place(case, work)
     out = str(work / "out")
     r = case.reader
@@ -434,6 +552,31 @@ def command(case: Case, work: Path) -> list[str]:
     if r == "predict_retention":
         return ["predict", "retention", str(SCENES / "wheel_rail_tab54.yaml"), str(p),
                 "--amount", "50000 mg/m^2", "--draws", "20", "-o", out]
+    if r == "fit_traction":
+        return ["fit", "traction", str(SCENES / "optical_paper_a_dry.yaml"), str(p), "--dry",
+                "-o", out]
+    if r == "fit_film":
+        return ["fit", "film", str(p), "-o", out]
+    if r == "fit_visc":
+        return ["fit", "visc", str(p), "--law", "barus", "-o", out]
+    if r == "fit_temperature":
+        return ["fit", "temperature", str(p), *map(str, _companions(case, work)),
+                "--reference-temperature", "25 degC", "-o", out]
+    if r == "fit_polach":
+        return ["fit", "polach", str(p), "--creepage", "0:0.05:6", "--speed", "5 m/s,20 m/s",
+                "-o", out]
+    if r == "predict_table":
+        return ["predict", "table", str(p), "--creepage", "0:0.01:3", "--lateral", "0:0.01:3",
+                "--spin", "0:1:2", "-o", out]
+    if r == "predict_creep":
+        return ["predict", "traction", str(p), "--creepage", "0:0.02:5", "--lateral", "0.001",
+                "--spin", "0.1", "-o", out]
+    if r == "predict_sweep":
+        (rem,) = _companions(case, work)
+        return ["predict", "traction", str(p), str(rem), "--sweep", "60 s", "--amount",
+                "50000 mg/m^2", "--pass-interval", "2 s", "--creepage", "0:0.05:6", "-o", out]
+    if r == "reduce_as":
+        return ["reduce", str(p), "-o", out]
     if r == "hpt_map":
         csv = work / "rig2.csv"
         csv.write_bytes(HPT_MAP_CSV)
@@ -466,7 +609,7 @@ def run_case(case: Case, work: Path, runner: object, plots: bool = True) -> Outc
 
     work.mkdir(parents=True, exist_ok=True)
     args = command(case, work)
-    if not plots and tuple(args[:2]) in _PLOTTING:
+    if not plots and (tuple(args[:2]) in _PLOTTING or args[0] == "reduce"):
         args.append("--no-plot")
     old = signal.signal(signal.SIGALRM, _alarm)
     signal.alarm(TIME_LIMIT)

@@ -214,6 +214,50 @@ def test_second_run_into_a_busy_folder_is_refused(project):
     assert _leftovers(project) == []
 
 
+_HOLDER_WITH_WORKERS = """\
+import time
+from torlab.outputs import OutputDir
+from torlab.parallel import ProcessExecutor, _noop
+d = OutputDir({out!r}, force=True)
+ex = ProcessExecutor(2)
+assert ex.map(_noop, [1, 2, 3]) == [1, 2, 3]
+print("workers", *[p.pid for p in ex._pool._processes.values()], flush=True)
+time.sleep(120)
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="/proc and fork: Linux")
+def test_killed_run_with_worker_processes_leaves_the_folder_free(project):
+    """kill -9 of a run whose process pool is busy: its forked workers neither hold the output
+    folder's lock (they close their copy at fork) nor outlive the run (they die with their
+    parent); the next run into the folder is not refused."""
+    out = project / "res" / "out"
+    lock = out.parent / f".{out.name}.lock"
+    holder = subprocess.Popen([sys.executable, "-c", _HOLDER_WITH_WORKERS.format(out=str(out))],
+                              env=_env(project), stdout=subprocess.PIPE, text=True)
+    try:
+        word, *pids = holder.stdout.readline().split()
+        assert word == "workers" and len(pids) == 2
+        for pid in pids:  # no worker has the lock file open
+            fds = Path(f"/proc/{pid}/fd")
+            assert all(os.path.realpath(fds / fd) != str(lock.resolve())
+                       for fd in os.listdir(fds)), pid
+    finally:
+        holder.kill()
+        holder.wait()
+    deadline = 50
+    while any(Path(f"/proc/{pid}").exists() and
+              Path(f"/proc/{pid}/stat").read_text().split()[2] != "Z" for pid in pids) \
+            and deadline:
+        subprocess.run(["sleep", "0.1"])
+        deadline -= 1
+    assert deadline, "the workers outlived their killed parent"
+    r = _torlab(project, "run", project / "p.yaml", "-o", out, "--force")
+    assert r.returncode == 0, r.stderr
+    assert _leftovers(project) == []
+
+
 @pytest.mark.slow
 def test_two_runs_started_together(project):
     before = _first_run(project)

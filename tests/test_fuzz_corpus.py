@@ -1,9 +1,10 @@
 """The bad-input corpus (tests/fuzz_corpus.py) through the CLI: no traceback, no exit 1, no
 hang, no raw warning -- every case either works or ends in one clear line.
 
-Every test runs twice: on a fixed sample of the corpus (every tenth case, the first of
-every reader, every special file and named case; the commands that draw figures asked for
-their tables only, --no-plot) in the quick suite, and on the whole corpus, figures
+Every test runs twice: on a fixed sample of the corpus (every tenth case -- every
+thirtieth of the commands added later, mostly fits --, the first of every reader, every
+special file and named case; the commands that draw figures asked for their tables only,
+--no-plot) in the quick suite, and on the whole corpus, figures
 included, in the slow step CI runs (``-m slow``).  The counts of the whole-corpus run are what
 docs/reliability.md reports; set ``TORLAB_FUZZ_REPORT`` to a file name to have them
 written as JSON.
@@ -24,8 +25,15 @@ BAD = ("traceback", "bug", "hang", "leaked_warning")
 #: the named cases of test_issue_cases, always in the sample
 NAMED = ("scene:wheel_rail_tab54.yaml:no_L_mue_L_mup", "protocol:small.yaml:as_written",
          "protocol:small.yaml:product_../../x", "protocol:small.yaml:scene_alias_bomb")
-#: the quick suite's sample: every STRIDE-th case (and the special and named ones)
+#: the quick suite's sample: every STRIDE-th case (and the special and named ones); of the
+#: commands added later (mostly fits, slower per case) every NEW_STRIDE-th
 STRIDE = 10
+NEW_STRIDE = 30
+
+#: the commands added to the corpus with the creep-force and retention work; each has its
+#: valid input as its first case (in the quick sample too) and fuzzed option values
+NEW_COMMANDS = ("fit_traction", "fit_film", "fit_visc", "fit_temperature", "fit_polach",
+                "predict_table", "predict_creep", "predict_sweep", "reduce_as")
 
 
 @pytest.fixture(scope="module", params=["sample", pytest.param("whole", marks=pytest.mark.slow)])
@@ -37,7 +45,8 @@ def corpus(request, tmp_path_factory):
     if request.param == "sample":
         firsts = {c.reader: k for k, c in reversed(list(enumerate(cases)))}  # one per reader
         cases = [c for k, c in enumerate(cases)
-                 if k % STRIDE == 0 or c.special or c.name in NAMED or firsts[c.reader] == k]
+                 if k % (STRIDE if c.reader not in NEW_COMMANDS else NEW_STRIDE) == 0
+                 or c.special or c.name in NAMED or firsts[c.reader] == k]
     return request.param, run_corpus(cases, tmp_path_factory.mktemp("corpus"), CliRunner(),
                                      plots=request.param == "whole")
 
@@ -71,9 +80,29 @@ def test_corpus_covers_every_reader_scene_and_protocol(outcomes):
     readers = {o.case.reader for o in outcomes}
     assert readers >= {"hpt", "hpt_map", "pcs", "ehd2", "optical", "visc", "scene",
                        "scene_stribeck", "protocol", "fit_hpt", "fit_removal",
-                       "predict_retention"}
+                       "predict_retention", *NEW_COMMANDS}
     specials = {o.case.mutation for o in outcomes if o.case.special}
     assert specials == {"fifo", "folder", "device", "missing", "symlink_device"}
+
+
+def test_every_command_accepts_its_valid_input(outcomes):
+    """The as-written input of each command works: the errors of its mutations are about
+    the mutation, not a command that always fails."""
+    valid = {o.case.reader: o for o in outcomes if o.case.mutation == "as_written"
+             and o.case.reader in NEW_COMMANDS}
+    assert set(valid) == set(NEW_COMMANDS)
+    bad = {r: o.detail for r, o in valid.items() if o.kind != "ok"}
+    assert not bad, bad
+
+
+def test_option_values_are_fuzzed_on_every_range_checked_option(corpus):
+    from fuzz_corpus import OPTIONS
+
+    which, outcomes = corpus
+    if which != "whole":
+        pytest.skip("the whole corpus only (the sample holds a few of the option cases)")
+    seen = {(o.case.reader, o.case.args[0]) for o in outcomes if o.case.source == "option"}
+    assert seen == {(c, opt) for c, opts in OPTIONS.items() for opt in opts}
 
 
 @pytest.mark.parametrize("name, kind", [
@@ -89,8 +118,14 @@ def test_issue_cases(outcomes, name, kind):
 
 def test_every_error_names_its_file(outcomes):
     """One line naming the input (or the option) that is wrong."""
-    unnamed = [o for o in outcomes if o.kind == "input_error"
-               and "input" not in o.detail and "rig2" not in o.detail
-               and "/dev/zero" not in o.detail and "does-not-exist" not in o.detail
-               and "scene.yaml" not in o.detail and "hpt_OFM1" not in o.detail]
-    assert not unnamed, [o.detail for o in unnamed[:5]]
+    def names(o) -> bool:
+        if o.case.args:  # a fuzzed option: its name, as the CLI or the library spells it
+            opt = o.case.args[0]
+            if opt in o.detail or f"{opt.lstrip('-').replace('-', '_')}:" in o.detail \
+                    or (opt == "--sweep" and "sweep:" in o.detail):
+                return True
+        return any(w in o.detail for w in ("input", "rig2", "/dev/zero", "does-not-exist",
+                                           "scene.yaml", "hpt_OFM1", "removal.yaml"))
+
+    unnamed = [o for o in outcomes if o.kind == "input_error" and not names(o)]
+    assert not unnamed, [f"{o.case.name}: {o.detail}" for o in unnamed[:8]]

@@ -11,7 +11,10 @@ from __future__ import annotations
 
 import json
 import logging
+import os
 import shutil
+import subprocess
+import sys
 import warnings
 from pathlib import Path
 
@@ -222,3 +225,72 @@ def test_protocol_run_bit_for_bit(tmp_path, executors):
         for n in names:
             assert files[n] == runs[0][0][n], n
         assert summary == runs[0][1]
+
+
+# ------------------------------------------------------------------------------ CLI, processes
+def _torlab(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
+
+    env = {k: v for k, v in os.environ.items() if k != "TORLAB_JOBS"}
+    return subprocess.run([sys.executable, "-m", "torlab", *map(str, args)], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=300)
+
+
+def _hpt_folder(tmp_path: Path, changes: dict[str, tuple[str, str]]) -> Path:
+    d = tmp_path / "logs"
+    d.mkdir()
+    for f in sorted((ROOT / "sample_data" / "hpt").glob("hpt_OFM1_*uL_25C.txt")):
+        text = f.read_text(encoding="utf-8")
+        if f.name in changes:
+            old, new = changes[f.name]
+            assert old in text
+            text = text.replace(old, new)
+        (d / f.name).write_text(text, encoding="utf-8")
+    return d
+
+
+def test_reduce_on_worker_processes_a_bad_file_among_many_is_one_error_line(tmp_path):
+    """'torlab reduce --jobs 2' in a real process: the error raised in a worker reaches the
+    console as one line naming the file and line, with the warning of another worker's file
+    as one line too; exit 2, no traceback, no output folder."""
+    d = _hpt_folder(tmp_path, {"hpt_OFM1_2uL_25C.txt": ("arm_length: 250 mm", "arm_length: 250"),
+                               "hpt_OFM1_8uL_25C.txt": ("arm_length: 250 mm",
+                                                        "arm_length: 2500 mm")})
+    r = _torlab("reduce", d, "--jobs", "2", "--no-plot", "-o", tmp_path / "out", cwd=tmp_path)
+    assert r.returncode == 2, r.stderr
+    lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+    assert "Traceback" not in r.stderr + r.stdout
+    assert all(ln.startswith(("error: ", "warning: ")) for ln in lines), lines
+    errors = [ln for ln in lines if ln.startswith("error: ")]
+    assert len(errors) == 1 and "hpt_OFM1_2uL_25C.txt:9: arm_length: needs a unit" in errors[0]
+    assert not (tmp_path / "out").exists()
+
+
+def test_reduce_on_worker_processes_passes_warnings_as_lines(tmp_path):
+    d = _hpt_folder(tmp_path, {"hpt_OFM1_8uL_25C.txt": ("arm_length: 250 mm",
+                                                        "arm_length: 2500 mm")})
+    r = _torlab("reduce", d, "--jobs", "2", "--no-plot", "-o", tmp_path / "out", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+    assert all(ln.startswith("warning: ") for ln in lines), lines
+    warn = [ln for ln in lines if "2500 mm is unusual for an HPT loading-arm length" in ln]
+    assert len(warn) == 1 and "hpt_OFM1_8uL_25C.txt:9:" in warn[0], lines
+    assert len(list((tmp_path / "out").glob("hpt_OFM1_*_reduced.csv"))) == 5
+
+
+def _numpy_warning_task(x: int) -> float:
+    return float(np.log(np.float64(x)))  # x = 0: numpy's "divide by zero" RuntimeWarning
+
+
+def test_numpy_warning_in_a_worker_is_not_printed_raw(capsys):
+    """A RuntimeWarning raised in a worker process is re-issued in the parent, where the CLI's
+    handler hides it (counted for --debug), like one raised in the parent."""
+    from torlab.cli import _STATE, _show_warning
+
+    _STATE.update(debug=False, warnings=[], hidden_warnings=[])
+    with ProcessExecutor(2) as ex, warnings.catch_warnings():
+        warnings.simplefilter("always")
+        warnings.showwarning = _show_warning
+        assert ex.map(_numpy_warning_task, [1, 0, 2])[1] == -np.inf
+    err = capsys.readouterr().err
+    assert err == "", err
+    assert [h[0] for h in _STATE["hidden_warnings"]] == ["RuntimeWarning"]

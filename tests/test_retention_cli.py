@@ -339,6 +339,44 @@ def test_predict_retention_bad_amounts(fitted, cli, tmp_path, amount, words):
     assert not (tmp_path / "p").exists()
 
 
+@pytest.mark.parametrize("args, words", [
+    (("--amount", "1e12 mg/m^2"), ("amount: 1e+12 mg/m^2 is not possible for an applied amount per area",)),
+    (("--amount", "1e9 uL", "--band-length", "20 mm"), ("not possible for an applied volume",)),
+    (("--amount", "1e5 mg/m^2", "--time", "1e300 s", "--pass-interval", "2 s"),
+     ("time: 1e+300 s is not possible for a duration",)),
+    (("--amount", "1e5 mg/m^2", "--time", "1 h", "--pass-interval", "-2 s"),
+     ("pass_interval: -2 s is not possible",)),
+    (("--amount", "1e5 mg/m^2", "--track-radius", "1e300 m"), ("track_radius: 1e+303 mm is not possible for a track radius",)),
+])
+def test_predict_retention_options_outside_the_range_table(fitted, cli, tmp_path, args, words):
+    """Amounts, durations and radii of the retention commands against torlab.units.RANGES."""
+    out, _ = fitted
+    _bad(cli("predict", "retention", TAB54, out / "params.yaml", *args, "-o", tmp_path / "p"),
+         *words)
+    assert not (tmp_path / "p").exists()
+
+
+@pytest.mark.parametrize("seconds, amount, words", [
+    ("1e300 s", "1e5 mg/m^2", ("sweep: 1e+300 s is not possible for a duration",)),
+    ("0 s", "1e5 mg/m^2", ("sweep: 0 s is not possible",)),
+    ("60 s", "1e12 mg/m^2", ("amount: 1e+12 mg/m^2 is not possible",)),
+])
+def test_sweep_options_outside_the_range_table(fitted, cli, tmp_path, seconds, amount, words):
+    out, _ = fitted
+    _bad(cli("predict", "traction", TAB54, out / "params.yaml", "--sweep", seconds, "--amount",
+             amount, "--track-radius", "0.5 m", "-o", tmp_path / "p"), *words)
+    assert not (tmp_path / "p").exists()
+
+
+def test_unusual_amount_is_a_warning_line_naming_it(fitted, cli, tmp_path):
+    out, _ = fitted
+    r = cli("predict", "retention", TAB54, out / "params.yaml", "--amount", "0.5 mg/m^2",
+            "--draws", "0", "-o", tmp_path / "p")
+    assert r.exit_code == 0, r.output
+    warn = [ln for ln in error_lines(r) if ln.startswith("warning:")]
+    assert any("0.5 mg/m^2 is unusual for an applied amount per area" in w for w in warn), warn
+
+
 def test_predict_retention_other_bad_input(fitted, cli, tmp_path):
     out, _ = fitted
     p = out / "params.yaml"

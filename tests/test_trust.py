@@ -133,6 +133,39 @@ def test_entry_signed_with_another_key_is_rejected(tmp_path, monkeypatch):
     assert a2.rejected == 1
 
 
+def test_figures_of_a_results_folder_signed_elsewhere_are_drawn_again(tmp_path, monkeypatch):
+    """A results folder someone sent you: its cached figures were replaced by other pictures
+    whose sidecars carry a well-formed HMAC under the sender's key.  Your --force re-run
+    draws every figure again and writes your own pictures; none of theirs is reused."""
+    from torlab.protocols.cache import FigureStore, ResultCache
+    from torlab.protocols.runner import run_protocol
+
+    p = _small_protocol(tmp_path)
+    monkeypatch.setenv("TORLAB_CONFIG_DIR", str(tmp_path / "you"))
+    mine = run_protocol(p, tmp_path / "mine")  # your own results, the reference pictures
+    pngs = sorted(f.relative_to(tmp_path / "mine") for f in (tmp_path / "mine").rglob("*.png")
+                  if ".cache" not in f.parts)
+    assert pngs and mine.timing["figures_drawn"] == len(pngs)
+    monkeypatch.setenv("TORLAB_CONFIG_DIR", str(tmp_path / "sender"))
+    out = tmp_path / "sent"
+    run_protocol(p, out)
+    store = FigureStore(ResultCache(out / ".cache"))  # the sender's key
+    figs = sorted((out / ".cache").glob("fig-*.png"))
+    assert len(figs) == len(pngs)
+    forged = (tmp_path / "mine" / pngs[0]).read_bytes()[::-1]  # another picture
+    for fig in figs:
+        fig.write_bytes(forged)
+        mac = store._mac(fig.name, forged)
+        head = fig.with_name(fig.name + ".mac").read_text().split()
+        fig.with_name(fig.name + ".mac").write_text(f"{head[0]} {head[1]} {mac}\n")
+    monkeypatch.setenv("TORLAB_CONFIG_DIR", str(tmp_path / "you"))
+    r = run_protocol(p, out, force=True)
+    assert (r.timing["figures_drawn"], r.timing["figures_reused"]) == (len(pngs), 0)
+    for rel in pngs:
+        assert (out / rel).read_bytes() == (tmp_path / "mine" / rel).read_bytes(), rel
+    assert forged not in [f.read_bytes() for f in (out / ".cache").glob("fig-*.png")]
+
+
 @pytest.mark.parametrize("tname", ["builtins:eval", "os:system", "subprocess:Popen",
                                    "torlab.outputs:shutil", "torlab.protocols.cache:ResultCache",
                                    "pickle:loads", "torlab..x:Y"])

@@ -186,13 +186,12 @@ def fit_temperature(curves: Any, temperatures: Any = None, *,
     from torlab.fit.result import FitResult
     from torlab.fit.temperature import fit_temperature_coefficients
     from torlab.reduce.hpt import RigCompliance
-    from torlab.units import to_si
 
     comp = RigCompliance.from_spec(compliance)
     items = [c if isinstance(c, FitResult) else _hpt_item(c, comp) for c in curves]
     temps = None if temperatures is None else \
-        [to_si(t, "temperature", where="temperatures") + 273.15 for t in temperatures]
-    tref = to_si(reference_temperature, "temperature", where="reference_temperature")
+        [_si(t, "temperature", "temperatures", "temperature") + 273.15 for t in temperatures]
+    tref = _si(reference_temperature, "temperature", "reference_temperature", "temperature")
     return fit_temperature_coefficients(items, temps, reference_temperature_C=tref)
 
 
@@ -337,7 +336,6 @@ def fit_film(data: Any, *, curve: str | None = None, scene: Any = None,
     """
     from torlab.fit.film import fit_film_thickness
     from torlab.instruments.reduction import Reduction
-    from torlab.units import to_si
 
     if isinstance(data, (str, os.PathLike)):
         from torlab.instruments.measured import film_data
@@ -353,7 +351,7 @@ def fit_film(data: Any, *, curve: str | None = None, scene: Any = None,
         raise TorlabInputError(f"{'no' if not groups else 'several'} film curves; choose one with "
                                f"curve= (have: {', '.join(repr(g[0]) for g in groups) or 'none'})",
                                key="curve")
-    vmin = None if min_speed is None else to_si(min_speed, "velocity", where="min_speed")
+    vmin = _si(min_speed, "velocity", "min_speed", "speed")
     sc = None if scene is None else _scene(scene)
     return fit_film_thickness(groups[0][1], groups[0][2], scene=sc, min_speed=vmin)
 
@@ -606,10 +604,10 @@ def predict_retention(scene: Any, params: Any, amount: Any, *, creepage: Any = "
     if v is not None:
         sc = sc.model_copy(update={"kinematics": sc.kinematics.model_copy(update={"speed": v})})
     xi = _si(creepage, "dimensionless", "creepage", "creepage")
-    r = _si(track_radius, "length", "track_radius")
-    dt = _si(pass_interval, "time", "pass_interval")
+    r = _si(track_radius, "length", "track_radius", "track_radius")
+    dt = _si(pass_interval, "time", "pass_interval", "duration")
     dens = _si(density, "density", "density", "density")
-    t_end = _si(time, "time", "time")
+    t_end = _si(time, "time", "time", "duration")
     kw: dict[str, Any] = {}
     if passes is not None and t_end is not None:
         raise TorlabInputError("give passes or time, not both", key="passes")
@@ -660,9 +658,9 @@ def predict_sweep(scene: Any, params: Any, amount: Any, *, seconds: Any,
                                "start >= 0 and at least 3 points", key="creepage")
     dens = _si(density, "density", "density", "density")
     sw = simulate_sweep(sc, rp.layer, rp.removal, amount, creepage=(float(xi[0]), float(xi[-1])),
-                        seconds=_si(seconds, "time", "sweep"),
-                        track_radius=_si(track_radius, "length", "track_radius"),
-                        pass_interval=_si(pass_interval, "time", "pass_interval"),
+                        seconds=_si(seconds, "time", "sweep", "duration"),
+                        track_radius=_si(track_radius, "length", "track_radius", "track_radius"),
+                        pass_interval=_si(pass_interval, "time", "pass_interval", "duration"),
                         band_length=_si(band_length, "length", "band_length"),
                         density=dens if dens is not None else rp.density,
                         transfer=_si(transfer, "dimensionless", "transfer"), points=int(xi.size),
@@ -701,11 +699,10 @@ def predict_creep(scene: Any, creepage: Any, lateral: Any = 0.0, spin: Any = 0.0
         ``modelled``, ``summary``.
     """
     from torlab.model.creep import predict_creep as _predict
-    from torlab.units import to_si
 
     return _predict(_scene(scene, params), _grid(creepage, "dimensionless", "creepage"),
-                    to_si(lateral, "dimensionless", where="lateral"),
-                    to_si(spin, "inverse_length", where="spin"))
+                    _si(lateral, "dimensionless", "lateral", "creepage"),
+                    _si(spin, "inverse_length", "spin", "spin"))
 
 
 def _amount(value: Any) -> tuple[float, str]:

@@ -46,6 +46,7 @@ import stat
 import sys
 import tempfile
 import time
+import weakref
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
@@ -210,12 +211,19 @@ def _writing(where: str | os.PathLike[str]) -> Iterator[None]:
 
 # ---------------------------------------------------------------------------- lock
 class _Lock:
-    """An exclusive, non-blocking OS lock on a lock file (released when the process dies)."""
+    """An exclusive, non-blocking OS lock on a lock file (released when the process dies).
+
+    A process forked while the lock is held (a worker of
+    :class:`torlab.parallel.ProcessExecutor`) closes its copy of the descriptor at once
+    (:func:`_forget_locks_in_child`): the lock belongs to the run, and a worker outliving a
+    killed run must not keep its output folder locked.
+    """
 
     def __init__(self, path: Path, target: Path) -> None:
         self.path = path
         self.target = target
         self.fd: int | None = None
+        _LOCKS.add(self)
 
     def acquire(self) -> None:
         for _ in range(20):
@@ -253,6 +261,22 @@ class _Lock:
 
     def __del__(self) -> None:
         self.release()
+
+
+_LOCKS: weakref.WeakSet[_Lock] = weakref.WeakSet()
+
+
+def _forget_locks_in_child() -> None:
+    """After ``fork``: close the child's copies of held lock descriptors (without unlinking)."""
+    for lk in list(_LOCKS):
+        fd, lk.fd = lk.fd, None
+        if fd is not None:
+            with contextlib.suppress(OSError):
+                os.close(fd)
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_locks_in_child)
 
 
 def _try_lock(fd: int) -> bool:

@@ -83,8 +83,11 @@ def _results(out: Sequence[tuple[Any, Sequence[tuple[Any, ...]]]]) -> list[Any]:
     return results
 
 
-def _worker_init() -> None:
-    """A worker runs its tasks serially and leaves Ctrl-C to the parent."""
+def _worker_init(parent: int | None = None) -> None:
+    """A worker runs its tasks serially and leaves Ctrl-C to the parent; on Linux it dies
+    with its parent (``PR_SET_PDEATHSIG``), so a ``kill -9`` of a run leaves no orphaned
+    workers behind (the output folder's lock is not inherited either: see
+    :class:`torlab.outputs.OutputDir`)."""
     import signal
 
     _CURRENT.set(None)
@@ -92,6 +95,15 @@ def _worker_init() -> None:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
     except (ValueError, OSError):  # not the main thread (a threaded Dask worker)
         pass
+    if parent is not None and sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            pass
+        if os.getppid() != parent:  # the parent died before the line above
+            os._exit(0)
 
 
 # ------------------------------------------------------------------------------ executors
@@ -185,7 +197,8 @@ class ProcessExecutor(Executor):
             ctx = mp.get_context(method)
             with progress().pause():
                 self._pool = ProcessPoolExecutor(self.workers, mp_context=ctx,
-                                                 initializer=_worker_init)
+                                                 initializer=_worker_init,
+                                                 initargs=(os.getpid(),))
                 if method == "fork":  # fork every worker now, while no other thread runs
                     for f in [self._pool.submit(_noop, i) for i in range(self.workers)]:
                         f.result()

@@ -400,6 +400,14 @@ RANGES: dict[str, Range] = {
                                  "an HPT averaging window (displacement)", display="um"),
     "ball_radius": Range("length", 1e-6, 1.0, 5e-4, 0.05, "a ball radius", low_open=False,
                          display="mm"),
+    "spin": Range("inverse_length", -1e6, 1e6, -1e3, 1e3,
+                  "a spin (1/m; |spin| <= 1/(smallest radius of the contact))", low_open=False,
+                  display="1/m"),
+    "amount_areal": Range("mass_per_area", 0.0, 100.0, 1e-6, 10.0,
+                          "an applied amount per area", display="mg/m^2"),
+    "track_radius": Range("length", 0.0, 100.0, 1e-3, 2.0,
+                          "a track radius (disc track, test ring)", display="mm"),
+    "duration": Range("time", 0.0, 1e8, 0.1, 86400.0, "a duration (a slip sweep)", display="s"),
 }
 
 

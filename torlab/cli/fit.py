@@ -340,13 +340,15 @@ def temperature_cmd(
     from torlab.fit.layer import fit_layers_hpt
     from torlab.fit.temperature import fit_temperature_coefficients
     from torlab.outputs import OutputDir
-    from torlab.units import to_si
+    from torlab.units import check_range, to_si
 
     sel = _choice(selection, ("test", "none"), "--selection")
     files = require_files(inputs, "HPT", keep=is_hpt_input)
     extra: list[Path] = []
     comp = _compliance(compliance, extra)
-    Tref = to_si(reference_temperature, "temperature", where="--reference-temperature")
+    Tref = check_range("temperature", to_si(reference_temperature, "temperature",
+                                            where="--reference-temperature"),
+                       where="--reference-temperature")
     curves = _prepare_hpt(hpt_items(files, comp), comp)
     fits = fit_layers_hpt(curves)
     res = fit_temperature_coefficients(fits, reference_temperature_C=Tref, selection=sel)
@@ -402,12 +404,13 @@ def film_cmd(
     from torlab.fit.film import fit_film_thickness
     from torlab.outputs import OutputDir
     from torlab.scene import load_scene
-    from torlab.units import to_si
+    from torlab.units import check_range, to_si
 
     keep, loaded = loads(film_data)
     files = require_files(data, "film-thickness", keep=keep)
     scenes = require_files([scene], "scene") if scene else []
-    vmin = None if min_speed is None else to_si(min_speed, "velocity", where="--min-speed")
+    vmin = None if min_speed is None else check_range(
+        "speed", to_si(min_speed, "velocity", where="--min-speed"), where="--min-speed")
     sc = load_scene(scenes[0]) if scenes else None
     groups = [(f, label, v, h) for f in files
               for label, v, h in (loaded[f] if f in loaded else film_data(f))]
@@ -510,11 +513,13 @@ def polach_cmd(
 
     files = require_files(scene, "scene")
     sc = load_scene(*files)
-    res = fit_polach(creep_problem(sc), parse_values(creepage, "dimensionless", "--creepage"),
-                     parse_values(speed, "velocity", "--speed"),
+    res = fit_polach(creep_problem(sc), parse_values(creepage, "dimensionless", "--creepage",
+                                                     "creepage"),
+                     parse_values(speed, "velocity", "--speed", "speed"),
                      lateral=None if lateral is None else parse_values(lateral, "dimensionless",
-                                                                       "--lateral"),
-                     spin=None if spin is None else parse_values(spin, "inverse_length", "--spin"),
+                                                                       "--lateral", "creepage"),
+                     spin=None if spin is None else parse_values(spin, "inverse_length", "--spin",
+                                                                 "spin"),
                      source=sc.name or files[0].stem)
     with OutputDir(out, force=force, inputs=files, command=command_line()) as dest:
         write_fits(dest, [("", res)], "Polach fit", xlsx=xlsx, formats=formats)

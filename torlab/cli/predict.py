@@ -133,8 +133,8 @@ def traction_cmd(
     _no_retention_file(files)
     sc = load_scene(*files)
     xi = parse_values(creepage, "dimensionless", "--creepage", "creepage")
-    eta = float(parse_values(lateral, "dimensionless", "--lateral")[0])
-    phi = float(parse_values(spin, "inverse_length", "--spin")[0])
+    eta = float(parse_values(lateral, "dimensionless", "--lateral", "creepage")[0])
+    phi = float(parse_values(spin, "inverse_length", "--spin", "spin")[0])
     dest = OutputDir(out, force=force, inputs=files, command=command_line())
     names = ["traction.csv", "summary.json"]
     with dest, session(jobs, scheduler, quiet):
@@ -427,9 +427,11 @@ def table_cmd(
     files = require_files(scene, "scene")
     kinds = ("dimensionless", "dimensionless", "inverse_length") if not normalised else \
         ("dimensionless",) * 3
-    axes = [parse_values(v, k, f"--{n}") for v, k, n in
-            zip((creepage, lateral, spin), kinds, ("creepage", "lateral", "spin"), strict=True)]
-    v = parse_values(speed, "velocity", "--speed") if speed is not None else None
+    ranges = ("creepage", "creepage", "spin") if not normalised else (None,) * 3
+    axes = [parse_values(v, k, f"--{n}", q) for v, k, n, q in
+            zip((creepage, lateral, spin), kinds, ("creepage", "lateral", "spin"), ranges,
+                strict=True)]
+    v = parse_values(speed, "velocity", "--speed", "speed") if speed is not None else None
     pairs, unit, extra = _parse_amounts(amount or [])
     amounts = [(a, load_scene(*files, p)) for a, p in pairs] if pairs else None
     sc = load_scene(*files)

@@ -75,11 +75,15 @@ def polach_data(problem: CreepProblem, creepage: Any, speed: Any, *, lateral: An
 
 
 def _start(df: Any, contact: Any) -> np.ndarray:
-    lon = df[(df["lateral"] == 0) & (df["spin_1_m"] == 0)]
+    # the start values from the curve nearest to pure longitudinal creepage (the fit range
+    # need not hold lateral = spin = 0: '--lateral 0.005' alone is a range of its own)
+    e0 = df["lateral"].to_numpy()[np.argmin(np.abs(df["lateral"].to_numpy()))]
+    p0 = df["spin_1_m"].to_numpy()[np.argmin(np.abs(df["spin_1_m"].to_numpy()))]
+    lon = df[(df["lateral"] == e0) & (df["spin_1_m"] == p0)]
     v0 = lon["speed_m_s"].min()
     c = lon[lon["speed_m_s"] == v0].sort_values("creepage")
     x = c["creepage"].to_numpy()
-    y = np.abs(c["mu_x"].to_numpy())
+    y = np.hypot(c["mu_x"].to_numpy(), c["mu_y"].to_numpy())
     k = int(np.argmax(y))
     mu0 = max(float(y[k]), 1e-3)
     kal = contact.G_C11 * contact.a * contact.b / contact.Q  # Kalker's slope of mu_x

@@ -18,6 +18,7 @@ __all__ = [
     "hpt_items",
     "is_hpt_input",
     "loads",
+    "numbers",
     "read_csv",
     "traction_data",
     "viscosity_data",
@@ -41,11 +42,13 @@ def read_csv(path: Path, need: tuple[tuple[str, ...], ...], what: str) -> tuple[
     import pandas as pd
 
     from torlab.errors import TorlabInputError
+    from torlab.outputs import open_regular
 
     try:
-        df = pd.read_csv(path, comment="#")
-    except (ValueError, pd.errors.ParserError) as e:
-        msg = " ".join(str(e).split())
+        with open_regular(path) as fh:  # a regular file only: no FIFO or device is waited on
+            df = pd.read_csv(fh, comment="#")
+    except (ValueError, pd.errors.ParserError, UnicodeDecodeError) as e:
+        msg = " ".join(str(e).split())[:200]
         raise TorlabInputError(f"not a readable CSV of {what} ({msg})", path=path) from None
     cols = [next((c for c in group if c in df), "") for group in need]
     if not all(cols):
@@ -73,6 +76,50 @@ def loads(load: Any) -> tuple[Any, dict[Path, Any]]:
         return True
 
     return keep, loaded
+
+
+def numbers(df: Any, col: str, path: Path, *, finite: bool = True) -> Any:
+    """Column ``col`` as floats; a cell that is not a number (or, with ``finite``, NaN or
+    inf) is an error naming the file, the column and the row of the table."""
+    import numpy as np
+    import pandas as pd
+
+    raw = df[col]
+    v = pd.to_numeric(raw, errors="coerce").to_numpy(dtype=float)
+    text = raw.astype(str).str.strip().str.lower()
+    bad = np.isnan(v) & ~text.isin(["nan", "", "none"]).to_numpy() & raw.notna().to_numpy()
+    if finite:
+        bad |= ~np.isfinite(v)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise TorlabInputError(f"row {i + 1} of the table: {str(raw.iloc[i])[:40]!r} is not "
+                               f"{'a finite number' if finite else 'a number'}", path=path,
+                               key=col)
+    return v
+
+
+def viscosity_data(path: Path) -> tuple[Any, Any, Any]:
+    """Pressure (Pa), viscosity (Pa s) and the logged temperatures (degC, the finite ones;
+    None when not logged) of a reduced viscometer table ('torlab visc reduce'
+    ``*_steps.csv`` or ``*_falls.csv``)."""
+    import numpy as np
+
+    df, (pc, ec) = read_csv(path, (("pressure_Pa",), ("viscosity_Pa_s",)),
+                             "reduced viscometer data ('torlab visc reduce' output: pressure_Pa, "
+                             "viscosity_Pa_s)")
+    p, eta = numbers(df, pc, path), numbers(df, ec, path)
+    T = None
+    if "temperature_C" in df:
+        t = numbers(df, "temperature_C", path, finite=False)
+        t = t[np.isfinite(t)]
+        if t.size:
+            if (t < -273.15).any() or (t > 2000).any():
+                from torlab.units import check_range
+
+                for x in t:
+                    check_range("temperature", float(x), path=path, where="temperature_C")
+            T = t
+    return p, eta, T
 
 
 def is_hpt_input(path: Path) -> bool:
@@ -114,10 +161,7 @@ def traction_data(path: Path) -> tuple[Any, Any, str]:
                 test)
     df, (xc, yc) = read_csv(path, (("creepage", "srr"), ("mu", "traction_coefficient")),
                              "a traction curve")
-    try:
-        return df[xc].to_numpy(dtype=float), df[yc].to_numpy(dtype=float), ""
-    except ValueError:
-        raise TorlabInputError(f"columns {xc}, {yc} must be numbers", path=path) from None
+    return numbers(df, xc, path), numbers(df, yc, path), ""
 
 
 def film_data(path: Path) -> list[tuple[str, Any, Any]]:
@@ -131,19 +175,4 @@ def film_data(path: Path) -> list[tuple[str, Any, Any]]:
         return [(c.label if len(curves) > 1 else "", c.x, c.y) for c in curves]
     df, (vc, hc) = read_csv(path, (("speed_m_s", "rolling_speed_m_s"), ("film_thickness_m",)),
                              "film thickness")
-    return [("", df[vc].to_numpy(dtype=float), df[hc].to_numpy(dtype=float))]
-
-
-
-
-def viscosity_data(path: Path) -> tuple[Any, Any, Any]:
-    """Pressures, viscosities and (or ``None``) temperatures of reduced viscometer data: a
-    CSV with pressure_Pa and viscosity_Pa_s ('torlab visc reduce' *_falls.csv or
-    *_steps.csv)."""
-    df, (pc, ec) = read_csv(path, (("pressure_Pa",), ("viscosity_Pa_s",)),
-                             "reduced viscometer data ('torlab visc reduce' output)")
-    try:
-        T = df["temperature_C"].to_numpy(dtype=float) if "temperature_C" in df else None
-        return df[pc].to_numpy(dtype=float), df[ec].to_numpy(dtype=float), T
-    except ValueError:
-        raise TorlabInputError(f"columns {pc}, {ec} must be numbers", path=path) from None
+    return [("", numbers(df, vc, path), numbers(df, hc, path))]

@@ -69,6 +69,8 @@ _LOG = np.array([False, False, True, True])
 DRY_ANCHOR_FACTOR = 10.0
 
 _KINDS = ("mass_per_area", "mass", "volume")
+#: amount kind -> its entry of torlab.units.RANGES
+_RANGE = {"mass_per_area": "amount_areal", "mass": "amount_mass", "volume": "amount_volume"}
 
 
 def parse_amount(value: Any, *, where: str = "amount") -> tuple[float, str]:
@@ -81,7 +83,9 @@ def parse_amount(value: Any, *, where: str = "amount") -> tuple[float, str]:
     ------
     TorlabInputError
         No unit (a bare number could be a volume, a mass or an areal density),
-        an unknown unit or one of another kind, a negative or non-finite amount.
+        an unknown unit or one of another kind, a negative or non-finite amount,
+        an amount outside :data:`torlab.units.RANGES` (``amount_volume``,
+        ``amount_mass``, ``amount_areal``; an unusual one warns).
     """
     from torlab.units import parse_unit_factor
 
@@ -109,6 +113,10 @@ def parse_amount(value: Any, *, where: str = "amount") -> tuple[float, str]:
             scale, _ = parse_unit_factor(unit, kind, where=where)
         except TorlabInputError:
             continue
+        if num > 0:  # zero is the dry run; a positive amount must be a plausible one
+            from torlab.units import check_range
+
+            check_range(_RANGE[kind], num * scale, where=where)
         return num * scale, kind
     raise TorlabInputError(f"unit {unit!r} of amount {text!r} is not a volume (uL), a mass (mg) "
                            "or a mass per area (mg/m^2)", key=where)

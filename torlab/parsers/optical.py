@@ -458,6 +458,18 @@ def _validate_column(v: np.ndarray, k: int, src: OpticalSource, first: int) -> N
             i = int(np.argmax(~(v > 0)))
             raise TorlabInputError(f"normal load must be positive, got {v[i]:g}", path=display,
                                    line=first + i, key="normal_load")
+    elif name == "load_set_N":
+        if (v < 0).any():
+            i = int(np.argmax(v < 0))
+            raise TorlabInputError(f"a load set point cannot be negative, got {v[i]:g} N",
+                                   path=display, line=first + i, key="load_set")
+    elif name == "temperature_C":
+        below = v < -273.15 - 1e-9  # NaN (an empty cell) compares False
+        if below.any():
+            i = int(np.argmax(below))
+            raise TorlabInputError(f"{v[i]:g} degC is below absolute zero (-273.15 degC); "
+                                   "check the value and the column's unit", path=display,
+                                   line=first + i, key="temperature")
     elif name == "condition":
         badc = (v < 0) | (v != np.floor(v))
         if badc.any():

@@ -183,7 +183,44 @@ _KNOWN_META: dict[str, tuple[str, str]] = {
     "lubricant_refractive_index": ("lubricant_refractive_index", "dimensionless"),
     "trigger_position": ("trigger_position", "dimensionless"),
     "peak_order": ("peak_order", "dimensionless"),
+    "rolling_speed": ("rolling_speed_m_s", "velocity"),
+    "srr": ("srr", "dimensionless"),
 }
+
+#: the unit PCS means where a step line gives a number without one (its columns' units)
+_META_UNIT = {"length": "mm", "velocity": "mm/s", "srr": "%"}
+
+#: a Ball Load this far below zero (N) is not a load cell at rest but a broken value
+LOAD_ZERO_NOISE_N = 0.5
+
+
+def _meta_range(name: str) -> str | None:
+    """The :data:`torlab.units.RANGES` entry a header or step value is checked against."""
+    if name.endswith("_load_N"):
+        return "load"
+    if name.endswith("_C"):
+        return "temperature"
+    if name == "disc_track_radius_m":
+        return "track_radius"
+    if name.endswith("_m_s") and "speed" in name and "sliding" not in name:
+        return "speed"
+    if name == "srr":
+        return "creepage"
+    if name.startswith("applied_amount"):
+        return "amount_volume" if name.endswith("_m3") else \
+            "amount_mass" if name.endswith("_kg") else None
+    return None
+
+
+def _checked(name: str, value: float, key: str, path: str, line: int) -> tuple[str, float]:
+    """``(name, value)`` after the range check of its quantity (error or warning line); an
+    applied amount of zero (the dry run) is not checked."""
+    q = _meta_range(name)
+    if q is not None and not (q.startswith("amount") and value == 0):
+        from torlab.units import check_range
+
+        check_range(q, value, where=key, path=path, line=line)
+    return name, value
 
 # metadata keys of the file header -> attribute of PcsMetadata
 _HEADER_KEYS = {
@@ -462,12 +499,13 @@ def _quantity(key: str, value: str, unit_hint: str, *, path: str, line: int) -> 
     unit = _fix_mojibake(m.group("unit") or unit_hint).strip()
     if known is not None:
         name, kind = known
-        if not unit and kind != "dimensionless":
-            # PCS writes lengths of the header in mm without a unit (Disc track radius: 36.273)
-            unit = "mm" if kind == "length" else ""
+        if not unit:
+            # PCS writes lengths of the header in mm without a unit (Disc track radius: 36.273),
+            # speeds in mm/s and the SRR in %, as in its columns
+            unit = _META_UNIT.get(name, _META_UNIT.get(kind, ""))
         sc, off = _unit_factor(unit, kind, where=key.strip(), path=path, line=line) if unit \
             else (1.0, 0.0)
-        return name, num * sc + off
+        return _checked(name, num * sc + off, key.strip(), path, line)
     if not unit:
         return base, num
     for kind in _UNIT_KINDS:
@@ -475,7 +513,7 @@ def _quantity(key: str, value: str, unit_hint: str, *, path: str, line: int) -> 
             sc, off = _unit_factor(unit, kind)
         except TorlabInputError:
             continue
-        return base + _SUFFIX[kind], num * sc + off
+        return _checked(base + _SUFFIX[kind], num * sc + off, key.strip(), path, line)
     return base, value.strip()  # a unit nobody knows: keep the text as written
 
 
@@ -537,6 +575,7 @@ def read_pcs(src: PathOrBuffer, *, instrument: str | None = None,
     blocks = _split(lines, meta, display)
     df = _tables(blocks, meta, display)
     refuse_below_absolute_zero(df, display)
+    _refuse_negative_load(df, display)
     _coefficient_convention(df, meta)
     expected = meta.steps_completed
     if expected is not None and expected != len(meta.steps):
@@ -778,7 +817,9 @@ def _meta_line(raw: str, step: PcsStep, path: str, ln: int) -> None:
     if h:
         unit = {"°c": "degC", "degc": "degC", "c": "degC", "°f": "degF", "k": "K"}[h.group("u").lower()]
         sc, off = _unit_factor(unit, "temperature", path=path, line=ln)
-        step.metadata["target_temperature_C"] = float(h.group("T")) * sc + off
+        step.metadata["target_temperature_C"] = _checked(
+            "target_temperature_C", float(h.group("T")) * sc + off, "Controlling temperature",
+            path, ln)[1]
         if h.group("probe"):
             step.metadata["control_probe"] = h.group("probe")
         if h.group("d"):
@@ -1075,6 +1116,25 @@ def _coefficient_convention(df: Any, meta: PcsMetadata) -> None:
         meta.coefficient_convention = "inconsistent"
         meta.warnings.append(f"'Traction Coeff' differs from Traction Force / Ball Load in {bad} "
                              "rows (kept as written)")
+
+
+def _refuse_negative_load(df: Any, display: str) -> None:
+    """A load column (``Ball Load``, ``Pin Load``) below ``-LOAD_ZERO_NOISE_N`` is an error
+    naming the line: a normal load cannot pull.  Readings around zero (an unloaded step)
+    stay; :func:`torlab.reduce.mtm.mu_series` derives no coefficient from them and says so.
+    """
+    for c in ("ball_load_N", "pin_load_N"):
+        if c not in df:
+            continue
+        w = df[c].to_numpy(dtype=float)
+        bad = w < -LOAD_ZERO_NOISE_N  # NaN (an empty cell) compares False
+        if bad.any():
+            i = int(np.argmax(bad))
+            line = int(df["line"].iloc[i]) if "line" in df else None
+            raise TorlabInputError(f"{w[i]:g} N is not possible for a normal load (a load cell "
+                                   f"at rest reads within {LOAD_ZERO_NOISE_N:g} N of zero); check "
+                                   "the value and the column's unit", path=display, line=line,
+                                   key={"ball_load_N": "Ball Load", "pin_load_N": "Pin Load"}[c])
 
 
 def coefficient_column(df: Any) -> tuple[str, str]:

@@ -105,20 +105,29 @@ def _amount(v: Any) -> Any:
     known = known_kinds(v)  # a common unit's kind first (no pint for a failing try)
     for kind in sorted(("volume", "mass"), key=lambda k: k not in known):
         try:
-            return (kind, to_si(v, kind))
+            x = to_si(v, kind)
         except TorlabInputError:
             continue
+        if x != 0:  # zero: the dry runs
+            from torlab.units import check_range
+
+            try:
+                check_range(f"amount_{kind}", x)
+            except TorlabInputError as e:
+                raise ValueError(e.message) from None
+        return (kind, x)
     raise ValueError(f"{v!r} is neither a volume (e.g. '4 uL') nor a mass (e.g. '4 mg')")
 
 
 Amount = Annotated[tuple[Literal["volume", "mass"], float], BeforeValidator(_amount)]
 
 
-def _grid_values(kind: str, *, positive: bool = False):
+def _grid_values(kind: str, *, positive: bool = False, quantity: str | None = None):
     """Before-validator for a grid of values.
 
     Accepts a list of quantities, ``"start:stop:count"`` (inclusive, linear, like
     ``numpy.linspace``) or a mapping ``{from, to, points, spacing: linear|log}``.
+    With ``quantity``, every value is checked against :data:`torlab.units.RANGES`.
     """
 
     def conv(v: Any) -> Any:
@@ -163,6 +172,14 @@ def _grid_values(kind: str, *, positive: bool = False):
             raise ValueError(e.message) from None
         if positive and any(x <= 0 for x in vals):
             raise ValueError("values must be positive")
+        if quantity is not None:
+            from torlab.units import check_range
+
+            try:
+                for x in vals:
+                    check_range(quantity, x)
+            except TorlabInputError as e:
+                raise ValueError(e.message) from None
         return vals
 
     return BeforeValidator(conv)
@@ -437,14 +454,14 @@ class Fits(_Model):
 
 
 # --------------------------------------------------------------------------- reports
-Creepages = Annotated[list[float], _grid_values("dimensionless")]
-Speeds = Annotated[list[float], _grid_values("velocity", positive=True)]
+Creepages = Annotated[list[float], _grid_values("dimensionless", quantity="creepage")]
+Speeds = Annotated[list[float], _grid_values("velocity", positive=True, quantity="speed")]
 
 
 def _speeds_or_measured(v: Any) -> Any:
     if v is None or v == "measured":
         return v
-    return _grid_values("velocity", positive=True).func(v)
+    return _grid_values("velocity", positive=True, quantity="speed").func(v)
 
 
 SpeedsOrMeasured = Annotated[Any, BeforeValidator(_speeds_or_measured)]
@@ -524,7 +541,7 @@ class StribeckReport(_Model):
     """``reports.stribeck``: mu against rolling speed and Lambda, regimes, asperity load share."""
 
     speed: Speeds = Field(default_factory=lambda: [0.01 * (300.0 ** (i / 39)) for i in range(40)])
-    creepage: Fraction | None = None
+    creepage: Annotated[float, _q("dimensionless", "creepage")] | None = None
     curves: list[CurveSpec] = Field(min_length=1)
 
 
@@ -589,7 +606,7 @@ class InitialDrop(_Model):
 
     scene: Annotated[list[Ref], BeforeValidator(_listify)] = Field(min_length=1)
     params: ParamSets = []
-    creepage: Fraction | None = None
+    creepage: Annotated[float, _q("dimensionless", "creepage")] | None = None
 
 
 class TimeTestReport(_Model):
@@ -679,7 +696,7 @@ class RetentionSweepSpec(_Model):
     revolution (``prediction.track_radius``) or ``pass_interval`` on a rail.
     """
 
-    seconds: Time = Field(gt=0)
+    seconds: Annotated[float, _q("time", "duration")] = Field(gt=0)
     creepage: Creepages = Field(default_factory=lambda: [i * 0.001 for i in range(51)])
     amount: RetentionAmount | None = None
     pass_interval: Time | None = Field(default=None, gt=0)
