@@ -345,8 +345,8 @@ def test_predict_retention_bad_amounts(fitted, cli, tmp_path, amount, words):
     (("--amount", "1e5 mg/m^2", "--time", "1e300 s", "--pass-interval", "2 s"),
      ("time: 1e+300 s is not possible for a duration",)),
     (("--amount", "1e5 mg/m^2", "--time", "1 h", "--pass-interval", "-2 s"),
-     ("pass_interval: -2 s is not possible",)),
-    (("--amount", "1e5 mg/m^2", "--track-radius", "1e300 m"), ("track_radius: 1e+303 mm is not possible for a track radius",)),
+     ("--pass-interval: -2 s is not possible",)),
+    (("--amount", "1e5 mg/m^2", "--track-radius", "1e300 m"), ("--track-radius: 1e+303 mm is not possible for a track radius",)),
 ])
 def test_predict_retention_options_outside_the_range_table(fitted, cli, tmp_path, args, words):
     """Amounts, durations and radii of the retention commands against torlab.units.RANGES."""
