@@ -229,6 +229,18 @@ def _gauss(n: int) -> tuple[np.ndarray, np.ndarray]:
     return 0.5 * (x + 1.0), 0.5 * w
 
 
+#: elements of the (points, strips, nodes) arrays computed at once with a layer per point,
+#: and of e_strip's quadrature: temporaries below ~128 kB come from the allocator's free
+#: lists and stay in cache; larger ones are fresh pages each time (several times slower)
+_CHUNK_ELEMENTS = 12288
+
+
+def _row_chunks(n_rows: int, per_row: int) -> list[slice]:
+    """Slices of ``n_rows`` rows with about :data:`_CHUNK_ELEMENTS` elements each."""
+    step = max(1, _CHUNK_ELEMENTS // max(per_row, 1))
+    return [slice(i, min(i + step, n_rows)) for i in range(0, n_rows, step)]
+
+
 def e_strip(theta: np.ndarray, r: np.ndarray) -> np.ndarray:
     """``e(theta; r) = integral_0^theta sin^2 t / (sin t + r) dt`` (elastic stress shape).
 
@@ -259,12 +271,16 @@ def e_strip(theta: np.ndarray, r: np.ndarray) -> np.ndarray:
     if other.any():
         th, rr = theta[other], r[other]
         x, w = _gauss(24)
-        t = th[:, None] * x[None, :]
-        st = np.sin(t)
-        den = st + rr[:, None]
-        # the integrand tends to 0 with sin t where r = 0 (no layer): no 0/0 at theta = 0
-        f = np.divide(st * st, den, out=np.zeros_like(den), where=den > 0)
-        out[other] = th * np.sum(w[None, :] * f, axis=1)
+        res = np.empty(th.shape)
+        # in pieces of _CHUNK_ELEMENTS nodes: temporaries that stay small are much faster
+        for sl in _row_chunks(th.size, x.size):
+            t = th[sl, None] * x[None, :]
+            st = np.sin(t)
+            den = st + rr[sl, None]
+            # the integrand tends to 0 with sin t where r = 0 (no layer): no 0/0 at theta = 0
+            f = np.divide(st * st, den, out=np.zeros_like(den), where=den > 0)
+            res[sl] = th[sl] * np.sum(w[None, :] * f, axis=1)
+        out[other] = res
     return out
 
 
@@ -473,6 +489,8 @@ class _Solver:
             rows = np.flatnonzero(sel)
             if rows.size == 0:
                 continue
+            if rows.size == shape[0]:
+                rows = slice(None)  # every point: no copies
             if thermal:
                 nT = dT_grid.shape[-1]
                 e_nodes = self.e_nodes
@@ -486,7 +504,8 @@ class _Solver:
                 what = "FASTSIM yield angle"
             bad = ~np.isfinite(t)
             if bad.any():
-                self._fail(np.isin(np.arange(shape[0]), rows[np.any(bad, axis=1)]),
+                self._fail(np.isin(np.arange(shape[0]),
+                                   np.arange(shape[0])[rows][np.any(bad, axis=1)]),
                            f"{what}: the safeguarded Newton iteration did not converge in "
                            f"{_YIELD_MAX_ITER} steps")
             th[rows] = t
@@ -518,7 +537,9 @@ class _Solver:
         t1 = lay.mu_c1 * p * f1
         t2 = lay.mu_c2 * p * f2
         d = xi * X - lay.mu_c1 * f1 * (prob.L1 * p + lay.L_mue)
-        if self.groups is not None:
+        if self.groups is not None and np.all(lay.L_mup > 0):
+            decay = np.exp(-np.maximum(d, 0.0) / lay.L_mup)
+        elif self.groups is not None:
             Lp = lay.L_mup
             with np.errstate(divide="ignore", invalid="ignore"):
                 decay = np.where(Lp > 0, np.exp(-np.maximum(d, 0.0) / np.where(Lp > 0, Lp, 1.0)),
@@ -706,7 +727,10 @@ def _yield_isothermal(c: np.ndarray, r: np.ndarray,
         table = (np.log(e_strip(grid[None, None, :], r_group[ug][..., None]))
                  - np.log(np.sin(grid[None, None, :])))
         table[..., -1] = np.inf
-        k = np.sum(table[inv.reshape(-1)] < logc[..., None], axis=-1)
+        inv = inv.reshape(-1)
+        k = np.empty(logc.shape, dtype=int)
+        for sl in _row_chunks(logc.shape[0], logc.shape[1] * nt):  # small temporaries
+            k[sl] = np.sum(table[inv[sl]] < logc[sl, ..., None], axis=-1)
     edges = np.r_[0.0, grid]
     lo = edges[k]
     hi = edges[np.minimum(k + 1, nt)]
@@ -755,16 +779,29 @@ def _yield_thermal(c: np.ndarray, r: np.ndarray, e_nodes: np.ndarray, dT: np.nda
         mu1T_nodes = mu1T
     h = math.pi / (nT - 1)
     nodes = np.linspace(0.0, math.pi, nT)
-    f_nodes = e_nodes - c[..., None] * np.sin(nodes) * np.exp(mu1T_nodes * dT)
-    above = f_nodes[..., 1:] >= 0.0
-    above[..., -1] = True  # f(pi) = e(pi) > 0: the particle has yielded by the trailing edge
-    k = np.argmax(above, axis=-1)[..., None]  # cell [theta_k, theta_k+1] holds the first root
-    lo = k[..., 0] * h
-    hi = np.where(k[..., 0] + 1 == nT - 1, math.pi, (k[..., 0] + 1) * h)
-    d0 = np.take_along_axis(dT, k, axis=-1)[..., 0]
-    slope = (np.take_along_axis(dT, k + 1, axis=-1)[..., 0] - d0) / h
-    f0 = np.take_along_axis(f_nodes, k, axis=-1)[..., 0]
-    f1 = np.take_along_axis(f_nodes, k + 1, axis=-1)[..., 0]
+    sin_nodes = np.sin(nodes)
+
+    def cells(c: np.ndarray, e_nodes: np.ndarray, m1: Any, dT: np.ndarray) -> tuple[np.ndarray, ...]:
+        f_nodes = e_nodes - c[..., None] * sin_nodes * np.exp(m1 * dT)
+        above = f_nodes[..., 1:] >= 0.0
+        above[..., -1] = True  # f(pi) = e(pi) > 0: the particle has yielded by the trailing edge
+        k = np.argmax(above, axis=-1)[..., None]  # cell [theta_k, theta_k+1] holds the first root
+        d0 = np.take_along_axis(dT, k, axis=-1)[..., 0]
+        slope = (np.take_along_axis(dT, k + 1, axis=-1)[..., 0] - d0) / h
+        f0 = np.take_along_axis(f_nodes, k, axis=-1)[..., 0]
+        f1 = np.take_along_axis(f_nodes, k + 1, axis=-1)[..., 0]
+        return k[..., 0], d0, slope, f0, f1
+
+    if groups is None:
+        k, d0, slope, f0, f1 = cells(c, e_nodes, mu1T_nodes, dT)
+    else:  # many points: in pieces that stay in cache
+        k, d0, slope, f0, f1 = (np.empty(c.shape, dtype=int), *(np.empty(c.shape)
+                                                                 for _ in range(4)))
+        for sl in _row_chunks(c.shape[0], int(np.prod(dT.shape[1:]))):
+            k[sl], d0[sl], slope[sl], f0[sl], f1[sl] = cells(c[sl], e_nodes[sl],
+                                                             mu1T_nodes[sl], dT[sl])
+    lo = k * h
+    hi = np.where(k + 1 == nT - 1, math.pi, (k + 1) * h)
     start = lo.copy()
 
     def fdf(th: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -981,7 +1018,11 @@ def boundary_traction_draws(prob: FastsimProblem, layers: Any, creepage: Any,
             rows = rows[keep]
             dT_grid = None if dT_grid is None else dT_grid[keep]
         th_y = solver.yield_angle(dT_grid)
-        F, st = solver.force(th_y, dT_grid)
+        F, st = np.empty(rows.size), np.empty(rows.size)
+        per_row = grid.n * grid.m * (grid.graded_panels + grid.uniform_panels + grid.clamp_panels)
+        for sl in _row_chunks(rows.size, per_row):
+            sub = solver.subset(np.arange(sl.start, sl.stop))
+            F[sl], st[sl] = sub.force(th_y[sl], None if dT_grid is None else dT_grid[sl])
         mu[rows] = F / prob.load
         stick[rows] = st
     mu = (sign * mu).reshape(m, n)
@@ -1054,7 +1095,16 @@ def _temperature(solver: _Solver, prob: FastsimProblem, grid: FastsimGrid, xi: n
         """Flash temperature rise of the points ``rows`` given their temperature ``dT``."""
         sub = solver if rows.size == nx else solver.subset(rows)
         th_y = sub.yield_angle(dT if coupled else None)
-        theta_nodes = np.broadcast_to(thetaT, (rows.size, ns, nT))
+        if not grouped:
+            return heat(sub, rows, th_y, dT)
+        # many points: the (points, strips, nodes) arrays in pieces that stay in cache
+        out = np.empty_like(dT)
+        for sl in _row_chunks(rows.size, ns * nT):
+            out[sl] = heat(sub.subset(np.arange(sl.start, sl.stop)), rows[sl], th_y[sl], dT[sl])
+        return out
+
+    def heat(sub: _Solver, rows: np.ndarray, th_y: np.ndarray, dT: np.ndarray) -> np.ndarray:
+        theta_nodes = thetaT[None, None, :]  # broadcast in tau: sin, cos once per node
         tau = sub.tau(theta_nodes, th_y, dT, sub.e_nodes)
         q = tau * w[rows]
         if th.slip_velocity == "local":
