@@ -1208,6 +1208,8 @@ def _temperature_groups(solver: _Solver, th: ThermalParams, G: Any, new: np.ndar
     tol = th.tolerance
     for k in range(1, th.max_iterations + 1):
         rows = np.flatnonzero(active)
+        if rows.size == 0:
+            break
         res = np.max(np.abs(new[rows] - dT[rows]).reshape(rows.size, -1), axis=1)
         done = res < tol
         dT[rows[done]] = new[rows[done]]
