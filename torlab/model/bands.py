@@ -33,6 +33,17 @@ drawn; the summary gives the reason instead.
 
 Positive parameters (limits, lengths, viscosity parameters) are propagated on
 a log scale, so no draw leaves their physical range.
+
+Evaluating the draws
+--------------------
+A sampled traction band evaluates its draws many at a time (``evaluate_many``,
+in fixed blocks, :mod:`torlab.uncertainty`): FASTSIM takes every (draw,
+creepage) pair as one point with its own layer
+(:func:`torlab.model.fastsim.boundary_traction_draws`), and a lubricated scene
+solves its film and load sharing once for all the draws with the same
+lubricant (:func:`torlab.model.mixed.traction_draws`).  Each draw goes through
+the same iterations as alone (they stop per draw), so the band is the one the
+draws give one by one, to round-off; a draw that fails is left out as before.
 """
 
 from __future__ import annotations
