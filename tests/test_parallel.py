@@ -147,7 +147,7 @@ def test_band_draws_bit_for_bit(executors):
     from torlab.model.bands import _DryTractionModel
     from torlab.model.predict import fastsim_grid, fastsim_problem
     from torlab.scene import load_scene
-    from torlab.uncertainty import SAMPLE_BLOCK, SAMPLE_ROUND, ParameterDistribution, propagate
+    from torlab.uncertainty import MANY_BLOCK, SAMPLE_ROUND, ParameterDistribution, propagate
 
     sc = load_scene(SCENE)
     xi = np.linspace(0.0, 0.02, 11)
@@ -155,7 +155,8 @@ def test_band_draws_bit_for_bit(executors):
     dist = ParameterDistribution.from_covariance(
         ("mu_c1", "mu_c2", "L_mue"), [0.30, 0.45, 1e-5],
         [[4e-4, 1e-4, 0.0], [1e-4, 4e-4, 0.0], [0.0, 0.0, 4e-12]], log_scale=("L_mue",), dof=12)
-    n = (SAMPLE_ROUND + 2) * SAMPLE_BLOCK + 7  # two rounds of blocks, the last block short
+    # the model evaluates a block of draws in one call: two rounds, the last block short
+    n = (SAMPLE_ROUND + 2) * MANY_BLOCK + 7
     bands = []
     for ex in executors:
         with use(ex):

@@ -599,9 +599,18 @@ def _eval1(model: Model, dist: ParameterDistribution, theta: np.ndarray,
 
 def _evaluate_rows(model: Model, dist: ParameterDistribution, thetas: np.ndarray,
                    vectorized: bool) -> list[dict[str, np.ndarray]]:
-    """Model outputs at each row of ``thetas`` (errors propagate)."""
+    """Model outputs at each row of ``thetas`` (errors propagate: a model with
+    ``evaluate_many`` raises the error of the first row that failed)."""
     if thetas.shape[0] == 0:
         return []
+    many = getattr(model, "evaluate_many", None)
+    if many is not None and not vectorized:
+        outs, errors = many(dist.params(thetas))
+        for e in errors:
+            if e is not None:
+                raise e
+        outs = _as_outputs(outs)
+        return [{k: v[i] for k, v in outs.items()} for i in range(thetas.shape[0])]
     if vectorized:
         out = _as_outputs(model(dist.params(thetas)))
         return [{k: v[i] for k, v in out.items()} for i in range(thetas.shape[0])]
@@ -613,11 +622,21 @@ def _evaluate_rows(model: Model, dist: ParameterDistribution, thetas: np.ndarray
 #: the split -- and the result -- never depends on how many workers evaluate the blocks
 SAMPLE_BLOCK = 10
 SAMPLE_ROUND = 4
+#: draws per task for a model that evaluates many draws in one call (``evaluate_many``):
+#: larger blocks share more of the work, smaller ones keep the arrays in cache
+MANY_BLOCK = 20
 
 
 @dataclass
 class _Block:
-    """Evaluate the model at a block of draws, row by row (a picklable executor task)."""
+    """Evaluate the model at a block of draws (a picklable executor task): row by row, or
+    all in one call when the model has ``evaluate_many``.
+
+    ``model.evaluate_many(params)`` takes ``{name: (m,) array}`` and returns
+    ``(outputs, errors)``: ``{output: (m, ...) array}`` and, per draw, None or the
+    error its evaluation alone would have raised.  It must give each draw the result
+    ``model(params of that draw)`` gives, to round-off.
+    """
 
     model: Any
     dist: ParameterDistribution
@@ -626,6 +645,19 @@ class _Block:
         from torlab.errors import NumericalError, TorlabInputError
 
         out: list[tuple[dict[str, np.ndarray] | None, str]] = []
+        many = getattr(self.model, "evaluate_many", None)
+        if many is not None:
+            outs, errors = many(self.dist.params(thetas))
+            outs = _as_outputs(outs)
+            for i, e in enumerate(errors):
+                if e is None:
+                    out.append(({k: v[i] for k, v in outs.items()}, ""))
+                elif isinstance(e, (NumericalError, TorlabInputError, FloatingPointError,
+                                    ValueError)):
+                    out.append((None, str(e)))
+                else:
+                    raise e
+            return out
         for t in thetas:
             try:
                 out.append((_as_outputs(self.model(self.dist.params(t))), ""))
@@ -656,7 +688,9 @@ def _evaluate_many(model: Model, dist: ParameterDistribution, thetas: np.ndarray
 
     A vectorised model takes every draw in one call.  Otherwise the draws go in fixed
     blocks of :data:`SAMPLE_BLOCK` to the executor in use (:mod:`torlab.parallel`), each
-    evaluated row by row, :data:`SAMPLE_ROUND` blocks at a time; after a round in which
+    evaluated row by row -- or, for a model with ``evaluate_many`` (:class:`_Block`), in
+    blocks of :data:`MANY_BLOCK` evaluated in one call each, with the failures still
+    per draw -- :data:`SAMPLE_ROUND` blocks at a time; after a round in which
     more than 5 % of all the draws have failed, the rest are not evaluated (the model
     does not hold there, and the answer is already known).  The rounds are the same
     whatever evaluates them, so the result and the failure count are the same serially,
@@ -676,7 +710,8 @@ def _evaluate_many(model: Model, dist: ParameterDistribution, thetas: np.ndarray
 
         task = _Block(model, dist)
         ex = _block_executor(task)
-        blocks = [thetas[s] for s in chunks(m, SAMPLE_BLOCK)]
+        size = MANY_BLOCK if hasattr(model, "evaluate_many") else SAMPLE_BLOCK
+        blocks = [thetas[s] for s in chunks(m, size)]
         rows = []
         i = 0
         for r0 in range(0, len(blocks), SAMPLE_ROUND):

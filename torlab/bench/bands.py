@@ -10,6 +10,14 @@ half-width at that creepage (over ``mu`` and the temperature): 0.1 means an edge
 twentieth of the band's width.  The reference is the mean of two independent sampled bands
 (``n`` seeded draws each); half their difference is the reference's own noise
 (``x_reference_noise``), the floor below which no error can be resolved.
+
+The second group times the sampled band's draws themselves, row by row (each draw a whole
+model evaluation, as every band was computed before) against many draws in one vectorised
+call (``evaluate_many``, :mod:`torlab.model.bands`), side by side in one run, on a 41-point
+mixed curve (the Paper A rough ball in water: film, asperity load sharing, FASTSIM) and a
+51-point Tab. 5.4 curve with its flash temperature and temperature coefficients; the error
+is the largest relative difference of the two bands' edges (round-off: the draws are the
+same computation).
 """
 
 from __future__ import annotations
@@ -59,8 +67,96 @@ def _edge_error(band, ref: dict[str, tuple[np.ndarray, np.ndarray]]) -> float:
     return worst
 
 
+class _RowByRow:
+    """A band model without ``evaluate_many``: its draws are evaluated one by one."""
+
+    def __init__(self, model: object) -> None:
+        self.model = model
+
+    def __call__(self, p: dict) -> dict:
+        return self.model(p)
+
+
+def _draw_cases() -> list[tuple[str, object, object, dict, str]]:
+    """(name, band model, distribution, outputs at the estimate, unit of work)."""
+    from pathlib import Path
+
+    from torlab.model.bands import _DryTractionModel, _MixedTractionModel, scene_uncertainty
+    from torlab.model.predict import fastsim_grid, fastsim_problem, predict_traction
+    from torlab.scene import load_scene, scene_from_dict
+
+    scenes = Path(__file__).resolve().parents[2] / "protocols" / "scenes"
+    cases = []
+    # the Paper A rough ball in water with a dry-fit-like layer covariance
+    d = load_scene(scenes / "optical_paper_a_rough.yaml").model_dump(exclude_none=True)
+    names = ["mu_c1", "mu_c2", "L_mue", "L_mup"]
+    vals = [d["boundary"][k] for k in names]
+    sd = np.array([0.1, 0.05, 0.3, 0.3]) * np.array(vals)
+    corr = np.array([[1, 0.5, 0.9, 0.8], [0.5, 1, 0.4, 0.6], [0.9, 0.4, 1, 0.7],
+                     [0.8, 0.6, 0.7, 1]])
+    d["fit"] = {"kind": "bench", "covariance": {"names": names, "values": vals,
+                                                "matrix": (corr * np.outer(sd, sd)).tolist()}}
+    sc = scene_from_dict(d)
+    xi = np.linspace(0.0, 0.1, 41)
+    t = predict_traction(sc, xi, band=False).table
+    outs = ("mu", "film_thickness_m")
+    cases.append(("mixed", _MixedTractionModel("traction", sc, xi, None, outs),
+                  scene_uncertainty(sc).dist, {k: t[k].to_numpy() for k in outs},
+                  "400 draws of a 41-point mixed traction curve (Paper A rough ball, water)"))
+    # Tab. 5.4 with the flash temperature and temperature coefficients
+    d = load_scene(scenes / "wheel_rail_tab54.yaml").model_dump(exclude_none=True)
+    d["boundary"].update(mu_c1_T=-8e-4, mu_c2_T=-4e-4)
+    names = ["mu_c1", "mu_c2", "L_mue", "L_mup", "mu_c1_T", "mu_c2_T"]
+    vals = [d["boundary"][k] for k in names]
+    cov = np.diag((np.array([0.05, 0.05, 0.3, 0.3, 0.5, 0.7]) * np.abs(vals)) ** 2)
+    d["fit"] = {"kind": "bench", "covariance": {"names": names, "values": vals,
+                                                "matrix": cov.tolist()}}
+    sc = scene_from_dict(d)
+    xi = np.linspace(0.0, 0.05, 51)
+    t = predict_traction(sc, xi, band=False).table
+    outs = ("mu", "max_temperature_C")
+    cases.append(("thermal", _DryTractionModel(fastsim_problem(sc), fastsim_grid(sc), xi, outs),
+                  scene_uncertainty(sc).dist, {k: t[k].to_numpy() for k in outs},
+                  "400 draws of a 51-point Tab. 5.4 curve with flash temperature"))
+    return cases
+
+
+def _draw_rows(quick: bool) -> list[BenchRow]:
+    """The sampled band's draws, row by row against many at a time (same run)."""
+    import time
+
+    from torlab.uncertainty import propagate
+
+    n = 100 if quick else 400
+    rows = []
+    for _, model, dist, f0, unit in _draw_cases():
+        unit = unit.replace("400", str(n))
+        times: dict[str, list[float]] = {"rows": [], "many": []}
+        bands = {}
+        for _ in range(1 if quick else 3):  # alternating, best of each
+            for kind, m in (("rows", _RowByRow(model)), ("many", model)):
+                t0 = time.perf_counter()
+                bands[kind] = propagate(m, dist, method="sampling", n_samples=n, seed=1, f0=f0)
+                times[kind].append(time.perf_counter() - t0)
+        err = 0.0
+        for k in f0:
+            for edge in ("low", "high"):
+                a, b = getattr(bands["many"], edge)(k), getattr(bands["rows"], edge)(k)
+                err = max(err, float(np.max(np.abs(a - b) / np.maximum(np.abs(b), 1e-300))))
+        t_rows, t_many = min(times["rows"]), min(times["many"])
+        ref = "the same draws evaluated row by row"
+        rows.append(BenchRow("band draws", "row by row", t_rows, None, "", False, unit,
+                             extra={"ratio_to_row_by_row": 1.0}))
+        rows.append(BenchRow("band draws", "many draws per call (evaluate_many)", t_many, err,
+                             ref, True, unit, error_kind="relative difference of band edges",
+                             extra={"ratio_to_row_by_row": t_many / t_rows,
+                                    "speedup": t_rows / t_many}))
+    return rows
+
+
 def run(quick: bool = False) -> list[BenchRow]:
-    """Plain curve, its band by the default choice, forced linearisation and forced sampling."""
+    """Plain curve, its band by the default choice, forced linearisation and forced sampling;
+    the sampled band's draws row by row and many at a time."""
     from torlab.model.bands import scene_uncertainty, traction_band
     from torlab.model.predict import predict_traction
 
@@ -99,4 +195,4 @@ def run(quick: bool = False) -> list[BenchRow]:
                              extra={"ratio_to_plain": t / t_plain,
                                     "model_evaluations": b.n_evaluations,
                                     "reference_noise": noise}))
-    return rows
+    return rows + _draw_rows(quick)

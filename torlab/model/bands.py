@@ -33,6 +33,17 @@ drawn; the summary gives the reason instead.
 
 Positive parameters (limits, lengths, viscosity parameters) are propagated on
 a log scale, so no draw leaves their physical range.
+
+Evaluating the draws
+--------------------
+A sampled traction band evaluates its draws many at a time (``evaluate_many``,
+in fixed blocks, :mod:`torlab.uncertainty`): FASTSIM takes every (draw,
+creepage) pair as one point with its own layer
+(:func:`torlab.model.fastsim.boundary_traction_draws`), and a lubricated scene
+solves its film and load sharing once for all the draws with the same
+lubricant (:func:`torlab.model.mixed.traction_draws`).  Each draw goes through
+the same iterations as alone (they stop per draw), so the band is the one the
+draws give one by one, to round-off; a draw that fails is left out as before.
 """
 
 from __future__ import annotations
@@ -175,7 +186,7 @@ def traction_band(scene: Any, creepage: np.ndarray, table: Any, su: SceneUncerta
     if scene.lubricant is None:
         model: Any = _DryTractionModel(fastsim_problem(scene), fastsim_grid(scene), xi, outs)
     else:
-        model = _SceneModel("traction", scene, xi, None, outs)
+        model = _MixedTractionModel("traction", scene, xi, None, outs)
     return propagate(model, su.dist, f0=f0, seed=seed, **options)
 
 
@@ -189,10 +200,13 @@ def stribeck_band(scene: Any, speed: np.ndarray, creepage: float, table: Any,
 
 
 # the models of the bands: picklable objects (their draws may be evaluated on worker
-# processes, torlab.parallel), called with a parameter dict
+# processes, torlab.parallel), called with a parameter dict; the traction models also
+# evaluate a block of draws in one call (``evaluate_many``, torlab.uncertainty._Block),
+# each draw to round-off as the call with its parameters alone
 @dataclass
 class _DryTractionModel:
-    """FASTSIM of a dry scene with the layer's parameters replaced."""
+    """FASTSIM of a dry scene with the layer's parameters replaced (one draw per call, or
+    many: :meth:`evaluate_many`)."""
 
     prob: Any
     grid: Any
@@ -208,6 +222,20 @@ class _DryTractionModel:
         if "max_temperature_C" in self.outs:
             out["max_temperature_C"] = res.max_temperature_C
         return out
+
+    def evaluate_many(self, p: dict[str, np.ndarray]) -> tuple[dict[str, np.ndarray], list[Any]]:
+        """Every draw of ``p`` (``{name: (m,) array}``) in one vectorised FASTSIM call
+        (:func:`torlab.model.fastsim.boundary_traction_draws`): outputs ``(m, n)`` and,
+        per draw, None or the error it failed with."""
+        from torlab.errors import ConvergenceError
+        from torlab.model.fastsim import boundary_traction_draws
+
+        res = boundary_traction_draws(self.prob, {k: v for k, v in p.items()
+                                                  if k in BOUNDARY_KEYS}, self.xi, self.grid)
+        out = {"mu": res.mu}
+        if "max_temperature_C" in self.outs:
+            out["max_temperature_C"] = res.max_temperature_C
+        return out, [ConvergenceError(e) if e else None for e in res.errors]
 
 
 @dataclass
@@ -232,6 +260,50 @@ class _SceneModel:
             t = predict_stribeck(_with_params(self.scene, p), self.x, self.creepage,
                                  band=False).table
         return _outputs(t, self.outs)
+
+
+@dataclass
+class _MixedTractionModel(_SceneModel):
+    """The traction curve of a lubricated scene (:class:`_SceneModel` ``traction``), which
+    also evaluates many draws in one call (:meth:`evaluate_many`)."""
+
+    def evaluate_many(self, p: dict[str, np.ndarray]) -> tuple[dict[str, np.ndarray], list[Any]]:
+        """The draws of ``p`` (``{name: (m,) array}``): those with the same lubricant
+        parameters share one load-sharing solve and one FASTSIM call over their layers
+        (:func:`torlab.model.mixed.traction_draws`); outputs ``(m, n)`` and, per draw,
+        None or the error it failed with (an error of the shared part fails its draws)."""
+        from torlab.errors import NumericalError, TorlabInputError
+        from torlab.model.mixed import traction_draws
+
+        m = int(np.broadcast_shapes(*(np.shape(v) for v in p.values()), (1,))[0])
+        lub_keys = [k for k in LUBRICANT_KEYS if k in p]
+        lub = np.stack([np.broadcast_to(np.asarray(p[k], dtype=float), (m,)) for k in lub_keys],
+                       axis=1) if lub_keys else np.zeros((m, 0))
+        layer_p = {k: np.broadcast_to(np.asarray(v, dtype=float), (m,))
+                   for k, v in p.items() if k in BOUNDARY_KEYS}
+        _, first, inv = np.unique(lub, axis=0, return_index=True, return_inverse=True)
+        inv = inv.reshape(-1)
+        out = {k: np.full((m, self.x.size), np.nan) for k in self.outs}
+        errors: list[Any] = [None] * m
+        for g in range(first.size):
+            idx = np.flatnonzero(inv == g)
+            scene = self.scene if not lub_keys else _with_params(
+                self.scene, {k: float(lub[first[g], j]) for j, k in enumerate(lub_keys)})
+            try:
+                res, errs = traction_draws(scene, self.x, {k: v[idx] for k, v in layer_p.items()})
+                missing = [k for k in self.outs if k not in res]
+                if missing:
+                    raise NumericalError(f"{', '.join(missing)} not modelled at these "
+                                         "parameters")
+            except (NumericalError, TorlabInputError, FloatingPointError, ValueError) as e:
+                for i in idx:
+                    errors[i] = e
+                continue
+            for k in self.outs:
+                out[k][idx] = res[k]
+            for i, e in zip(idx, errs, strict=True):
+                errors[i] = e
+        return out, errors
 
 
 def add_band_columns(table: Any, band: Propagation) -> Any:

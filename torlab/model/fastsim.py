@@ -91,11 +91,13 @@ from torlab.errors import ConvergenceError
 from torlab.model.layer import LayerParams
 
 __all__ = [
+    "BoundaryDraws",
     "BoundaryResult",
     "FastsimGrid",
     "FastsimProblem",
     "ThermalParams",
     "boundary_traction",
+    "boundary_traction_draws",
     "boundary_traction_reference",
     "e_strip",
     "flash_temperature_matrix",
@@ -227,6 +229,18 @@ def _gauss(n: int) -> tuple[np.ndarray, np.ndarray]:
     return 0.5 * (x + 1.0), 0.5 * w
 
 
+#: elements of the (points, strips, nodes) arrays computed at once with a layer per point,
+#: and of e_strip's quadrature: temporaries below ~128 kB come from the allocator's free
+#: lists and stay in cache; larger ones are fresh pages each time (several times slower)
+_CHUNK_ELEMENTS = 12288
+
+
+def _row_chunks(n_rows: int, per_row: int) -> list[slice]:
+    """Slices of ``n_rows`` rows with about :data:`_CHUNK_ELEMENTS` elements each."""
+    step = max(1, _CHUNK_ELEMENTS // max(per_row, 1))
+    return [slice(i, min(i + step, n_rows)) for i in range(0, n_rows, step)]
+
+
 def e_strip(theta: np.ndarray, r: np.ndarray) -> np.ndarray:
     """``e(theta; r) = integral_0^theta sin^2 t / (sin t + r) dt`` (elastic stress shape).
 
@@ -257,12 +271,16 @@ def e_strip(theta: np.ndarray, r: np.ndarray) -> np.ndarray:
     if other.any():
         th, rr = theta[other], r[other]
         x, w = _gauss(24)
-        t = th[:, None] * x[None, :]
-        st = np.sin(t)
-        den = st + rr[:, None]
-        # the integrand tends to 0 with sin t where r = 0 (no layer): no 0/0 at theta = 0
-        f = np.divide(st * st, den, out=np.zeros_like(den), where=den > 0)
-        out[other] = th * np.sum(w[None, :] * f, axis=1)
+        res = np.empty(th.shape)
+        # in pieces of _CHUNK_ELEMENTS nodes: temporaries that stay small are much faster
+        for sl in _row_chunks(th.size, x.size):
+            t = th[sl, None] * x[None, :]
+            st = np.sin(t)
+            den = st + rr[sl, None]
+            # the integrand tends to 0 with sin t where r = 0 (no layer): no 0/0 at theta = 0
+            f = np.divide(st * st, den, out=np.zeros_like(den), where=den > 0)
+            res[sl] = th[sl] * np.sum(w[None, :] * f, axis=1)
+        out[other] = res
     return out
 
 
@@ -348,33 +366,82 @@ def _interp_uniform(theta: np.ndarray, grid_T: np.ndarray) -> np.ndarray:
     return lo + f * (hi - lo)
 
 
+#: the fields of :class:`LayerParams`, in order
+_LAYER_FIELDS = ("mu_c1", "mu_c2", "L_mue", "L_mup", "mu_c1_T", "mu_c2_T")
+
+
+def _expand(lay: LayerParams) -> LayerParams:
+    """A layer of ``(nx, 1)`` arrays as ``(nx, 1, 1)`` (against ``(nx, ns, k)`` angles)."""
+    return LayerParams(*(getattr(lay, f)[..., None] for f in _LAYER_FIELDS))
+
+
+def _group_e_nodes(r_group: np.ndarray, gid: np.ndarray, nT: int) -> np.ndarray:
+    """``e(theta; r)`` on the temperature nodes per point (nx, ns, nT), computed once per
+    group (``r_group`` (ng, ns), ``gid`` (nx,))."""
+    ug, inv = np.unique(gid, return_inverse=True)
+    e = e_strip(np.linspace(0.0, math.pi, nT)[None, None, :], r_group[ug][..., None])
+    return e[inv.reshape(-1)]
+
+
 class _Solver:
-    """Vectorised evaluation for arrays of creepages (shape nx) and strips (shape ns)."""
+    """Vectorised evaluation for arrays of creepages (shape nx) and strips (shape ns).
+
+    With ``groups`` (:func:`boundary_traction_draws`) the points carry their own layer:
+    ``groups = (gid, layer)`` with ``gid`` (nx,) the group (parameter draw) of each point
+    and ``layer`` a :class:`LayerParams` of ``(ng,)`` arrays.  Every layer quantity is then
+    an array over the points (``(nx, 1)``), the yield-angle iteration stops per group, and
+    a group whose iteration fails is recorded in ``stats["failed"]`` (its points carry on;
+    their results are discarded) instead of raising.
+    """
 
     def __init__(self, prob: FastsimProblem, grid: FastsimGrid, xi: np.ndarray,
-                 stats: dict[str, int] | None = None) -> None:
+                 stats: dict[str, Any] | None = None,
+                 groups: tuple[np.ndarray, LayerParams] | None = None) -> None:
         self.prob = prob
         self.grid = grid
-        lay = prob.layer
         self.xi = xi[:, None]  # (nx, 1)
         cphi, self.wy = _strips(grid.n)
         self.cphi = cphi[None, :]  # (1, ns)
         self.aj = prob.a * self.cphi  # strip half-lengths
         self.Pj = prob.p0 * self.cphi  # strip peak pressures
-        self.r = lay.L_mue / (prob.L1 * self.Pj)  # (1, ns)
+        self.groups = groups
+        if groups is None:
+            self.gid = None
+            lay = prob.layer
+            self.lay = lay
+        else:
+            self.gid, glay = groups
+            # the layer of each point, (nx, 1)
+            self.lay = LayerParams(*(np.asarray(getattr(glay, f), dtype=float)[self.gid][:, None]
+                                     for f in _LAYER_FIELDS))
+            lay = self.lay
+            #: r of each group (ng, ns), for tables computed once per group
+            self.r_group = np.asarray(glay.L_mue, dtype=float)[:, None] / (prob.L1 * self.Pj)
+        self.r = lay.L_mue / (prob.L1 * self.Pj)  # (1, ns); (nx, ns) with groups
         # yield condition e(theta; r) = c sin(theta) * f1(T), c = mu_c1 L1 p0 / (xi a)
         self.c = lay.mu_c1 * prob.L1 * prob.p0 / (self.xi * prob.a)
         self.Lp = lay.L_mup
         #: e(theta; r) on the temperature nodes (1, ns, nT), set by the temperature loop
+        #: (with groups: (nx, ns, nT))
         self.e_nodes: np.ndarray | None = None
         #: largest iteration count of the yield-angle solves (shared with subsets)
         self.stats = stats if stats is not None else {"yield_iterations": 0}
 
     def subset(self, rows: np.ndarray) -> _Solver:
         """The solver of the creepages ``xi[rows]`` (same strips, shared statistics)."""
-        sub = _Solver(self.prob, self.grid, self.xi[rows, 0], self.stats)
-        sub.e_nodes = self.e_nodes
+        groups = None if self.groups is None else (self.gid[rows], self.groups[1])
+        sub = _Solver(self.prob, self.grid, self.xi[rows, 0], self.stats, groups)
+        if self.e_nodes is not None:
+            sub.e_nodes = self.e_nodes if self.groups is None else self.e_nodes[rows]
         return sub
+
+    def _fail(self, elements: np.ndarray, what: str) -> None:
+        """Record the groups of the failed points (``elements``: a mask over the points)."""
+        gids = np.unique(np.broadcast_to(self.gid.reshape((-1,) + (1,) * (elements.ndim - 1)),
+                                         elements.shape)[elements])
+        failed = self.stats["failed"]
+        for g in gids:
+            failed.setdefault(int(g), what)
 
     # -- yield angle ------------------------------------------------------------------------
     def yield_angle(self, dT_grid: np.ndarray | None) -> np.ndarray:
@@ -386,6 +453,8 @@ class _Solver:
         """
         lay = self.prob.layer
         shape = np.broadcast_shapes(self.c.shape, self.r.shape)
+        if self.groups is not None:
+            return self._yield_angle_groups(dT_grid, shape)
         if lay.mu_c1 == 0.0:
             return np.zeros(shape)
         c = np.broadcast_to(self.c, shape)
@@ -402,6 +471,48 @@ class _Solver:
         self.stats["yield_iterations"] = max(self.stats["yield_iterations"], its)
         return th
 
+    def _yield_angle_groups(self, dT_grid: np.ndarray | None, shape: tuple[int, ...]
+                            ) -> np.ndarray:
+        """:meth:`yield_angle` with a layer per point: each point takes the path its own
+        layer takes in :meth:`yield_angle` (no elastic limit, isothermal, thermal); the
+        iteration stops per group, and a group that does not converge is recorded as
+        failed (its angles are NaN)."""
+        lay = self.lay
+        th = np.zeros(shape)
+        c = np.broadcast_to(self.c, shape)
+        r = np.broadcast_to(self.r, shape)
+        gid = np.broadcast_to(self.gid[:, None], shape)
+        live = lay.mu_c1[:, 0] != 0.0
+        hot = live & (lay.mu_c1_T[:, 0] != 0.0) if dT_grid is not None else np.zeros_like(live)
+        its = 0
+        for sel, thermal in ((live & ~hot, False), (hot, True)):
+            rows = np.flatnonzero(sel)
+            if rows.size == 0:
+                continue
+            if rows.size == shape[0]:
+                rows = slice(None)  # every point: no copies
+            if thermal:
+                nT = dT_grid.shape[-1]
+                e_nodes = self.e_nodes
+                if e_nodes is None or e_nodes.shape[-1] != nT:
+                    e_nodes = _group_e_nodes(self.r_group, self.gid, nT)
+                t, it = _yield_thermal(c[rows], r[rows], e_nodes[rows], dT_grid[rows],
+                                       lay.mu_c1_T[rows], groups=gid[rows])
+                what = "FASTSIM yield angle with temperature"
+            else:
+                t, it = _yield_isothermal(c[rows], r[rows], groups=(gid[rows], self.r_group))
+                what = "FASTSIM yield angle"
+            bad = ~np.isfinite(t)
+            if bad.any():
+                self._fail(np.isin(np.arange(shape[0]),
+                                   np.arange(shape[0])[rows][np.any(bad, axis=1)]),
+                           f"{what}: the safeguarded Newton iteration did not converge in "
+                           f"{_YIELD_MAX_ITER} steps")
+            th[rows] = t
+            its = max(its, it)
+        self.stats["yield_iterations"] = max(self.stats["yield_iterations"], its)
+        return th
+
     # -- stress at arbitrary angles ---------------------------------------------------------
     def tau(self, theta: np.ndarray, th_y: np.ndarray | None, dT: np.ndarray | float,
             e_theta: np.ndarray | None = None) -> np.ndarray:
@@ -410,18 +521,30 @@ class _Solver:
         ``th_y`` are the yield angles (None: every node is plastic); ``e_theta``
         optionally gives ``e(theta; r)`` precomputed (fixed temperature grid).
         """
-        lay, prob = self.prob.layer, self.prob
+        prob = self.prob
+        lay = self.prob.layer if self.groups is None else _expand(self.lay)
         aj = self.aj[..., None]
         Pj = self.Pj[..., None]
         xi = self.xi[..., None]
         p = Pj * np.sin(theta)
         X = aj * (1.0 - np.cos(theta))
-        f1 = np.exp(lay.mu_c1_T * dT) if lay.mu_c1_T else 1.0
-        f2 = np.exp(lay.mu_c2_T * dT) if lay.mu_c2_T else 1.0
+        if self.groups is None:
+            f1 = np.exp(lay.mu_c1_T * dT) if lay.mu_c1_T else 1.0
+            f2 = np.exp(lay.mu_c2_T * dT) if lay.mu_c2_T else 1.0
+        else:  # exp(0 dT) = 1 exactly where a coefficient is zero: the same as above
+            f1 = np.exp(lay.mu_c1_T * dT) if np.any(lay.mu_c1_T) else 1.0
+            f2 = np.exp(lay.mu_c2_T * dT) if np.any(lay.mu_c2_T) else 1.0
         t1 = lay.mu_c1 * p * f1
         t2 = lay.mu_c2 * p * f2
         d = xi * X - lay.mu_c1 * f1 * (prob.L1 * p + lay.L_mue)
-        if self.Lp > 0:
+        if self.groups is not None and np.all(lay.L_mup > 0):
+            decay = np.exp(-np.maximum(d, 0.0) / lay.L_mup)
+        elif self.groups is not None:
+            Lp = lay.L_mup
+            with np.errstate(divide="ignore", invalid="ignore"):
+                decay = np.where(Lp > 0, np.exp(-np.maximum(d, 0.0) / np.where(Lp > 0, Lp, 1.0)),
+                                 np.where(d > 0, 0.0, 1.0))
+        elif self.Lp > 0:
             decay = np.exp(-np.maximum(d, 0.0) / self.Lp)
         else:
             decay = np.where(d > 0, 0.0, 1.0)
@@ -436,7 +559,7 @@ class _Solver:
     # -- force ------------------------------------------------------------------------------
     def force(self, th_y: np.ndarray, dT_grid: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
         """Tangential force over the half contact (N) and the adhesion (elastic) load fraction."""
-        prob, lay, g = self.prob, self.prob.layer, self.grid
+        prob, lay, g = self.prob, self.lay, self.grid
         aj, Pj, r = self.aj, self.Pj, self.r
         xi = self.xi
         # elastic part, closed form
@@ -451,7 +574,10 @@ class _Solver:
         q = np.clip((A - C) / R, -1.0, 1.0)
         th0 = np.where((A - C) / R < -1.0, math.pi, np.minimum(phi0 + np.arccos(q), math.pi))
         th_s = np.clip(np.maximum(th_y, th0), th_y, math.pi)
-        ell = (self.Lp / xi) if self.Lp > 0 else np.full_like(xi, 0.0)
+        if self.groups is not None:
+            ell = np.where(self.Lp > 0, self.Lp, 0.0) / xi
+        else:
+            ell = (self.Lp / xi) if self.Lp > 0 else np.full_like(xi, 0.0)
         Xs = aj * (1.0 - np.cos(th_s))
         grades = np.r_[0.0, 0.25 * (2.0 ** np.arange(g.graded_panels) - 1.0) + 0.25][: g.graded_panels + 1]
         grades[0] = 0.0
@@ -487,7 +613,7 @@ _YIELD_MAX_ITER = 100
 
 
 def _bracketed_newton(fdf: Any, lo: np.ndarray, hi: np.ndarray, th: np.ndarray,
-                      what: str) -> tuple[np.ndarray, int]:
+                      what: str, groups: np.ndarray | None = None) -> tuple[np.ndarray, int]:
     """Safeguarded Newton iteration for increasing functions, vectorised over elements.
 
     ``fdf(theta) -> (f, df)``; ``f < 0`` below the root, which lies in ``[lo, hi]``.  The
@@ -504,7 +630,15 @@ def _bracketed_newton(fdf: Any, lo: np.ndarray, hi: np.ndarray, th: np.ndarray,
     ------
     ConvergenceError
         Not converged within ``_YIELD_MAX_ITER`` iterations.
+
+    With ``groups`` (an integer array like ``th``: the group of each element) every
+    group stops on its own, when all its elements meet the stop, exactly as if it were
+    iterated alone; ``fdf(theta, idx)`` then gets the flat indices ``idx`` of the
+    elements still iterating, and a group that has not converged within
+    ``_YIELD_MAX_ITER`` iterations gets NaN roots instead of an error.
     """
+    if groups is not None:
+        return _bracketed_newton_groups(fdf, lo, hi, th, groups)
     step = np.full(th.shape, np.inf)
     for it in range(1, _YIELD_MAX_ITER + 1):
         f, df = fdf(th)
@@ -527,7 +661,42 @@ def _bracketed_newton(fdf: Any, lo: np.ndarray, hi: np.ndarray, th: np.ndarray,
         iterations=_YIELD_MAX_ITER, residual=float(np.nanmax(rel)))
 
 
-def _yield_isothermal(c: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, int]:
+def _bracketed_newton_groups(fdf: Any, lo: np.ndarray, hi: np.ndarray, th: np.ndarray,
+                             groups: np.ndarray) -> tuple[np.ndarray, int]:
+    """:func:`_bracketed_newton` with a stop per group (see there)."""
+    shape = th.shape
+    g = np.broadcast_to(groups, shape).ravel()
+    ng = int(g.max()) + 1 if g.size else 0
+    th = np.array(np.broadcast_to(th, shape), dtype=float).ravel()
+    lo = np.array(np.broadcast_to(lo, shape), dtype=float).ravel()
+    hi = np.array(np.broadcast_to(hi, shape), dtype=float).ravel()
+    idx = np.arange(th.size)
+    its = 0
+    for it in range(1, _YIELD_MAX_ITER + 1):
+        if idx.size == 0:
+            break
+        t = th[idx]
+        f, df = fdf(t, idx)
+        neg = f < 0
+        lo_i = np.where(neg, t, lo[idx])
+        hi_i = np.where(neg, hi[idx], t)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            new = t - f / df
+        bad = ~np.isfinite(new) | (new < lo_i) | (new > hi_i)
+        new = np.where(bad, 0.5 * (lo_i + hi_i), new)
+        step = np.abs(new - t)
+        th[idx], lo[idx], hi[idx] = new, lo_i, hi_i
+        going = np.zeros(ng, dtype=bool)
+        going[g[idx][~(step <= _YIELD_RTOL * np.abs(new))]] = True
+        its = it
+        idx = idx[going[g[idx]]]
+    th[idx] = np.nan  # not converged
+    return th.reshape(shape), its
+
+
+def _yield_isothermal(c: np.ndarray, r: np.ndarray,
+                      groups: tuple[np.ndarray, np.ndarray] | None = None
+                      ) -> tuple[np.ndarray, int]:
     """Yield angles solving ``e(theta; r) = c sin(theta)`` without temperature.
 
     ``e/sin`` is strictly increasing on (0, pi] (the elastic stress grows while the
@@ -540,27 +709,52 @@ def _yield_isothermal(c: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, int]:
     -------
     tuple
         The angles (shape of ``c``) and the number of Newton iterations.
+
+    With ``groups = (gid, r_group)`` (the group of each element and ``r`` per group and
+    strip) each group has its own table and its own stop (:func:`_bracketed_newton`).
     """
     nt = _YIELD_TABLE
     grid = np.linspace(0.0, math.pi, nt + 1)[1:]
-    r_s = r[0] if r.ndim == 2 else r  # r is constant along the creepage axis
-    table = np.log(e_strip(grid[None, :], r_s[:, None])) - np.log(np.sin(grid[None, :]))
-    table[:, -1] = np.inf  # sin(pi) = 0
     logc = np.log(c)
-    k = np.sum(table[None, :, :] < logc[..., None], axis=-1)  # table nodes before the root
+    if groups is None:
+        r_s = r[0] if r.ndim == 2 else r  # r is constant along the creepage axis
+        table = np.log(e_strip(grid[None, :], r_s[:, None])) - np.log(np.sin(grid[None, :]))
+        table[:, -1] = np.inf  # sin(pi) = 0
+        k = np.sum(table[None, :, :] < logc[..., None], axis=-1)  # table nodes before the root
+    else:
+        gid, r_group = groups
+        ug, inv = np.unique(gid[:, 0], return_inverse=True)  # a row's group (rows x strips)
+        table = (np.log(e_strip(grid[None, None, :], r_group[ug][..., None]))
+                 - np.log(np.sin(grid[None, None, :])))
+        table[..., -1] = np.inf
+        inv = inv.reshape(-1)
+        k = np.empty(logc.shape, dtype=int)
+        for sl in _row_chunks(logc.shape[0], logc.shape[1] * nt):  # small temporaries
+            k[sl] = np.sum(table[inv[sl]] < logc[sl, ..., None], axis=-1)
     edges = np.r_[0.0, grid]
     lo = edges[k]
     hi = edges[np.minimum(k + 1, nt)]
 
-    def fdf(th: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        st, ct = np.sin(th), np.cos(th)
-        return e_strip(th, r) - c * st, st * st / (st + r) - c * ct
+    if groups is None:
+        def fdf(th: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            st, ct = np.sin(th), np.cos(th)
+            return e_strip(th, r) - c * st, st * st / (st + r) - c * ct
 
-    return _bracketed_newton(fdf, lo, hi, 0.5 * (lo + hi), "FASTSIM yield angle")
+        return _bracketed_newton(fdf, lo, hi, 0.5 * (lo + hi), "FASTSIM yield angle")
+    cf = np.ascontiguousarray(np.broadcast_to(c, lo.shape)).ravel()
+    rf = np.ascontiguousarray(np.broadcast_to(r, lo.shape)).ravel()
+
+    def fdf_g(th: np.ndarray, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        cc, rr = cf[idx], rf[idx]
+        st, ct = np.sin(th), np.cos(th)
+        return e_strip(th, rr) - cc * st, st * st / (st + rr) - cc * ct
+
+    return _bracketed_newton(fdf_g, lo, hi, 0.5 * (lo + hi), "FASTSIM yield angle",
+                             groups=groups[0])
 
 
 def _yield_thermal(c: np.ndarray, r: np.ndarray, e_nodes: np.ndarray, dT: np.ndarray,
-                   mu1T: float) -> tuple[np.ndarray, int]:
+                   mu1T: Any, groups: np.ndarray | None = None) -> tuple[np.ndarray, int]:
     """Yield angles solving ``e(theta; r) = c sin(theta) exp(mu_c1_T dT(theta))`` (Eq. 5.26).
 
     ``dT`` (nx, ns, nT) is the temperature rise on the uniform nodes, linear between
@@ -573,20 +767,41 @@ def _yield_thermal(c: np.ndarray, r: np.ndarray, e_nodes: np.ndarray, dT: np.nda
     -------
     tuple
         The angles (nx, ns) and the number of Newton iterations.
+
+    With ``groups`` (the group of each element), ``mu1T`` is an ``(nx, 1)`` array (one
+    coefficient per point) and each group stops on its own (:func:`_bracketed_newton`).
     """
     nT = dT.shape[-1]
+    if groups is not None:
+        mu1T = np.asarray(mu1T, dtype=float)
+        mu1T_nodes = mu1T[..., None]
+    else:
+        mu1T_nodes = mu1T
     h = math.pi / (nT - 1)
     nodes = np.linspace(0.0, math.pi, nT)
-    f_nodes = e_nodes - c[..., None] * np.sin(nodes) * np.exp(mu1T * dT)
-    above = f_nodes[..., 1:] >= 0.0
-    above[..., -1] = True  # f(pi) = e(pi) > 0: the particle has yielded by the trailing edge
-    k = np.argmax(above, axis=-1)[..., None]  # cell [theta_k, theta_k+1] holds the first root
-    lo = k[..., 0] * h
-    hi = np.where(k[..., 0] + 1 == nT - 1, math.pi, (k[..., 0] + 1) * h)
-    d0 = np.take_along_axis(dT, k, axis=-1)[..., 0]
-    slope = (np.take_along_axis(dT, k + 1, axis=-1)[..., 0] - d0) / h
-    f0 = np.take_along_axis(f_nodes, k, axis=-1)[..., 0]
-    f1 = np.take_along_axis(f_nodes, k + 1, axis=-1)[..., 0]
+    sin_nodes = np.sin(nodes)
+
+    def cells(c: np.ndarray, e_nodes: np.ndarray, m1: Any, dT: np.ndarray) -> tuple[np.ndarray, ...]:
+        f_nodes = e_nodes - c[..., None] * sin_nodes * np.exp(m1 * dT)
+        above = f_nodes[..., 1:] >= 0.0
+        above[..., -1] = True  # f(pi) = e(pi) > 0: the particle has yielded by the trailing edge
+        k = np.argmax(above, axis=-1)[..., None]  # cell [theta_k, theta_k+1] holds the first root
+        d0 = np.take_along_axis(dT, k, axis=-1)[..., 0]
+        slope = (np.take_along_axis(dT, k + 1, axis=-1)[..., 0] - d0) / h
+        f0 = np.take_along_axis(f_nodes, k, axis=-1)[..., 0]
+        f1 = np.take_along_axis(f_nodes, k + 1, axis=-1)[..., 0]
+        return k[..., 0], d0, slope, f0, f1
+
+    if groups is None:
+        k, d0, slope, f0, f1 = cells(c, e_nodes, mu1T_nodes, dT)
+    else:  # many points: in pieces that stay in cache
+        k, d0, slope, f0, f1 = (np.empty(c.shape, dtype=int), *(np.empty(c.shape)
+                                                                 for _ in range(4)))
+        for sl in _row_chunks(c.shape[0], int(np.prod(dT.shape[1:]))):
+            k[sl], d0[sl], slope[sl], f0[sl], f1[sl] = cells(c[sl], e_nodes[sl],
+                                                             mu1T_nodes[sl], dT[sl])
+    lo = k * h
+    hi = np.where(k + 1 == nT - 1, math.pi, (k + 1) * h)
     start = lo.copy()
 
     def fdf(th: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -597,7 +812,19 @@ def _yield_thermal(c: np.ndarray, r: np.ndarray, e_nodes: np.ndarray, dT: np.nda
     with np.errstate(divide="ignore", invalid="ignore"):
         th0 = lo - f0 * (hi - lo) / (f1 - f0)
     th0 = np.where(np.isfinite(th0) & (th0 > lo) & (th0 < hi), th0, 0.5 * (lo + hi))
-    return _bracketed_newton(fdf, lo, hi, th0, "FASTSIM yield angle with temperature")
+    if groups is None:
+        return _bracketed_newton(fdf, lo, hi, th0, "FASTSIM yield angle with temperature")
+    flat = [np.ascontiguousarray(np.broadcast_to(x, lo.shape)).ravel()
+            for x in (c, r, d0, slope, start, mu1T)]
+
+    def fdf_g(th: np.ndarray, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        cc, rr, dd, sl, st0, m1 = (x[idx] for x in flat)
+        st, ct = np.sin(th), np.cos(th)
+        lim = cc * np.exp(m1 * (dd + sl * (th - st0)))
+        return e_strip(th, rr) - lim * st, st * st / (st + rr) - lim * (ct + m1 * sl * st)
+
+    return _bracketed_newton(fdf_g, lo, hi, th0, "FASTSIM yield angle with temperature",
+                             groups=groups)
 
 
 def _check_finite(name: str, arr: np.ndarray) -> None:
@@ -693,6 +920,129 @@ def boundary_traction(prob: FastsimProblem, creepage: Any, grid: FastsimGrid | N
                           notes=notes)
 
 
+@dataclass
+class BoundaryDraws:
+    """Boundary traction of many layers (parameter draws) over the same creepages.
+
+    Attributes
+    ----------
+    mu
+        ``mu_BL`` (draws, creepages), signed; a failed draw's row is NaN.
+    adhesion_fraction
+        Elastic (stick) load fraction (draws, creepages).
+    max_temperature_C
+        Maximum flash temperature (draws, creepages), None without thermal.
+    errors
+        Per draw: ``""`` where it was computed, else why it failed (what
+        :func:`boundary_traction` would have raised for that layer).
+    """
+
+    mu: np.ndarray
+    adhesion_fraction: np.ndarray
+    max_temperature_C: np.ndarray | None
+    errors: list[str]
+
+
+def boundary_traction_draws(prob: FastsimProblem, layers: Any, creepage: Any,
+                            grid: FastsimGrid | None = None, *,
+                            extra_heat_flux: Any = None) -> BoundaryDraws:
+    """:func:`boundary_traction` for many layers at once (the draws of a prediction band).
+
+    Every (draw, creepage) pair is one point of a single vectorised evaluation, each
+    with its own layer: the yield-angle iterations stop per draw, the
+    contact-temperature iteration per point, so each draw goes through the same steps
+    as :func:`boundary_traction` with its layer alone (the same result to round-off).
+    A draw whose iteration fails is reported in ``errors`` and left out; the others
+    are not affected.
+
+    Parameters
+    ----------
+    prob
+        The contact; its layer gives the parameters ``layers`` does not.
+    layers
+        ``{name: (m,) array}`` of :class:`~torlab.model.layer.LayerParams` fields
+        (``mu_c1`` ... ``mu_c2_T``), one entry per draw.
+    creepage
+        Creepages (fractions, any sign), the same for every draw.
+    grid
+        Resolution (default :class:`FastsimGrid`).
+    extra_heat_flux
+        As in :func:`boundary_traction` (called once, for every point: draws x
+        creepages, draw-major); the rolling speed is ``prob.speed``.
+
+    Returns
+    -------
+    BoundaryDraws
+    """
+    grid = grid or FastsimGrid()
+    xi_in = np.atleast_1d(np.asarray(creepage, dtype=float)).ravel()
+    if not np.all(np.isfinite(xi_in)):
+        raise ValueError("creepage must be finite")
+    unknown = set(layers) - set(_LAYER_FIELDS)
+    if unknown:
+        raise ValueError(f"not layer parameters: {sorted(unknown)}")
+    vals = {f: np.asarray(layers.get(f, getattr(prob.layer, f)), dtype=float)
+            for f in _LAYER_FIELDS}
+    m = int(np.broadcast_shapes(*(v.shape for v in vals.values()), (1,))[0])
+    glay = LayerParams(*(np.broadcast_to(vals[f], (m,)).astype(float) for f in _LAYER_FIELDS))
+    n = xi_in.size
+    sign = np.tile(np.sign(xi_in), m)
+    mag = np.tile(np.abs(xi_in), m)  # draw-major points
+    gid_all = np.repeat(np.arange(m), n)
+    mu = np.zeros(m * n)
+    stick = np.ones(m * n)
+    tmax = None if prob.thermal is None else np.full(m * n, prob.ambient_temperature)
+    stats: dict[str, Any] = {"yield_iterations": 0, "failed": {}}
+    nz = mag > 0
+    if nz.any():
+        rows = np.flatnonzero(nz)
+        solver = _Solver(prob, grid, mag[nz], stats, (gid_all[nz], glay))
+        dT_grid = None
+        if prob.thermal is not None:
+            flux = None
+            if extra_heat_flux is not None:
+                thetaT, _ = flash_temperature_matrix(grid.temperature_nodes)
+                full = (mag.size, grid.n, thetaT.size)
+                q_scale, q_add = extra_heat_flux((1.0 - np.cos(thetaT))[None, None, :],
+                                                 solver.cphi[..., None], mag[:, None, None])
+                flux = (np.broadcast_to(np.asarray(q_scale, dtype=float), full)[nz],
+                        np.broadcast_to(np.asarray(q_add, dtype=float), full)[nz])
+            v = np.full(rows.size, float(prob.speed))
+            if not (math.isfinite(prob.speed) and prob.speed >= 0):
+                raise ValueError("speed must be finite and >= 0")
+            dT_grid, _, _, tm = _temperature(solver, prob, grid, mag[nz], v, flux)
+            tmax[nz] = tm
+        if stats["failed"]:  # the failed draws' points take no further part
+            keep = ~np.isin(gid_all[nz], np.fromiter(stats["failed"], dtype=int))
+            solver = solver.subset(np.flatnonzero(keep))
+            rows = rows[keep]
+            dT_grid = None if dT_grid is None else dT_grid[keep]
+        th_y = solver.yield_angle(dT_grid)
+        F, st = np.empty(rows.size), np.empty(rows.size)
+        per_row = grid.n * grid.m * (grid.graded_panels + grid.uniform_panels + grid.clamp_panels)
+        for sl in _row_chunks(rows.size, per_row):
+            sub = solver.subset(np.arange(sl.start, sl.stop))
+            F[sl], st[sl] = sub.force(th_y[sl], None if dT_grid is None else dT_grid[sl])
+        mu[rows] = F / prob.load
+        stick[rows] = st
+    mu = (sign * mu).reshape(m, n)
+    stick = stick.reshape(m, n)
+    tmax = None if tmax is None else tmax.reshape(m, n)
+    errors = []
+    for g in range(m):
+        why = stats["failed"].get(g, "")
+        if not why and not np.all(np.isfinite(mu[g])):
+            why = "FASTSIM produced a non-finite traction coefficient; please report this scene"
+        if not why and tmax is not None and not np.all(np.isfinite(tmax[g])):
+            why = "FASTSIM produced a non-finite flash temperature; please report this scene"
+        errors.append(why)
+    bad = np.array([bool(e) for e in errors], dtype=bool)
+    mu[bad] = np.nan
+    if tmax is not None:
+        tmax[bad] = np.nan
+    return BoundaryDraws(mu, stick, tmax, errors)
+
+
 #: largest |mu_T dT| the iteration accepts: exp(30) = 1e13 changes of the limits mean
 #: a thermal runaway, not a temperature
 _MAX_EXPONENT = 30.0
@@ -708,6 +1058,11 @@ def _temperature(solver: _Solver, prob: FastsimProblem, grid: FastsimGrid, xi: n
     one array, and a point leaves the active set as soon as it has converged, so its
     result does not depend on the other points computed with it.
 
+    With a layer per point (``solver.groups``, :func:`boundary_traction_draws`) the
+    coefficients are the point's own, and a point that runs away or does not converge
+    marks its group failed (``solver.stats["failed"]``) and leaves the iteration, with
+    the other points of its group, instead of raising.
+
     Returns
     -------
     tuple
@@ -715,6 +1070,7 @@ def _temperature(solver: _Solver, prob: FastsimProblem, grid: FastsimGrid, xi: n
     """
     th = prob.thermal
     lay = prob.layer
+    grouped = solver.groups is not None
     thetaT, K = flash_temperature_matrix(grid.temperature_nodes)
     KT = K.T
     nx, ns, nT = len(xi), grid.n, len(thetaT)
@@ -723,8 +1079,13 @@ def _temperature(solver: _Solver, prob: FastsimProblem, grid: FastsimGrid, xi: n
                                   * np.maximum(speed, 1e-300))
     scale = coef[:, None, None] * np.sqrt(solver.aj)[..., None]  # (nx, ns, 1)
     w = (xi * speed)[:, None, None]  # rigid slip velocity
-    solver.e_nodes = e_strip(thetaT[None, None, :], solver.r[..., None])  # fixed: (1, ns, nT)
-    coupled = bool(lay.mu_c1_T or lay.mu_c2_T)
+    if grouped:  # (nx, ns, nT), once per group
+        solver.e_nodes = _group_e_nodes(solver.r_group, solver.gid, nT)
+        # the yield angle takes the temperature only where mu_c1_T != 0 (yield_angle)
+        coupled = True
+    else:
+        solver.e_nodes = e_strip(thetaT[None, None, :], solver.r[..., None])  # fixed: (1, ns, nT)
+        coupled = bool(lay.mu_c1_T or lay.mu_c2_T)
     varying = np.ptp(speed) > 0 if nx else False
 
     def where(i: int) -> str:
@@ -734,8 +1095,17 @@ def _temperature(solver: _Solver, prob: FastsimProblem, grid: FastsimGrid, xi: n
         """Flash temperature rise of the points ``rows`` given their temperature ``dT``."""
         sub = solver if rows.size == nx else solver.subset(rows)
         th_y = sub.yield_angle(dT if coupled else None)
-        theta_nodes = np.broadcast_to(thetaT, (rows.size, ns, nT))
-        tau = sub.tau(theta_nodes, th_y, dT, solver.e_nodes)
+        if not grouped:
+            return heat(sub, rows, th_y, dT)
+        # many points: the (points, strips, nodes) arrays in pieces that stay in cache
+        out = np.empty_like(dT)
+        for sl in _row_chunks(rows.size, ns * nT):
+            out[sl] = heat(sub.subset(np.arange(sl.start, sl.stop)), rows[sl], th_y[sl], dT[sl])
+        return out
+
+    def heat(sub: _Solver, rows: np.ndarray, th_y: np.ndarray, dT: np.ndarray) -> np.ndarray:
+        theta_nodes = thetaT[None, None, :]  # broadcast in tau: sin, cos once per node
+        tau = sub.tau(theta_nodes, th_y, dT, sub.e_nodes)
         q = tau * w[rows]
         if th.slip_velocity == "local":
             q = np.where(theta_nodes < th_y[..., None], 0.0, q)
@@ -747,6 +1117,14 @@ def _temperature(solver: _Solver, prob: FastsimProblem, grid: FastsimGrid, xi: n
     its = np.where(moving, 1, 0)
     if not moving.any():
         return dT, its, "single pass", np.full(nx, prob.ambient_temperature)
+    if grouped:  # a layer per point: failures are recorded per group, not raised
+        rows = np.flatnonzero(moving)
+        new = np.zeros_like(dT)
+        new[rows] = G(dT[rows], rows)
+        peak = np.max(np.abs(new).reshape(nx, -1), axis=1)
+        sens = np.maximum(np.abs(solver.lay.mu_c1_T[:, 0]), np.abs(solver.lay.mu_c2_T[:, 0]))
+        single = peak * sens < 1e-6  # heating too small to change the limits: one pass
+        return _temperature_groups(solver, th, G, new, single, peak, sens, its, moving, where)
     return converge_flash_temperature(G, dT, its, moving, th, lay, where,
                                       prob.ambient_temperature)
 
@@ -830,6 +1208,65 @@ def converge_flash_temperature(G: Any, dT: np.ndarray, its: np.ndarray, moving: 
             f"mu_c2_T = {lay.mu_c2_T:g} 1/K make the heating unstable at this slip",
             iterations=th.max_iterations, residual=float(res[j]))
     return dT, its, "iterated", ambient + np.max(dT.reshape(n, -1), axis=1)
+
+
+def _temperature_groups(solver: _Solver, th: ThermalParams, G: Any, new: np.ndarray,
+                        single: np.ndarray, peak: np.ndarray, sens: np.ndarray,
+                        its: np.ndarray, moving: np.ndarray, where: Any
+                        ) -> tuple[np.ndarray, np.ndarray, str, np.ndarray]:
+    """The iteration of :func:`_temperature` with a layer per point (see there): the same
+    steps for each point, a failure recorded for its group instead of raised."""
+    prob = solver.prob
+    nx = new.shape[0]
+    gid = solver.gid
+
+    def drop(bad: np.ndarray, why: str) -> None:
+        solver._fail(bad, why)
+        gone = np.isin(gid, np.fromiter(solver.stats["failed"], dtype=int))
+        active[gone] = False
+
+    dT = np.zeros_like(new)
+    dT[single] = new[single]
+    active = moving & ~single
+    runaway = active & (peak * sens > _MAX_EXPONENT)
+    if runaway.any():
+        drop(runaway, f"contact temperature runs away at {where(int(np.argmax(runaway)))}: the "
+                      "first pass already changes the limits by more than a factor "
+                      f"exp({_MAX_EXPONENT:g})")
+    omega = np.ones(nx)
+    res_prev = np.full(nx, np.inf)
+    tol = th.tolerance
+    for k in range(1, th.max_iterations + 1):
+        rows = np.flatnonzero(active)
+        if rows.size == 0:
+            break
+        res = np.max(np.abs(new[rows] - dT[rows]).reshape(rows.size, -1), axis=1)
+        done = res < tol
+        dT[rows[done]] = new[rows[done]]
+        active[rows[done]] = False
+        rows, res = rows[~done], res[~done]
+        if rows.size == 0:
+            break
+        worse = res > 0.9 * res_prev[rows]
+        omega[rows] = np.where(worse, np.maximum(omega[rows] * 0.5, 1.0 / 1024), omega[rows])
+        res_prev[rows] = res
+        dT[rows] = dT[rows] + omega[rows][:, None, None] * (new[rows] - dT[rows])
+        its[rows] = k + 1
+        new[rows] = G(dT[rows], rows)
+        bad = (~np.isfinite(new[rows]) | (sens[rows, None, None] * np.abs(new[rows])
+                                          > _MAX_EXPONENT)).reshape(rows.size, -1).any(axis=1)
+        if bad.any():
+            mask = np.zeros(nx, dtype=bool)
+            mask[rows[bad]] = True
+            drop(mask, f"contact temperature diverged at {where(int(rows[np.argmax(bad)]))} "
+                       "(thermal runaway)")
+    else:
+        if active.any():
+            drop(active.copy(), f"contact temperature did not converge at "
+                                f"{where(int(np.argmax(active)))} after {th.max_iterations} "
+                                "under-relaxed iterations")
+    tmax = prob.ambient_temperature + np.max(dT.reshape(nx, -1), axis=1)
+    return dT, its, "iterated", tmax
 
 
 # -------------------------------------------------------------------------------------------

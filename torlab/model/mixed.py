@@ -41,7 +41,7 @@ import numpy as np
 from torlab.errors import TorlabInputError
 
 __all__ = ["MixedContact", "StribeckPrediction", "mixed_contact", "predict_stribeck",
-           "predict_traction_mixed"]
+           "predict_traction_mixed", "traction_draws"]
 
 #: Asperity (or film) load share below which that part is not modelled.
 SHARE_TOL = 1e-9
@@ -295,6 +295,66 @@ def predict_traction_mixed(scene: Any, creepage: Any, *, trend_tolerance: float 
     return TractionPrediction(table=table, contact=mc.contact, modelled=modelled, trend=trend,
                               summary=summary)
 
+
+def traction_draws(scene: Any, creepage: Any, layers: dict[str, np.ndarray]
+                   ) -> tuple[dict[str, np.ndarray], list[Any]]:
+    """The traction curve of :func:`predict_traction_mixed` for many boundary layers at once.
+
+    The film, the load sharing and ``mu_EHL`` do not depend on the layer: they are
+    computed once; FASTSIM takes every layer in one call
+    (:func:`torlab.model.fastsim.boundary_traction_draws`).  Each draw gets what
+    :func:`predict_traction_mixed` gives with its layer (to round-off).
+
+    Parameters
+    ----------
+    scene
+        A validated scene with ``lubricant:`` (its lubricant is used as it is).
+    creepage
+        Creepages (fractions), any sign.
+    layers
+        ``{name: (m,) array}`` of ``boundary:`` keys, one entry per draw.
+
+    Returns
+    -------
+    tuple
+        ``({"mu", "film_thickness_m", "load_share_asperity" (and "mu_boundary",
+        "max_temperature_C" where modelled): (m, n) arrays}, errors)`` with, per draw,
+        None or the error of its FASTSIM evaluation (a failed draw's rows are NaN).
+    """
+    from torlab.errors import ConvergenceError
+    from torlab.model.ehl import mu_ehl
+    from torlab.model.fastsim import boundary_traction_draws
+    from torlab.model.loadshare import solve_load_sharing
+
+    xi = np.atleast_1d(np.asarray(creepage, dtype=float))
+    if not np.all(np.isfinite(xi)):
+        raise TorlabInputError("creepage must be finite", key="creepage")
+    m = int(np.broadcast_shapes(*(np.shape(v) for v in layers.values()), (1,))[0])
+    mc = mixed_contact(scene)
+    p = mc.contact.patch
+    v = float(scene.kinematics.speed)
+    ls = solve_load_sharing(v, p.F, p.a, p.b, mc.film, mc.asperity, share_tol=SHARE_TOL)
+    share = float(ls.load_share_asperity)
+    _need_boundary(mc, np.array([share]), f"at {v:g} m/s")
+    h = float(ls.film_thickness)
+    mu = np.zeros_like(xi)
+    if ls.F_EHL > 0:
+        mu += (1.0 - share) * mu_ehl(xi * v, h, p.p0, mc.lubricant)
+    out: dict[str, np.ndarray] = {}
+    errors: list[Any] = [None] * m
+    if share >= SHARE_TOL:
+        heat = None if mc.problem.thermal is None else _heat_of_film(mc, v, h, share)
+        bl = boundary_traction_draws(mc.problem, layers, xi, mc.grid, extra_heat_flux=heat)
+        out["mu"] = mu[None, :] + share * bl.mu
+        out["mu_boundary"] = bl.mu
+        if bl.max_temperature_C is not None:
+            out["max_temperature_C"] = bl.max_temperature_C
+        errors = [ConvergenceError(e) if e else None for e in bl.errors]
+    else:
+        out["mu"] = np.repeat(mu[None, :], m, axis=0)
+    out["load_share_asperity"] = np.full((m, xi.size), share)
+    out["film_thickness_m"] = np.full((m, xi.size), h)
+    return out, errors
 
 def predict_stribeck(scene: Any, speed: Any, creepage: float, *, band: bool = True,
                      seed: int = 0) -> StribeckPrediction:

@@ -1,0 +1,245 @@
+"""Band draws evaluated many at a time (``evaluate_many``) against the same draws one by one.
+
+The reference is the row-by-row evaluation every band used before: ``boundary_traction``
+with the layer replaced (dry scenes) and the whole ``predict_traction`` of the scene with
+the parameters replaced (lubricated scenes).  The vectorised evaluation must give every
+draw the same outputs to 1e-9 (relative), fail the same draws, and leave the other draws
+of a block untouched by a failure.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from tests.conftest import ROOT
+from torlab.errors import NumericalError
+from torlab.model.bands import _DryTractionModel, _MixedTractionModel, traction_band
+from torlab.model.fastsim import (
+    FastsimGrid,
+    FastsimProblem,
+    ThermalParams,
+    boundary_traction,
+    boundary_traction_draws,
+)
+from torlab.model.layer import LayerParams
+from torlab.model.predict import fastsim_grid, fastsim_problem, predict_traction
+from torlab.scene import load_scene, scene_from_dict
+from torlab.uncertainty import ParameterDistribution, propagate
+
+SCENES = ROOT / "protocols" / "scenes"
+XI = np.r_[-0.01, 0.0, np.geomspace(2e-4, 0.05, 14)]
+RTOL = 1e-9
+
+
+def _close(a: np.ndarray, b: np.ndarray, what: str) -> None:
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    scale = np.maximum(np.abs(b), 1e-300)
+    rel = np.max(np.abs(a - b) / scale) if a.size else 0.0
+    assert a.shape == b.shape and rel <= RTOL, f"{what}: relative difference {rel:.3g}"
+
+
+def _rows(model, params: dict[str, np.ndarray]) -> list[dict | Exception]:
+    """The reference: the model called draw by draw (its row-by-row ``__call__``)."""
+    m = len(next(iter(params.values())))
+    out: list[dict | Exception] = []
+    for i in range(m):
+        try:
+            out.append(model({k: float(v[i]) for k, v in params.items()}))
+        except NumericalError as e:
+            out.append(e)
+    return out
+
+
+def _check_same(model, params: dict[str, np.ndarray]) -> tuple[int, int]:
+    """Vectorised against row by row: equal outputs, the same draws failed."""
+    ref = _rows(model, params)
+    outs, errors = model.evaluate_many(params)
+    ok = failed = 0
+    for i, r in enumerate(ref):
+        if isinstance(r, Exception):
+            assert errors[i] is not None, f"draw {i} failed alone ({r}) but not in the block"
+            assert isinstance(errors[i], NumericalError)
+            failed += 1
+            continue
+        assert errors[i] is None, f"draw {i}: {errors[i]}"
+        for k, v in r.items():
+            _close(outs[k][i], v, f"draw {i} {k}")
+        ok += 1
+    return ok, failed
+
+
+def _draws(rng, m: int, **spec: tuple[float, float]) -> dict[str, np.ndarray]:
+    """``m`` random parameter sets, each parameter uniform in its (low, high)."""
+    return {k: rng.uniform(lo, hi, m) for k, (lo, hi) in spec.items()}
+
+
+def _dry(thermal: bool):
+    sc = load_scene(SCENES / "wheel_rail_tab54.yaml")
+    prob = fastsim_problem(sc)
+    if not thermal:
+        prob = replace(prob, thermal=None)
+    return _DryTractionModel(prob, fastsim_grid(sc), XI,
+                             ("mu", "max_temperature_C") if thermal else ("mu",))
+
+
+def test_dry_draws_equal_the_draws_one_by_one():
+    rng = np.random.default_rng(1)
+    p = _draws(rng, 23, mu_c1=(0.15, 0.4), mu_c2=(0.2, 0.5), L_mue=(2e-6, 3e-5),
+               L_mup=(5e-6, 5e-5))
+    assert _check_same(_dry(False), p) == (23, 0)
+
+
+def test_softening_draws_equal_the_draws_one_by_one():
+    """mu_c2 < mu_c1 (tau_c2 below tau_c1: the softening layer, the slowest yield solve)."""
+    rng = np.random.default_rng(2)
+    p = _draws(rng, 15, mu_c1=(0.40, 0.50), mu_c2=(0.25, 0.35), L_mue=(5e-6, 2e-5),
+               L_mup=(2e-6, 1e-5))
+    assert _check_same(_dry(False), p) == (15, 0)
+
+
+def test_thermal_draws_equal_the_draws_one_by_one():
+    """Tab. 5.4 with its flash temperature: each draw has its own tau-T iteration; draws
+    with zero coefficients (no loop), with only mu_c2_T (isothermal yield) and with both
+    share one block."""
+    rng = np.random.default_rng(3)
+    p = _draws(rng, 12, mu_c1=(0.25, 0.35), mu_c2=(0.35, 0.5), L_mue=(5e-6, 2e-5),
+               L_mup=(1e-5, 3e-5), mu_c1_T=(-2e-3, -1e-4), mu_c2_T=(-2e-3, 0.0))
+    p["mu_c1_T"][:4] = 0.0
+    p["mu_c2_T"][:2] = 0.0
+    assert _check_same(_dry(True), p) == (12, 0)
+
+
+def test_thermal_runaway_fails_its_draws_only():
+    """Positive temperature coefficients of 0.01-0.03 1/K make the heating self-amplifying
+    at 10 m/s: those draws fail in the block as they do alone, the others are unchanged."""
+    rng = np.random.default_rng(4)
+    p = _draws(rng, 10, mu_c1_T=(-1e-3, 0.0), mu_c2_T=(-1e-3, 0.0))
+    p["mu_c1_T"][[2, 7]] = [0.02, 0.03]
+    p["mu_c2_T"][[2, 7]] = [0.02, 0.01]
+    ok, failed = _check_same(_dry(True), p)
+    assert (ok, failed) == (8, 2)
+    outs, errors = _dry(True).evaluate_many(p)
+    assert "runs away" in str(errors[2]) or "diverged" in str(errors[2])
+    assert np.all(np.isnan(outs["mu"][[2, 7]])) and np.all(np.isfinite(outs["mu"][[0, 1, 3]]))
+
+
+def test_layers_without_elastic_limit_or_voce_length():
+    """mu_c1 = 0 (no elastic part) and L_mup = 0 (instant saturation) take the same special
+    branches per draw as alone."""
+    prob = FastsimProblem(a=3e-3, b=2e-3, p0=8e8, L1=3e-14,
+                          layer=LayerParams(0.3, 0.45, 1e-5, 2e-5))
+    layers = {"mu_c1": np.array([0.3, 0.0, 0.3, 0.2]), "L_mup": np.array([2e-5, 2e-5, 0.0, 1e-5]),
+              "L_mue": np.array([1e-5, 1e-5, 1e-5, 0.0])}
+    res = boundary_traction_draws(prob, layers, XI)
+    for i in range(4):
+        lay = replace(prob.layer, **{k: float(v[i]) for k, v in layers.items()})
+        one = boundary_traction(replace(prob, layer=lay), XI)
+        _close(res.mu[i], one.mu, f"draw {i} mu")
+        _close(res.adhesion_fraction[i], one.adhesion_fraction, f"draw {i} stick")
+    assert res.errors == [""] * 4
+
+
+def test_thermal_grid_and_local_slip_velocity():
+    """A coarse custom grid and the local slip velocity (heat only where the layer slips)."""
+    prob = FastsimProblem(a=3.7e-3, b=3.3e-3, p0=7.8e8, L1=2.9e-14, speed=5.0,
+                          layer=LayerParams(0.3, 0.45, 1e-5, 2e-5, -1e-3, -5e-4),
+                          thermal=ThermalParams(slip_velocity="local"))
+    grid = FastsimGrid(n=4, m=3, temperature_nodes=24)
+    layers = {"mu_c1_T": np.array([-1e-3, -2e-3, 0.0]), "L_mue": np.array([1e-5, 5e-6, 2e-5])}
+    res = boundary_traction_draws(prob, layers, XI, grid)
+    for i in range(3):
+        lay = replace(prob.layer, **{k: float(v[i]) for k, v in layers.items()})
+        one = boundary_traction(replace(prob, layer=lay), XI, grid)
+        _close(res.mu[i], one.mu, f"draw {i} mu")
+        _close(res.max_temperature_C[i], one.max_temperature_C, f"draw {i} T")
+
+
+def _lubricated(**over) -> dict:
+    d = load_scene(SCENES / "optical_paper_a_rough.yaml").model_dump(exclude_none=True)
+    d.pop("fit", None)
+    for k, v in over.items():
+        d[k] = {**d.get(k, {}), **v}
+    return d
+
+
+def _mixed_model(d: dict) -> _MixedTractionModel:
+    sc = scene_from_dict(d)
+    table = predict_traction(sc, XI, band=False).table
+    outs = tuple(k for k in ("mu", "film_thickness_m", "max_temperature_C") if k in table)
+    return _MixedTractionModel("traction", sc, XI, None, outs)
+
+
+def test_mixed_draws_equal_the_whole_prediction_one_by_one():
+    """The Paper A rough ball in water: the film and the load sharing are solved once for
+    every layer; each draw equals predict_traction with its layer."""
+    rng = np.random.default_rng(5)
+    p = _draws(rng, 9, mu_c1=(0.12, 0.22), mu_c2=(0.2, 0.3), L_mue=(2e-6, 1e-5),
+               L_mup=(5e-6, 2e-5))
+    assert _check_same(_mixed_model(_lubricated()), p) == (9, 0)
+
+
+def test_mixed_thermal_draws_with_a_varying_lubricant():
+    """A mixed scene with the flash temperature (the film's heat added) and the viscosity
+    among the drawn parameters: draws with the same viscosity share their film, the others
+    get their own -- each still equal to its prediction alone."""
+    d = _lubricated(thermal={"conductivity": 50}, kinematics={"speed": "0.25 m/s"},
+                    boundary={"mu_c1_T": -1e-3, "mu_c2_T": -1e-3})
+    rng = np.random.default_rng(6)
+    p = _draws(rng, 6, mu_c1=(0.15, 0.2), mu_c1_T=(-2e-3, -5e-4), eta0=(8e-4, 1.2e-3))
+    p["eta0"][3:] = p["eta0"][0]  # four draws share one lubricant
+    model = _mixed_model(d)
+    assert "max_temperature_C" in model.outs
+    assert _check_same(model, p) == (6, 0)
+
+
+class _RowByRow:
+    """The same model without ``evaluate_many``: the draws go one by one."""
+
+    def __init__(self, model):
+        self.model = model
+
+    def __call__(self, p):
+        return self.model(p)
+
+
+@pytest.mark.parametrize("thermal", [False, True])
+def test_sampled_band_equals_the_row_by_row_band(thermal):
+    model = _dry(thermal)
+    names = ("mu_c1", "mu_c2", "L_mue", "L_mup") + (("mu_c1_T",) if thermal else ())
+    vals = [0.30, 0.45, 1e-5, 2e-5] + ([-5e-4] if thermal else [])
+    cov = np.diag([4e-4, 4e-4, 4e-12, 1e-11] + ([1e-8] if thermal else []))
+    d = ParameterDistribution.from_covariance(names, vals, cov,
+                                              log_scale=("mu_c1", "mu_c2", "L_mue", "L_mup"))
+    if thermal:
+        model = replace(model, prob=replace(model.prob, layer=replace(model.prob.layer,
+                                                                      mu_c1_T=-5e-4)))
+    a = propagate(model, d, method="sampling", n_samples=57, seed=3)
+    b = propagate(_RowByRow(model), d, method="sampling", n_samples=57, seed=3)
+    for k in a.center:
+        for what in ("lower", "upper", "sd"):
+            _close(getattr(a, what)[k], getattr(b, what)[k], f"{k} {what}")
+    assert a.n_failed == b.n_failed == 0
+
+
+def test_traction_band_of_a_lubricated_scene_equals_the_row_by_row_band():
+    d = _lubricated()
+    sc = scene_from_dict(d)
+    table = predict_traction(sc, XI, band=False).table
+    names = ["mu_c1", "mu_c2", "L_mue", "L_mup"]
+    d["fit"] = {"kind": "test", "covariance": {
+        "names": names, "values": [d["boundary"][n] for n in names],
+        "matrix": np.diag([1e-4, 1e-4, 1e-12, 4e-12]).tolist()}}
+    sc = scene_from_dict(d)
+    from torlab.model.bands import scene_uncertainty
+
+    su = scene_uncertainty(sc)
+    a = traction_band(sc, XI, table, su, method="sampling", n_samples=45)
+    model = _MixedTractionModel("traction", sc, XI, None, ("mu", "film_thickness_m"))
+    b = propagate(_RowByRow(model), su.dist, method="sampling", n_samples=45,
+                  f0={k: table[k].to_numpy() for k in ("mu", "film_thickness_m")})
+    for k in ("mu", "film_thickness_m"):
+        _close(a.low(k), b.low(k), f"{k} low")
+        _close(a.high(k), b.high(k), f"{k} high")
