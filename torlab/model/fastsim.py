@@ -891,14 +891,7 @@ def boundary_traction(prob: FastsimProblem, creepage: Any, grid: FastsimGrid | N
         solver = _Solver(prob, grid, xi, stats)
         dT_grid = None
         if prob.thermal is not None:
-            flux = None
-            if extra_heat_flux is not None:
-                thetaT, _ = flash_temperature_matrix(grid.temperature_nodes)
-                full = (mag.size, grid.n, thetaT.size)
-                q_scale, q_add = extra_heat_flux((1.0 - np.cos(thetaT))[None, None, :],
-                                                 solver.cphi[..., None], mag[:, None, None])
-                flux = (np.broadcast_to(np.asarray(q_scale, dtype=float), full)[nz],
-                        np.broadcast_to(np.asarray(q_add, dtype=float), full)[nz])
+            flux = _extra_flux(extra_heat_flux, grid, solver, mag, nz)
             dT_grid, it, loop, tm = _temperature(solver, prob, grid, xi, v[nz], flux)
             iters[nz] = it
             tmax[nz] = tm
@@ -999,14 +992,7 @@ def boundary_traction_draws(prob: FastsimProblem, layers: Any, creepage: Any,
         solver = _Solver(prob, grid, mag[nz], stats, (gid_all[nz], glay))
         dT_grid = None
         if prob.thermal is not None:
-            flux = None
-            if extra_heat_flux is not None:
-                thetaT, _ = flash_temperature_matrix(grid.temperature_nodes)
-                full = (mag.size, grid.n, thetaT.size)
-                q_scale, q_add = extra_heat_flux((1.0 - np.cos(thetaT))[None, None, :],
-                                                 solver.cphi[..., None], mag[:, None, None])
-                flux = (np.broadcast_to(np.asarray(q_scale, dtype=float), full)[nz],
-                        np.broadcast_to(np.asarray(q_add, dtype=float), full)[nz])
+            flux = _extra_flux(extra_heat_flux, grid, solver, mag, nz)
             v = np.full(rows.size, float(prob.speed))
             if not (math.isfinite(prob.speed) and prob.speed >= 0):
                 raise ValueError("speed must be finite and >= 0")
@@ -1041,6 +1027,20 @@ def boundary_traction_draws(prob: FastsimProblem, layers: Any, creepage: Any,
     if tmax is not None:
         tmax[bad] = np.nan
     return BoundaryDraws(mu, stick, tmax, errors)
+
+
+def _extra_flux(extra_heat_flux: Any, grid: FastsimGrid, solver: _Solver, mag: np.ndarray,
+                nz: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(scale, add)`` of the heat flux on the temperature grid of the points ``nz``
+    (``extra_heat_flux`` of :func:`boundary_traction`), or None without one."""
+    if extra_heat_flux is None:
+        return None
+    thetaT, _ = flash_temperature_matrix(grid.temperature_nodes)
+    full = (mag.size, grid.n, thetaT.size)
+    q_scale, q_add = extra_heat_flux((1.0 - np.cos(thetaT))[None, None, :],
+                                     solver.cphi[..., None], mag[:, None, None])
+    return (np.broadcast_to(np.asarray(q_scale, dtype=float), full)[nz],
+            np.broadcast_to(np.asarray(q_add, dtype=float), full)[nz])
 
 
 #: largest |mu_T dT| the iteration accepts: exp(30) = 1e13 changes of the limits mean

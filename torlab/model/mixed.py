@@ -220,6 +220,27 @@ class _SceneLike:
         self.boundary = mc.problem.layer if mc.problem is not None else None
 
 
+def _creepages(creepage: Any) -> np.ndarray:
+    xi = np.atleast_1d(np.asarray(creepage, dtype=float))
+    if not np.all(np.isfinite(xi)):
+        raise TorlabInputError("creepage must be finite", key="creepage")
+    return xi
+
+
+def _at_scene_speed(scene: Any) -> tuple[MixedContact, Any, float, Any, float, float]:
+    """The contact, its patch, the speed, the load sharing there, the asperities' share
+    and the film thickness of a lubricated scene at its own speed."""
+    from torlab.model.loadshare import solve_load_sharing
+
+    mc = mixed_contact(scene)
+    p = mc.contact.patch
+    v = float(scene.kinematics.speed)
+    ls = solve_load_sharing(v, p.F, p.a, p.b, mc.film, mc.asperity, share_tol=SHARE_TOL)
+    share = float(ls.load_share_asperity)
+    _need_boundary(mc, np.array([share]), f"at {v:g} m/s")
+    return mc, p, v, ls, share, float(ls.film_thickness)
+
+
 def predict_traction_mixed(scene: Any, creepage: Any, *, trend_tolerance: float = 0.01,
                            as_frame: bool = True):
     """Traction curve of a lubricated scene at the scene's speed (Eq. 5.47).
@@ -242,19 +263,10 @@ def predict_traction_mixed(scene: Any, creepage: Any, *, trend_tolerance: float 
         ``as_frame=False``).
     """
     from torlab.model.ehl import mu_ehl
-    from torlab.model.loadshare import solve_load_sharing
     from torlab.model.prediction import TractionPrediction, _summary, classify_trend
 
-    xi = np.atleast_1d(np.asarray(creepage, dtype=float))
-    if not np.all(np.isfinite(xi)):
-        raise TorlabInputError("creepage must be finite", key="creepage")
-    mc = mixed_contact(scene)
-    p = mc.contact.patch
-    v = float(scene.kinematics.speed)
-    ls = solve_load_sharing(v, p.F, p.a, p.b, mc.film, mc.asperity, share_tol=SHARE_TOL)
-    share = float(ls.load_share_asperity)
-    _need_boundary(mc, np.array([share]), f"at {v:g} m/s")
-    h = float(ls.film_thickness)
+    xi = _creepages(creepage)
+    mc, p, v, ls, share, h = _at_scene_speed(scene)
     table: Any = {"creepage": xi}
     mu = np.zeros_like(xi)
     mu_e = None
@@ -324,19 +336,10 @@ def traction_draws(scene: Any, creepage: Any, layers: dict[str, np.ndarray]
     from torlab.errors import ConvergenceError
     from torlab.model.ehl import mu_ehl
     from torlab.model.fastsim import boundary_traction_draws
-    from torlab.model.loadshare import solve_load_sharing
 
-    xi = np.atleast_1d(np.asarray(creepage, dtype=float))
-    if not np.all(np.isfinite(xi)):
-        raise TorlabInputError("creepage must be finite", key="creepage")
+    xi = _creepages(creepage)
     m = int(np.broadcast_shapes(*(np.shape(v) for v in layers.values()), (1,))[0])
-    mc = mixed_contact(scene)
-    p = mc.contact.patch
-    v = float(scene.kinematics.speed)
-    ls = solve_load_sharing(v, p.F, p.a, p.b, mc.film, mc.asperity, share_tol=SHARE_TOL)
-    share = float(ls.load_share_asperity)
-    _need_boundary(mc, np.array([share]), f"at {v:g} m/s")
-    h = float(ls.film_thickness)
+    mc, p, v, ls, share, h = _at_scene_speed(scene)
     mu = np.zeros_like(xi)
     if ls.F_EHL > 0:
         mu += (1.0 - share) * mu_ehl(xi * v, h, p.p0, mc.lubricant)
