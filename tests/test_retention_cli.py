@@ -347,6 +347,8 @@ def test_predict_retention_bad_amounts(fitted, cli, tmp_path, amount, words):
     (("--amount", "1e5 mg/m^2", "--time", "1 h", "--pass-interval", "-2 s"),
      ("--pass-interval: -2 s is not possible",)),
     (("--amount", "1e5 mg/m^2", "--track-radius", "1e300 m"), ("--track-radius: 1e+303 mm is not possible for a track radius",)),
+    (("--amount", "2 uL", "--band-length", "1e300 m"),
+     ("band", "1e+300 m is not possible for a length of rail")),
 ])
 def test_predict_retention_options_outside_the_range_table(fitted, cli, tmp_path, args, words):
     """Amounts, durations and radii of the retention commands against torlab.units.RANGES."""

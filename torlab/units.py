@@ -407,6 +407,8 @@ RANGES: dict[str, Range] = {
                           "an applied amount per area", display="mg/m^2"),
     "track_radius": Range("length", 0.0, 100.0, 1e-3, 2.0,
                           "a track radius (disc track, test ring)", display="mm"),
+    "band_length": Range("length", 0.0, 1e6, 1e-3, 1e4,
+                         "a length of rail the product is spread over", display="m"),
     "duration": Range("time", 0.0, 1e8, 0.1, 86400.0,
                       "a duration (a slip sweep, a time between passes)", display="s"),
 }

@@ -197,9 +197,12 @@ def _initial_amount(amount: Any, band: Band, *, band_length: float | None,
     if band.area is not None:
         area, how = band.area, f"spread over the disc track (2 pi r x {band.width * 1e3:.3g} mm)"
     elif band_length is not None:
+        from torlab.units import check_range
+
         if not (math.isfinite(band_length) and band_length > 0):
             raise TorlabInputError(f"band length must be positive, got {band_length}",
                                    key="band_length")
+        check_range("band_length", band_length, where="band_length")
         area = band.width * band_length
         how = f"spread over {band_length:g} m of rail x {band.width * 1e3:.3g} mm band"
     else:
