@@ -385,7 +385,7 @@ RANGES: dict[str, Range] = {
                             low_open=False, display="mm"),
     "arm_length": Range("length", 1e-4, 10.0, 0.01, 2.0, "an HPT loading-arm length",
                         low_open=False, display="mm"),
-    "amount_volume": Range("volume", 1e-15, 1e-3, 1e-11, 1e-6, "an applied volume",
+    "amount_volume": Range("volume", 1e-15, 1e-3, 1e-11, 1e-4, "an applied volume",
                            low_open=False, display="uL"),
     "amount_mass": Range("mass", 1e-15, 1.0, 1e-8, 1e-3, "an applied mass", low_open=False,
                          display="mg"),
