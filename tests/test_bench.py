@@ -304,9 +304,14 @@ def test_bands_quick_rows():
     within a half-width."""
     from torlab.bench import bands
 
-    rows = {r.variant.split(" (")[0]: r for r in bands.run(quick=True)}
+    out = bands.run(quick=True)
+    rows = {r.variant.split(" (")[0]: r for r in out if r.component != "band draws"}
     assert set(rows) == {"plain curve", "band, automatic choice", "band, linear",
                          "band, sampling"}
+    # the draws one by one and many per call: the same numbers (error 0 against one by one)
+    draws = [r for r in out if r.component == "band draws"]
+    assert {r.variant.split(" (")[0] for r in draws} == {"row by row", "many draws per call"}
+    assert all(r.error == 0 for r in draws if r.variant.startswith("many"))
     d = rows["band, automatic choice"]
     assert d.default and "(linear)" in d.variant and d.extra["model_evaluations"] == 6
     assert 0 < d.error < 1.0
