@@ -121,6 +121,7 @@ def test_cli_with_a_layer_fitted_from_an_hpt_log(cli, tmp_path):
     res = cli(*args, "-o", tmp_path / "p")
     assert res.exit_code == 0, res.output
     assert "95 % interval from the layer" in res.output and "12 draws" in res.output
+    assert "only 12 draws" in " ".join(res.output.split())  # few draws: said
     summ = json.loads((tmp_path / "p" / "summary.json").read_text())
     lu = summ["meta"]["layer_uncertainty"]
     assert lu["carried"] and lu["n_draws"] == 12

@@ -525,16 +525,16 @@ def polach_cmd(
 
     files = require_files(scene, "scene")
     sc = load_scene(*files)
-    with session(jobs, scheduler, quiet):
-        res = fit_polach_scene(
-            sc, parse_values(creepage, "dimensionless", "--creepage", "creepage"),
-            parse_values(speed, "velocity", "--speed", "speed"),
-            lateral=None if lateral is None else parse_values(lateral, "dimensionless",
-                                                              "--lateral", "creepage"),
-            spin=None if spin is None else parse_values(spin, "inverse_length", "--spin", "spin"),
-            draws=draws, source=sc.name or files[0].stem)
-    lay = layer_interval_table(res)
-    with OutputDir(out, force=force, inputs=files, command=command_line()) as dest:
+    xi = parse_values(creepage, "dimensionless", "--creepage", "creepage")
+    v = parse_values(speed, "velocity", "--speed", "speed")
+    eta = None if lateral is None else parse_values(lateral, "dimensionless", "--lateral",
+                                                    "creepage")
+    phi = None if spin is None else parse_values(spin, "inverse_length", "--spin", "spin")
+    dest = OutputDir(out, force=force, inputs=files, command=command_line())
+    with dest, session(jobs, scheduler, quiet):  # the folder is checked before the draws
+        res = fit_polach_scene(sc, xi, v, lateral=eta, spin=phi, draws=draws,
+                               source=sc.name or files[0].stem)
+        lay = layer_interval_table(res)
         write_fits(dest, [("", res)], "Polach fit", xlsx=xlsx, formats=formats,
                    sheets={"layer_intervals": lay})
         dest.write_csv("layer_intervals.csv", lay, allow_missing=tuple(

@@ -61,6 +61,8 @@ _UPPER = np.array([3.0, 5.0, 1e3, 1.0, 1.0])
 #: boundary.md); the percentiles of 200 draws place a 95 % edge to about 0.2 standard
 #: deviations
 N_DRAWS = 200
+#: fewer draws than this place a 95 % percentile interval poorly (a note says so)
+_FEW_DRAWS = 100
 #: the report's wording when the layer's uncertainty is not carried
 NOT_CARRIED = "layer uncertainty not carried"
 
@@ -403,6 +405,9 @@ def layer_uncertainty(scene: Any, estimate: FitResult, creepage: Any, speed: Any
                               if n != "no parameter uncertainty: the band is the curve"]
     if band.method == "none":
         notes.append("every layer variance is zero: the intervals are the estimate")
+    elif draws < _FEW_DRAWS:
+        notes.append(f"only {draws} draws: the 2.5 % and 97.5 % percentiles lie near the "
+                     f"extreme draws (use {_FEW_DRAWS} or more for a 95 % interval)")
     return {"carried": True, "method": band.method, "reason": "",
             "n_draws": draws if band.method == "sampling" else 0,
             "n_failed": int(band.n_failed), "seed": int(seed),
@@ -449,7 +454,9 @@ def fit_polach_scene(scene: Any, creepage: Any, speed: Any, *, lateral: Any = No
     res.meta["layer_uncertainty"] = lu
     if not lu["carried"]:
         res.warnings.append(lu["reason"])
-    elif lu["n_failed"]:
+    elif lu["method"] == "sampling" and lu["n_draws"] < _FEW_DRAWS:
+        res.warnings.append(lu["notes"][-1])
+    if lu["carried"] and lu["n_failed"]:
         res.warnings.append(f"{lu['n_failed']} of {lu['n_draws']} layer draws failed in the "
                             "Polach refit and were left out")
     return res
