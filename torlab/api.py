@@ -780,7 +780,8 @@ def creep_table(scene: Any, creepage: Any, lateral: Any, spin: Any, *, speed: An
 
 
 def fit_polach(scene: Any, creepage: Any = "0:0.05:41", speed: Any = "5 m/s, 20 m/s", *,
-               lateral: Any = None, spin: Any = None, params: Any = None) -> Any:
+               lateral: Any = None, spin: Any = None, params: Any = None,
+               draws: int | None = None, seed: int = 0) -> Any:
     """Polach's creep-force parameters ``mu0, A, B, kA, kS`` (Polach 2005; spin of 1999)
     fitted to torlab's creep forces of a dry scene over a creepage and speed range
     (``torlab fit polach``).
@@ -797,22 +798,29 @@ def fit_polach(scene: Any, creepage: Any = "0:0.05:41", speed: Any = "5 m/s, 20 
         Optional lateral creepages and spins (1/m) added at each creepage and speed.
     params
         Parameter files or FitResults applied over the scene (the product's fit).
+    draws
+        Layer draws from the fit's covariance, Polach refitted to each (default
+        :data:`torlab.fit.polach.N_DRAWS`; 0: the layer's uncertainty is not carried).
+    seed
+        Seed of the draws.
 
     Returns
     -------
     FitResult
         ``params``, ``stderr``, ``data`` (torlab, Polach and their difference per point),
-        ``meta`` (RMS and largest difference), ``warnings``.
+        ``meta`` (RMS and largest difference; ``layer_uncertainty``: the 95 % intervals
+        from the layer's draws, :func:`torlab.fit.polach.layer_uncertainty`), ``warnings``.
     """
-    from torlab.fit.polach import fit_polach as _fit
-    from torlab.model.creep import creep_problem
+    from torlab.fit.polach import N_DRAWS, fit_polach_scene
 
     sc = _scene(scene, params)
-    return _fit(creep_problem(sc), _grid(creepage, "dimensionless", "creepage"),
-                _grid(speed, "velocity", "speed"),
-                lateral=None if lateral is None else _grid(lateral, "dimensionless", "lateral"),
-                spin=None if spin is None else _grid(spin, "inverse_length", "spin"),
-                source=sc.name or "scene")
+    return fit_polach_scene(sc, _grid(creepage, "dimensionless", "creepage"),
+                            _grid(speed, "velocity", "speed"),
+                            lateral=None if lateral is None else _grid(lateral, "dimensionless",
+                                                                       "lateral"),
+                            spin=None if spin is None else _grid(spin, "inverse_length", "spin"),
+                            draws=N_DRAWS if draws is None else draws, seed=seed,
+                            source=sc.name or "scene")
 
 
 def run_protocol(protocol: PathLike, out: PathLike, *, force: bool = False,

@@ -23,7 +23,10 @@ import typer
 from torlab.cli._common import (
     ForceOpt,
     FormatsOpt,
+    JobsOpt,
     OutOpt,
+    QuietOpt,
+    SchedulerOpt,
     XlsxOpt,
     command_line,
     console,
@@ -494,38 +497,59 @@ def polach_cmd(
     lateral: Annotated[str | None, typer.Option(help="Optional lateral creepages added at each "
                                                 "creepage and speed.")] = None,
     spin: Annotated[str | None, typer.Option(help="Optional spins (1/m) added likewise.")] = None,
+    draws: Annotated[int, typer.Option(min=0, help="Draws of the layer from its fit's "
+                                       "covariance, Polach refitted to each (0: off).")] = 200,
     force: ForceOpt = False,
     xlsx: XlsxOpt = False,
     formats: FormatsOpt = None,
+    jobs: JobsOpt = None,
+    scheduler: SchedulerOpt = None,
+    quiet: QuietOpt = False,
 ) -> None:
     """Polach's creep-force parameters mu0, A, B, kA, kS (Polach 2005; spin of 1999) fitted
     to torlab's predicted creep forces of a dry scene over a creepage and speed range.
 
     Writes params.yaml (the parameters in the fit: section), fit_table.csv, correlation.csv,
     fit_data.csv (torlab, Polach and their difference per point: the fit error as a curve),
-    fit.png and summary.json (RMS and largest error: the numbers).
+    fit.png and summary.json (RMS and largest error: the numbers).  When the product's
+    parameter file carries its fit's covariance, the layer is drawn from it (--draws) and
+    Polach refitted per draw: layer_intervals.csv and summary.json's layer_uncertainty give
+    each parameter's 95 % interval from the layer, the dominant layer parameters and the
+    correlations (fit_table.csv's intervals are the approximation's).
     """
-    from torlab.fit.polach import fit_polach
+    from torlab.cli._common import session
+    from torlab.fit.polach import fit_polach_scene, layer_interval_table
     from torlab.grids import parse_values
-    from torlab.model.creep import creep_problem
     from torlab.outputs import OutputDir
     from torlab.scene import load_scene
 
     files = require_files(scene, "scene")
     sc = load_scene(*files)
-    res = fit_polach(creep_problem(sc), parse_values(creepage, "dimensionless", "--creepage",
-                                                     "creepage"),
-                     parse_values(speed, "velocity", "--speed", "speed"),
-                     lateral=None if lateral is None else parse_values(lateral, "dimensionless",
-                                                                       "--lateral", "creepage"),
-                     spin=None if spin is None else parse_values(spin, "inverse_length", "--spin",
-                                                                 "spin"),
-                     source=sc.name or files[0].stem)
-    with OutputDir(out, force=force, inputs=files, command=command_line()) as dest:
-        write_fits(dest, [("", res)], "Polach fit", xlsx=xlsx, formats=formats)
+    xi = parse_values(creepage, "dimensionless", "--creepage", "creepage")
+    v = parse_values(speed, "velocity", "--speed", "speed")
+    eta = None if lateral is None else parse_values(lateral, "dimensionless", "--lateral",
+                                                    "creepage")
+    phi = None if spin is None else parse_values(spin, "inverse_length", "--spin", "spin")
+    dest = OutputDir(out, force=force, inputs=files, command=command_line())
+    with dest, session(jobs, scheduler, quiet):  # the folder is checked before the draws
+        res = fit_polach_scene(sc, xi, v, lateral=eta, spin=phi, draws=draws,
+                               source=sc.name or files[0].stem)
+        lay = layer_interval_table(res)
+        write_fits(dest, [("", res)], "Polach fit", xlsx=xlsx, formats=formats,
+                   sheets={"layer_intervals": lay})
+        dest.write_csv("layer_intervals.csv", lay, allow_missing=tuple(
+            c for c in lay.columns if c not in ("parameter", "value")))
     print_fit(res, f"Polach fit: {res.meta['source']}")
+    lu = res.meta["layer_uncertainty"]
+    if lu["carried"]:
+        print_table([{"parameter": r.parameter, "value": f"{r.value:.5g}",
+                      "95 % interval from the layer": f"[{r.layer_low95:.5g}, "
+                                                      f"{r.layer_high95:.5g}]",
+                      "dominant": r.dominant or "—"} for r in lay.itertuples()],
+                    title=f"Layer uncertainty ({lu['method']}, {lu['n_draws']} draws, "
+                          f"{lu['n_failed']} failed)")
     console().print(f"largest difference Polach - torlab: {res.meta['max_abs_residual']:.3g} "
-                    f"(F/N); wrote {', '.join(_FILES)} to {out}")
+                    f"(F/N); wrote {', '.join(_FILES)}, layer_intervals.csv to {out}")
 
 
 @app.command("removal")

@@ -19,6 +19,18 @@ Polach's law.
   model's, without noise): the intervals are those of the approximation.
 * Fit error: the curve (``data``: torlab, Polach, residual per point) and the numbers
   (RMS and largest residual in ``mu``).  Polach's ``kS <= kA`` is checked.
+* The layer's uncertainty (:func:`fit_polach_scene`): when the product's parameter
+  file carries its fit's covariance (``fit: covariance:``), the layer's parameters
+  are drawn from it as for the traction bands (:func:`torlab.model.bands.scene_uncertainty`,
+  :func:`torlab.uncertainty.propagate` with ``method="sampling"``: seeded draws, positive
+  parameters on the log scale, evaluated in the fixed blocks and rounds of the executor
+  in use, so serial and parallel runs give the same numbers), Polach's law is refitted
+  to torlab's curve of each drawn layer, and the 2.5 % and 97.5 % percentiles of each
+  refitted parameter are its 95 % interval (a percentile interval is the same on the
+  log scale and on the natural one).  The method, the draws, the failed draws, the
+  layer parameters that dominate (regression shares of the variance) and the
+  correlation of each Polach parameter with each drawn layer parameter are reported in
+  ``meta["layer_uncertainty"]``, apart from the approximation's intervals above.
 
 Without ``thermal:`` torlab's forces do not depend on speed, while Polach's depend
 on the slip velocity ``s V``: at several speeds the fit then compromises, which the
@@ -28,6 +40,7 @@ residuals show; ``B`` is determined only where the curve falls after its maximum
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -37,11 +50,21 @@ from torlab.fit.result import FitResult, covariance_from_jacobian
 from torlab.model.creep import CreepGrid, CreepProblem, creep_forces
 from torlab.model.polach import PolachParams, polach_contact, polach_forces
 
-__all__ = ["NAMES", "fit_polach", "fit_polach_data", "polach_data"]
+__all__ = ["NAMES", "N_DRAWS", "fit_polach", "fit_polach_data", "fit_polach_scene",
+           "layer_interval_table", "layer_uncertainty", "polach_data"]
 
 NAMES = ("mu0", "A", "B", "kA", "kS")
 _LOWER = np.array([1e-4, 1e-3, 0.0, 1e-4, 1e-4])
 _UPPER = np.array([3.0, 5.0, 1e3, 1.0, 1.0])
+#: layer draws of the Polach refit by default (``--draws``): a fit takes about 0.1 s, so
+#: 200 draws keep 'torlab fit polach' near half a minute on two busy cores (docs/model/
+#: boundary.md); the percentiles of 200 draws place a 95 % edge to about 0.2 standard
+#: deviations
+N_DRAWS = 200
+#: fewer draws than this place a 95 % percentile interval poorly (a note says so)
+_FEW_DRAWS = 100
+#: the report's wording when the layer's uncertainty is not carried
+NOT_CARRIED = "layer uncertainty not carried"
 
 
 def polach_data(problem: CreepProblem, creepage: Any, speed: Any, *, lateral: Any = None,
@@ -254,3 +277,218 @@ def fit_polach_data(df: Any, contact: Any, *, source: str = "", ordered: bool = 
         "polach", NAMES, p, cov, dof=dof, residual_norm=float(math.sqrt(float(np.mean(r * r)))),
         n_points=int(r.size), warnings=warnings, data=data, meta=meta, residual_unit="-",
         n_evaluations=int(sol.nfev), x_column="creepage", y_column="mu_torlab")
+
+
+# ---------------------------------------------------------------------------------------------
+# the layer's uncertainty carried into Polach's parameters
+# ---------------------------------------------------------------------------------------------
+@dataclass
+class _PolachRefit:
+    """Polach's parameters refitted to torlab's curve of the layer with its parameters
+    replaced by one draw (a picklable model for :func:`torlab.uncertainty.propagate`, whose
+    draws may be evaluated on worker processes)."""
+
+    problem: CreepProblem
+    creepage: np.ndarray
+    speed: np.ndarray
+    lateral: np.ndarray | None
+    spin: np.ndarray | None
+    grid: CreepGrid | None
+    ordered: bool
+
+    def __call__(self, p: dict[str, float]) -> dict[str, np.ndarray]:
+        layer = replace(self.problem.layer, **{k: float(v) for k, v in p.items()})
+        res = fit_polach(replace(self.problem, layer=layer), self.creepage, self.speed,
+                         lateral=self.lateral, spin=self.spin, grid=self.grid,
+                         ordered=self.ordered)
+        return {n: np.asarray(res.params[n], dtype=float) for n in NAMES}
+
+
+def _finite(x: Any) -> float | None:
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def _not_carried(reason: str, notes: list[str] | None = None, *, draws: int = 0,
+                 seed: int = 0) -> dict[str, Any]:
+    return {"carried": False, "method": "not carried", "reason": f"{NOT_CARRIED}: {reason}",
+            "n_draws": int(draws), "n_failed": 0, "seed": int(seed), "confidence": None,
+            "layer_parameters": [], "interval": None, "sd": None, "dominant": {},
+            "correlation": {}, "notes": [f"{NOT_CARRIED}: {reason}", *(notes or [])]}
+
+
+def layer_uncertainty(scene: Any, estimate: FitResult, creepage: Any, speed: Any, *,
+                      lateral: Any = None, spin: Any = None, grid: CreepGrid | None = None,
+                      draws: int = N_DRAWS, seed: int = 0, ordered: bool = True,
+                      problem: CreepProblem | None = None) -> dict[str, Any]:
+    """The layer's uncertainty carried into Polach's parameters (module docstring).
+
+    The layer's parameters are drawn from the scene's ``fit: covariance:`` blocks
+    (:func:`torlab.model.bands.scene_uncertainty`: the parameters whose value in
+    the scene is the fitted one, the temperature coefficients only with
+    ``thermal:``) with :func:`torlab.uncertainty.propagate` (``method="sampling"``),
+    and Polach's law is refitted to torlab's creep forces of each drawn layer over
+    the same range; each parameter's 95 % interval is the 2.5 % and 97.5 %
+    percentile of its refits (widened to contain the estimate).
+
+    Parameters
+    ----------
+    scene
+        The dry :class:`~torlab.scene.Scene` with the product's layer.
+    estimate
+        The Polach fit at the layer's estimate (:func:`fit_polach`).
+    creepage, speed, lateral, spin, grid, ordered
+        The fit range and options of ``estimate`` (see :func:`fit_polach`).
+    draws
+        Number of layer draws (0: not carried).
+    seed
+        Seed of the draws.
+    problem
+        The scene's :class:`~torlab.model.creep.CreepProblem` if the caller has it.
+
+    Returns
+    -------
+    dict
+        JSON-ready: ``carried``, ``method`` (``sampling``; ``none`` when every variance
+        is zero, the interval then being the estimate; ``not carried``), ``reason``,
+        ``n_draws``, ``n_failed``, ``seed``, ``confidence``, ``layer_parameters``,
+        ``interval`` and ``sd`` per Polach parameter, ``dominant`` (layer parameters
+        with at least 10 % of a parameter's variance: regression shares, see
+        :meth:`torlab.uncertainty.Propagation.dominant`), ``correlation``
+        (``{polach: {layer: r}}`` over the draws, layer parameters on the scale they
+        are drawn on: ``ln p`` for positive ones) and ``notes``.
+    """
+    from torlab.errors import NumericalError
+    from torlab.model.bands import scene_uncertainty
+    from torlab.model.creep import creep_problem
+    from torlab.uncertainty import CONFIDENCE, propagate
+
+    draws = int(draws)
+    if draws < 0:
+        raise TorlabInputError("the number of draws must be >= 0", key="draws")
+    su = scene_uncertainty(scene)
+    if not su.has_covariance:
+        return _not_carried("no covariance (the scene's parameter files carry no fit "
+                            "covariance: use the params.yaml of a torlab fit)", seed=seed)
+    if su.dist is None:
+        # the band's reason ("no band: ...") said for Polach's parameters
+        why = su.notes[0].removeprefix("no band: ") if su.notes else "no parameter to draw"
+        return _not_carried(why, su.notes[1:], seed=seed)
+    if draws == 0:
+        return _not_carried("no draws asked for (draws = 0)", su.notes, seed=seed)
+    prob = problem if problem is not None else creep_problem(scene)
+
+    def arr(x: Any) -> np.ndarray | None:
+        return None if x is None else np.atleast_1d(np.asarray(x, dtype=float))
+
+    model = _PolachRefit(prob, arr(creepage), arr(speed), arr(lateral), arr(spin), grid,
+                         ordered)
+    f0 = {n: np.asarray(estimate.params[n], dtype=float) for n in NAMES}
+    try:
+        band = propagate(model, su.dist, method="sampling", n_samples=draws, seed=seed, f0=f0)
+    except NumericalError as e:
+        return _not_carried(str(e), su.notes, draws=draws, seed=seed)
+    layer = list(band.names)
+    corr: dict[str, dict[str, float | None]] = {}
+    if band.method == "sampling":
+        th = np.asarray(band._design["draws"], dtype=float)
+        for n in NAMES:
+            y = np.asarray(band._design["stacked"][n], dtype=float).reshape(-1)
+            row: dict[str, float | None] = {}
+            for j, ln in enumerate(layer):
+                x = th[:, j]
+                ok = np.std(x) > 0 and np.std(y) > 0
+                row[ln] = _finite(np.corrcoef(x, y)[0, 1]) if ok else None
+            corr[n] = row
+    s = band.summary(list(NAMES))
+    notes = list(su.notes) + [n for n in band.notes
+                              if n != "no parameter uncertainty: the band is the curve"]
+    if band.method == "none":
+        notes.append("every layer variance is zero: the intervals are the estimate")
+    elif draws < _FEW_DRAWS:
+        notes.append(f"only {draws} draws: the 2.5 % and 97.5 % percentiles lie near the "
+                     f"extreme draws (use {_FEW_DRAWS} or more for a 95 % interval)")
+    return {"carried": True, "method": band.method, "reason": "",
+            "n_draws": draws if band.method == "sampling" else 0,
+            "n_failed": int(band.n_failed), "seed": int(seed),
+            "confidence": float(CONFIDENCE), "layer_parameters": layer,
+            "interval": {n: [_finite(band.low(n)), _finite(band.high(n))] for n in NAMES},
+            "sd": {n: _finite(band.sd[n]) for n in NAMES},
+            "dominant": s["dominant"], "correlation": corr, "notes": notes}
+
+
+def fit_polach_scene(scene: Any, creepage: Any, speed: Any, *, lateral: Any = None,
+                     spin: Any = None, grid: CreepGrid | None = None, draws: int = N_DRAWS,
+                     seed: int = 0, source: str = "", ordered: bool = True) -> FitResult:
+    """Polach's parameters of a dry scene's product, with the layer's uncertainty.
+
+    :func:`fit_polach` at the layer's estimate, then :func:`layer_uncertainty`
+    (``draws`` refits on the executor in use, :mod:`torlab.parallel`), whose result
+    is ``meta["layer_uncertainty"]``; when it is not carried (no covariance,
+    ``draws=0``, a parameter the layer's fit did not determine, too many failed
+    draws) the reason is also a warning.
+
+    Parameters
+    ----------
+    scene
+        The dry :class:`~torlab.scene.Scene` with the product's layer (and its fit's
+        covariance, if any).
+    creepage, speed, lateral, spin, grid, source, ordered
+        As :func:`fit_polach`.
+    draws, seed
+        As :func:`layer_uncertainty`.
+
+    Returns
+    -------
+    FitResult
+        As :func:`fit_polach`, its ``stderr`` and ``ci95`` those of the approximation,
+        plus ``meta["layer_uncertainty"]``.
+    """
+    from torlab.model.creep import creep_problem
+
+    prob = creep_problem(scene)
+    res = fit_polach(prob, creepage, speed, lateral=lateral, spin=spin, grid=grid,
+                     source=source, ordered=ordered)
+    lu = layer_uncertainty(scene, res, creepage, speed, lateral=lateral, spin=spin, grid=grid,
+                           draws=draws, seed=seed, ordered=ordered, problem=prob)
+    res.meta["layer_uncertainty"] = lu
+    if not lu["carried"]:
+        res.warnings.append(lu["reason"])
+    elif lu["method"] == "sampling" and lu["n_draws"] < _FEW_DRAWS:
+        res.warnings.append(lu["notes"][-1])
+    if lu["carried"] and lu["n_failed"]:
+        res.warnings.append(f"{lu['n_failed']} of {lu['n_draws']} layer draws failed in the "
+                            "Polach refit and were left out")
+    return res
+
+
+def layer_interval_table(result: FitResult) -> Any:
+    """``layer_intervals.csv``: per Polach parameter its value, the 95 % interval from the
+    layer's draws (``layer_low95, layer_high95, layer_sd``), the approximation's interval
+    (``approx_ci95_low, approx_ci95_high``), the dominant layer parameter and the
+    correlation with each drawn layer parameter (``corr_<name>``).  Empty cells where
+    the layer's uncertainty is not carried."""
+    import pandas as pd
+
+    lu = result.meta.get("layer_uncertainty") or {}
+    carried = bool(lu.get("carried"))
+    rows = []
+    for n in NAMES:
+        lo, hi = (lu["interval"][n] if carried else (None, None))
+        dom = (lu.get("dominant") or {}).get(n) or []
+        row = {"parameter": n, "value": result.params[n],
+               "layer_low95": math.nan if lo is None else lo,
+               "layer_high95": math.nan if hi is None else hi,
+               "layer_sd": math.nan if not carried or lu["sd"][n] is None else lu["sd"][n],
+               "approx_ci95_low": result.ci95[n][0], "approx_ci95_high": result.ci95[n][1],
+               "dominant": dom[0]["parameter"] if dom else "",
+               "method": lu.get("method", "not carried"),
+               "n_draws": int(lu.get("n_draws", 0)), "n_failed": int(lu.get("n_failed", 0))}
+        for ln in lu.get("layer_parameters", []):
+            r = (lu.get("correlation") or {}).get(n, {}).get(ln)
+            row[f"corr_{ln}"] = math.nan if r is None else r
+        rows.append(row)
+    df = pd.DataFrame(rows)
+    for c in ("approx_ci95_low", "approx_ci95_high"):
+        df[c] = df[c].where(np.isfinite(df[c].to_numpy(dtype=float)))
+    return df
