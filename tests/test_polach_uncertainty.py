@@ -51,6 +51,7 @@ def test_zero_covariance_collapses_to_the_estimate(tmp_path):
         assert lu["sd"][n] == 0.0
 
 
+@pytest.mark.slow  # 200 draws, each a Polach refit: a Monte-Carlo check, in the slow step
 def test_mu0_carries_the_relative_interval_of_mu_c2(tmp_path):
     """Full slip: mu0 = 1.007 mu_c2 in every draw, so ln mu0 has mu_c2's normal
     distribution (sd s): its 95 % interval is mu0 exp(-+1.96 s).  Tolerance: three
