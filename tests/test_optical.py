@@ -392,3 +392,38 @@ def test_committed_quirk_file_bom_crlf_setpoints_torque():
     assert p["film_thickness_m"].tolist() == pytest.approx([20.5e-9, 20.7e-9])
     assert p["n_film"].tolist() == [3, 2] and p["temperature_C"].tolist() == pytest.approx([23.1, 23.2])
     assert res.test == "traction" and res.symmetry["symmetric"]
+
+
+def _pairs(diffs, mu=0.05):
+    """Folded points with the given +SRR minus folded -SRR differences, one pair per SRR."""
+    import pandas as pd
+
+    srr = [0.01 * (k + 1) for k in range(len(diffs))]
+    return pd.DataFrame({"rolling_speed_m_s": [1.0] * (2 * len(diffs)),
+                         "srr": [-s for s in srr] + srr,
+                         "traction_coefficient": [-mu] * len(diffs) + [mu + d for d in diffs]})
+
+
+def test_symmetry_offset_interval_is_the_paired_t_interval():
+    from scipy import stats
+
+    diffs = np.array([0.0012, -0.0008, 0.0004, 0.0010, -0.0003, 0.0006])
+    _, sym = fold_traction(_pairs(diffs))
+    lo, hi = stats.t.interval(0.95, len(diffs) - 1, loc=diffs.mean(), scale=stats.sem(diffs))
+    assert sym["offset"] == pytest.approx(diffs.mean(), rel=1e-9)
+    assert (sym["offset_low95"], sym["offset_high95"]) == pytest.approx((lo, hi), rel=1e-9)
+    # tolerance max(10 % of ~0.05, 0.005) = 0.005: the offset is inside with P ~ 1
+    assert sym["offset_tolerance"] == pytest.approx(0.005, rel=0.02)
+    assert sym["symmetry_verdict"] == "symmetric" and sym["p_symmetric"] > 0.99
+
+
+def test_symmetry_verdicts_asymmetric_and_undetermined():
+    # every pair shifted by 0.02 (a misaligned force zero): outside the tolerance for sure
+    _, sym = fold_traction(_pairs([0.020, 0.021, 0.019, 0.020]))
+    assert sym["symmetry_verdict"] == "asymmetric" and sym["p_symmetric"] < 0.1
+    # an offset at the tolerance with scatter: the data cannot tell
+    _, sym = fold_traction(_pairs([0.001, 0.012, -0.002, 0.009]))
+    assert sym["symmetry_verdict"] == "undetermined" and 0.1 < sym["p_symmetric"] < 0.9
+    # two pairs: no interval, never called
+    _, sym = fold_traction(_pairs([0.0, 0.0001]))
+    assert sym["symmetry_verdict"] == "undetermined" and np.isnan(sym["offset_low95"])

@@ -142,12 +142,18 @@ class OpticalResult:
             "symmetry_pairs": int(sym.get("pairs", 0)),
             "symmetry_max_abs_diff": float(sym.get("max_abs_diff", float("nan"))),
             "symmetric": "" if not sym else ("yes" if sym.get("symmetric") else "no"),
+            "symmetry_offset": float(sym.get("offset", float("nan"))),
+            "symmetry_offset_low95": float(sym.get("offset_low95", float("nan"))),
+            "symmetry_offset_high95": float(sym.get("offset_high95", float("nan"))),
+            "symmetry_verdict": sym.get("symmetry_verdict", ""),
+            "p_symmetric": float(sym.get("p_symmetric", float("nan"))),
             "warnings": "; ".join(self.warnings),
         }
 
 
 SUMMARY_OPTIONAL = ("traction_coefficient_min", "traction_coefficient_max", "film_thickness_min_m",
-                    "film_thickness_max_m", "symmetry_max_abs_diff")
+                    "film_thickness_max_m", "symmetry_max_abs_diff", "symmetry_offset",
+                    "symmetry_offset_low95", "symmetry_offset_high95", "p_symmetric")
 
 
 def _nan(fn: Any, v: np.ndarray) -> float:
@@ -431,7 +437,9 @@ def fold_traction(points: Any, *, rel_tol: float = DEFAULT_SYM_REL, abs_tol: flo
     symmetry : dict
         ``pairs``, ``max_abs_diff``, ``rms_diff``, ``max_rel_diff``,
         ``symmetric`` (every pair within tolerance), ``unpaired`` (count),
-        ``rel_tol``, ``abs_tol``.
+        ``rel_tol``, ``abs_tol``; and the systematic offset with its evidence
+        (:func:`_offset_evidence`): ``offset``, ``offset_low95``, ``offset_high95``,
+        ``offset_tolerance``, ``p_symmetric``, ``symmetry_verdict``.
     """
     import pandas as pd
 
@@ -442,7 +450,7 @@ def fold_traction(points: Any, *, rel_tol: float = DEFAULT_SYM_REL, abs_tol: flo
         if "traction_coefficient_sd" in points else np.full(mu.shape, np.nan)
     groups = speed_groups(U)
     rows = []
-    diffs, rels, oks = [], [], []
+    diffs, rels, oks, scales = [], [], [], []
     unpaired = 0
     for g in np.unique(groups):
         idx = np.nonzero(groups == g)[0]
@@ -474,6 +482,7 @@ def fold_traction(points: Any, *, rel_tol: float = DEFAULT_SYM_REL, abs_tol: flo
             scale = 0.5 * (abs(p) + abs(q))
             ok = abs(d) <= max(rel_tol * scale, abs_tol)
             diffs.append(d)
+            scales.append(scale)
             rels.append(abs(d) / scale if scale > 0 else 0.0)
             oks.append(ok)
             rows.append({"rolling_speed_m_s": Ug, "srr": 0.5 * (s[j] + a),
@@ -505,7 +514,56 @@ def fold_traction(points: Any, *, rel_tol: float = DEFAULT_SYM_REL, abs_tol: flo
         "rel_tol": rel_tol,
         "abs_tol": abs_tol,
     }
+    sym.update(_offset_evidence(d, np.asarray(scales), rel_tol, abs_tol))
     return folded, sym
+
+
+#: probability a symmetry verdict needs (else "undetermined"), as the reports' verdicts
+SYMMETRY_PROBABILITY = 0.9
+
+
+def _offset_evidence(d: np.ndarray, scale: np.ndarray, rel_tol: float,
+                     abs_tol: float) -> dict[str, Any]:
+    """The systematic offset between the +SRR and the folded -SRR sides, with its evidence.
+
+    The pairs' differences ``d`` (pos - folded neg) estimate one offset (a misaligned zero
+    of the force or of the SRR shifts every pair the same way); its 95 % interval is the
+    paired Student t interval over the pairs, which holds the run-to-run scatter of the
+    points as the data show it.  The verdict is an equivalence test against the
+    tolerance ``t = max(rel_tol * mean |mu|, abs_tol)``: ``symmetric`` when the offset is
+    within ``[-t, t]`` with probability >= :data:`SYMMETRY_PROBABILITY` (one-sided t tests
+    on both edges), ``asymmetric`` when it is outside with that probability, else
+    ``undetermined`` (always, with fewer than three pairs).
+    """
+    from torlab._stats import t_cdf, t_ppf  # scipy.stats.t, without its import
+
+    nan = float("nan")
+    out: dict[str, Any] = {"offset": nan, "offset_low95": nan, "offset_high95": nan,
+                           "offset_tolerance": nan, "p_symmetric": nan,
+                           "symmetry_verdict": "undetermined"}
+    n = int(d.size)
+    if n == 0:
+        out["symmetry_verdict"] = ""
+        return out
+    tol = max(rel_tol * float(np.mean(scale)) if scale.size else 0.0, abs_tol)
+    m = float(np.mean(d))
+    out.update(offset=m, offset_tolerance=tol)
+    if n < 3:
+        return out
+    se = float(np.std(d, ddof=1)) / math.sqrt(n)
+    dof = n - 1
+    if se > 0:
+        q = float(t_ppf(0.975, dof))
+        out.update(offset_low95=m - q * se, offset_high95=m + q * se)
+        p_in = float(t_cdf((tol - m) / se, dof) - t_cdf((-tol - m) / se, dof))
+    else:
+        out.update(offset_low95=m, offset_high95=m)
+        p_in = 1.0 if abs(m) <= tol else 0.0
+    out["p_symmetric"] = p_in
+    out["symmetry_verdict"] = ("symmetric" if p_in >= SYMMETRY_PROBABILITY else
+                               "asymmetric" if 1.0 - p_in >= SYMMETRY_PROBABILITY
+                               else "undetermined")
+    return out
 
 
 #: columns of the folded table that may be empty

@@ -53,8 +53,7 @@ def optical_figure(res: Any) -> Any:
                 ax2.plot(sub["srr"] * 100, sub["traction_coefficient_neg_folded"], "o", ms=6,
                          mfc="none", color=c)
             sym = res.symmetry
-            verdict = ("symmetric" if sym.get("symmetric") else "NOT symmetric") + \
-                f" ({sym.get('pairs', 0)} pairs, max |Δμ| = {sym.get('max_abs_diff', float('nan')):.3g})"
+            verdict = _symmetry_words(sym)
             ax2.set_title(f"folded: filled +SRR, hollow −SRR → |SRR|, −μ; {verdict}", fontsize=8)
         ax2.set_xlabel("|SRR| (%)")
         ax2.set_ylabel("traction coefficient μ (–)")
@@ -93,3 +92,16 @@ def optical_figure(res: Any) -> Any:
         title += f" at SRR {srr * 100:.3g} %"
     fig.suptitle(f"{title}: {res.label}")
     return fig
+
+
+def _symmetry_words(sym: dict) -> str:
+    """The fold's symmetry in words: the offset with its interval and the verdict."""
+    v = sym.get("symmetry_verdict", "")
+    head = (f"{sym.get('pairs', 0)} pairs, max |Δμ| = {sym.get('max_abs_diff', float('nan')):.3g}")
+    lo, hi = sym.get("offset_low95", float("nan")), sym.get("offset_high95", float("nan"))
+    if lo == lo and hi == hi:
+        p = sym.get("p_symmetric", float("nan"))
+        return (f"offset {sym.get('offset'):+.3g} [{lo:+.3g}, {hi:+.3g}] within "
+                f"±{sym.get('offset_tolerance'):.3g}: {v} (P = {p:.2f}; {head})")
+    return f"{v or 'symmetry not tested'} (too few pairs for an interval; {head})"
+
