@@ -178,7 +178,7 @@ def traction_band(scene: Any, creepage: np.ndarray, table: Any, su: SceneUncerta
     ``options`` go to :func:`torlab.uncertainty.propagate` (``method``,
     ``n_samples`` ...).
     """
-    from torlab.model.predict import fastsim_grid, fastsim_problem
+    from torlab.model.prediction import fastsim_grid, fastsim_problem
 
     xi = np.asarray(creepage, dtype=float)
     outs = tuple(k for k in BAND_COLUMNS if k in table)
