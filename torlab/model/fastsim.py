@@ -1175,20 +1175,9 @@ def converge_flash_temperature(G: Any, dT: np.ndarray, its: np.ndarray, moving: 
     omega = np.ones(n)
     res_prev = np.full(n, np.inf)
     for k in range(1, th.max_iterations + 1):
-        rows = np.flatnonzero(active)
-        res = np.max(np.abs(new[rows] - dT[rows]).reshape(rows.size, -1), axis=1)
-        done = res < th.tolerance
-        dT[rows[done]] = new[rows[done]]  # converged: keep G(T), leave the active set
-        active[rows[done]] = False
-        rows, res = rows[~done], res[~done]
+        rows = _relaxed_step(G, new, dT, active, omega, res_prev, its, k, th.tolerance)
         if rows.size == 0:
             break
-        worse = res > 0.9 * res_prev[rows]
-        omega[rows] = np.where(worse, np.maximum(omega[rows] * 0.5, 1.0 / 1024), omega[rows])
-        res_prev[rows] = res
-        dT[rows] = dT[rows] + omega[rows][:, None, None] * (new[rows] - dT[rows])
-        its[rows] = k + 1
-        new[rows] = G(dT[rows], rows)
         runaway = ~np.isfinite(new[rows]) | (sens * np.abs(new[rows]) > _MAX_EXPONENT)
         if runaway.any():
             bad = int(rows[np.argmax(runaway.reshape(rows.size, -1).any(axis=1))])
@@ -1208,6 +1197,35 @@ def converge_flash_temperature(G: Any, dT: np.ndarray, its: np.ndarray, moving: 
             f"mu_c2_T = {lay.mu_c2_T:g} 1/K make the heating unstable at this slip",
             iterations=th.max_iterations, residual=float(res[j]))
     return dT, its, "iterated", ambient + np.max(dT.reshape(n, -1), axis=1)
+
+
+def _relaxed_step(G: Any, new: np.ndarray, dT: np.ndarray, active: np.ndarray,
+                  omega: np.ndarray, res_prev: np.ndarray, its: np.ndarray, k: int,
+                  tol: float) -> np.ndarray:
+    """Step ``k`` of the flash temperature's fixed-point iteration, in place.
+
+    The active points whose residual ``max |G(dT) - dT|`` is below ``tol`` keep ``G(dT)``
+    and leave the active set; the others move by their own under-relaxation factor
+    (halved, down to 1/1024, whenever the residual did not fall by 10 %) and are
+    evaluated again (``new``).  Returns the rows stepped (empty: every point converged).
+    """
+    rows = np.flatnonzero(active)
+    if rows.size == 0:
+        return rows
+    res = np.max(np.abs(new[rows] - dT[rows]).reshape(rows.size, -1), axis=1)
+    done = res < tol
+    dT[rows[done]] = new[rows[done]]  # converged: keep G(T), leave the active set
+    active[rows[done]] = False
+    rows, res = rows[~done], res[~done]
+    if rows.size == 0:
+        return rows
+    worse = res > 0.9 * res_prev[rows]
+    omega[rows] = np.where(worse, np.maximum(omega[rows] * 0.5, 1.0 / 1024), omega[rows])
+    res_prev[rows] = res
+    dT[rows] = dT[rows] + omega[rows][:, None, None] * (new[rows] - dT[rows])
+    its[rows] = k + 1
+    new[rows] = G(dT[rows], rows)
+    return rows
 
 
 def _temperature_groups(solver: _Solver, th: ThermalParams, G: Any, new: np.ndarray,
@@ -1237,22 +1255,9 @@ def _temperature_groups(solver: _Solver, th: ThermalParams, G: Any, new: np.ndar
     res_prev = np.full(nx, np.inf)
     tol = th.tolerance
     for k in range(1, th.max_iterations + 1):
-        rows = np.flatnonzero(active)
+        rows = _relaxed_step(G, new, dT, active, omega, res_prev, its, k, tol)
         if rows.size == 0:
             break
-        res = np.max(np.abs(new[rows] - dT[rows]).reshape(rows.size, -1), axis=1)
-        done = res < tol
-        dT[rows[done]] = new[rows[done]]
-        active[rows[done]] = False
-        rows, res = rows[~done], res[~done]
-        if rows.size == 0:
-            break
-        worse = res > 0.9 * res_prev[rows]
-        omega[rows] = np.where(worse, np.maximum(omega[rows] * 0.5, 1.0 / 1024), omega[rows])
-        res_prev[rows] = res
-        dT[rows] = dT[rows] + omega[rows][:, None, None] * (new[rows] - dT[rows])
-        its[rows] = k + 1
-        new[rows] = G(dT[rows], rows)
         bad = (~np.isfinite(new[rows]) | (sens[rows, None, None] * np.abs(new[rows])
                                           > _MAX_EXPONENT)).reshape(rows.size, -1).any(axis=1)
         if bad.any():
