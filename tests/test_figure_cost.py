@@ -223,3 +223,23 @@ def test_style_defaults_and_title_above_the_axes():
     tb, ab = ax.title.get_window_extent(r), ax.get_window_extent(r)
     assert tb.y0 >= ab.y1
     assert tb.y1 <= fig.bbox.height
+
+
+def test_joint_fit_title_fits_in_the_figure():
+    """A layer fit of several HPT logs names its first and last file and their number, and
+    the title stays within the figure (the full list ran off both sides)."""
+    from torlab.fit.layer import fit_layer_hpt
+    from torlab.parsers.hpt import read_hpt
+    from torlab.reduce.hpt import reduce_hpt
+    from torlab.reports.fit import fit_figure
+    from torlab.reports.plotting import finish
+
+    files = sorted((ROOT / "sample_data" / "hpt").glob("hpt_OFM1_4uL_25C*.txt"))
+    assert len(files) >= 3
+    res = fit_layer_hpt([reduce_hpt(*read_hpt(f)) for f in files], joint=True)
+    fig = finish(fit_figure(res))
+    head = fig.axes[0].get_title().split("\n")[0]
+    assert files[0].name in head and f"({len(files)} files)" in head
+    fig.canvas.draw()
+    tb = fig.axes[0].title.get_window_extent(fig.canvas.get_renderer())
+    assert 0 <= tb.x0 and tb.x1 <= fig.bbox.width
