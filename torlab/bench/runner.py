@@ -55,7 +55,7 @@ __all__ = [
 _NOT_BENCHMARKS = {"runner"}
 #: the order benchmarks run and appear in (others follow alphabetically)
 _ORDER = ("hertz", "fastsim", "temperature", "asperity", "loadshare", "scenes", "fit", "optical",
-          "figures", "cli")
+          "cli")
 
 
 @dataclass
