@@ -12,6 +12,9 @@ imported on the first figure only.
   second pass); a legend outside the axes (:func:`legend`) widens the figure by
   the legend's measured width, so the plotting area keeps its size and nothing
   overlaps the data.
+* **Long traces**: :func:`decimate` keeps, of a line with more points than the
+  plotting area has pixel columns (:func:`pixel_columns`), the ones a pixel column
+  can show (first, last, lowest, highest per bin).
 * **Pieces**: :func:`colours` (distinct, stable colours per product or curve),
   :func:`band` (a 95 % prediction band), :func:`points` (measured points with
   error bars from the per-point spread), :func:`unit` ("µL", "µm" ...) and
@@ -360,7 +363,8 @@ def decimate(x: Any, y: Any, columns: int, *, log_x: bool = False) -> tuple[Any,
     2014).  A line drawn through them covers, in every bin, the same vertical extent
     as the full line and joins the neighbouring bins at the same points; with bins
     at least as fine as the pixel columns (:func:`pixel_columns` uses twice as
-    many) the drawn line is the same to the pixel up to antialiasing.
+    many) the drawn line reaches the same top and bottom pixel in every column, to
+    within the one pixel over which antialiasing spreads a single-sample spike.
 
     Every extreme (in each bin and so overall) and both endpoints are kept.
     Non-finite points (gaps in a line) are kept where they are and a gap ends a bin's
