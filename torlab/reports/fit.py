@@ -109,11 +109,21 @@ def fit_figure(result: Any, title: str | None = None,
     axr.set_xlabel(xl)
     legend(ax)
     txt = ", ".join(f"{n} = {_fmt(n, result.params[n])}" for n in result.names[:4])
-    src = result.meta.get("source", "")
+    src = _short_source(result.meta.get("source", ""))
     head = title or (KIND_TITLES.get(result.kind, f"{result.kind.replace('_', ' ')} fit")
                      + (f": {src}" if src else ""))
     ax.set_title(f"{head}\n{txt}" if txt and not title else head, fontsize=9)
     return fig
+
+
+def _short_source(src: Any, width: int = 60) -> str:
+    """A list of source files short enough for a title line: ``first … last (n files)``
+    when the whole list is longer than ``width`` characters (it ran off the figure)."""
+    text = str(src or "")
+    parts = [x.strip() for x in text.split(",") if x.strip()]
+    if len(text) <= width or len(parts) < 3:
+        return text
+    return f"{parts[0]} … {parts[-1]} ({len(parts)} files)"
 
 
 def result_figure(result: Any, title: str | None = None,

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from torlab.reports.plotting import PALETTE, legend, subplots
+from torlab.reports.plotting import PALETTE, decimate, legend, pixel_columns, subplots
 
 __all__ = ["hpt_figure"]
 
@@ -38,8 +38,10 @@ def hpt_figure(results: Sequence[Any], title: str = "") -> Any:
         u_um = d["displacement_m"].to_numpy() * 1e6
         color = cmap(i / (n - 1)) if n > 1 else PALETTE[0]
         label = r.meta.label
-        ax1.plot(u_um, d["shear_stress_Pa"].to_numpy() / 1e6, lw=1.0, color=color, label=label)
-        ax2.plot(u_um, d["friction"].to_numpy(), lw=1.0, color=color)
+        cols = pixel_columns(ax1)  # a long log: the points its pixel columns can show
+        ax1.plot(*decimate(u_um, d["shear_stress_Pa"].to_numpy() / 1e6, cols), lw=1.0,
+                 color=color, label=label)
+        ax2.plot(*decimate(u_um, d["friction"].to_numpy(), cols), lw=1.0, color=color)
         umax = r.u_max_m * 1e6
         ax2.axvspan(umax - r.window_m * 1e6, umax, color=color, alpha=min(0.08, 0.5 / n), lw=0)
         ax2.plot([umax - r.window_m * 1e6, umax], [r.f_window, r.f_window], color=color,

@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from torlab.reports.plotting import PALETTE, legend, subplots
+from torlab.reports.plotting import PALETTE, decimate, legend, pixel_columns, subplots
 
 __all__ = ["axis_label", "curve_figure", "time_test_figure"]
 
@@ -110,7 +110,7 @@ def time_test_figure(red: Any, results: list[Any]) -> Any:
         r = by_step.get(st)
         if r is None:
             continue
-        ax.plot(t, mu, lw=0.8, color=color, label=f"step {st}")
+        ax.plot(*decimate(t, mu, pixel_columns(ax)), lw=0.8, color=color, label=f"step {st}")
         ax.axvline(r.application_time_s, color=color, ls="--", lw=0.8)
         ax.plot([r.minimum_time_s], [r.minimum], "o", color=color, ms=5)
         if r.recovered:

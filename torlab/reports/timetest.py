@@ -267,7 +267,7 @@ def time_tests_figure(reductions: list[tuple[str, Any]], cfg: Any,
                       model: dict[str, Any] | None) -> Any:
     """Every composition's coefficient against time since its application, on one axis
     (:class:`~torlab.reports.render.Plot` function)."""
-    from torlab.reports.plotting import PALETTE, axis_label, legend
+    from torlab.reports.plotting import PALETTE, axis_label, decimate, legend, pixel_columns
 
     fig, ax = subplots(figsize=(7.0, 4.6))
     band = cfg.band
@@ -287,8 +287,8 @@ def time_tests_figure(reductions: list[tuple[str, Any]], cfg: Any,
             sel = d["step"].to_numpy() == st
             t = d.loc[sel, "step_time_s"].to_numpy() - r.application_time_s
             color = PALETTE[i % len(PALETTE)]
-            ax.plot(t, d.loc[sel, "traction_coefficient"].to_numpy(), lw=0.8, color=color,
-                    label=label)
+            ax.plot(*decimate(t, d.loc[sel, "traction_coefficient"].to_numpy(),
+                              pixel_columns(ax)), lw=0.8, color=color, label=label)
             ax.plot([r.minimum_time_s - r.application_time_s], [r.minimum], "o", color=color,
                     ms=4)
             if model is not None and math.isfinite(model["mu"].get(label, np.nan)):

@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from torlab.reports.plotting import PALETTE, legend, subplots
+from torlab.reports.plotting import PALETTE, decimate, legend, pixel_columns, subplots
 
 __all__ = ["falls_figure", "fit_figure"]
 
@@ -19,12 +19,13 @@ def falls_figure(res: Any) -> Any:
     x = d["position_m"].to_numpy() * 1e3
     fig, (ax1, ax2) = subplots(2, 1, sharex=True, figsize=(9.0, 6.0),
                                gridspec_kw={"height_ratios": [3, 1]})
-    ax1.plot(t, x, lw=0.6, color="0.6")
+    cols = pixel_columns(ax1)  # a long trace: the points its pixel columns can show
+    ax1.plot(*decimate(t, x, cols), lw=0.6, color="0.6")
     for f in res.fall_list:
-        ax1.plot(t[f.s0:f.s1], x[f.s0:f.s1], lw=1.6, color=PALETTE[0])
+        ax1.plot(*decimate(t[f.s0:f.s1], x[f.s0:f.s1], cols), lw=1.6, color=PALETTE[0])
     ax1.set_ylabel("position (mm, downward)")
     ax1.set_title("grey: LVDT trace; blue: steady parts (terminal velocity fits)", fontsize=8)
-    ax2.plot(t, d["pressure_Pa"].to_numpy() / 1e6, lw=0.8, color=PALETTE[1])
+    ax2.plot(*decimate(t, d["pressure_Pa"].to_numpy() / 1e6, cols), lw=0.8, color=PALETTE[1])
     ax2.set_ylabel("pressure (MPa)")
     ax2.set_xlabel("time (s)")
     fig.suptitle(f"Falling-body runs: {res.label}")
