@@ -247,8 +247,9 @@ def e_strip(theta: np.ndarray, r: np.ndarray) -> np.ndarray:
     ``tau_el = xi (a(y)/L1) e(theta; r)`` with ``r = L_mue/(L1 P(y))``.  Closed form
     ``(1 - cos theta) - r theta + r^2 J`` with ``J = integral dt/(sin t + r)``
     (tangent half-angle substitution) where ``r < 1/2`` and ``theta > r``; a
-    24-point Gauss-Legendre rule elsewhere (the integrand's nearest singularity
-    is then far from the interval, so the rule is exact to round-off).
+    Gauss-Legendre rule elsewhere (the integrand's nearest singularity is then far
+    from the interval), with as many nodes as that distance needs for round-off
+    accuracy (:func:`_gauss_nodes`: 6 to 24).
     """
     theta, r = np.broadcast_arrays(np.asarray(theta, dtype=float), np.asarray(r, dtype=float))
     out = np.empty(theta.shape)
@@ -270,18 +271,65 @@ def e_strip(theta: np.ndarray, r: np.ndarray) -> np.ndarray:
     other = ~closed
     if other.any():
         th, rr = theta[other], r[other]
-        x, w = _gauss(24)
+        nodes = _gauss_nodes(th, rr)
         res = np.empty(th.shape)
-        # in pieces of _CHUNK_ELEMENTS nodes: temporaries that stay small are much faster
-        for sl in _row_chunks(th.size, x.size):
-            t = th[sl, None] * x[None, :]
-            st = np.sin(t)
-            den = st + rr[sl, None]
-            # the integrand tends to 0 with sin t where r = 0 (no layer): no 0/0 at theta = 0
-            f = np.divide(st * st, den, out=np.zeros_like(den), where=den > 0)
-            res[sl] = th[sl] * np.sum(w[None, :] * f, axis=1)
+        for n in np.unique(nodes):
+            sel = nodes == n
+            res[sel] = _gauss_e(th[sel], rr[sel], int(n)) if not sel.all() else \
+                _gauss_e(th, rr, int(n))
         out[other] = res
     return out
+
+
+def _gauss_e(th: np.ndarray, rr: np.ndarray, n: int) -> np.ndarray:
+    """:func:`e_strip` by the ``n``-point Gauss-Legendre rule on ``[0, theta]``."""
+    x, w = _gauss(n)
+    res = np.empty(th.shape)
+    # in pieces of _CHUNK_ELEMENTS nodes: temporaries that stay small are much faster
+    for sl in _row_chunks(th.size, x.size):
+        t = th[sl, None] * x[None, :]
+        st = np.sin(t)
+        den = st + rr[sl, None]
+        # the integrand tends to 0 with sin t where r = 0 (no layer): no 0/0 at theta = 0
+        f = np.divide(st * st, den, out=np.zeros_like(den), where=den > 0)
+        res[sl] = th[sl] * np.sum(w[None, :] * f, axis=1)
+    return res
+
+
+#: Gauss-Legendre nodes of e_strip's rule: ``n >= _GAUSS_A / ln(rho)``, even, from
+#: ``_GAUSS_MIN`` to 24 (see :func:`_gauss_nodes`)
+_GAUSS_A = 13.0
+_GAUSS_MIN = 6
+
+
+def _gauss_nodes(theta: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Nodes of the Gauss-Legendre rule for ``e(theta; r)`` (:func:`e_strip`), per element.
+
+    The integrand ``sin^2 t / (sin t + r)`` is analytic except where ``sin t = -r``:
+    at ``t = -asin r`` for ``r <= 1``, at ``t = -pi/2 +- i acosh r`` for ``r > 1``
+    (the points after ``theta <= pi`` are farther).  The ``n``-point rule on
+    ``[0, theta]`` then errs by ``O(M rho^(-2n))`` with ``rho`` the Bernstein ellipse
+    through that point (foci at 0 and ``theta``: ``rho = A + sqrt(A^2 - 1)`` with ``2 A
+    theta`` the sum of the point's distances to the foci) and ``M`` the integrand's
+    largest value on it (Trefethen, *Approximation Theory and Approximation Practice*,
+    Thm. 19.3).  ``sin^2 t`` grows like ``exp(2 |Im t|)``, so ``rho`` is capped where
+    the ellipse's half-width reaches 1 (``(theta/4)(rho - 1/rho) = 1``; the case of a
+    large ``r``, whose singularity is far).  ``n = 2 ceil(13 / ln rho)``
+    (``rho^(-2n) <= e^-52``), from 6 to 24: round-off accuracy with a margin over
+    the worst case, ``r = 1/2`` at ``theta = pi``, which needs the 24 nodes
+    (``tests/test_boundary.py`` checks it against 30-digit quadrature).
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        near = r <= 1.0
+        c = np.arccosh(np.where(near, 1.0, r))
+        half = 0.5 * math.pi
+        A = np.where(near, 1.0 + 2.0 * np.arcsin(np.minimum(r, 1.0)) / theta,
+                     (np.hypot(half, c) + np.hypot(theta + half, c)) / theta)
+        # the ellipse also stays within |Im t| <= 1, where sin^2 t grows by at most cosh(1)^2
+        cap = 4.0 / theta + np.sqrt(16.0 / (theta * theta) + 1.0)
+        rho = np.minimum(A + np.sqrt(A * A - 1.0), cap)
+        n = 2.0 * np.ceil(_GAUSS_A / np.log(rho))
+    return np.where(np.isfinite(n) & (n < 24), np.maximum(n, _GAUSS_MIN), 24).astype(int)
 
 
 def _G(s: np.ndarray, r: np.ndarray) -> np.ndarray:
@@ -1212,20 +1260,36 @@ def _relaxed_step(G: Any, new: np.ndarray, dT: np.ndarray, active: np.ndarray,
     rows = np.flatnonzero(active)
     if rows.size == 0:
         return rows
-    res = np.max(np.abs(new[rows] - dT[rows]).reshape(rows.size, -1), axis=1)
+    # the arrays are large (points x strips x nodes): every point's rows as views where all
+    # are active, each temporary once (fresh pages are what costs here)
+    sel = _rows(rows, new.shape[0])
+    diff = new[sel] - dT[sel]  # G(T) - T
+    res = np.max(np.abs(diff).reshape(rows.size, -1), axis=1)
     done = res < tol
-    dT[rows[done]] = new[rows[done]]  # converged: keep G(T), leave the active set
-    active[rows[done]] = False
-    rows, res = rows[~done], res[~done]
-    if rows.size == 0:
-        return rows
+    if done.any():
+        dT[rows[done]] = new[rows[done]]  # converged: keep G(T), leave the active set
+        active[rows[done]] = False
+        keep = ~done
+        rows, res, diff = rows[keep], res[keep], diff[keep]
+        if rows.size == 0:
+            return rows
+        sel = rows
     worse = res > 0.9 * res_prev[rows]
     omega[rows] = np.where(worse, np.maximum(omega[rows] * 0.5, 1.0 / 1024), omega[rows])
     res_prev[rows] = res
-    dT[rows] = dT[rows] + omega[rows][:, None, None] * (new[rows] - dT[rows])
+    diff *= omega[rows][:, None, None]
+    if isinstance(sel, slice):
+        dT += diff
+    else:
+        dT[sel] = dT[sel] + diff
     its[rows] = k + 1
-    new[rows] = G(dT[rows], rows)
+    new[sel] = G(dT[sel], rows)
     return rows
+
+
+def _rows(rows: np.ndarray, n: int) -> np.ndarray | slice:
+    """``rows`` (sorted, distinct) as a slice when they are every row (a view, not a copy)."""
+    return slice(None) if rows.size == n else rows
 
 
 def _temperature_groups(solver: _Solver, th: ThermalParams, G: Any, new: np.ndarray,
@@ -1258,8 +1322,9 @@ def _temperature_groups(solver: _Solver, th: ThermalParams, G: Any, new: np.ndar
         rows = _relaxed_step(G, new, dT, active, omega, res_prev, its, k, tol)
         if rows.size == 0:
             break
-        bad = (~np.isfinite(new[rows]) | (sens[rows, None, None] * np.abs(new[rows])
-                                          > _MAX_EXPONENT)).reshape(rows.size, -1).any(axis=1)
+        # not finite, or beyond the largest exponent (NaN fails the comparison)
+        peak_k = np.max(np.abs(new[_rows(rows, nx)]).reshape(rows.size, -1), axis=1)
+        bad = ~(sens[rows] * peak_k <= _MAX_EXPONENT)
         if bad.any():
             mask = np.zeros(nx, dtype=bool)
             mask[rows[bad]] = True
