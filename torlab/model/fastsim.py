@@ -838,16 +838,17 @@ def _yield_thermal(c: np.ndarray, r: np.ndarray, e_nodes: np.ndarray, dT: np.nda
         slope = (np.take_along_axis(dT, k + 1, axis=-1)[..., 0] - d0) / h
         f0 = np.take_along_axis(f_nodes, k, axis=-1)[..., 0]
         f1 = np.take_along_axis(f_nodes, k + 1, axis=-1)[..., 0]
-        return k[..., 0], d0, slope, f0, f1
+        e0 = np.take_along_axis(np.broadcast_to(e_nodes, f_nodes.shape), k, axis=-1)[..., 0]
+        return k[..., 0], d0, slope, f0, f1, e0
 
     if groups is None:
-        k, d0, slope, f0, f1 = cells(c, e_nodes, mu1T_nodes, dT)
+        k, d0, slope, f0, f1, e0 = cells(c, e_nodes, mu1T_nodes, dT)
     else:  # many points: in pieces that stay in cache
-        k, d0, slope, f0, f1 = (np.empty(c.shape, dtype=int), *(np.empty(c.shape)
-                                                                 for _ in range(4)))
+        k, d0, slope, f0, f1, e0 = (np.empty(c.shape, dtype=int), *(np.empty(c.shape)
+                                                                     for _ in range(5)))
         for sl in _row_chunks(c.shape[0], int(np.prod(dT.shape[1:]))):
-            k[sl], d0[sl], slope[sl], f0[sl], f1[sl] = cells(c[sl], e_nodes[sl],
-                                                             mu1T_nodes[sl], dT[sl])
+            k[sl], d0[sl], slope[sl], f0[sl], f1[sl], e0[sl] = cells(c[sl], e_nodes[sl],
+                                                                     mu1T_nodes[sl], dT[sl])
     lo = k * h
     hi = np.where(k + 1 == nT - 1, math.pi, (k + 1) * h)
     start = lo.copy()
@@ -855,7 +856,8 @@ def _yield_thermal(c: np.ndarray, r: np.ndarray, e_nodes: np.ndarray, dT: np.nda
     def fdf(th: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         st, ct = np.sin(th), np.cos(th)
         lim = c * np.exp(mu1T * (d0 + slope * (th - start)))
-        return e_strip(th, r) - lim * st, st * st / (st + r) - lim * (ct + mu1T * slope * st)
+        e = _e_in_cell(th, np.broadcast_to(r, th.shape), start, e0)
+        return e - lim * st, st * st / (st + r) - lim * (ct + mu1T * slope * st)
 
     with np.errstate(divide="ignore", invalid="ignore"):
         th0 = lo - f0 * (hi - lo) / (f1 - f0)
@@ -863,16 +865,51 @@ def _yield_thermal(c: np.ndarray, r: np.ndarray, e_nodes: np.ndarray, dT: np.nda
     if groups is None:
         return _bracketed_newton(fdf, lo, hi, th0, "FASTSIM yield angle with temperature")
     flat = [np.ascontiguousarray(np.broadcast_to(x, lo.shape)).ravel()
-            for x in (c, r, d0, slope, start, mu1T)]
+            for x in (c, r, d0, slope, start, mu1T, e0)]
 
     def fdf_g(th: np.ndarray, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        cc, rr, dd, sl, st0, m1 = (x[idx] for x in flat)
+        cc, rr, dd, sl, st0, m1, ee = (x[idx] for x in flat)
         st, ct = np.sin(th), np.cos(th)
         lim = cc * np.exp(m1 * (dd + sl * (th - st0)))
-        return e_strip(th, rr) - lim * st, st * st / (st + rr) - lim * (ct + m1 * sl * st)
+        return (_e_in_cell(th, rr, st0, ee) - lim * st,
+                st * st / (st + rr) - lim * (ct + m1 * sl * st))
 
     return _bracketed_newton(fdf_g, lo, hi, th0, "FASTSIM yield angle with temperature",
                              groups=groups)
+
+
+#: Gauss-Legendre nodes of e(theta; r) over a part of a temperature cell (:func:`_e_in_cell`)
+_CELL_NODES = 8
+
+
+def _e_in_cell(theta: np.ndarray, r: np.ndarray, t0: np.ndarray, e0: np.ndarray) -> np.ndarray:
+    """``e(theta; r)`` (:func:`e_strip`) from its value ``e0`` at the start ``t0`` of the
+    temperature cell that holds ``theta`` (``0 <= theta - t0 <= pi/(nT - 1)``).
+
+    Where ``r >= 1/2`` (the quadrature's side of :func:`e_strip`) only the piece
+    ``[t0, theta]`` is integrated: the integrand's nearest singularity (``sin t = -r``)
+    is at least ``asin(1/2) = pi/6`` from the cell while the piece is at most
+    ``pi/47`` long (the default 48 nodes), so the Bernstein ellipse of the piece has
+    ``rho >= 16`` and :data:`_CELL_NODES` = 8 nodes err by ``rho^-16 < 1e-19``
+    (``tests/test_boundary.py`` checks it against 30-digit quadrature).  Elsewhere (the
+    closed form, and its few quadrature points near ``theta = 0``) :func:`e_strip`.
+    """
+    out = np.empty(theta.shape)
+    inc = r >= 0.5
+    if not inc.all():
+        rest = ~inc
+        out[rest] = e_strip(theta[rest], r[rest])
+    if inc.any():
+        th, a, rr = (x[inc] if not inc.all() else x for x in (theta, t0, r))
+        x, w = _gauss(_CELL_NODES)
+        piece = np.empty(th.shape)
+        for sl in _row_chunks(th.size, x.size):
+            d = th[sl] - a[sl]
+            t = a[sl, None] + d[:, None] * x[None, :]
+            st = np.sin(t)
+            piece[sl] = d * np.sum(w[None, :] * (st * st / (st + rr[sl, None])), axis=1)
+        out[inc] = (e0[inc] if not inc.all() else e0) + piece
+    return out
 
 
 def _check_finite(name: str, arr: np.ndarray) -> None:
