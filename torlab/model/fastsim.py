@@ -856,7 +856,7 @@ def _yield_thermal(c: np.ndarray, r: np.ndarray, e_nodes: np.ndarray, dT: np.nda
     def fdf(th: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         st, ct = np.sin(th), np.cos(th)
         lim = c * np.exp(mu1T * (d0 + slope * (th - start)))
-        e = _e_in_cell(th, np.broadcast_to(r, th.shape), start, e0)
+        e = _e_in_cell(th, r, start, e0)
         return e - lim * st, st * st / (st + r) - lim * (ct + mu1T * slope * st)
 
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -883,32 +883,40 @@ _CELL_NODES = 8
 
 
 def _e_in_cell(theta: np.ndarray, r: np.ndarray, t0: np.ndarray, e0: np.ndarray) -> np.ndarray:
-    """``e(theta; r)`` (:func:`e_strip`) from its value ``e0`` at the start ``t0`` of the
-    temperature cell that holds ``theta`` (``0 <= theta - t0 <= pi/(nT - 1)``).
+    """``e(theta; r)`` (:func:`e_strip`) from its value ``e0`` at ``t0 <= theta``, the start
+    of the temperature cell that holds ``theta``: ``e0`` plus the integral over the short
+    piece ``[t0, theta]`` by an :data:`_CELL_NODES`-point Gauss-Legendre rule.
 
-    Where ``r >= 1/2`` (the quadrature's side of :func:`e_strip`) only the piece
-    ``[t0, theta]`` is integrated: the integrand's nearest singularity (``sin t = -r``)
-    is at least ``asin(1/2) = pi/6`` from the cell while the piece is at most
-    ``pi/47`` long (the default 48 nodes), so the Bernstein ellipse of the piece has
-    ``rho >= 16`` and :data:`_CELL_NODES` = 8 nodes err by ``rho^-16 < 1e-19``
-    (``tests/test_boundary.py`` checks it against 30-digit quadrature).  Elsewhere (the
-    closed form, and its few quadrature points near ``theta = 0``) :func:`e_strip`.
+    The integrand's singularities (``sin t = -r``) lie at least ``delta = r + min(t0,
+    pi - theta)`` from the piece for ``r <= 1`` (``asin r >= r``) and at least ``pi/2``
+    for ``r > 1``.  Where ``delta >= 4 d`` (``d = theta - t0``; every ``r >= 0.27`` with
+    the default 48 temperature nodes) the Bernstein ellipse of the piece has ``rho >=
+    9 + sqrt(80) > 17`` and 8 nodes err by ``rho^-16 < 1e-19`` relative to the piece;
+    :func:`e_strip` elsewhere.  ``tests/test_boundary.py`` checks both against 30-digit
+    quadrature.
     """
+    shape = theta.shape
+    theta, r, t0, e0 = (np.ravel(x) for x in np.broadcast_arrays(theta, r, t0, e0))
+    d = theta - t0
+    inc = r + np.minimum(t0, math.pi - theta) >= 4.0 * d
+    if inc.all():
+        return (e0 + _gauss_piece(t0, d, r)).reshape(shape)
     out = np.empty(theta.shape)
-    inc = r >= 0.5
-    if not inc.all():
-        rest = ~inc
-        out[rest] = e_strip(theta[rest], r[rest])
+    rest = ~inc
+    out[rest] = e_strip(theta[rest], r[rest])
     if inc.any():
-        th, a, rr = (x[inc] if not inc.all() else x for x in (theta, t0, r))
-        x, w = _gauss(_CELL_NODES)
-        piece = np.empty(th.shape)
-        for sl in _row_chunks(th.size, x.size):
-            d = th[sl] - a[sl]
-            t = a[sl, None] + d[:, None] * x[None, :]
-            st = np.sin(t)
-            piece[sl] = d * np.sum(w[None, :] * (st * st / (st + rr[sl, None])), axis=1)
-        out[inc] = (e0[inc] if not inc.all() else e0) + piece
+        out[inc] = e0[inc] + _gauss_piece(t0[inc], d[inc], r[inc])
+    return out.reshape(shape)
+
+
+def _gauss_piece(a: np.ndarray, d: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """``integral_a^(a+d) sin^2 t / (sin t + r) dt`` by the :data:`_CELL_NODES`-point rule."""
+    x, w = _gauss(_CELL_NODES)
+    out = np.empty(d.shape)
+    for sl in _row_chunks(d.size, x.size):
+        t = a[sl, None] + d[sl, None] * x[None, :]
+        st = np.sin(t)
+        out[sl] = d[sl] * np.sum(w[None, :] * (st * st / (st + r[sl, None])), axis=1)
     return out
 
 
