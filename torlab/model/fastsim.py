@@ -79,6 +79,7 @@ when it has converged: its result does not depend on the other points.
 
 from __future__ import annotations
 
+import copy
 import itertools
 import math
 from dataclasses import dataclass, field
@@ -475,12 +476,24 @@ class _Solver:
         #: largest iteration count of the yield-angle solves (shared with subsets)
         self.stats = stats if stats is not None else {"yield_iterations": 0}
 
-    def subset(self, rows: np.ndarray) -> _Solver:
-        """The solver of the creepages ``xi[rows]`` (same strips, shared statistics)."""
-        groups = None if self.groups is None else (self.gid[rows], self.groups[1])
-        sub = _Solver(self.prob, self.grid, self.xi[rows, 0], self.stats, groups)
-        if self.e_nodes is not None:
-            sub.e_nodes = self.e_nodes if self.groups is None else self.e_nodes[rows]
+    def subset(self, rows: np.ndarray | slice) -> _Solver:
+        """The solver of the creepages ``xi[rows]`` (same strips, shared statistics).
+
+        The per-point arrays are taken from this solver's (each element is computed
+        elementwise from its own point, so these are the values a new solver would
+        compute); a slice gives views.
+        """
+        sub = copy.copy(self)
+        sub.xi = self.xi[rows]
+        sub.c = self.c[rows]
+        if self.groups is not None:
+            sub.gid = self.gid[rows]
+            sub.groups = (sub.gid, self.groups[1])
+            sub.lay = LayerParams(*(getattr(self.lay, f)[rows] for f in _LAYER_FIELDS))
+            sub.r = self.r[rows]
+            sub.Lp = sub.lay.L_mup
+            if self.e_nodes is not None:
+                sub.e_nodes = self.e_nodes[rows]
         return sub
 
     def _fail(self, elements: np.ndarray, what: str) -> None:
@@ -833,13 +846,15 @@ def _yield_thermal(c: np.ndarray, r: np.ndarray, e_nodes: np.ndarray, dT: np.nda
         f_nodes = e_nodes - c[..., None] * sin_nodes * np.exp(m1 * dT)
         above = f_nodes[..., 1:] >= 0.0
         above[..., -1] = True  # f(pi) = e(pi) > 0: the particle has yielded by the trailing edge
-        k = np.argmax(above, axis=-1)[..., None]  # cell [theta_k, theta_k+1] holds the first root
-        d0 = np.take_along_axis(dT, k, axis=-1)[..., 0]
-        slope = (np.take_along_axis(dT, k + 1, axis=-1)[..., 0] - d0) / h
-        f0 = np.take_along_axis(f_nodes, k, axis=-1)[..., 0]
-        f1 = np.take_along_axis(f_nodes, k + 1, axis=-1)[..., 0]
-        e0 = np.take_along_axis(np.broadcast_to(e_nodes, f_nodes.shape), k, axis=-1)[..., 0]
-        return k[..., 0], d0, slope, f0, f1, e0
+        k = np.argmax(above, axis=-1)  # cell [theta_k, theta_k+1] holds the first root
+        # the values at nodes k and k + 1 of each (point, strip): one flat index for all
+        at = k + nT * np.arange(k.size).reshape(k.shape)
+        dTf = np.ascontiguousarray(np.broadcast_to(dT, f_nodes.shape)).reshape(-1)
+        ff = f_nodes.reshape(-1)
+        d0 = dTf[at]
+        slope = (dTf[at + 1] - d0) / h
+        ef = np.ascontiguousarray(np.broadcast_to(e_nodes, f_nodes.shape)).reshape(-1)
+        return k, d0, slope, ff[at], ff[at + 1], ef[at]
 
     if groups is None:
         k, d0, slope, f0, f1, e0 = cells(c, e_nodes, mu1T_nodes, dT)
@@ -1100,7 +1115,7 @@ def boundary_traction_draws(prob: FastsimProblem, layers: Any, creepage: Any,
         F, st = np.empty(rows.size), np.empty(rows.size)
         per_row = grid.n * grid.m * (grid.graded_panels + grid.uniform_panels + grid.clamp_panels)
         for sl in _row_chunks(rows.size, per_row):
-            sub = solver.subset(np.arange(sl.start, sl.stop))
+            sub = solver.subset(sl)
             F[sl], st[sl] = sub.force(th_y[sl], None if dT_grid is None else dT_grid[sl])
         mu[rows] = F / prob.load
         stick[rows] = st
@@ -1193,7 +1208,7 @@ def _temperature(solver: _Solver, prob: FastsimProblem, grid: FastsimGrid, xi: n
         # many points: the (points, strips, nodes) arrays in pieces that stay in cache
         out = np.empty_like(dT)
         for sl in _row_chunks(rows.size, ns * nT):
-            out[sl] = heat(sub.subset(np.arange(sl.start, sl.stop)), rows[sl], th_y[sl], dT[sl])
+            out[sl] = heat(sub.subset(sl), rows[sl], th_y[sl], dT[sl])
         return out
 
     def heat(sub: _Solver, rows: np.ndarray, th_y: np.ndarray, dT: np.ndarray) -> np.ndarray:
