@@ -32,6 +32,12 @@ stops the map and is raised in the caller (the first in task order).
 use(executor):`` says otherwise), so library code deep inside a computation
 (a band's draws) finds it without a parameter.  Inside a worker, :func:`current`
 is serial: tasks never start tasks of their own.
+
+**Work a task finds.**  A task that discovers independent work of its own (a
+protocol's prediction whose band turns out sampled: 20 blocks of draws) returns
+it as a :class:`Deferred` instead of doing it alone in its worker;
+:func:`map_deferred` runs the deferred work of all the tasks of a map as
+top-level tasks, on every worker, and then completes each task in the caller.
 """
 
 from __future__ import annotations
