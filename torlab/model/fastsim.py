@@ -35,8 +35,9 @@ continuous strip solution:
 * the elastic stress is ``tau = xi (a(y)/L1) e(theta; r)`` with
   ``e(theta; r) = integral_0^theta sin^2 t / (sin t + r) dt`` and
   ``r = L_mue / (L1 P(y))``, which has a closed form (logarithmic for
-  ``r < 1/2``; a 24-point Gauss-Legendre rule elsewhere, where the integrand is
-  analytic well around the interval), and so has the elastic force
+  ``r < 1/2``; a Gauss-Legendre rule elsewhere, where the integrand is analytic
+  well around the interval, with the nodes that distance asks for), and so has
+  the elastic force
   ``integral_0^X_y tau dX = xi (a(y)^2/L1) [G(sin theta_y) - e(theta_y) cos theta_y]``
   with ``G(s) = s^2/2 - r s + r^2 ln(1 + s/r)``;
 * the yield angle ``theta_y`` is the first root of ``xi E = tau_c1``, bracketed
