@@ -294,3 +294,22 @@ def test_sampled_thermal_band_edges_unchanged():
     p = predict_traction(_wfm_wet(), np.linspace(0.0, 0.05, 51))
     assert p.band.method == want["method"] == "sampling"
     _same_edges({k: p.table[k].to_numpy() for k in want if k != "method"}, want)
+
+
+def test_deferred_band_whose_draws_fail_gives_no_band():
+    """A protocol's prediction with its draws deferred (predict_traction_deferred): when the
+    blocks come back with more than 5 % of the draws failed, the prediction is finished
+    without a band and says why, as predict_traction does; the blocks after the first round
+    of four are not looked at (20 blocks of 20 draws: 80 failed of 400)."""
+    from torlab.model.predict import predict_traction_deferred
+    from torlab.parallel import Deferred
+
+    d = predict_traction_deferred(_wfm_wet(), np.linspace(0.0, 0.05, 51))
+    assert isinstance(d, Deferred) and len(d.items) == 20
+    failed = [[(None, "the draw failed")] * len(b) for b in d.items]
+    pred = d.then(failed[:4] + [None] * 16)  # never evaluated: not read
+    assert pred.band is None and "mu_low95" not in pred.table
+    assert pred.summary["band"]["method"] == "not computed"
+    note = pred.summary["band"]["notes"][0]
+    assert note.startswith("no band: uncertainty propagation: the model failed for 80 of 400")
+    assert "the draw failed" in note
