@@ -243,3 +243,73 @@ def test_traction_band_of_a_lubricated_scene_equals_the_row_by_row_band():
     for k in ("mu", "film_thickness_m"):
         _close(a.low(k), b.low(k), f"{k} low")
         _close(a.high(k), b.high(k), f"{k} high")
+
+
+# ---------------------------------------------------------------------------------------
+# regression guard: the sampled thermal band of Paper C's WFM-wet layer
+# ---------------------------------------------------------------------------------------
+WFM_WET = ROOT / "tests" / "data" / "bands" / "wfm_wet_tab54.yaml"
+WFM_WET_BAND = ROOT / "tests" / "expected" / "wfm_wet_band.json"
+
+
+def _wfm_wet():
+    import yaml
+
+    return scene_from_dict(yaml.safe_load(WFM_WET.read_text()))
+
+
+def _same_edges(got: dict[str, np.ndarray], want: dict[str, list]) -> None:
+    for k, v in want.items():
+        if k != "method":
+            _close(got[k], np.asarray(v, dtype=float), k)
+
+
+def test_sampled_thermal_band_edges_unchanged_40_draws():
+    """The sampled band of the flash-temperature scene (draws in blocks of 20, the
+    temperature loop per point, the thermal yield angle) gives the edges it gave before
+    the blocks became executor tasks and the e(theta; r) arithmetic changed, to 1e-9.
+    A regression guard (the code's own earlier numbers), not a proof of accuracy: the
+    draws one by one (above) and the e(theta; r) references (tests/test_boundary.py) are."""
+    import json
+
+    from torlab.model.bands import scene_uncertainty
+
+    sc = _wfm_wet()
+    xi = np.linspace(0.0, 0.05, 51)
+    t = predict_traction(sc, xi, band=False).table
+    b = traction_band(sc, xi, t, scene_uncertainty(sc), method="sampling", n_samples=40, seed=3)
+    got = {"mu_low95": b.low("mu"), "mu_high95": b.high("mu"),
+           "max_temperature_low95_C": b.low("max_temperature_C"),
+           "max_temperature_high95_C": b.high("max_temperature_C")}
+    _same_edges(got, json.loads(WFM_WET_BAND.read_text())["n40"])
+
+
+@pytest.mark.slow
+def test_sampled_thermal_band_edges_unchanged():
+    """The whole prediction (400 draws, the method chosen by the nonlinearity check) against
+    its earlier edges, to 1e-9 (a regression guard, as above)."""
+    import json
+
+    want = json.loads(WFM_WET_BAND.read_text())["full"]
+    p = predict_traction(_wfm_wet(), np.linspace(0.0, 0.05, 51))
+    assert p.band.method == want["method"] == "sampling"
+    _same_edges({k: p.table[k].to_numpy() for k in want if k != "method"}, want)
+
+
+def test_deferred_band_whose_draws_fail_gives_no_band():
+    """A protocol's prediction with its draws deferred (predict_traction_deferred): when the
+    blocks come back with more than 5 % of the draws failed, the prediction is finished
+    without a band and says why, as predict_traction does; the blocks after the first round
+    of four are not looked at (20 blocks of 20 draws: 80 failed of 400)."""
+    from torlab.model.predict import predict_traction_deferred
+    from torlab.parallel import Deferred
+
+    d = predict_traction_deferred(_wfm_wet(), np.linspace(0.0, 0.05, 51))
+    assert isinstance(d, Deferred) and len(d.items) == 20
+    failed = [[(None, "the draw failed")] * len(b) for b in d.items]
+    pred = d.then(failed[:4] + [None] * 16)  # never evaluated: not read
+    assert pred.band is None and "mu_low95" not in pred.table
+    assert pred.summary["band"]["method"] == "not computed"
+    note = pred.summary["band"]["notes"][0]
+    assert note.startswith("no band: uncertainty propagation: the model failed for 80 of 400")
+    assert "the draw failed" in note

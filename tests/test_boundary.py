@@ -194,6 +194,71 @@ def test_e_strip_closed_form_against_mpmath():
             assert float(e_strip(th, r)) == pytest.approx(float(ref), rel=1e-12)
 
 
+def _e_ref(th: float, r: float, a: float = 0.0) -> float:
+    """``integral_a^th sin^2 t / (sin t + r) dt`` by 50-digit quadrature (mpmath), with
+    break points at the r scale."""
+    import mpmath as mp
+
+    with mp.workdps(50):
+        rr, ta, tt = mp.mpf(r), mp.mpf(a), mp.mpf(th)
+        pts = sorted({ta, *(x for x in (ta + rr, ta + 10 * rr, tt - 10 * rr, tt - rr)
+                            if ta < x < tt), tt})
+        return float(mp.quad(lambda t: mp.sin(t) ** 2 / (mp.sin(t) + rr), pts))
+
+
+#: the hard cases of e(theta; r)'s Gauss rule: r at and around 1/2 (nearest singularity),
+#: around 1 (where it leaves the real axis), r >> 1, theta -> 0 and theta -> pi
+_E_R = (1e-6, 0.1, 0.3, 0.4999999, 0.5, 0.5000001, 0.7, 0.9999999, 1.0, 1.0000001, 1.5, 7.7,
+        100.0, 1e6)
+_E_TH = (1e-6, 1e-3, 0.05, 0.3, 0.7, 1.3, 2.0, 2.9, math.pi - 1e-6, math.pi)
+
+
+def _e_grid(rs, ths) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r, th = (np.array(x, dtype=float).ravel() for x in np.meshgrid(rs, ths))
+    return r, th, np.array([_e_ref(t, q) for t, q in zip(th, r, strict=True)])
+
+
+def test_e_strip_gauss_nodes_against_mpmath():
+    """e(theta; r) with the nodes the Bernstein ellipse asks for (6 to 24) against 50-digit
+    quadrature over the hard cases, to 1e-13 relative; the worst case (r = 1/2, theta = pi)
+    keeps all 24 nodes."""
+    from torlab.model.fastsim import _gauss_nodes
+
+    r, th, ref = _e_grid(_E_R, _E_TH)
+    got = e_strip(th, r)
+    rel = np.abs(got - ref) / np.abs(ref)
+    assert np.max(rel) <= 1e-13, (r[np.argmax(rel)], th[np.argmax(rel)], np.max(rel))
+    n = _gauss_nodes(np.array([math.pi, 0.3, 0.3]), np.array([0.5, 0.5, 100.0]))
+    assert n[0] == 24 and 6 <= n[2] <= n[1] < 24
+
+
+@pytest.mark.slow
+def test_e_strip_gauss_nodes_against_mpmath_dense():
+    """The same on a dense grid (25 r from 1 to 1e6, 21 around 1/2 to 3/2, 23 theta)."""
+    rs = (*np.geomspace(1.0, 1e6, 25), *np.linspace(0.5, 1.5, 21), 1e-3, 0.2, 0.45)
+    r, th, ref = _e_grid(rs, (*np.linspace(0.05, math.pi, 23), 1e-4, 0.01))
+    rel = np.abs(e_strip(th, r) - ref) / np.abs(ref)
+    assert np.max(rel) <= 1e-13, (r[np.argmax(rel)], th[np.argmax(rel)], np.max(rel))
+
+
+@pytest.mark.parametrize("r", [0.27, 0.39, 0.5, 0.51, 0.99, 1.0, 1.01, 7.7, 1e3, 0.05, 1e-4])
+def test_e_in_temperature_cell_against_mpmath(r):
+    """e(theta; r) as the thermal yield-angle iteration takes it: the value at the start of
+    its temperature cell (48 nodes) plus the piece up to theta, against 50-digit quadrature
+    of the whole integral, to 1e-13 relative -- in the first and the last cell, and where
+    r is too small for the piece's rule (``e_strip`` then)."""
+    from torlab.model.fastsim import _e_in_cell
+
+    h = math.pi / 47
+    t0 = np.array([0.0, 0.0, 3 * h, 20 * h, 46 * h, 46 * h])
+    th = t0 + np.array([1e-7, 0.6, 0.3, 1.0, 0.5, 1.0]) * h
+    th[-1] = math.pi
+    e0 = np.array([_e_ref(a, r) if a > 0 else 0.0 for a in t0])
+    got = _e_in_cell(th, np.full(th.shape, r), t0, e0)
+    ref = np.array([_e_ref(t, r) for t in th])
+    np.testing.assert_allclose(got, ref, rtol=1e-13, atol=0)
+
+
 # ---------------------------------------------------------------------------------------
 # hard cases
 # ---------------------------------------------------------------------------------------

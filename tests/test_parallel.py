@@ -168,6 +168,78 @@ def test_band_draws_bit_for_bit(executors):
     assert np.all(bands[0]["low"] <= bands[0]["high"])
 
 
+def _band_problem():
+    from torlab.model.bands import _DryTractionModel
+    from torlab.model.predict import fastsim_grid, fastsim_problem
+    from torlab.scene import load_scene
+    from torlab.uncertainty import ParameterDistribution
+
+    sc = load_scene(SCENE)
+    model = _DryTractionModel(fastsim_problem(sc), fastsim_grid(sc), np.linspace(0.0, 0.02, 11),
+                              ("mu", "max_temperature_C"))
+    dist = ParameterDistribution.from_covariance(
+        ("mu_c1", "mu_c2", "L_mue"), [0.30, 0.45, 1e-5],
+        [[4e-4, 1e-4, 0.0], [1e-4, 4e-4, 0.0], [0.0, 0.0, 4e-12]], log_scale=("L_mue",), dof=12)
+    return model, dist
+
+
+def _deferred_band(n: int):
+    """A task whose sampled band leaves its draws to the executor (n = 0: a plain result)."""
+    from torlab.parallel import Deferred
+    from torlab.uncertainty import propagate
+
+    if n == 0:
+        return "plain"
+    model, dist = _band_problem()
+    pending = propagate(model, dist, method="sampling", n_samples=n, seed=n, defer=True)
+    fn, blocks = pending.tasks()
+    return Deferred(fn, blocks, pending.finish)
+
+
+def test_deferred_band_draws_bit_for_bit(executors):
+    """Two sampled bands whose draw blocks run as top-level tasks (map_deferred), next to a
+    task that defers nothing: on every executor the band propagate gives in one call."""
+    from torlab.parallel import map_deferred
+    from torlab.uncertainty import MANY_BLOCK, propagate
+
+    sizes = [2 * MANY_BLOCK + 3, 0, MANY_BLOCK]
+    model, dist = _band_problem()
+    want = {n: propagate(model, dist, method="sampling", n_samples=n, seed=n)
+            for n in sizes if n}
+    for ex in executors:
+        got = map_deferred(ex, _deferred_band, sizes)
+        assert got[1] == "plain", ex.kind
+        for n, b in zip(sizes, got, strict=True):
+            if not n:
+                continue
+            assert b.method == "sampling" and b.n_evaluations == want[n].n_evaluations, ex.kind
+            _same({"low": b.lower, "high": b.upper, "sd": b.sd, "c": b.contributions},
+                  {"low": want[n].lower, "high": want[n].upper, "sd": want[n].sd,
+                   "c": want[n].contributions}, f"{ex.kind} band of {n} draws")
+
+
+@pytest.mark.slow
+def test_protocol_prediction_with_a_sampled_band_bit_for_bit(executors):
+    """The traction prediction of a protocol (its executor task, the band's draws deferred to
+    the executor) equals predict_traction in one call, on every executor (400 draws)."""
+    import yaml
+
+    from torlab.model.predict import predict_traction
+    from torlab.parallel import map_deferred
+    from torlab.protocols.context import _predict_task
+    from torlab.scene import scene_from_dict
+
+    scene = yaml.safe_load((ROOT / "tests" / "data" / "bands" / "wfm_wet_tab54.yaml").read_text())
+    xi = np.linspace(0.0, 0.05, 51)
+    want = predict_traction(scene_from_dict(scene), xi)
+    assert want.band.method == "sampling"
+    for ex in executors:
+        got = map_deferred(ex, _predict_task, [("traction", scene, {"creepage": xi})])[0]
+        _same({k: got.table[k].to_numpy() for k in got.table},
+              {k: want.table[k].to_numpy() for k in want.table}, ex.kind)
+        assert got.trend == want.trend and "model" not in got.band._design, ex.kind
+
+
 PROTOCOL = """\
 version: 1
 name: parallel

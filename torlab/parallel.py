@@ -32,6 +32,12 @@ stops the map and is raised in the caller (the first in task order).
 use(executor):`` says otherwise), so library code deep inside a computation
 (a band's draws) finds it without a parameter.  Inside a worker, :func:`current`
 is serial: tasks never start tasks of their own.
+
+**Work a task finds.**  A task that discovers independent work of its own (a
+protocol's prediction whose band turns out sampled: 20 blocks of draws) returns
+it as a :class:`Deferred` instead of doing it alone in its worker;
+:func:`map_deferred` runs the deferred work of all the tasks of a map as
+top-level tasks, on every worker, and then completes each task in the caller.
 """
 
 from __future__ import annotations
@@ -44,8 +50,8 @@ from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any
 
-__all__ = ["DaskExecutor", "Executor", "ProcessExecutor", "SerialExecutor", "activate", "chunks",
-           "current", "get_executor", "map_tasks", "usable_cores", "use"]
+__all__ = ["DaskExecutor", "Deferred", "Executor", "ProcessExecutor", "SerialExecutor", "activate",
+           "chunks", "current", "get_executor", "map_deferred", "map_tasks", "usable_cores", "use"]
 
 _CURRENT: contextvars.ContextVar[Executor | None] = contextvars.ContextVar(
     "torlab_executor", default=None)
@@ -424,3 +430,55 @@ def chunks(n: int, size: int) -> list[slice]:
     """``n`` items in fixed blocks of ``size`` (the split never depends on the workers)."""
     size = max(1, int(size))
     return [slice(i, min(i + size, n)) for i in range(0, n, size)]
+
+
+# ------------------------------------------------------------------------------ tasks in two stages
+class Deferred:
+    """What a task returns when its result needs more independent work first.
+
+    ``fn`` (picklable) is to be run on each of ``items``, anywhere, and
+    ``then(results)`` -- called in the process that mapped the task, with the
+    results in the order of ``items`` -- gives the task's result (or another
+    :class:`Deferred`).  :func:`map_deferred` runs the items of every deferred
+    task of a map as top-level tasks of one executor: a task never starts tasks
+    of its own inside a worker (no nested pools, no idle workers while one
+    task works through its part alone).  A sampled prediction band is the case
+    in point (:class:`torlab.uncertainty.PendingSampling`).
+    """
+
+    def __init__(self, fn: Callable[[Any], Any], items: Sequence[Any],
+                 then: Callable[[list[Any]], Any]) -> None:
+        self.fn, self.items, self.then = fn, list(items), then
+
+
+def _call(job: tuple[Callable[[Any], Any], Any]) -> Any:
+    fn, item = job
+    return fn(item)
+
+
+def map_deferred(executor: Executor, fn: Callable[[Any], Any], items: Iterable[Any], *,
+                 description: str = "", subtasks: str = "") -> list[Any]:
+    """:meth:`Executor.map`, with the :class:`Deferred` results completed.
+
+    The items of all the deferred results go to ``executor`` in one map
+    (labelled ``subtasks``), in order, then each ``then`` runs here -- as a task
+    would, with one BLAS thread -- until no result is deferred.  The split into
+    tasks is the tasks' own, so the results do not depend on the executor.
+    """
+    from torlab.threads import limit_threads
+
+    out = executor.map(fn, items, description=description)
+    while True:
+        pending = [i for i, v in enumerate(out) if isinstance(v, Deferred)]
+        if not pending:
+            return out
+        jobs = [(out[i].fn, it) for i in pending for it in out[i].items]
+        res = executor.map(_call, jobs, description=subtasks or description)
+        pos = 0
+        for i in pending:
+            d = out[i]
+            n = len(d.items)
+            with warnings.catch_warnings(record=True) as caught, limit_threads(1):
+                out[i] = d.then(res[pos:pos + n])
+            _reissue([(w.message, w.category, w.filename, w.lineno) for w in caught])
+            pos += n

@@ -99,6 +99,7 @@ __all__ = [
     "NONLINEARITY_TOL",
     "N_SAMPLES",
     "ParameterDistribution",
+    "PendingSampling",
     "Propagation",
     "propagate",
 ]
@@ -436,7 +437,7 @@ class Propagation:
 def propagate(model: Model, dist: ParameterDistribution, *, confidence: float = CONFIDENCE,
               method: str = "auto", n_samples: int = N_SAMPLES, seed: int = 0,
               nonlinearity_tol: float = NONLINEARITY_TOL, vectorized: bool = False,
-              f0: Any = None) -> Propagation:
+              f0: Any = None, defer: bool = False) -> Propagation | PendingSampling:
     """Propagate a parameter distribution through ``model`` (see the module docstring).
 
     Parameters
@@ -460,10 +461,14 @@ def propagate(model: Model, dist: ParameterDistribution, *, confidence: float = 
         Whether ``model`` takes arrays of parameter sets.
     f0
         The model at the estimate, if the caller has it (saves one evaluation).
+    defer
+        When the band is sampled (and ``model`` is not vectorised), return the
+        :class:`PendingSampling` with the draws instead of evaluating them: the caller
+        runs its blocks where it wants and calls its ``finish``.
 
     Returns
     -------
-    Propagation
+    Propagation or PendingSampling
 
     Raises
     ------
@@ -491,10 +496,8 @@ def propagate(model: Model, dist: ParameterDistribution, *, confidence: float = 
         res._design.update(design_base)
         return res
     if method == "sampling":
-        res = _sample(model, dist, f0, confidence, n_samples, seed, vectorized,
-                      nonlinearity_tol, math.nan, design_base)
-        res.n_evaluations += n_eval
-        return res
+        return _sample(model, dist, f0, confidence, n_samples, seed, vectorized,
+                       nonlinearity_tol, math.nan, design_base, n_eval, defer=defer)
     # --- linear: forward steps of one standard deviation ------------------------------------
     from torlab.errors import NumericalError
 
@@ -525,11 +528,9 @@ def propagate(model: Model, dist: ParameterDistribution, *, confidence: float = 
         if method == "linear":
             raise
         # the model has no solution one step (or one band edge) away: not linear there
-        out = _sample(model, dist, f0, confidence, n_samples, seed, vectorized, nonlinearity_tol,
-                      math.inf, design_base)
-        out.n_evaluations += n_eval
-        out.notes.insert(0, f"sampled: the model failed at a linearisation point ({e})")
-        return out
+        return _sample(model, dist, f0, confidence, n_samples, seed, vectorized,
+                       nonlinearity_tol, math.inf, design_base, n_eval,
+                       f"sampled: the model failed at a linearisation point ({e})", defer)
     res = _linear_from_design(dist, h, f0, steps, dirs, probes, confidence, nonlinearity_tol,
                               n_eval, dist.names)
     res._design.update(design_base)
@@ -538,24 +539,20 @@ def propagate(model: Model, dist: ParameterDistribution, *, confidence: float = 
             res.notes.insert(0, f"linearised: nonlinearity {res.nonlinearity:.3g} <= "
                                 f"{nonlinearity_tol:g}")
         return res
-    out = _sample(model, dist, f0, confidence, n_samples, seed, vectorized, nonlinearity_tol,
-                  res.nonlinearity, design_base)
-    out.n_evaluations += n_eval
-    out.notes.insert(0, f"sampled: nonlinearity {res.nonlinearity:.3g} > {nonlinearity_tol:g} "
-                        "(the linear band edge would be off by more than that share of the "
-                        "band's half-width)")
-    return out
+    return _sample(model, dist, f0, confidence, n_samples, seed, vectorized, nonlinearity_tol,
+                   res.nonlinearity, design_base, n_eval,
+                   f"sampled: nonlinearity {res.nonlinearity:.3g} > {nonlinearity_tol:g} (the "
+                   "linear band edge would be off by more than that share of the band's "
+                   "half-width)", defer)
 
 
 def _sample(model: Model, dist: ParameterDistribution, f0: dict[str, np.ndarray],
             confidence: float, n_samples: int, seed: int, vectorized: bool, tol: float,
-            eta: float, design_base: dict[str, Any]) -> Propagation:
-    draws = _draws(dist, n_samples, seed)
-    samples, failed = _evaluate_many(model, dist, draws, vectorized)
-    out = _sampling_from_draws(dist, draws[~failed], samples, f0, confidence, eta,
-                               dist.names, int(failed.sum()), tol=tol)
-    out._design.update({**design_base, **out._design})
-    return out
+            eta: float, design_base: dict[str, Any], n_eval: int = 0, note: str = "",
+            defer: bool = False) -> Propagation | PendingSampling:
+    pending = PendingSampling(model, dist, _draws(dist, n_samples, seed), f0, confidence, tol,
+                              eta, design_base, n_eval, note)
+    return pending if defer and not vectorized else pending.run()
 
 
 # ---------------------------------------------------------------------------------------------
@@ -682,6 +679,53 @@ def _block_executor(task: _Block) -> Any:
     return ex
 
 
+def _draw_blocks(model: Model, thetas: np.ndarray) -> list[np.ndarray]:
+    """The draws in the fixed blocks of their tasks (:data:`MANY_BLOCK` for a model with
+    ``evaluate_many``, else :data:`SAMPLE_BLOCK`): the split depends on the draws only."""
+    from torlab.parallel import chunks
+
+    size = MANY_BLOCK if hasattr(model, "evaluate_many") else SAMPLE_BLOCK
+    return [thetas[s] for s in chunks(thetas.shape[0], size)]
+
+
+def _collect(results: Sequence[Any], m: int) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """The outputs of the draws' blocks (``_Block`` results, in order), stacked, and the
+    mask of the failed draws.
+
+    The blocks are taken :data:`SAMPLE_ROUND` at a time; after a round in which more than
+    5 % of all the draws have failed the rest are not looked at (they may not have been
+    evaluated: :func:`_evaluate_many`) and the propagation fails.  So the same blocks
+    give the same result and the same error however many of them were evaluated.
+    """
+    failed = np.zeros(m, dtype=bool)
+    first = ""
+    rows = []
+    i = 0
+    for r0 in range(0, len(results), SAMPLE_ROUND):
+        for block in results[r0:r0 + SAMPLE_ROUND]:
+            for res, err in block:
+                if res is None:
+                    failed[i] = True
+                    first = first or err
+                else:
+                    rows.append(res)
+                i += 1
+        if failed.sum() > 0.05 * m:
+            break
+    _check_failed(failed, m, first)
+    stacked = {k: np.stack([r[k] for r in rows]) for k in rows[0]} if rows else {}
+    return stacked, failed
+
+
+def _check_failed(failed: np.ndarray, m: int, first: str = "") -> None:
+    if failed.sum() > 0.05 * m:
+        from torlab.errors import NumericalError as NE
+
+        raise NE(f"uncertainty propagation: the model failed for {int(failed.sum())} of {m} "
+                 "parameter draws; the fit's uncertainty reaches parameters where the model "
+                 "does not hold" + (f" (first: {first})" if first else ""))
+
+
 def _evaluate_many(model: Model, dist: ParameterDistribution, thetas: np.ndarray,
                    vectorized: bool) -> tuple[dict[str, np.ndarray], np.ndarray]:
     """Outputs at the draws, stacked; draws whose evaluation fails numerically are left out.
@@ -692,48 +736,83 @@ def _evaluate_many(model: Model, dist: ParameterDistribution, thetas: np.ndarray
     blocks of :data:`MANY_BLOCK` evaluated in one call each, with the failures still
     per draw -- :data:`SAMPLE_ROUND` blocks at a time; after a round in which
     more than 5 % of all the draws have failed, the rest are not evaluated (the model
-    does not hold there, and the answer is already known).  The rounds are the same
-    whatever evaluates them, so the result and the failure count are the same serially,
-    on processes and on a cluster.
+    does not hold there, and the answer is already known: :func:`_collect`).  The rounds
+    are the same whatever evaluates them, so the result and the failure count are the
+    same serially, on processes and on a cluster.
     """
     m = thetas.shape[0]
-    failed = np.zeros(m, dtype=bool)
-    first = ""
     if vectorized:
+        failed = np.zeros(m, dtype=bool)
         out = _as_outputs(model(dist.params(thetas)))
         for v in out.values():
             bad = ~np.all(np.isfinite(v.reshape(m, -1)) | np.isnan(v.reshape(m, -1)), axis=1)
             failed |= bad
-        stacked = {k: v[~failed] for k, v in out.items()}
-    else:
-        from torlab.parallel import chunks
+        _check_failed(failed, m)
+        return {k: v[~failed] for k, v in out.items()}, failed
+    task = _Block(model, dist)
+    ex = _block_executor(task)
+    blocks = _draw_blocks(model, thetas)
+    results: list[Any] = []
+    for r0 in range(0, len(blocks), SAMPLE_ROUND):
+        results += ex.map(task, blocks[r0:r0 + SAMPLE_ROUND], description="band: parameter draws")
+        if sum(res is None for block in results for res, _ in block) > 0.05 * m:
+            break
+    return _collect(results, m)
 
-        task = _Block(model, dist)
-        ex = _block_executor(task)
-        size = MANY_BLOCK if hasattr(model, "evaluate_many") else SAMPLE_BLOCK
-        blocks = [thetas[s] for s in chunks(m, size)]
-        rows = []
-        i = 0
-        for r0 in range(0, len(blocks), SAMPLE_ROUND):
-            results = ex.map(task, blocks[r0:r0 + SAMPLE_ROUND],
-                             description="band: parameter draws")
-            for res, err in (r for block in results for r in block):
-                if res is None:
-                    failed[i] = True
-                    first = first or err
-                else:
-                    rows.append(res)
-                i += 1
-            if failed.sum() > 0.05 * m:
-                break
-        stacked = {k: np.stack([r[k] for r in rows]) for k in rows[0]} if rows else {}
-    if failed.sum() > 0.05 * m:
-        from torlab.errors import NumericalError as NE
 
-        raise NE(f"uncertainty propagation: the model failed for {int(failed.sum())} of {m} "
-                 "parameter draws; the fit's uncertainty reaches parameters where the model "
-                 "does not hold" + (f" (first: {first})" if first else ""))
-    return stacked, failed
+@dataclass
+class PendingSampling:
+    """A sampled propagation whose draws are not evaluated yet (``propagate(..., defer=True)``).
+
+    The draws are made from the seed here; :meth:`tasks` are their blocks (the same fixed
+    blocks :func:`propagate` evaluates), independent of each other, for whoever runs
+    them -- e.g. a protocol that evaluates the blocks of all its sampled bands together
+    on every worker (:func:`torlab.parallel.map_deferred`) -- and :meth:`finish` turns
+    their results into the :class:`Propagation` :func:`propagate` would have returned
+    (the same arithmetic on the same blocks: the same result, bit for bit).
+    """
+
+    model: Any
+    dist: ParameterDistribution
+    draws: np.ndarray
+    f0: dict[str, np.ndarray]
+    confidence: float
+    tol: float
+    eta: float
+    design_base: dict[str, Any]
+    n_eval: int = 0
+    note: str = ""
+
+    def tasks(self) -> tuple[Callable[[np.ndarray], Any], list[np.ndarray]]:
+        """The block task (a picklable callable) and the blocks of draws it takes."""
+        return _Block(self.model, self.dist), _draw_blocks(self.model, self.draws)
+
+    def finish(self, results: Sequence[Any]) -> Propagation:
+        """The propagation from the blocks' results (in the order of :meth:`tasks`).
+
+        Raises
+        ------
+        torlab.errors.NumericalError
+            More than 5 % of the draws failed.
+        """
+        samples, failed = _collect(results, self.draws.shape[0])
+        return self._result(samples, failed)
+
+    def run(self) -> Propagation:
+        """Evaluate the draws on the executor in use and finish (what :func:`propagate` does)."""
+        samples, failed = _evaluate_many(self.model, self.dist, self.draws,
+                                         self.design_base.get("vectorized", False))
+        return self._result(samples, failed)
+
+    def _result(self, samples: dict[str, np.ndarray], failed: np.ndarray) -> Propagation:
+        out = _sampling_from_draws(self.dist, self.draws[~failed], samples, self.f0,
+                                   self.confidence, self.eta, self.dist.names,
+                                   int(failed.sum()), tol=self.tol)
+        out._design.update({**self.design_base, **out._design})
+        out.n_evaluations += self.n_eval
+        if self.note:
+            out.notes.insert(0, self.note)
+        return out
 
 
 def _draws(dist: ParameterDistribution, n: int, seed: int) -> np.ndarray:

@@ -18,6 +18,12 @@ mixed curve (the Paper A rough ball in water: film, asperity load sharing, FASTS
 51-point Tab. 5.4 curve with its flash temperature and temperature coefficients; the error
 is the largest relative difference of the two bands' edges (round-off: the draws are the
 same computation).
+
+The third group runs the thermal curve's sampled band on 2 local processes, as a protocol
+did before (the whole band one task: its draws one after the other in one worker) and as it
+does now (the band's 20 blocks of draws as tasks of their own,
+:func:`torlab.parallel.map_deferred`), alternating, side by side; the two bands must be
+equal bit for bit.
 """
 
 from __future__ import annotations
@@ -154,6 +160,68 @@ def _draw_rows(quick: bool) -> list[BenchRow]:
     return rows
 
 
+def _whole_band(case: tuple) -> object:
+    """The sampled band in this task, its draws one block after the other (a task's executor
+    is serial inside a worker)."""
+    from torlab.uncertainty import propagate
+
+    if case is None:  # the empty task beside it (a map of one task would run in the caller)
+        return None
+    model, dist, f0, n = case
+    return propagate(model, dist, method="sampling", n_samples=n, seed=1, f0=f0)
+
+
+def _deferred_band(case: tuple) -> object:
+    """The sampled band with its draws left to the executor (:class:`torlab.parallel.Deferred`)."""
+    from torlab.parallel import Deferred
+    from torlab.uncertainty import propagate
+
+    model, dist, f0, n = case
+    pending = propagate(model, dist, method="sampling", n_samples=n, seed=1, f0=f0, defer=True)
+    fn, blocks = pending.tasks()
+    return Deferred(fn, blocks, pending.finish)
+
+
+def _process_rows(quick: bool) -> list[BenchRow]:
+    """The thermal curve's sampled band on 2 processes: one task, or its blocks as tasks."""
+    import time
+
+    from torlab.parallel import ProcessExecutor, map_deferred
+
+    n = 100 if quick else 400
+    _, model, dist, f0, unit = _draw_cases()[-1]
+    unit = unit.replace("400", str(n)) + ", 2 local processes"
+    case = (model, dist, f0, n)
+    times: dict[str, list[float]] = {"one": [], "blocks": []}
+    bands = {}
+    ex = ProcessExecutor(2)  # not the current executor: a task's band stays in its worker
+    try:
+        ex.map(_square, [1, 2])  # workers started before the clock
+        for _ in range(1 if quick else 3):  # alternating, best of each
+            for kind in ("one", "blocks"):
+                t0 = time.perf_counter()
+                if kind == "one":
+                    bands[kind] = ex.map(_whole_band, [case, None])[0]
+                else:
+                    bands[kind] = map_deferred(ex, _deferred_band, [case])[0]
+                times[kind].append(time.perf_counter() - t0)
+    finally:
+        ex.close()
+    same = all(np.array_equal(getattr(bands["one"], e)[k], getattr(bands["blocks"], e)[k])
+               for k in f0 for e in ("lower", "upper"))
+    t_one, t_blocks = min(times["one"]), min(times["blocks"])
+    return [BenchRow("sampled band on 2 processes", "the band one task", t_one, None, "", False,
+                     unit, extra={"ratio_to_one_task": 1.0}),
+            BenchRow("sampled band on 2 processes", "its blocks of draws as tasks", t_blocks,
+                     0.0 if same else 1.0, "the band as one task", True, unit,
+                     error_kind="0: equal bit for bit, 1: not",
+                     extra={"ratio_to_one_task": t_blocks / t_one, "speedup": t_one / t_blocks})]
+
+
+def _square(x: int) -> int:
+    return x * x
+
+
 def run(quick: bool = False) -> list[BenchRow]:
     """Plain curve, its band by the default choice, forced linearisation and forced sampling;
     the sampled band's draws row by row and many at a time."""
@@ -195,4 +263,4 @@ def run(quick: bool = False) -> list[BenchRow]:
                              extra={"ratio_to_plain": t / t_plain,
                                     "model_evaluations": b.n_evaluations,
                                     "reference_noise": noise}))
-    return rows + _draw_rows(quick)
+    return rows + _draw_rows(quick) + _process_rows(quick)

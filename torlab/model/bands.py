@@ -176,7 +176,8 @@ def traction_band(scene: Any, creepage: np.ndarray, table: Any, su: SceneUncerta
     A dry scene evaluates FASTSIM directly with the layer replaced; a
     lubricated one the whole mixed model (``predict_traction(..., band=False)``).
     ``options`` go to :func:`torlab.uncertainty.propagate` (``method``,
-    ``n_samples`` ...).
+    ``n_samples``, ``defer`` ...: with ``defer=True`` a sampled band comes back as
+    the :class:`~torlab.uncertainty.PendingSampling` of its draws).
     """
     from torlab.model.prediction import fastsim_grid, fastsim_problem
 

@@ -35,8 +35,9 @@ continuous strip solution:
 * the elastic stress is ``tau = xi (a(y)/L1) e(theta; r)`` with
   ``e(theta; r) = integral_0^theta sin^2 t / (sin t + r) dt`` and
   ``r = L_mue / (L1 P(y))``, which has a closed form (logarithmic for
-  ``r < 1/2``; a 24-point Gauss-Legendre rule elsewhere, where the integrand is
-  analytic well around the interval), and so has the elastic force
+  ``r < 1/2``; a Gauss-Legendre rule elsewhere, where the integrand is analytic
+  well around the interval, with the nodes that distance asks for), and so has
+  the elastic force
   ``integral_0^X_y tau dX = xi (a(y)^2/L1) [G(sin theta_y) - e(theta_y) cos theta_y]``
   with ``G(s) = s^2/2 - r s + r^2 ln(1 + s/r)``;
 * the yield angle ``theta_y`` is the first root of ``xi E = tau_c1``, bracketed
@@ -79,6 +80,7 @@ when it has converged: its result does not depend on the other points.
 
 from __future__ import annotations
 
+import copy
 import itertools
 import math
 from dataclasses import dataclass, field
@@ -247,8 +249,9 @@ def e_strip(theta: np.ndarray, r: np.ndarray) -> np.ndarray:
     ``tau_el = xi (a(y)/L1) e(theta; r)`` with ``r = L_mue/(L1 P(y))``.  Closed form
     ``(1 - cos theta) - r theta + r^2 J`` with ``J = integral dt/(sin t + r)``
     (tangent half-angle substitution) where ``r < 1/2`` and ``theta > r``; a
-    24-point Gauss-Legendre rule elsewhere (the integrand's nearest singularity
-    is then far from the interval, so the rule is exact to round-off).
+    Gauss-Legendre rule elsewhere (the integrand's nearest singularity is then far
+    from the interval), with as many nodes as that distance needs for round-off
+    accuracy (:func:`_gauss_nodes`: 6 to 24).
     """
     theta, r = np.broadcast_arrays(np.asarray(theta, dtype=float), np.asarray(r, dtype=float))
     out = np.empty(theta.shape)
@@ -270,18 +273,65 @@ def e_strip(theta: np.ndarray, r: np.ndarray) -> np.ndarray:
     other = ~closed
     if other.any():
         th, rr = theta[other], r[other]
-        x, w = _gauss(24)
+        nodes = _gauss_nodes(th, rr)
         res = np.empty(th.shape)
-        # in pieces of _CHUNK_ELEMENTS nodes: temporaries that stay small are much faster
-        for sl in _row_chunks(th.size, x.size):
-            t = th[sl, None] * x[None, :]
-            st = np.sin(t)
-            den = st + rr[sl, None]
-            # the integrand tends to 0 with sin t where r = 0 (no layer): no 0/0 at theta = 0
-            f = np.divide(st * st, den, out=np.zeros_like(den), where=den > 0)
-            res[sl] = th[sl] * np.sum(w[None, :] * f, axis=1)
+        for n in np.unique(nodes):
+            sel = nodes == n
+            res[sel] = _gauss_e(th[sel], rr[sel], int(n)) if not sel.all() else \
+                _gauss_e(th, rr, int(n))
         out[other] = res
     return out
+
+
+def _gauss_e(th: np.ndarray, rr: np.ndarray, n: int) -> np.ndarray:
+    """:func:`e_strip` by the ``n``-point Gauss-Legendre rule on ``[0, theta]``."""
+    x, w = _gauss(n)
+    res = np.empty(th.shape)
+    # in pieces of _CHUNK_ELEMENTS nodes: temporaries that stay small are much faster
+    for sl in _row_chunks(th.size, x.size):
+        t = th[sl, None] * x[None, :]
+        st = np.sin(t)
+        den = st + rr[sl, None]
+        # the integrand tends to 0 with sin t where r = 0 (no layer): no 0/0 at theta = 0
+        f = np.divide(st * st, den, out=np.zeros_like(den), where=den > 0)
+        res[sl] = th[sl] * np.sum(w[None, :] * f, axis=1)
+    return res
+
+
+#: Gauss-Legendre nodes of e_strip's rule: ``n >= _GAUSS_A / ln(rho)``, even, from
+#: ``_GAUSS_MIN`` to 24 (see :func:`_gauss_nodes`)
+_GAUSS_A = 13.0
+_GAUSS_MIN = 6
+
+
+def _gauss_nodes(theta: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Nodes of the Gauss-Legendre rule for ``e(theta; r)`` (:func:`e_strip`), per element.
+
+    The integrand ``sin^2 t / (sin t + r)`` is analytic except where ``sin t = -r``:
+    at ``t = -asin r`` for ``r <= 1``, at ``t = -pi/2 +- i acosh r`` for ``r > 1``
+    (the points after ``theta <= pi`` are farther).  The ``n``-point rule on
+    ``[0, theta]`` then errs by ``O(M rho^(-2n))`` with ``rho`` the Bernstein ellipse
+    through that point (foci at 0 and ``theta``: ``rho = A + sqrt(A^2 - 1)`` with ``2 A
+    theta`` the sum of the point's distances to the foci) and ``M`` the integrand's
+    largest value on it (Trefethen, *Approximation Theory and Approximation Practice*,
+    Thm. 19.3).  ``sin^2 t`` grows like ``exp(2 |Im t|)``, so ``rho`` is capped where
+    the ellipse's half-width reaches 1 (``(theta/4)(rho - 1/rho) = 1``; the case of a
+    large ``r``, whose singularity is far).  ``n = 2 ceil(13 / ln rho)``
+    (``rho^(-2n) <= e^-52``), from 6 to 24: round-off accuracy with a margin over
+    the worst case, ``r = 1/2`` at ``theta = pi``, which needs the 24 nodes
+    (``tests/test_boundary.py`` checks it against 30-digit quadrature).
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        near = r <= 1.0
+        c = np.arccosh(np.where(near, 1.0, r))
+        half = 0.5 * math.pi
+        A = np.where(near, 1.0 + 2.0 * np.arcsin(np.minimum(r, 1.0)) / theta,
+                     (np.hypot(half, c) + np.hypot(theta + half, c)) / theta)
+        # the ellipse also stays within |Im t| <= 1, where sin^2 t grows by at most cosh(1)^2
+        cap = 4.0 / theta + np.sqrt(16.0 / (theta * theta) + 1.0)
+        rho = np.minimum(A + np.sqrt(A * A - 1.0), cap)
+        n = 2.0 * np.ceil(_GAUSS_A / np.log(rho))
+    return np.where(np.isfinite(n) & (n < 24), np.maximum(n, _GAUSS_MIN), 24).astype(int)
 
 
 def _G(s: np.ndarray, r: np.ndarray) -> np.ndarray:
@@ -427,12 +477,24 @@ class _Solver:
         #: largest iteration count of the yield-angle solves (shared with subsets)
         self.stats = stats if stats is not None else {"yield_iterations": 0}
 
-    def subset(self, rows: np.ndarray) -> _Solver:
-        """The solver of the creepages ``xi[rows]`` (same strips, shared statistics)."""
-        groups = None if self.groups is None else (self.gid[rows], self.groups[1])
-        sub = _Solver(self.prob, self.grid, self.xi[rows, 0], self.stats, groups)
-        if self.e_nodes is not None:
-            sub.e_nodes = self.e_nodes if self.groups is None else self.e_nodes[rows]
+    def subset(self, rows: np.ndarray | slice) -> _Solver:
+        """The solver of the creepages ``xi[rows]`` (same strips, shared statistics).
+
+        The per-point arrays are taken from this solver's (each element is computed
+        elementwise from its own point, so these are the values a new solver would
+        compute); a slice gives views.
+        """
+        sub = copy.copy(self)
+        sub.xi = self.xi[rows]
+        sub.c = self.c[rows]
+        if self.groups is not None:
+            sub.gid = self.gid[rows]
+            sub.groups = (sub.gid, self.groups[1])
+            sub.lay = LayerParams(*(getattr(self.lay, f)[rows] for f in _LAYER_FIELDS))
+            sub.r = self.r[rows]
+            sub.Lp = sub.lay.L_mup
+            if self.e_nodes is not None:
+                sub.e_nodes = self.e_nodes[rows]
         return sub
 
     def _fail(self, elements: np.ndarray, what: str) -> None:
@@ -785,21 +847,24 @@ def _yield_thermal(c: np.ndarray, r: np.ndarray, e_nodes: np.ndarray, dT: np.nda
         f_nodes = e_nodes - c[..., None] * sin_nodes * np.exp(m1 * dT)
         above = f_nodes[..., 1:] >= 0.0
         above[..., -1] = True  # f(pi) = e(pi) > 0: the particle has yielded by the trailing edge
-        k = np.argmax(above, axis=-1)[..., None]  # cell [theta_k, theta_k+1] holds the first root
-        d0 = np.take_along_axis(dT, k, axis=-1)[..., 0]
-        slope = (np.take_along_axis(dT, k + 1, axis=-1)[..., 0] - d0) / h
-        f0 = np.take_along_axis(f_nodes, k, axis=-1)[..., 0]
-        f1 = np.take_along_axis(f_nodes, k + 1, axis=-1)[..., 0]
-        return k[..., 0], d0, slope, f0, f1
+        k = np.argmax(above, axis=-1)  # cell [theta_k, theta_k+1] holds the first root
+        # the values at nodes k and k + 1 of each (point, strip): one flat index for all
+        at = k + nT * np.arange(k.size).reshape(k.shape)
+        dTf = np.ascontiguousarray(np.broadcast_to(dT, f_nodes.shape)).reshape(-1)
+        ff = f_nodes.reshape(-1)
+        d0 = dTf[at]
+        slope = (dTf[at + 1] - d0) / h
+        ef = np.ascontiguousarray(np.broadcast_to(e_nodes, f_nodes.shape)).reshape(-1)
+        return k, d0, slope, ff[at], ff[at + 1], ef[at]
 
     if groups is None:
-        k, d0, slope, f0, f1 = cells(c, e_nodes, mu1T_nodes, dT)
+        k, d0, slope, f0, f1, e0 = cells(c, e_nodes, mu1T_nodes, dT)
     else:  # many points: in pieces that stay in cache
-        k, d0, slope, f0, f1 = (np.empty(c.shape, dtype=int), *(np.empty(c.shape)
-                                                                 for _ in range(4)))
+        k, d0, slope, f0, f1, e0 = (np.empty(c.shape, dtype=int), *(np.empty(c.shape)
+                                                                     for _ in range(5)))
         for sl in _row_chunks(c.shape[0], int(np.prod(dT.shape[1:]))):
-            k[sl], d0[sl], slope[sl], f0[sl], f1[sl] = cells(c[sl], e_nodes[sl],
-                                                             mu1T_nodes[sl], dT[sl])
+            k[sl], d0[sl], slope[sl], f0[sl], f1[sl], e0[sl] = cells(c[sl], e_nodes[sl],
+                                                                     mu1T_nodes[sl], dT[sl])
     lo = k * h
     hi = np.where(k + 1 == nT - 1, math.pi, (k + 1) * h)
     start = lo.copy()
@@ -807,7 +872,8 @@ def _yield_thermal(c: np.ndarray, r: np.ndarray, e_nodes: np.ndarray, dT: np.nda
     def fdf(th: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         st, ct = np.sin(th), np.cos(th)
         lim = c * np.exp(mu1T * (d0 + slope * (th - start)))
-        return e_strip(th, r) - lim * st, st * st / (st + r) - lim * (ct + mu1T * slope * st)
+        e = _e_in_cell(th, r, start, e0)
+        return e - lim * st, st * st / (st + r) - lim * (ct + mu1T * slope * st)
 
     with np.errstate(divide="ignore", invalid="ignore"):
         th0 = lo - f0 * (hi - lo) / (f1 - f0)
@@ -815,16 +881,59 @@ def _yield_thermal(c: np.ndarray, r: np.ndarray, e_nodes: np.ndarray, dT: np.nda
     if groups is None:
         return _bracketed_newton(fdf, lo, hi, th0, "FASTSIM yield angle with temperature")
     flat = [np.ascontiguousarray(np.broadcast_to(x, lo.shape)).ravel()
-            for x in (c, r, d0, slope, start, mu1T)]
+            for x in (c, r, d0, slope, start, mu1T, e0)]
 
     def fdf_g(th: np.ndarray, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        cc, rr, dd, sl, st0, m1 = (x[idx] for x in flat)
+        cc, rr, dd, sl, st0, m1, ee = (x[idx] for x in flat)
         st, ct = np.sin(th), np.cos(th)
         lim = cc * np.exp(m1 * (dd + sl * (th - st0)))
-        return e_strip(th, rr) - lim * st, st * st / (st + rr) - lim * (ct + m1 * sl * st)
+        return (_e_in_cell(th, rr, st0, ee) - lim * st,
+                st * st / (st + rr) - lim * (ct + m1 * sl * st))
 
     return _bracketed_newton(fdf_g, lo, hi, th0, "FASTSIM yield angle with temperature",
                              groups=groups)
+
+
+#: Gauss-Legendre nodes of e(theta; r) over a part of a temperature cell (:func:`_e_in_cell`)
+_CELL_NODES = 8
+
+
+def _e_in_cell(theta: np.ndarray, r: np.ndarray, t0: np.ndarray, e0: np.ndarray) -> np.ndarray:
+    """``e(theta; r)`` (:func:`e_strip`) from its value ``e0`` at ``t0 <= theta``, the start
+    of the temperature cell that holds ``theta``: ``e0`` plus the integral over the short
+    piece ``[t0, theta]`` by an :data:`_CELL_NODES`-point Gauss-Legendre rule.
+
+    The integrand's singularities (``sin t = -r``) lie at least ``delta = r + min(t0,
+    pi - theta)`` from the piece for ``r <= 1`` (``asin r >= r``) and at least ``pi/2``
+    for ``r > 1``.  Where ``delta >= 4 d`` (``d = theta - t0``; every ``r >= 0.27`` with
+    the default 48 temperature nodes) the Bernstein ellipse of the piece has ``rho >=
+    9 + sqrt(80) > 17`` and 8 nodes err by ``rho^-16 < 1e-19`` relative to the piece;
+    :func:`e_strip` elsewhere.  ``tests/test_boundary.py`` checks both against 30-digit
+    quadrature.
+    """
+    shape = theta.shape
+    theta, r, t0, e0 = (np.ravel(x) for x in np.broadcast_arrays(theta, r, t0, e0))
+    d = theta - t0
+    inc = r + np.minimum(t0, math.pi - theta) >= 4.0 * d
+    if inc.all():
+        return (e0 + _gauss_piece(t0, d, r)).reshape(shape)
+    out = np.empty(theta.shape)
+    rest = ~inc
+    out[rest] = e_strip(theta[rest], r[rest])
+    if inc.any():
+        out[inc] = e0[inc] + _gauss_piece(t0[inc], d[inc], r[inc])
+    return out.reshape(shape)
+
+
+def _gauss_piece(a: np.ndarray, d: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """``integral_a^(a+d) sin^2 t / (sin t + r) dt`` by the :data:`_CELL_NODES`-point rule."""
+    x, w = _gauss(_CELL_NODES)
+    out = np.empty(d.shape)
+    for sl in _row_chunks(d.size, x.size):
+        t = a[sl, None] + d[sl, None] * x[None, :]
+        st = np.sin(t)
+        out[sl] = d[sl] * np.sum(w[None, :] * (st * st / (st + r[sl, None])), axis=1)
+    return out
 
 
 def _check_finite(name: str, arr: np.ndarray) -> None:
@@ -1007,7 +1116,7 @@ def boundary_traction_draws(prob: FastsimProblem, layers: Any, creepage: Any,
         F, st = np.empty(rows.size), np.empty(rows.size)
         per_row = grid.n * grid.m * (grid.graded_panels + grid.uniform_panels + grid.clamp_panels)
         for sl in _row_chunks(rows.size, per_row):
-            sub = solver.subset(np.arange(sl.start, sl.stop))
+            sub = solver.subset(sl)
             F[sl], st[sl] = sub.force(th_y[sl], None if dT_grid is None else dT_grid[sl])
         mu[rows] = F / prob.load
         stick[rows] = st
@@ -1100,7 +1209,7 @@ def _temperature(solver: _Solver, prob: FastsimProblem, grid: FastsimGrid, xi: n
         # many points: the (points, strips, nodes) arrays in pieces that stay in cache
         out = np.empty_like(dT)
         for sl in _row_chunks(rows.size, ns * nT):
-            out[sl] = heat(sub.subset(np.arange(sl.start, sl.stop)), rows[sl], th_y[sl], dT[sl])
+            out[sl] = heat(sub.subset(sl), rows[sl], th_y[sl], dT[sl])
         return out
 
     def heat(sub: _Solver, rows: np.ndarray, th_y: np.ndarray, dT: np.ndarray) -> np.ndarray:
@@ -1212,20 +1321,36 @@ def _relaxed_step(G: Any, new: np.ndarray, dT: np.ndarray, active: np.ndarray,
     rows = np.flatnonzero(active)
     if rows.size == 0:
         return rows
-    res = np.max(np.abs(new[rows] - dT[rows]).reshape(rows.size, -1), axis=1)
+    # the arrays are large (points x strips x nodes): every point's rows as views where all
+    # are active, each temporary once (fresh pages are what costs here)
+    sel = _rows(rows, new.shape[0])
+    diff = new[sel] - dT[sel]  # G(T) - T
+    res = np.max(np.abs(diff).reshape(rows.size, -1), axis=1)
     done = res < tol
-    dT[rows[done]] = new[rows[done]]  # converged: keep G(T), leave the active set
-    active[rows[done]] = False
-    rows, res = rows[~done], res[~done]
-    if rows.size == 0:
-        return rows
+    if done.any():
+        dT[rows[done]] = new[rows[done]]  # converged: keep G(T), leave the active set
+        active[rows[done]] = False
+        keep = ~done
+        rows, res, diff = rows[keep], res[keep], diff[keep]
+        if rows.size == 0:
+            return rows
+        sel = rows
     worse = res > 0.9 * res_prev[rows]
     omega[rows] = np.where(worse, np.maximum(omega[rows] * 0.5, 1.0 / 1024), omega[rows])
     res_prev[rows] = res
-    dT[rows] = dT[rows] + omega[rows][:, None, None] * (new[rows] - dT[rows])
+    diff *= omega[rows][:, None, None]
+    if isinstance(sel, slice):
+        dT += diff
+    else:
+        dT[sel] = dT[sel] + diff
     its[rows] = k + 1
-    new[rows] = G(dT[rows], rows)
+    new[sel] = G(dT[sel], rows)
     return rows
+
+
+def _rows(rows: np.ndarray, n: int) -> np.ndarray | slice:
+    """``rows`` (sorted, distinct) as a slice when they are every row (a view, not a copy)."""
+    return slice(None) if rows.size == n else rows
 
 
 def _temperature_groups(solver: _Solver, th: ThermalParams, G: Any, new: np.ndarray,
@@ -1258,8 +1383,9 @@ def _temperature_groups(solver: _Solver, th: ThermalParams, G: Any, new: np.ndar
         rows = _relaxed_step(G, new, dT, active, omega, res_prev, its, k, tol)
         if rows.size == 0:
             break
-        bad = (~np.isfinite(new[rows]) | (sens[rows, None, None] * np.abs(new[rows])
-                                          > _MAX_EXPONENT)).reshape(rows.size, -1).any(axis=1)
+        # not finite, or beyond the largest exponent (NaN fails the comparison)
+        peak_k = np.max(np.abs(new[_rows(rows, nx)]).reshape(rows.size, -1), axis=1)
+        bad = ~(sens[rows] * peak_k <= _MAX_EXPONENT)
         if bad.any():
             mask = np.zeros(nx, dtype=bool)
             mask[rows[bad]] = True

@@ -16,6 +16,7 @@ probability of each class (:mod:`torlab.model.bands`, :mod:`torlab.uncertainty`)
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -45,6 +46,7 @@ __all__ = [
     "classify_trend",
     "fastsim_problem",
     "predict_traction",
+    "predict_traction_deferred",
 ]
 
 
@@ -95,18 +97,22 @@ def predict_traction(scene: Any, creepage: Any, *, trend_tolerance: float = TREN
 
 
 def _attach_band(scene: Any, pred: TractionPrediction, tolerance: float, threshold: float,
-                 seed: int) -> None:
-    """The band, its summary and the trend with probabilities (:mod:`torlab.model.bands`)."""
+                 seed: int, defer: bool = False) -> Any:
+    """The band, its summary and the trend with probabilities (:mod:`torlab.model.bands`).
+
+    With ``defer`` a band that samples is not finished: the :class:`_PendingBand` is
+    returned (None otherwise).
+    """
     fit = getattr(scene, "fit", None)
     if fit is None or not fit.covariances:  # nothing to propagate (the band code stays unloaded)
         pred.summary["band"] = {"method": "not computed", "notes": [NO_COVARIANCE]}
-        return
-    from torlab.model.bands import add_band_columns, band_summary, scene_uncertainty, traction_band
+        return None
+    from torlab.model.bands import band_summary, scene_uncertainty, traction_band
 
     su = scene_uncertainty(scene)
     if su.dist is None:
         pred.summary["band"] = band_summary(None, su)
-        return
+        return None
     from torlab.errors import NumericalError
 
     if not hasattr(pred.table, "columns"):  # columns of as_frame=False: the band needs a frame
@@ -115,13 +121,36 @@ def _attach_band(scene: Any, pred: TractionPrediction, tolerance: float, thresho
         pred.table = pd.DataFrame(pred.table)
     xi = pred.table["creepage"].to_numpy(dtype=float)
     try:
-        band = traction_band(scene, xi, pred.table, su, seed=seed)
-        trend = classify_trend(xi, pred.table["mu"].to_numpy(dtype=float), tolerance=tolerance,
+        band = traction_band(scene, xi, pred.table, su, seed=seed, defer=defer)
+    except NumericalError as e:
+        _no_band(pred, su, e)
+        return None
+    if not hasattr(band, "center"):  # deferred: the draws are still to be evaluated
+        return _PendingBand(pred, su, band, tolerance, threshold)
+    _finish_band(pred, su, band, tolerance, threshold)
+    return None
+
+
+def _no_band(pred: TractionPrediction, su: Any, e: Exception) -> None:
+    """The fit's uncertainty reaches parameters where the model has no solution: no band."""
+    from torlab.model.bands import band_summary
+
+    su.notes.insert(0, f"no band: {e}")
+    pred.summary["band"] = band_summary(None, su)
+
+
+def _finish_band(pred: TractionPrediction, su: Any, band: Any, tolerance: float,
+                 threshold: float) -> None:
+    """The trend with probabilities from the band, the band's columns and summary."""
+    from torlab.errors import NumericalError
+    from torlab.model.bands import add_band_columns, band_summary
+
+    try:
+        trend = classify_trend(pred.table["creepage"].to_numpy(dtype=float),
+                               pred.table["mu"].to_numpy(dtype=float), tolerance=tolerance,
                                threshold=threshold, uncertainty=band)
     except NumericalError as e:
-        # the fit's uncertainty reaches parameters where the model has no solution
-        su.notes.insert(0, f"no band: {e}")
-        pred.summary["band"] = band_summary(None, su)
+        _no_band(pred, su, e)
         return
     pred.band, pred.trend = band, trend
     add_band_columns(pred.table, pred.band)
@@ -129,6 +158,51 @@ def _attach_band(scene: Any, pred: TractionPrediction, tolerance: float, thresho
     pred.summary["trend_after_saturation"] = pred.trend
     pred.modelled.append(f"uncertainty: 95 % band from the fit's covariance "
                          f"({pred.band.method} propagation of {', '.join(pred.band.names)})")
+
+
+@dataclass
+class _PendingBand:
+    """A prediction whose sampled band waits for its draws (:func:`predict_traction_deferred`)."""
+
+    pred: TractionPrediction
+    su: Any
+    sampling: Any  # torlab.uncertainty.PendingSampling
+    tolerance: float
+    threshold: float
+
+    def __call__(self, results: list[Any]) -> TractionPrediction:
+        """The prediction, finished as :func:`predict_traction` finishes it."""
+        from torlab.errors import NumericalError
+
+        try:
+            band = self.sampling.finish(results)
+        except NumericalError as e:
+            _no_band(self.pred, self.su, e)
+            return self.pred
+        _finish_band(self.pred, self.su, band, self.tolerance, self.threshold)
+        return self.pred
+
+
+def predict_traction_deferred(scene: Any, creepage: Any, *,
+                              trend_tolerance: float = TREND_TOLERANCE,
+                              trend_threshold: float = TREND_PROBABILITY, seed: int = 0) -> Any:
+    """:func:`predict_traction` (with its band) as a task whose draws others may evaluate.
+
+    Returns the prediction -- or, when its band is sampled, a
+    :class:`torlab.parallel.Deferred`: the band's blocks of parameter draws as
+    independent tasks, and the step that finishes the prediction from their results
+    (:func:`torlab.parallel.map_deferred` runs the blocks of several predictions on
+    every worker).  The finished prediction is the one :func:`predict_traction` gives,
+    bit for bit (the same draws, blocks and arithmetic).
+    """
+    pred = predict_traction(scene, creepage, trend_tolerance=trend_tolerance, band=False)
+    pending = _attach_band(scene, pred, trend_tolerance, trend_threshold, seed, defer=True)
+    if pending is None:
+        return pred
+    from torlab.parallel import Deferred
+
+    fn, blocks = pending.sampling.tasks()
+    return Deferred(fn, blocks, pending)
 
 
 #: the band's note for a scene without a fit covariance (as :mod:`torlab.model.bands` says it)

@@ -227,9 +227,14 @@ class RunContext:
             else:
                 todo.append(i)
         if todo:
+            from torlab.parallel import map_deferred
+
             ex = self.executor if self.executor is not None else current()
             t0 = time.perf_counter()
-            vals = ex.map(fn, [tasks[i][1] for i in todo], description=description)
+            # a task may defer part of its work (a sampled band's draws): those parts run
+            # as tasks of their own, on every worker (torlab.parallel.Deferred)
+            vals = map_deferred(ex, fn, [tasks[i][1] for i in todo], description=description,
+                                subtasks="band: parameter draws")
             self.cache.compute_seconds += time.perf_counter() - t0
             self.cache.misses += len(todo)
             for i, v in zip(todo, vals, strict=True):
@@ -272,16 +277,37 @@ def _predict_task(job: tuple[str, dict[str, Any], dict[str, Any]]) -> Any:
     kind, scene, kw = job
     sc = scene_from_dict(scene)
     if kind == "traction":
-        from torlab.model.predict import predict_traction
+        from torlab.model.predict import predict_traction_deferred
+        from torlab.parallel import Deferred
 
-        pred = predict_traction(sc, kw["creepage"],
-                                trend_tolerance=kw.get("trend_tolerance", 0.01),
-                                trend_threshold=kw.get("trend_probability", 0.9))
+        # a sampled band's draws are left to the executor (torlab.parallel.map_deferred)
+        pred = predict_traction_deferred(sc, kw["creepage"],
+                                         trend_tolerance=kw.get("trend_tolerance", 0.01),
+                                         trend_threshold=kw.get("trend_probability", 0.9))
+        if isinstance(pred, Deferred):
+            pred.then = _CacheReady(pred.then)
+            return pred
     else:
         from torlab.model.mixed import predict_stribeck
 
         pred = predict_stribeck(sc, kw["speed"], kw["creepage"])
+    return _cache_ready(pred)
+
+
+def _cache_ready(pred: Any) -> Any:
+    """The prediction without its band's model function (not data: the cache keeps the
+    design)."""
     band = getattr(pred, "band", None)
-    if band is not None:  # the model function is not data: the cache keeps the design
+    if band is not None:
         band._design.pop("model", None)
     return pred
+
+
+@dataclass
+class _CacheReady:
+    """Finish a deferred prediction, then :func:`_cache_ready` (picklable)."""
+
+    then: Any
+
+    def __call__(self, results: list[Any]) -> Any:
+        return _cache_ready(self.then(results))
