@@ -301,7 +301,10 @@ def _enc_column(s: Any) -> Any:
     dt = s.dtype
     name = str(dt)
     if name in _PD_EXT_DTYPES:
-        vals = s.astype(object).where(s.notna(), None).tolist()
+        if name in ("str", "string"):  # the same list, without a where() pass
+            vals = s.to_numpy(dtype=object, na_value=None).tolist()
+        else:
+            vals = s.astype(object).where(s.notna(), None).tolist()
         return {"ext": name, "v": encode_value(vals)}
     if isinstance(dt, np.dtype):
         return {"v": _enc_array(s.to_numpy())}
@@ -317,6 +320,10 @@ def _enc_index(ix: Any) -> Any:
         return {"range": [int(ix.start), int(ix.stop), int(ix.step)], "name": encode_value(ix.name)}
     if isinstance(ix, pd.MultiIndex):
         raise NotCacheable("MultiIndex")
+    if str(ix.dtype) in ("str", "string"):  # column names: what _enc_column gives, directly
+        vals = ix.to_numpy(dtype=object, na_value=None).tolist()
+        return {"col": {"ext": str(ix.dtype), "v": encode_value(vals)},
+                "name": encode_value(ix.name)}
     return {"col": _enc_column(pd.Series(ix)), "name": encode_value(ix.name)}
 
 
@@ -329,7 +336,7 @@ def _enc_pandas(v: Any) -> Any:
         if _SINK.get() is not None:
             return _enc_frame_blocks(v)
         return {"__t": "df", "columns": _enc_index(v.columns),
-                "data": [_enc_column(v.iloc[:, j]) for j in range(v.shape[1])],
+                "data": [_enc_column(col) for _, col in v.items()],
                 "index": _enc_index(v.index), "attrs": encode_value(dict(v.attrs))}
     if isinstance(v, pd.Series):
         return {"__t": "series", "name": encode_value(v.name), "data": _enc_column(v),
@@ -545,7 +552,11 @@ def _dec_index(ix: Any, d: int) -> Any:
     if "range" in ix:
         a, b, s = (int(x) for x in _list(ix["range"]))
         return pd.RangeIndex(a, b, s, name=name)
-    return pd.Index(_dec_column(ix["col"], d), name=name)
+    c = ix["col"]
+    if isinstance(c, dict) and c.get("ext") in ("str", "string") and type(c.get("v")) is list \
+            and all(type(x) is str for x in c["v"]):  # column names: the direct constructor
+        return pd.Index(c["v"], dtype=c["ext"], name=name)
+    return pd.Index(_dec_column(c, d), name=name)
 
 
 def _dec_pandas(t: dict, d: int) -> Any:
@@ -878,6 +889,10 @@ class ResultCache:
         target = self.register(f"{CACHE_DIR}/{name}") if self.register is not None else p
         with _writing(target):
             target.parent.mkdir(parents=True, exist_ok=True)
+            # a new file, never written through: the carried-over cache's files may be hard
+            # links to the earlier results' (torlab.outputs.OutputDir keep=)
+            with contextlib.suppress(FileNotFoundError):
+                target.unlink()
             target.write_bytes(blob)
 
     def get_or_compute(self, kind: str, compute: Callable[[], T], **parts: Any) -> T:
