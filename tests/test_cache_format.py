@@ -215,3 +215,29 @@ def test_warm_rerun_reads_the_binary_entries_it_wrote(tmp_path):
     assert (r2.cache_hits, r2.cache_misses) == (r1.cache_misses, 0)
     assert r2.summary["reports"] == r1.summary["reports"]
     assert r2.summary["data"] == r1.summary["data"]
+
+
+def test_amount_probability_of_the_protocol_calls_the_crossing_verdicts(tmp_path):
+    """``reports.amount.probability`` is the level of every verdict of the amount report,
+    the crossings' too (they are cached with it in their key): a crossing whose probability
+    of lying within the tested amounts is below it is "undetermined", one above it called."""
+    import shutil
+
+    from torlab.protocols.runner import run_protocol
+
+    root = Path(__file__).resolve().parents[1]
+    for f in sorted((root / "sample_data/hpt").glob("hpt_*_25C*.txt")):
+        shutil.copy(f, tmp_path / f.name)
+    prob = 0.99999999  # between the sample products' probabilities (all near 1)
+    (tmp_path / "p.yaml").write_text(
+        "version: 1\nname: small\ndata:\n  hpt:\n    files: [hpt_*.txt]\n"
+        f"reports:\n  amount:\n    probability: {prob}\n")
+    r = run_protocol(tmp_path / "p.yaml", tmp_path / "out")
+    called = {}
+    for name, row in r.summary["reports"]["amount"]["products"].items():
+        p = row["p_crossing_in_range"]
+        if p is None:
+            continue
+        assert (row["crossing_verdict"] == "undetermined") == (p < prob), name
+        called[name] = p >= prob
+    assert True in called.values() and False in called.values(), called
