@@ -344,10 +344,11 @@ def film(ctx: RunContext) -> Any:
         for (setname, _sc, _sd), pred in zip(scs, preds, strict=True):
             models.append((c.label.replace("{set}", setname), pred.table))
         if d is not None:
-            fr = fit_film_thickness(d["rolling_speed_m_s"].to_numpy(),
-                                    d["film_thickness_m"].to_numpy(),
-                                    scene=scs[0][1] if scs else None,
-                                    min_speed=cfg.min_speed or None)
+            v, h = d["rolling_speed_m_s"].to_numpy(), d["film_thickness_m"].to_numpy()
+            fr = ctx.cache.get_or_compute(  # cached: a re-run then loads no optimiser for it
+                "fit_film", lambda v=v, h=h, scs=scs: fit_film_thickness(
+                    v, h, scene=scs[0][1] if scs else None, min_speed=cfg.min_speed or None),
+                speed=v, film=h, scene=scs[0][2] if scs else None, min_speed=cfg.min_speed)
             fits.append((c.label, fr))
             ctx.fit_summary[f"film:{c.label}"] = {
                 "kind": fr.kind, "params": dict(fr.params),
