@@ -48,7 +48,8 @@ def test_warm_protocol_run_loads_no_optimiser_and_no_matplotlib(tmp_path):
         shutil.copy(f, tmp_path / f.name)
     (tmp_path / "p.yaml").write_text(
         "version: 1\nname: small\ndata:\n  hpt:\n    files: [hpt_*.txt]\n"
-        "fits:\n  hpt_layers:\n    amounts: [4 uL]\n    joint: true\n    temperature_coefficients: false\n"
+        "fits:\n  hpt_layers:\n    amounts: [4 uL]\n    joint: true\n"
+        "    temperature_coefficients: false\n"
         "reports:\n  amount: {}\n")
     code = f"""
 import sys
