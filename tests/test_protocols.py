@@ -508,14 +508,15 @@ def test_rerun_reuses_cache_and_refuses_overwrite(tmp_path):
     p.write_text(SMALL)
     out = tmp_path / "out"
     r1 = run_protocol(p, out)
-    # five reductions and the amount section's crossings; two figures (amount, mass) drawn
-    assert r1.cache_hits == 0 and r1.cache_misses == 6
+    # five reductions, the amount section's crossings and its statistics; two figures
+    # (amount, mass) drawn
+    assert r1.cache_hits == 0 and r1.cache_misses == 7
     assert (r1.timing["figures_drawn"], r1.timing["figures_reused"]) == (2, 0)
     png = (out / "amount" / "amount_applied.png").read_bytes()
     with pytest.raises(OutputExistsError):
         run_protocol(p, out)
     r2 = run_protocol(p, out, force=True)
-    assert (r2.cache_hits, r2.cache_misses) == (6, 0)
+    assert (r2.cache_hits, r2.cache_misses) == (7, 0)
     assert (r2.timing["figures_drawn"], r2.timing["figures_reused"]) == (0, 2)
     assert (out / "amount" / "amount_applied.png").read_bytes() == png
     assert r2.summary["reports"] == r1.summary["reports"]
@@ -524,10 +525,10 @@ def test_rerun_reuses_cache_and_refuses_overwrite(tmp_path):
     f = tmp_path / "hpt_OFM1_8uL_25C.txt"
     f.write_text(f.read_text().replace("# operator: torlab synth", "# operator: someone else"))
     r3 = run_protocol(p, out, force=True)
-    assert (r3.cache_hits, r3.cache_misses) == (5, 1)
+    assert (r3.cache_hits, r3.cache_misses) == (6, 1)
     assert r3.timing["figures_reused"] == 2
     assert r3.summary["inputs"]["hpt_OFM1_8uL_25C.txt"] == sha(f)
-    assert len(list((out / ".cache").glob("*.tlc"))) == 6   # the stale entry was dropped
+    assert len(list((out / ".cache").glob("*.tlc"))) == 7   # the stale entry was dropped
     # a changed number is a changed figure: drawn again, the old one dropped
     p.write_text(SMALL.replace("curve: interpolation", "curve: interpolation\n    threshold: 0.2"))
     r4 = run_protocol(p, out, force=True)

@@ -93,6 +93,16 @@ def test_crafted_cache_cannot_run_code_and_is_never_reused(tmp_path):
     assert not list((out / ".cache").glob("*.pkl"))  # dropped, never opened
 
 
+def _entry_parts(blob: bytes) -> tuple[bytes, dict, bytes]:
+    """A cache entry's HMAC line, JSON tree and array bytes (torlab.protocols.cache)."""
+    head, tree, arrays = blob.split(b"\n", 2)
+    return head, json.loads(tree), arrays
+
+
+def _entry(head: bytes, body: dict, arrays: bytes) -> bytes:
+    return head + b"\n" + json.dumps(body).encode() + b"\n" + arrays
+
+
 def test_forged_cache_entry_is_recomputed_not_trusted(tmp_path):
     """An entry edited to carry other numbers fails its HMAC: the true value is recomputed."""
     from torlab.protocols.runner import run_protocol
@@ -103,10 +113,9 @@ def test_forged_cache_entry_is_recomputed_not_trusted(tmp_path):
     f_true = r1.summary["data"]["hpt"]["f_window"]
     forged = list((out / ".cache").glob("hpt-*.tlc"))
     for e in forged:
-        head, payload = e.read_bytes().split(b"\n", 1)
-        body = json.loads(payload)
+        head, body, arrays = _entry_parts(e.read_bytes())
         body["value"]["fields"]["f_window"] = 0.999  # a friction value someone prefers
-        e.write_bytes(head + b"\n" + json.dumps(body).encode())
+        e.write_bytes(_entry(head, body, arrays))
     assert forged
     r2 = run_protocol(p, out, force=True)
     assert r2.summary["data"]["hpt"]["f_window"] == f_true
@@ -176,12 +185,11 @@ def test_cache_decodes_only_torlab_data_classes_even_with_a_valid_key(tmp_path, 
     c = ResultCache(tmp_path)
     name = "k-1.tlc"
     blob = c.dumps(name, "k", {"a": 1})
-    _head, payload = blob.split(b"\n", 1)
-    body = json.loads(payload)
+    head, body, arrays = _entry_parts(blob)
     body["value"] = {"__t": "dc", "type": tname, "fields": {"args": ["echo hi"]}}
-    payload = json.dumps(body).encode()
-    forged = f"torlab-cache 1 {c._mac(payload)}\n".encode() + payload
-    with pytest.raises(BadEntry):
+    payload = _entry(head, body, arrays).split(b"\n", 1)[1]
+    forged = f"torlab-cache 2 {c._mac(payload)}\n".encode() + payload
+    with pytest.raises(BadEntry, match=r"not allowed|no module|no class|not a result class"):
         c.loads(name, "k", forged)
 
 

@@ -369,8 +369,11 @@ class OutputDir:
     keep
         Names (relative paths) of folders or files in an existing ``target`` to
         carry over into the new results (e.g. a cache).  Only regular files are
-        copied (no symbolic links, devices or FIFOs); what they contain is for
-        their reader to check -- the folder may come from someone else.
+        carried over (no symbolic links, devices or FIFOs), as hard links where the
+        file system allows (the ``write_*`` methods replace such a link by a new
+        file, so the earlier results are never written through; a caller writing
+        to :meth:`path` itself must do the same); what they contain is for their
+        reader to check -- the folder may come from someone else.
 
     Raises
     ------
@@ -497,8 +500,9 @@ class OutputDir:
                 self._staging = Path(tempfile.mkdtemp(
                     prefix=f".{t.name}.staging-{os.getpid()}-", dir=t.parent))
                 if t.exists():
-                    for name in self.keep:
-                        _copy_regular(t / name, self._staging / name)
+                    for name in self.keep:  # linked where possible: kept files are only
+                        # ever replaced (unlinked, written anew), never changed in place
+                        _copy_regular(t / name, self._staging / name, link=True)
         return self._staging
 
     def path(self, name: str) -> Path:
@@ -513,6 +517,14 @@ class OutputDir:
             self.files.append(rel.as_posix())
         return p
 
+    def _fresh(self, p: Path) -> Path:
+        """``p``, no longer a hard link to a carried-over file (``keep``) if it was one."""
+        if self.keep:
+            with contextlib.suppress(OSError):
+                if os.lstat(p).st_nlink > 1:
+                    p.unlink()
+        return p
+
     def final_path(self, name: str) -> Path:
         """Where ``name`` will be after :meth:`commit`."""
         return self.target / name
@@ -524,7 +536,7 @@ class OutputDir:
     def write_bytes(self, name: str, data: bytes) -> Path:
         """Write a binary file."""
         t0 = time.perf_counter()
-        p = self.path(name)
+        p = self._fresh(self.path(name))
         with _writing(self.final_path(name)):
             p.write_bytes(data)
         self.io_seconds += time.perf_counter() - t0
@@ -560,7 +572,7 @@ class OutputDir:
                 bad.append(c)
         if bad:
             raise ValueError(f"refusing to write non-finite values to {name}: columns {bad}")
-        p = self.path(name)
+        p = self._fresh(self.path(name))
         with _writing(self.final_path(name)):
             if cols is None:
                 df.to_csv(p, index=False, float_format=float_format, lineterminator="\n")
@@ -734,8 +746,14 @@ def _foreign_files(t: Path) -> list[str]:
     return out
 
 
-def _copy_regular(src: Path, dst: Path, *, max_bytes: int = 1 << 30, depth: int = 8) -> None:
-    """Copy regular files (a file, or a folder's tree) from ``src``; links and devices skipped."""
+def _copy_regular(src: Path, dst: Path, *, max_bytes: int = 1 << 30, depth: int = 8,
+                  link: bool = False) -> None:
+    """Copy regular files (a file, or a folder's tree) from ``src``; links and devices skipped.
+
+    With ``link``, a file is hard-linked where the file system allows it (same device,
+    the user's own file) and copied otherwise: for files that are only ever replaced,
+    never written in place (the cache's entries), a link is a copy without the copying.
+    """
     if depth < 0:
         return
     try:
@@ -745,11 +763,31 @@ def _copy_regular(src: Path, dst: Path, *, max_bytes: int = 1 << 30, depth: int 
     if stat.S_ISREG(st.st_mode):
         if st.st_size <= max_bytes:
             dst.parent.mkdir(parents=True, exist_ok=True)
+            if link and _hard_link(src, dst, st):
+                return
             shutil.copyfile(src, dst, follow_symlinks=False)
         return
     if stat.S_ISDIR(st.st_mode):
         for e in os.scandir(src):
-            _copy_regular(Path(e.path), dst / e.name, max_bytes=max_bytes, depth=depth - 1)
+            _copy_regular(Path(e.path), dst / e.name, max_bytes=max_bytes, depth=depth - 1,
+                          link=link)
+
+
+def _hard_link(src: Path, dst: Path, st: os.stat_result) -> bool:
+    """Hard-link ``src`` (checked to be the regular file ``st``) as ``dst``; False if not."""
+    try:
+        os.link(src, dst, follow_symlinks=False)
+    except (OSError, NotImplementedError):
+        return False
+    try:  # still the file that was checked (not swapped for a link or a device meanwhile)
+        got = dst.lstat()
+        if stat.S_ISREG(got.st_mode) and (got.st_ino, got.st_dev) == (st.st_ino, st.st_dev):
+            return True
+    except OSError:
+        pass
+    with contextlib.suppress(OSError):
+        dst.unlink()
+    return False
 
 
 def _json_default(o: Any) -> Any:

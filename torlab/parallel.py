@@ -151,6 +151,12 @@ class Executor:
                 advance()
         return out
 
+    def prepare(self, *needs: str | Callable[[], Any]) -> None:
+        """Modules (names) or set-up functions the coming tasks will need: loaded in this
+        process before workers are forked, so that they load once, not once per worker
+        (only :class:`ProcessExecutor` with ``fork`` uses them; nothing is loaded if no
+        worker is ever started)."""
+
     def close(self) -> None:
         """Release workers (nothing for the serial executor)."""
 
@@ -188,6 +194,22 @@ class ProcessExecutor(Executor):
     def __init__(self, jobs: int | None = None) -> None:
         self.workers = max(1, int(jobs or usable_cores()))
         self._pool: Any = None
+        self._needs: list[str | Callable[[], Any]] = []
+
+    def prepare(self, *needs: str | Callable[[], Any]) -> None:
+        if self._pool is None:
+            self._needs += [n for n in needs if n not in self._needs]
+
+    def _load_needs(self) -> None:
+        """Import what :meth:`prepare` listed (just before the fork; a failure is left to the
+        task that needs it)."""
+        import importlib
+
+        for need in self._needs:
+            try:
+                need() if callable(need) else importlib.import_module(need)
+            except Exception:  # the task itself reports it, where it happens
+                pass
 
     def describe(self) -> str:
         return f"{self.workers} local processes"
@@ -201,6 +223,8 @@ class ProcessExecutor(Executor):
 
             method = "fork" if sys.platform.startswith("linux") else "spawn"
             ctx = mp.get_context(method)
+            if method == "fork":
+                self._load_needs()
             with progress().pause():
                 self._pool = ProcessPoolExecutor(self.workers, mp_context=ctx,
                                                  initializer=_worker_init,

@@ -10,20 +10,33 @@ use are dropped, so the cache never grows beyond one run's results.
 **Nothing in a cache can run code, and nothing in it is trusted.**  A results
 folder may come from someone else, so an entry is
 
-* *data only*: JSON with a schema (:data:`FORMAT`, :data:`FORMAT_VERSION`):
-  numbers, strings, lists, mappings, numpy arrays of plain numeric or text
-  dtypes (raw bytes, base64), pandas tables built from such columns, and
-  torlab's own result dataclasses, rebuilt field by field after checking that
-  the stored field names are exactly the class's (a changed class is a schema
-  mismatch and the entry is recomputed).  No pickle, no ``eval``, no class
-  named by the file outside ``torlab``.
-* *authenticated*: the first line carries an HMAC-SHA256 of the payload under a
-  key kept outside the results folder (:func:`cache_key_file`: the user's
-  configuration folder, created with mode 0600 on first use).  An entry written
-  by another user or machine, or edited, fails the check and is recomputed --
-  so a crafted ``.cache`` can neither run code nor feed wrong numbers into a
-  report.  Without a writable configuration folder the key lives only for one
-  process (entries are then never reused across runs).
+* *data only*: a JSON tree with a schema (:data:`FORMAT`, :data:`FORMAT_VERSION`)
+  followed by the raw bytes of its arrays: numbers, strings, lists, mappings,
+  numpy arrays of plain numeric or text dtypes, pandas tables built from such
+  columns, and torlab's own result dataclasses, rebuilt field by field after
+  checking that the stored field names are exactly the class's (a changed class
+  is a schema mismatch and the entry is recomputed).  No pickle, no ``eval``, no
+  class named by the file outside ``torlab``.  The tree names each array's dtype
+  (plain kinds only: no objects, no records), shape and offset in the binary
+  part, which is bounds-checked before numpy views it (``np.frombuffer``: the
+  bytes are read as numbers, never as objects); a table's columns of one dtype
+  are stored as one 2-D block, and an object met twice in a value (the same
+  table in a reduction's ``tables`` and its ``detail``) is stored once and
+  decoded as one object again.
+* *authenticated*: the first line carries an HMAC-SHA256 of the rest of the file
+  (tree and arrays) under a key kept outside the results folder
+  (:func:`cache_key_file`: the user's configuration folder, created with mode
+  0600 on first use); nothing of an entry is parsed before its HMAC matches.  An
+  entry written by another user or machine, or edited, fails the check and is
+  recomputed -- so a crafted ``.cache`` can neither run code nor feed wrong
+  numbers into a report.  Without a writable configuration folder the key lives
+  only for one process (entries are then never reused across runs).
+
+An entry is ``torlab-cache 2 <hmac>\n<JSON tree>\n<array bytes>`` (the JSON line is
+padded with spaces so that the arrays start at a multiple of 8 bytes).  Version 1
+entries (the arrays base64 in the JSON) are recomputed.  :func:`encode_value` and
+:func:`decode_value` outside an entry give and take a JSON-only tree (arrays in
+base64), which :func:`digest_value` hashes.
 
 A value that cannot be written as data (e.g. one holding a function) is
 simply not cached.
@@ -56,7 +69,9 @@ __all__ = ["CACHE_DIR", "FORMAT", "FORMAT_VERSION", "FigureStore", "ResultCache"
 CACHE_DIR = ".cache"
 FORMAT = "torlab-cache"
 #: bump when the encoding changes; older entries are then recomputed
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+#: the version in a cached figure's HMAC line (``fig-<key>.png.mac``; the figure is the file)
+FIGURE_FORMAT_VERSION = 1
 SUFFIX = ".tlc"
 #: entries larger than this are not read (a crafted folder must not exhaust memory)
 MAX_ENTRY_BYTES = 512 << 20
@@ -135,8 +150,62 @@ _TYPE_NAME = re.compile(r"^torlab(?:\.[a-z_][a-z0-9_]*)+:[A-Za-z_][A-Za-z0-9_]*$
 _PD_EXT_DTYPES = {"str", "string", "boolean", "Int64", "Int32", "Float64", "category"}
 
 
+class _Sink:
+    """Where :func:`encode_value` puts the arrays' bytes while an entry is written (its
+    binary part), and the objects it has met (an object met again is a reference)."""
+
+    def __init__(self) -> None:
+        self.chunks: list[Any] = []
+        self.size = 0
+        #: id -> (the object, kept alive so that its id is not reused; its number or None
+        #: while it is being encoded)
+        self.seen: dict[int, tuple[Any, int | None]] = {}
+        self.n = 0
+
+    def add(self, a: Any) -> int:
+        """Append a contiguous array's bytes (at a multiple of 8); its offset."""
+        pad = -self.size % 8
+        if pad:
+            self.chunks.append(b"\0" * pad)
+            self.size += pad
+        at = self.size
+        if a.nbytes:
+            self.chunks.append(memoryview(a.reshape(-1).view("u1")))
+            self.size += a.nbytes
+        return at
+
+
+_SINK: contextvars.ContextVar[_Sink | None] = contextvars.ContextVar("torlab_cache_sink",
+                                                                    default=None)
+
+
+def _shareable(v: Any) -> bool:
+    """Objects stored once however often a value holds them (arrays, tables, result classes)."""
+    mod = type(v).__module__
+    return (mod.startswith("numpy") and type(v).__name__ == "ndarray") or (
+        mod.startswith("pandas") and type(v).__name__ in ("DataFrame", "Series")) or (
+        dataclasses.is_dataclass(v) and not isinstance(v, type))
+
+
 def encode_value(v: Any) -> Any:
     """A JSON-ready tree for ``v`` (see the module docstring); raises :class:`NotCacheable`."""
+    sink = _SINK.get()
+    if sink is not None and _shareable(v):
+        seen = sink.seen.get(id(v))
+        if seen is not None:
+            if seen[1] is None:
+                raise NotCacheable("a value that contains itself")
+            return {"__t": "ref", "i": seen[1]}
+        sink.seen[id(v)] = (v, None)
+        tree = _encode(v)
+        sink.seen[id(v)] = (v, sink.n)
+        tree["def"] = sink.n
+        sink.n += 1
+        return tree
+    return _encode(v)
+
+
+def _encode(v: Any) -> Any:
     import numpy as np
 
     if v is None or isinstance(v, (bool, str)):
@@ -201,6 +270,10 @@ def _enc_array(a: Any) -> Any:
     if _DIGEST.get():  # digest_value: the bytes' hash stands for them
         return {"__t": "nd", "dtype": _dtype_str(a.dtype), "shape": list(a.shape),
                 "sha256": hashlib.sha256(a.reshape(-1).view(np.uint8)).hexdigest()}
+    sink = _SINK.get()
+    if sink is not None:  # an entry: the bytes go to its binary part
+        return {"__t": "nd", "dtype": _dtype_str(a.dtype), "shape": list(a.shape),
+                "at": sink.add(a)}
     return {"__t": "nd", "dtype": _dtype_str(a.dtype), "shape": list(a.shape),
             "b64": base64.b64encode(a.tobytes()).decode("ascii")}
 
@@ -228,7 +301,10 @@ def _enc_column(s: Any) -> Any:
     dt = s.dtype
     name = str(dt)
     if name in _PD_EXT_DTYPES:
-        vals = s.astype(object).where(s.notna(), None).tolist()
+        if name in ("str", "string"):  # the same list, without a where() pass
+            vals = s.to_numpy(dtype=object, na_value=None).tolist()
+        else:
+            vals = s.astype(object).where(s.notna(), None).tolist()
         return {"ext": name, "v": encode_value(vals)}
     if isinstance(dt, np.dtype):
         return {"v": _enc_array(s.to_numpy())}
@@ -244,6 +320,10 @@ def _enc_index(ix: Any) -> Any:
         return {"range": [int(ix.start), int(ix.stop), int(ix.step)], "name": encode_value(ix.name)}
     if isinstance(ix, pd.MultiIndex):
         raise NotCacheable("MultiIndex")
+    if str(ix.dtype) in ("str", "string"):  # column names: what _enc_column gives, directly
+        vals = ix.to_numpy(dtype=object, na_value=None).tolist()
+        return {"col": {"ext": str(ix.dtype), "v": encode_value(vals)},
+                "name": encode_value(ix.name)}
     return {"col": _enc_column(pd.Series(ix)), "name": encode_value(ix.name)}
 
 
@@ -253,8 +333,10 @@ def _enc_pandas(v: Any) -> Any:
     if isinstance(v, pd.DataFrame):
         if isinstance(v.columns, pd.MultiIndex):
             raise NotCacheable("MultiIndex columns")
+        if _SINK.get() is not None:
+            return _enc_frame_blocks(v)
         return {"__t": "df", "columns": _enc_index(v.columns),
-                "data": [_enc_column(v.iloc[:, j]) for j in range(v.shape[1])],
+                "data": [_enc_column(col) for _, col in v.items()],
                 "index": _enc_index(v.index), "attrs": encode_value(dict(v.attrs))}
     if isinstance(v, pd.Series):
         return {"__t": "series", "name": encode_value(v.name), "data": _enc_column(v),
@@ -264,8 +346,53 @@ def _enc_pandas(v: Any) -> Any:
     raise NotCacheable(type(v).__qualname__)
 
 
+def _enc_frame_blocks(v: Any) -> Any:
+    """A table in an entry: its columns of each plain numpy dtype as one 2-D array
+    ``(columns, rows)`` with their positions, the others (text, objects) one by one.
+    The same order as :func:`_dec_pandas` reads them (columns, blocks, index, attrs)."""
+    import numpy as np
+
+    groups: dict[str, list[int]] = {}
+    other: list[int] = []
+    for j, dt in enumerate(v.dtypes):
+        if isinstance(dt, np.dtype) and dt.kind in _DTYPE_KINDS:
+            groups.setdefault(dt.str, []).append(j)
+        else:
+            other.append(j)
+    columns = _enc_index(v.columns)
+    blocks = [[js, _enc_array(np.ascontiguousarray(v.iloc[:, js].to_numpy().T))]
+              for js in groups.values()]
+    cols = [[j, _enc_column(v.iloc[:, j])] for j in other]
+    return {"__t": "df", "columns": columns, "blocks": blocks, "cols": cols,
+            "index": _enc_index(v.index), "attrs": encode_value(dict(v.attrs))}
+
+
+class _Reading:
+    """What :func:`decode_value` needs inside an entry: its binary part, the objects
+    decoded so far by number (for references)."""
+
+    def __init__(self, buf: Any) -> None:
+        self.buf = buf
+        self.objs: dict[int, Any] = {}
+
+
+_READING: contextvars.ContextVar[_Reading | None] = contextvars.ContextVar(
+    "torlab_cache_reading", default=None)
+
+
 def decode_value(t: Any, *, depth: int = 0) -> Any:
     """Rebuild a value from :func:`encode_value`'s tree; raises :class:`BadEntry`."""
+    v = _decode(t, depth)
+    if type(t) is dict and "def" in t:  # an object later parts of the value refer to
+        rd = _READING.get()
+        k = t["def"]
+        if rd is None or type(k) is not int or k in rd.objs:
+            raise BadEntry("bad object number")
+        rd.objs[k] = v
+    return v
+
+
+def _decode(t: Any, depth: int) -> Any:
     if depth > 200:
         raise BadEntry("nested too deeply")
     if t is None or isinstance(t, (bool, int, float, str)):
@@ -277,6 +404,12 @@ def decode_value(t: Any, *, depth: int = 0) -> Any:
         raise BadEntry("not an encoded value")
     tag = t["__t"]
     try:
+        if tag == "ref":
+            rd = _READING.get()
+            k = t["i"]
+            if rd is None or type(k) is not int or k not in rd.objs:
+                raise BadEntry("reference to an object not decoded before")
+            return rd.objs[k]
         if tag == "dict":
             return {_hashable(decode_value(k, depth=d)): decode_value(x, depth=d)
                     for k, x in t["v"]}
@@ -377,6 +510,14 @@ def _dec_array(t: dict, d: int) -> Any:
             out[i] = decode_value(x, depth=d)
         return out.reshape(shape)
     dt = _dtype(t["dtype"])
+    if "at" in t:  # in an entry's binary part: a view of the bytes read (no copy)
+        rd = _READING.get()
+        at = t["at"]
+        if rd is None or type(at) is not int or not 0 <= at <= len(rd.buf) - n * dt.itemsize:
+            raise BadEntry("array outside the entry's data")
+        if n == 0 or dt.itemsize == 0:
+            return np.empty(shape, dtype=dt)
+        return np.frombuffer(rd.buf, dtype=dt, count=n, offset=at).reshape(shape)
     raw = base64.b64decode(_str(t["b64"]), validate=True)
     if len(raw) != n * dt.itemsize:
         raise BadEntry("array size does not match its shape")
@@ -391,7 +532,11 @@ def _dec_column(c: Any, d: int) -> Any:
     if "ext" in c:
         if c["ext"] not in _PD_EXT_DTYPES:
             raise BadEntry(f"pandas dtype {c['ext']!r} not allowed")
-        return pd.Series(decode_value(c["v"], depth=d), dtype=object).astype(c["ext"])
+        vals = decode_value(c["v"], depth=d)
+        if c["ext"] in ("str", "string") and type(vals) is list and all(
+                type(x) is str for x in vals):  # text without gaps: the direct constructor
+            return pd.Series(pd.array(vals, dtype=c["ext"]))
+        return pd.Series(vals, dtype=object).astype(c["ext"])
     arr = _dec_array(c["v"], d)
     if arr.ndim != 1:
         raise BadEntry("a column must be one-dimensional")
@@ -407,12 +552,18 @@ def _dec_index(ix: Any, d: int) -> Any:
     if "range" in ix:
         a, b, s = (int(x) for x in _list(ix["range"]))
         return pd.RangeIndex(a, b, s, name=name)
-    return pd.Index(_dec_column(ix["col"], d), name=name)
+    c = ix["col"]
+    if isinstance(c, dict) and c.get("ext") in ("str", "string") and type(c.get("v")) is list \
+            and all(type(x) is str for x in c["v"]):  # column names: the direct constructor
+        return pd.Index(c["v"], dtype=c["ext"], name=name)
+    return pd.Index(_dec_column(c, d), name=name)
 
 
 def _dec_pandas(t: dict, d: int) -> Any:
     import pandas as pd
 
+    if "blocks" in t:
+        return _dec_frame_blocks(t, d)
     index = _dec_index(t["index"], d)
     if t["__t"] == "series":
         s = _dec_column(t["data"], d)
@@ -434,6 +585,76 @@ def _dec_pandas(t: dict, d: int) -> Any:
     if not isinstance(attrs, dict):
         raise BadEntry("bad table attributes")
     df.attrs.update(attrs)
+    return df
+
+
+def _dec_frame_blocks(t: dict, d: int) -> Any:
+    """A table stored by :func:`_enc_frame_blocks` (each dtype's columns one 2-D block)."""
+    import numpy as np
+
+    if t["__t"] != "df":
+        raise BadEntry("blocks outside a table")
+    cols = _dec_index(t["columns"], d)
+    n_cols = len(cols)
+    parts = []  # (values: 2-D (columns, rows) array or 1-D column, positions)
+    for item in _list(t["blocks"]):
+        js, node = _list(item)
+        arr = _dec_array(node, d)
+        parts.append((arr, _positions(js, n_cols)))
+    for item in _list(t["cols"]):
+        j, node = _list(item)
+        parts.append((_dec_column_values(node, d), _positions([j], n_cols)))
+    index = _dec_index(t["index"], d)
+    n = len(index)
+    for arr, pos in parts:
+        want = (pos.size, n) if arr.ndim == 2 else (n,) if pos.size == 1 else None
+        if arr.shape != want:
+            raise BadEntry("table block does not match its columns and index")
+    covered = np.sort(np.concatenate([pos for _, pos in parts])) if parts else np.zeros(0)
+    if not np.array_equal(covered, np.arange(n_cols)):
+        raise BadEntry("table blocks do not cover its columns once each")
+    df = _frame_from_blocks(parts, index, cols)
+    attrs = decode_value(t.get("attrs", {"__t": "dict", "v": []}), depth=d)
+    if not isinstance(attrs, dict):
+        raise BadEntry("bad table attributes")
+    df.attrs.update(attrs)
+    return df
+
+
+def _positions(js: Any, n_cols: int) -> Any:
+    import numpy as np
+
+    if not isinstance(js, list) or not js or not all(
+            type(j) is int and 0 <= j < n_cols for j in js):
+        raise BadEntry("bad column positions")
+    return np.asarray(js, dtype=np.intp)
+
+
+def _frame_from_blocks(parts: list[tuple[Any, Any]], index: Any, cols: Any) -> Any:
+    """A DataFrame from checked ``(block, positions)`` parts: with pandas' block constructor
+    where it has one (pandas >= 3: no copy, no consolidation), else column by column."""
+    import numpy as np
+    import pandas as pd
+
+    try:
+        from pandas.api.internals import create_dataframe_from_blocks
+    except ImportError:  # older pandas: the public constructor
+        create_dataframe_from_blocks = None
+    if create_dataframe_from_blocks is not None:
+        blocks = [(a if a.ndim == 2 or not isinstance(a, np.ndarray) else a.reshape(1, -1), pos)
+                  for a, pos in parts]
+        return create_dataframe_from_blocks(blocks, index=index, columns=cols)
+    data: dict[int, Any] = {}
+    for a, pos in parts:
+        if a.ndim == 2:
+            data.update(zip(pos.tolist(), a, strict=True))
+        else:
+            data[int(pos[0])] = a
+    if not data:
+        df = pd.DataFrame(index=index)
+    else:
+        df = pd.DataFrame({j: data[j] for j in range(len(cols))}, index=index, copy=False)
+    df.columns = cols
     return df
 
 
@@ -540,46 +761,77 @@ class ResultCache:
         return hmac.new(self.secret, payload, hashlib.sha256).hexdigest()
 
     def dumps(self, name: str, kind: str, value: Any) -> bytes:
-        """The bytes of an entry (header line with the HMAC, then the JSON payload)."""
+        """The bytes of an entry: a header line with the HMAC, the JSON tree (one line,
+        padded to a multiple of 8 bytes), the arrays' bytes."""
         from torlab import __version__
 
+        sink = _Sink()
+        token = _SINK.set(sink)
+        try:
+            tree = encode_value(value)
+        finally:
+            _SINK.reset(token)
         body = {"format": FORMAT, "version": FORMAT_VERSION, "torlab": __version__,
-                "entry": name, "kind": kind, "value": encode_value(value)}
-        payload = json.dumps(body, separators=(",", ":"), allow_nan=False).encode("utf-8")
+                "entry": name, "kind": kind, "value": tree}
+        text = json.dumps(body, separators=(",", ":"), allow_nan=False).encode("utf-8")
+        head_len = len(FORMAT) + len(str(FORMAT_VERSION)) + 64 + 3
+        text += b" " * (-(head_len + len(text) + 1) % 8) + b"\n"
+        payload = b"".join([text, *sink.chunks])
         return f"{FORMAT} {FORMAT_VERSION} {self._mac(payload)}\n".encode("ascii") + payload
 
-    def loads(self, name: str, kind: str, data: bytes) -> Any:
-        """The value of an entry; :class:`BadEntry` if it fails any check."""
+    def loads(self, name: str, kind: str, data: bytes | bytearray) -> Any:
+        """The value of an entry; :class:`BadEntry` if it fails any check.  Its arrays are
+        views of ``data`` (writable when ``data`` is a bytearray; bytes are copied once)."""
         from torlab import __version__
 
-        head, sep, payload = data.partition(b"\n")
-        parts = head.decode("ascii", "replace").split(" ")
-        if not sep or len(parts) != 3 or parts[0] != FORMAT or parts[1] != str(FORMAT_VERSION):
+        if not isinstance(data, bytearray):
+            data = bytearray(data)
+        nl = data.find(b"\n", 0, 200)
+        parts = bytes(data[:nl]).decode("ascii", "replace").split(" ") if nl > 0 else []
+        if len(parts) != 3 or parts[0] != FORMAT or parts[1] != str(FORMAT_VERSION):
             raise BadEntry("not a torlab cache entry of this version")
-        if not hmac.compare_digest(parts[2], self._mac(payload)):
+        view = memoryview(data)
+        if not hmac.compare_digest(parts[2], self._mac(view[nl + 1:])):
             raise BadEntry("authentication failed (written elsewhere or changed)")
+        end = data.find(b"\n", nl + 1)
+        if end < 0:
+            raise BadEntry("no end of the entry's tree")
         try:
-            body = json.loads(payload)
+            body = json.loads(view[nl + 1:end].tobytes())
         except (ValueError, RecursionError):
             raise BadEntry("payload is not JSON") from None
         if not isinstance(body, dict) or body.get("entry") != name or body.get("kind") != kind \
                 or body.get("torlab") != __version__:
             raise BadEntry("entry header does not match")
+        token = _READING.set(_Reading(view[end + 1:]))
         try:
             return decode_value(body.get("value"))
         except RecursionError:
             raise BadEntry("nested too deeply") from None
+        finally:
+            _READING.reset(token)
 
-    def _read(self, p: Path) -> bytes | None:
+    def _read(self, p: Path) -> bytearray | None:
         from torlab.errors import TorlabInputError
         from torlab.outputs import open_regular
 
         try:
             with open_regular(p) as f:
-                data = f.read(MAX_ENTRY_BYTES + 1)
+                size = os.fstat(f.fileno()).st_size
+                if size > MAX_ENTRY_BYTES:
+                    return None
+                data = bytearray(size + 1)  # one more: a file that grew is seen whole
+                n = f.readinto(data)
+                if n > size:
+                    rest = f.read(MAX_ENTRY_BYTES + 1 - n)
+                    data = data[:n] + rest
+                    if len(data) > MAX_ENTRY_BYTES:
+                        return None
+                else:
+                    del data[n:]
         except (TorlabInputError, OSError):
             return None
-        return None if len(data) > MAX_ENTRY_BYTES else data
+        return data
 
     def lookup(self, kind: str, **parts: Any) -> tuple[bool, Any]:
         """``(True, value)`` for a valid stored entry of ``(kind, parts)``, else ``(False, None)``.
@@ -637,6 +889,10 @@ class ResultCache:
         target = self.register(f"{CACHE_DIR}/{name}") if self.register is not None else p
         with _writing(target):
             target.parent.mkdir(parents=True, exist_ok=True)
+            # a new file, never written through: the carried-over cache's files may be hard
+            # links to the earlier results' (torlab.outputs.OutputDir keep=)
+            with contextlib.suppress(FileNotFoundError):
+                target.unlink()
             target.write_bytes(blob)
 
     def get_or_compute(self, kind: str, compute: Callable[[], T], **parts: Any) -> T:
@@ -715,9 +971,9 @@ class FigureStore:
                 self.misses += 1
                 return None
             data, mac = c._read(p), c._read(p.with_name(name + ".mac"))
-            head = (mac or b"").decode("ascii", "replace").split()
+            head = bytes(mac or b"").decode("ascii", "replace").split()
             ok = data is not None and len(head) == 3 and head[0] == FORMAT \
-                and head[1] == str(FORMAT_VERSION) and hmac.compare_digest(
+                and head[1] == str(FIGURE_FORMAT_VERSION) and hmac.compare_digest(
                     head[2], self._mac(name, data))
             if not ok:
                 c.rejected += 1
@@ -731,7 +987,7 @@ class FigureStore:
                 c.register(f"{CACHE_DIR}/{name}")
                 c.register(f"{CACHE_DIR}/{name}.mac")
             self.hits += 1
-            return data
+            return bytes(data)  # type: ignore[arg-type]
         finally:
             c.io_seconds += time.perf_counter() - t0
 
@@ -745,7 +1001,7 @@ class FigureStore:
             name = f"fig-{key}.{fmt}"
             c.used.update((name, name + ".mac"))
             c._write(name, data)
-            c._write(name + ".mac", f"{FORMAT} {FORMAT_VERSION} {self._mac(name, data)}\n"
+            c._write(name + ".mac", f"{FORMAT} {FIGURE_FORMAT_VERSION} {self._mac(name, data)}\n"
                      .encode("ascii"))
         finally:
             c.io_seconds += time.perf_counter() - t0

@@ -171,7 +171,8 @@ def fit_lubricant(ctx: RunContext, lf: Any) -> None:
     """``lubricant:<name>``: a viscosity law from a viscometer file's falls."""
     from torlab.fit.viscosity import fit_viscosity
 
-    res = ctx.reduction(lf.measured.resolved).detail
+    red = ctx.reduction(lf.measured.resolved)
+    res = red.detail
     p = res.falls["pressure_Pa"].to_numpy(dtype=float)
     eta = res.falls["viscosity_Pa_s"].to_numpy(dtype=float)
     T = float(res.falls["temperature_C"].mean()) if "temperature_C" in res.falls else None
@@ -179,7 +180,10 @@ def fit_lubricant(ctx: RunContext, lf: Any) -> None:
     kw: dict[str, Any] = {"confidence": d.confidence, "temperature_C": T}
     if lf.law == "roelands":
         kw.update(eta0=d.eta0, fit_eta0=True if d.fit_eta0 else None)
-    ft = fit_viscosity(p, eta, lf.law, **kw)
+    # cached like the other fits: a re-run that changed nothing loads no optimiser for it
+    ft = ctx.cache.get_or_compute("fit_viscosity", lambda: fit_viscosity(p, eta, lf.law, **kw),
+                                  reduction=ctx.keys.get(id(red)), pressure=p, viscosity=eta,
+                                  law=lf.law, options=kw)
     name = f"lubricant:{lf.name}"
     ctx.add_fit(name, ft, ft.to_scene_dict())
     row = ft.row()

@@ -115,6 +115,7 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
     formats = parse_formats(formats if formats is not None
                             else getattr(p.reports, "figure_formats", None) or None)
     ex = executor if executor is not None else current()
+    ex.prepare(*_needs(p))
     inputs = lp.input_files()
     t1 = time.perf_counter()
     dest = OutputDir(out, force=force, inputs=inputs, command=command,
@@ -189,6 +190,30 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
     return RunResult(out=Path(out), summary=summary, sections=[s.key for s in sections],
                      cache_hits=rc.hits, cache_misses=rc.misses, notes=summary["notes"],
                      timing=timing)
+
+
+def _needs(p: Any) -> list[Any]:
+    """What the protocol's tasks will import, loaded once before local workers are forked
+    (:meth:`torlab.parallel.Executor.prepare`) instead of once in every worker: the fits'
+    optimiser (which the amount report's crossings need here too) and the figures'
+    matplotlib.  Nothing is loaded when no worker starts (a re-run from the cache)."""
+    needs: list[Any] = []
+    if any(getattr(p.fits, k, None) for k in ("hpt_layers", "traction_layers", "lubricants")) \
+            or getattr(p.reports, "amount", None) is not None:
+        needs.append("scipy.optimize")
+    needs.append(_figures_ready)
+    return needs
+
+
+def _figures_ready() -> None:
+    import io
+
+    from torlab.reports.plotting import subplots
+
+    # matplotlib with torlab's style, its Agg canvas, its fonts and the PNG writer
+    fig, ax = subplots()
+    ax.set_xlabel("x")
+    fig.savefig(io.BytesIO(), format="png")
 
 
 def _rel(p: Path, base: Path) -> str:

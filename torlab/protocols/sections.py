@@ -49,17 +49,24 @@ def amount(ctx: RunContext) -> Any:
         if missing:
             raise TorlabInputError(f"no HPT run with an applied amount for "
                                    f"{', '.join(missing)}", key="reports.amount.products")
-    fits = None
+    fits = stats = None
     if series is not None and len(series):
         from torlab.protocols.cache import digest_value
-        from torlab.reports.amount import fit_crossings
+        from torlab.reports.amount import amount_statistics, fit_crossings
 
         opts = {"threshold": cfg.threshold, "band": tuple(cfg.band), "curve": cfg.curve,
-                "confidence": cfg.confidence}
+                "confidence": cfg.confidence, "probability": cfg.probability}
+        digest = digest_value(series)
         fits = ctx.cache.get_or_compute("amount_crossings",
                                         lambda: fit_crossings(series, **opts),
-                                        series=digest_value(series), options=opts)
-    return amount_section(series, cfg, fits)
+                                        series=digest, options=opts)
+        # the report's own probabilities (Student t, chi-squared): cached too, so a re-run
+        # that changed nothing does not load scipy.special for them
+        stats = ctx.cache.get_or_compute(
+            "amount_statistics", lambda: amount_statistics(
+                series, fits, threshold=cfg.threshold, confidence=cfg.confidence,
+                probability=cfg.probability), series=digest, options=opts)
+    return amount_section(series, cfg, fits, stats)
 
 
 def _initial_drop(ctx: RunContext, idp: Any) -> dict[str, Any]:
@@ -337,10 +344,11 @@ def film(ctx: RunContext) -> Any:
         for (setname, _sc, _sd), pred in zip(scs, preds, strict=True):
             models.append((c.label.replace("{set}", setname), pred.table))
         if d is not None:
-            fr = fit_film_thickness(d["rolling_speed_m_s"].to_numpy(),
-                                    d["film_thickness_m"].to_numpy(),
-                                    scene=scs[0][1] if scs else None,
-                                    min_speed=cfg.min_speed or None)
+            v, h = d["rolling_speed_m_s"].to_numpy(), d["film_thickness_m"].to_numpy()
+            fr = ctx.cache.get_or_compute(  # cached: a re-run then loads no optimiser for it
+                "fit_film", lambda v=v, h=h, scs=scs: fit_film_thickness(
+                    v, h, scene=scs[0][1] if scs else None, min_speed=cfg.min_speed or None),
+                speed=v, film=h, scene=scs[0][2] if scs else None, min_speed=cfg.min_speed)
             fits.append((c.label, fr))
             ctx.fit_summary[f"film:{c.label}"] = {
                 "kind": fr.kind, "params": dict(fr.params),

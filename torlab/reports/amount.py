@@ -49,6 +49,7 @@ __all__ = [
     "amount_figure",
     "amount_section",
     "amount_series",
+    "amount_statistics",
     "crossing_probabilities",
     "fit_crossings",
     "logistic",
@@ -551,7 +552,52 @@ def _mass_factor(series: Any, product: str) -> float:
     return float(r["mass_mg"] / r["applied_amount"]) if math.isfinite(r["mass_mg"]) else float("nan")
 
 
-def amount_section(series: Any, cfg: Any, fits: list[CrossingFit] | None = None) -> Section:
+def _crossing_row(series: Any, cf: CrossingFit) -> dict[str, Any]:
+    """A product's row of the crossings table (without the status evidence)."""
+    mf = _mass_factor(series, cf.product)
+    ptype = str(series.loc[series["product"] == cf.product, "product_type"].iloc[0])
+    return {
+        "product": cf.product, "product_type": ptype, "n_amounts": cf.n,
+        "amount_unit": cf.unit, "status": cf.status, "method": cf.method,
+        "crossing_amount": cf.crossing, "crossing_amount_low": cf.crossing_low,
+        "crossing_amount_high": cf.crossing_high,
+        "crossing_mass_mg": cf.crossing * mf, "crossing_mass_low_mg": cf.crossing_low * mf,
+        "crossing_mass_high_mg": cf.crossing_high * mf,
+        "band_amount_from": cf.band_low_amount, "band_amount_to": cf.band_high_amount,
+        "mg_per_unit": mf,
+        "p_crossing_in_range": cf.p_inside, "p_below_at_largest": cf.p_below_at_largest,
+        "p_above_at_smallest": cf.p_above_at_smallest, "crossing_verdict": cf.verdict,
+    }
+
+
+def amount_statistics(series: Any, fits: list[CrossingFit], *, threshold: float,
+                      confidence: float, probability: float = CROSSING_PROBABILITY
+                      ) -> dict[str, Any]:
+    """The report's probabilities beyond the crossing fits (plain numbers, cacheable).
+
+    Returns
+    -------
+    dict
+        ``pooled``: ``[sd, dof]`` of the run-to-run scatter pooled over the logistic fits;
+        ``status``: product -> ``{p_status, status_verdict}`` (:func:`_status_evidence`);
+        ``t_quantile``: Student t quantile of ``confidence`` on the pooled degrees of
+        freedom (NaN without them); ``mass_homogeneity``: :func:`mass_homogeneity` of the
+        crossing masses (None with fewer than two).
+    """
+    from torlab._stats import t_ppf  # scipy.stats.t.ppf, without its import
+
+    pooled = _pooled_scatter(fits)
+    status = {cf.product: _status_evidence(series, cf, threshold, pooled, probability)
+              for cf in fits}
+    tq = float(t_ppf(0.5 + confidence / 2, pooled[1])) if pooled[1] > 0 else _NAN
+    rows = [_crossing_row(series, cf) for cf in fits]
+    same = mass_homogeneity(rows, tq) if math.isfinite(tq) else None
+    return {"pooled": [pooled[0], pooled[1]], "status": status, "t_quantile": tq,
+            "mass_homogeneity": same}
+
+
+def amount_section(series: Any, cfg: Any, fits: list[CrossingFit] | None = None,
+                   stats: dict[str, Any] | None = None) -> Section:
     """The amount-dependency report (figures, tables, key numbers) of an amount series.
 
     Parameters
@@ -563,6 +609,9 @@ def amount_section(series: Any, cfg: Any, fits: list[CrossingFit] | None = None)
     fits
         :func:`fit_crossings` of the series with ``cfg``'s settings, if already made (the
         protocol runner caches them); computed here otherwise.
+    stats
+        :func:`amount_statistics` of ``series`` and ``fits`` with ``cfg``'s settings, if
+        already made (the protocol runner caches them); computed here otherwise.
     """
     import pandas as pd
 
@@ -577,25 +626,15 @@ def amount_section(series: Any, cfg: Any, fits: list[CrossingFit] | None = None)
     if fits is None:
         fits = fit_crossings(series, threshold=thr, band=band, curve=cfg.curve,
                              confidence=cfg.confidence, probability=prob)
-    pooled = _pooled_scatter(fits)
+    if stats is None:
+        stats = amount_statistics(series, fits, threshold=thr, confidence=cfg.confidence,
+                                  probability=prob)
+    pooled = (stats["pooled"][0], stats["pooled"][1])
     rows, key = [], {}
     notes: list[str] = []
     for cf in fits:
-        mf = _mass_factor(series, cf.product)
-        ptype = str(series.loc[series["product"] == cf.product, "product_type"].iloc[0])
-        row = {
-            "product": cf.product, "product_type": ptype, "n_amounts": cf.n,
-            "amount_unit": cf.unit, "status": cf.status, "method": cf.method,
-            "crossing_amount": cf.crossing, "crossing_amount_low": cf.crossing_low,
-            "crossing_amount_high": cf.crossing_high,
-            "crossing_mass_mg": cf.crossing * mf, "crossing_mass_low_mg": cf.crossing_low * mf,
-            "crossing_mass_high_mg": cf.crossing_high * mf,
-            "band_amount_from": cf.band_low_amount, "band_amount_to": cf.band_high_amount,
-            "mg_per_unit": mf,
-            "p_crossing_in_range": cf.p_inside, "p_below_at_largest": cf.p_below_at_largest,
-            "p_above_at_smallest": cf.p_above_at_smallest, "crossing_verdict": cf.verdict,
-        }
-        row.update(_status_evidence(series, cf, thr, pooled, prob))
+        row = _crossing_row(series, cf)
+        row.update(stats["status"][cf.product])
         for n in ("f_low", "f_high", "k", "c"):
             row[f"logistic_{n}"] = cf.params.get(n, float("nan"))
         rows.append(row)
@@ -641,10 +680,7 @@ def amount_section(series: Any, cfg: Any, fits: list[CrossingFit] | None = None)
                   f"with probability {r['p_below_at_largest']:.3f}.")
         paragraphs.append(f"{r['product']}: f falls below {thr:g} at {r['crossing_amount']:.3g}"
                           f"{iv} {r['amount_unit']}{ms} ({r['method']}).{ev}")
-    from torlab._stats import t_ppf
-
-    tq = float(t_ppf(0.5 + cfg.confidence / 2, pooled[1])) if pooled[1] > 0 else _NAN
-    same = mass_homogeneity(rows, tq) if math.isfinite(tq) else None
+    same = stats["mass_homogeneity"]
     if same is not None:
         paragraphs.append(
             f"Same mass for every product (thesis H3.2)? The crossing masses of "

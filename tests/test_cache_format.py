@@ -1,0 +1,243 @@
+"""The binary cache entry (torlab.protocols.cache, format 2) and the cache's carry-over.
+
+An entry is ``torlab-cache 2 <hmac>`` / a JSON tree / the raw bytes of its arrays.  These
+tests build entries, check that every value comes back equal (tables with their dtypes,
+shared objects as one object), and that an entry signed with the right key but with a
+broken tree (an array outside the data, a table whose blocks miss a column, a reference
+to nothing) is refused, never read out of bounds.  The carry-over of ``OUT/.cache`` as
+hard links must never write through to the earlier results.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+
+def _cache(tmp_path):
+    from torlab.protocols.cache import ResultCache
+
+    return ResultCache(tmp_path / "c")
+
+
+def _split(blob: bytes) -> tuple[bytes, dict, bytes]:
+    head, tree, arrays = blob.split(b"\n", 2)
+    return head, json.loads(tree), arrays
+
+
+def _signed(c, body: dict, arrays: bytes) -> bytes:
+    """An entry with a correct HMAC under ``c``'s key (as if torlab itself had written it)."""
+    payload = json.dumps(body).encode() + b"\n" + arrays
+    return f"torlab-cache 2 {c._mac(payload)}\n".encode() + payload
+
+
+def _mixed_table() -> pd.DataFrame:
+    df = pd.DataFrame({
+        "x_m": [1.0, np.nan, 3.0, 4.5],
+        "n": np.array([1, 2, 3, 4], dtype=np.int64),
+        "ok": [True, False, True, True],
+        "label": ["a", None, "c", "d"],
+        "y_m": [0.5, 0.25, 0.125, 1e-300],
+        "k": np.array([7, 8, 9, 10], dtype=np.int32),
+        "obj": np.array([1, "x", None, 2.5], dtype=object),
+        "when": pd.to_datetime(["2024-01-01", "2024-01-02", "2024-01-03", "2024-01-04"]),
+        "frac": pd.array([0.5, None, 1.5, 2.0], dtype="Float64"),
+    }, index=pd.Index([10, 20, 30, 40], name="row"))
+    df.attrs["unit"] = "m"
+    return df
+
+
+def test_entry_round_trip_keeps_tables_arrays_and_shared_objects(tmp_path):
+    from torlab.reduce.viscometer import Calibration
+
+    c = _cache(tmp_path)
+    df = _mixed_table()
+    a = np.arange(12.0).reshape(3, 4)
+    v = {"table": df, "again": df, "arr": a, "same": a, "col": df["x_m"],
+         "empty": pd.DataFrame(index=pd.RangeIndex(3)), "none": np.zeros((0, 5)),
+         "text": np.array(["ab", "c"]), "cal": Calibration(1.9e-8, K_sd=1e-10, n_falls=3),
+         "t": (1, "a", None, math.inf), "big": 10 ** 30, np.float64(1.5): {2, 3},
+         "path": Path("a/b")}
+    back = c.loads("k-1.tlc", "k", c.dumps("k-1.tlc", "k", v))
+    pd.testing.assert_frame_equal(back["table"], df)
+    assert list(back["table"].dtypes) == list(df.dtypes)
+    assert back["table"].attrs == {"unit": "m"}
+    assert back["again"] is back["table"]  # one object stored once, one object decoded
+    assert back["arr"] is back["same"]
+    np.testing.assert_array_equal(back["arr"], a)
+    pd.testing.assert_series_equal(back["col"], df["x_m"])
+    pd.testing.assert_frame_equal(back["empty"], v["empty"])
+    assert back["none"].shape == (0, 5) and back["text"].tolist() == ["ab", "c"]
+    assert back["cal"] == v["cal"] and back["t"] == v["t"] and back["big"] == 10 ** 30
+    assert back[1.5] == {2, 3} and back["path"] == Path("a/b")
+    # decoded arrays are writable numbers of their own (a view of the entry's bytes)
+    back["arr"][0, 0] = -1.0
+    assert a[0, 0] == 0.0 and back["table"]["x_m"].iloc[0] == 1.0
+
+
+def test_entry_stores_a_table_once_per_dtype_and_its_bytes_raw(tmp_path):
+    """The arrays are raw bytes after the tree (no base64), 8-byte aligned; a table's float
+    columns are one block."""
+    c = _cache(tmp_path)
+    df = pd.DataFrame({f"c{i}": np.linspace(0, 1, 1000) + i for i in range(6)})
+    blob = c.dumps("k-1.tlc", "k", {"t": df, "same": df})
+    _head, body, arrays = _split(blob)
+    assert len(arrays) == 6 * 1000 * 8
+    assert (len(blob) - len(arrays)) % 8 == 0  # the arrays start 8-byte aligned
+    np.testing.assert_array_equal(np.frombuffer(arrays, "<f8")[:1000], df["c0"].to_numpy())
+    tree = body["value"]["v"][0][1]
+    assert tree["__t"] == "df" and len(tree["blocks"]) == 1 and tree["blocks"][0][0] == list(
+        range(6))
+    assert body["value"]["v"][1][1] == {"__t": "ref", "i": tree["def"]}
+
+
+def test_json_tree_outside_an_entry_is_unchanged():
+    """Outside an entry encode_value gives the JSON-only tree (base64 arrays) that
+    digest_value hashes: its text fast paths give what the generic conversion gives."""
+    from torlab.protocols.cache import _enc_column, _enc_index, encode_value
+
+    s = pd.Series(["a", None, "c"], dtype="str")
+    generic = s.astype(object).where(s.notna(), None).tolist()
+    assert _enc_column(s) == {"ext": "str", "v": generic}
+    ix = pd.Index(["p", "q"], dtype="str", name="cols")
+    assert _enc_index(ix)["col"] == _enc_column(pd.Series(ix))
+    tree = encode_value({"a": np.arange(3.0), "b": np.arange(3.0)})
+    assert "b64" in tree["v"][0][1] and "ref" not in json.dumps(tree)
+
+
+@pytest.mark.parametrize("breakage", ["offset past the end", "negative offset", "shape too big",
+                                      "offset not a number", "no binary part",
+                                      "block misses a column", "column twice",
+                                      "block of the wrong height", "reference to nothing",
+                                      "reference before its object", "object numbered twice"])
+def test_signed_entry_with_a_broken_tree_is_refused(tmp_path, breakage):
+    """Even with the right key (torlab's own entry, damaged), a tree pointing outside its
+    data or at nothing is a BadEntry (recomputed), never an out-of-bounds read."""
+    from torlab.protocols.cache import BadEntry
+
+    c = _cache(tmp_path)
+    df = pd.DataFrame({"a": [1.0, 2.0], "b": [3.0, 4.0], "n": np.array([1, 2])})
+    arr = np.arange(4.0)
+    _head, body, arrays = _split(c.dumps("k-1.tlc", "k", {"arr": arr, "df": df, "again": arr}))
+    items = body["value"]["v"]
+    nd, table, ref = items[0][1], items[1][1], items[2][1]
+    if breakage == "offset past the end":
+        nd["at"] = len(arrays) - 8
+    elif breakage == "negative offset":
+        nd["at"] = -8
+    elif breakage == "shape too big":
+        nd["shape"] = [10 ** 6]
+    elif breakage == "offset not a number":
+        nd["at"] = "0"
+    elif breakage == "no binary part":
+        arrays = b""
+    elif breakage == "block misses a column":
+        table["blocks"][0][0] = [0]
+        table["blocks"][0][1]["shape"] = [1, 2]
+    elif breakage == "column twice":
+        table["blocks"][1][0] = [0]
+    elif breakage == "block of the wrong height":
+        table["blocks"][0][1]["shape"] = [2, 1]
+    elif breakage == "reference to nothing":
+        ref["i"] = 99
+    elif breakage == "reference before its object":
+        items[0], items[2] = items[2], items[0]
+    elif breakage == "object numbered twice":
+        table["def"] = nd["def"]
+    with pytest.raises(BadEntry):
+        c.loads("k-1.tlc", "k", _signed(c, body, arrays))
+
+
+def test_version_1_entry_is_recomputed(tmp_path):
+    """An entry of the earlier format (arrays base64 in the JSON) is not read: recomputed."""
+    from torlab.protocols.cache import BadEntry, encode_value
+
+    c = _cache(tmp_path)
+    payload = json.dumps({"format": "torlab-cache", "version": 1, "entry": "k-1.tlc",
+                          "kind": "k", "value": encode_value([1.0])}).encode()
+    with pytest.raises(BadEntry, match="version"):
+        c.loads("k-1.tlc", "k", f"torlab-cache 1 {c._mac(payload)}\n".encode() + payload)
+
+
+def test_carried_over_cache_is_linked_but_never_written_through(tmp_path):
+    """--force carries OUT/.cache over as hard links where it can: writing an entry anew
+    (through the cache or the output folder) leaves the earlier results' file as it was,
+    whether the run is aborted or committed."""
+    from torlab.outputs import OutputDir
+    from torlab.protocols.cache import ResultCache
+
+    out = tmp_path / "out"
+    with OutputDir(out) as d:
+        d.write_bytes(".cache/a.tlc", b"earlier a")
+        d.write_bytes(".cache/b.tlc", b"earlier b")
+    a_old, b_old = out / ".cache" / "a.tlc", out / ".cache" / "b.tlc"
+    d = OutputDir(out, force=True, keep=[".cache"])
+    staged = d.staging / ".cache"
+    linked = os.stat(staged / "a.tlc").st_ino == os.stat(a_old).st_ino
+    rc = ResultCache(staged, register=d.path)
+    rc._write("a.tlc", b"new a")  # an entry written again
+    d.write_bytes(".cache/b.tlc", b"new b")
+    assert (staged / "a.tlc").read_bytes() == b"new a"
+    assert a_old.read_bytes() == b"earlier a" and b_old.read_bytes() == b"earlier b"
+    d.abort()
+    assert a_old.read_bytes() == b"earlier a" and b_old.read_bytes() == b"earlier b"
+    d = OutputDir(out, force=True, keep=[".cache"])
+    d.write_bytes(".cache/b.tlc", b"new b")
+    d.commit()
+    assert (out / ".cache" / "b.tlc").read_bytes() == b"new b"
+    assert (out / ".cache" / "a.tlc").read_bytes() == b"earlier a"
+    if hasattr(os, "link"):
+        assert linked  # the same file system: linked, not copied
+
+
+def test_warm_rerun_reads_the_binary_entries_it_wrote(tmp_path):
+    """A re-run reuses every entry of the first run and gives the same report numbers."""
+    import shutil
+
+    from torlab.protocols.runner import run_protocol
+
+    root = Path(__file__).resolve().parents[1]
+    for f in sorted((root / "sample_data/hpt").glob("hpt_OFM1_*uL_25C.txt")):
+        shutil.copy(f, tmp_path / f.name)
+    (tmp_path / "p.yaml").write_text(
+        "version: 1\nname: small\ndata:\n  hpt:\n    files: [hpt_*.txt]\n"
+        "reports:\n  amount:\n    curve: interpolation\n")
+    r1 = run_protocol(tmp_path / "p.yaml", tmp_path / "out")
+    entries = sorted((tmp_path / "out" / ".cache").glob("*.tlc"))
+    assert entries and all(e.read_bytes().startswith(b"torlab-cache 2 ") for e in entries)
+    r2 = run_protocol(tmp_path / "p.yaml", tmp_path / "out", force=True)
+    assert (r2.cache_hits, r2.cache_misses) == (r1.cache_misses, 0)
+    assert r2.summary["reports"] == r1.summary["reports"]
+    assert r2.summary["data"] == r1.summary["data"]
+
+
+def test_amount_probability_of_the_protocol_calls_the_crossing_verdicts(tmp_path):
+    """``reports.amount.probability`` is the level of every verdict of the amount report,
+    the crossings' too (they are cached with it in their key): a crossing whose probability
+    of lying within the tested amounts is below it is "undetermined", one above it called."""
+    import shutil
+
+    from torlab.protocols.runner import run_protocol
+
+    root = Path(__file__).resolve().parents[1]
+    for f in sorted((root / "sample_data/hpt").glob("hpt_*_25C*.txt")):
+        shutil.copy(f, tmp_path / f.name)
+    prob = 0.99999999  # between the sample products' probabilities (all near 1)
+    (tmp_path / "p.yaml").write_text(
+        "version: 1\nname: small\ndata:\n  hpt:\n    files: [hpt_*.txt]\n"
+        f"reports:\n  amount:\n    probability: {prob}\n")
+    r = run_protocol(tmp_path / "p.yaml", tmp_path / "out")
+    called = {}
+    for name, row in r.summary["reports"]["amount"]["products"].items():
+        p = row["p_crossing_in_range"]
+        if p is None:
+            continue
+        assert (row["crossing_verdict"] == "undetermined") == (p < prob), name
+        called[name] = p >= prob
+    assert True in called.values() and False in called.values(), called
