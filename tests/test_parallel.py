@@ -110,7 +110,7 @@ def test_get_executor_from_the_options():
     from torlab.parallel import DaskExecutor
 
     with pytest.raises(TorlabInputError, match="--scheduler"):
-        DaskExecutor("tcp://127.0.0.1:1", timeout="2s")  # nothing listens there
+        DaskExecutor("tcp://127.0.0.1:1", timeout="0.3s")  # nothing listens there
 
 
 # ------------------------------------------------------------------------------ same bytes
