@@ -573,6 +573,7 @@ def test_missing_output_option(tmp_path, cli):
 
 
 # --------------------------------------------------------------------------- real files
+@pytest.mark.slow  # a whole protocol on real exports
 def test_real_pcs_files_in_a_protocol(tmp_path):
     """The PCS parsers inside a protocol, on real MTM/ETM/EHD2 exports (skipped without them)."""
     if not REAL_PCS.is_dir():
