@@ -292,6 +292,7 @@ def _read_only(project: Path) -> list[str] | None:
             f"mount --bind {res} {res} && mount -o remount,bind,ro {res} && exec \"$@\"", "sh"]
 
 
+@pytest.mark.slow  # real torlab processes; in one process: tests/test_trust.py
 def test_read_only_output_place_is_exit_2_and_keeps_earlier_results(project):
     before = _first_run(project)
     out = project / "res" / "out"
