@@ -27,12 +27,15 @@ def pytest_configure(config):
 #: go with another one, because they read its session fixture (``shipped_run``'s Paper B run:
 #: one worker makes it instead of the other waiting for its lock)
 SCOPE_WITH = {"tests/test_validation.py": "tests/test_protocols.py"}
-#: the modules whose tests take longest together (module fixtures: the fuzz sample, protocol
-#: runs, fits): they start first, so that neither worker is left with one of them at the end
-#: while the other is idle; the others follow in their usual order
-LONG_FIRST = ("tests/test_fuzz_corpus.py", "tests/test_retention_cli.py", "tests/test_trust.py",
-              "tests/test_protocols.py", "tests/test_validation.py", "tests/test_faults.py",
-              "tests/test_parallel.py", "tests/test_fit_batch.py", "tests/test_fit_other.py")
+#: the modules whose tests take longest together, in the quick suite (module fixtures: the fuzz
+#: sample, protocol runs, fits) or in the slow step (the whole fuzz corpus, coverage sweeps):
+#: they start first, so that neither worker is left with one of them at the end while the
+#: other is idle; the others follow in their usual order
+LONG_FIRST = ("tests/test_fuzz_corpus.py", "tests/test_fit_coverage.py",
+              "tests/test_removal_fit.py", "tests/test_retention_cli.py", "tests/test_trust.py",
+              "tests/test_protocols.py", "tests/test_validation.py", "tests/test_bands.py",
+              "tests/test_polach_uncertainty.py", "tests/test_faults.py", "tests/test_parallel.py",
+              "tests/test_fit_batch.py", "tests/test_fit_other.py")
 
 
 def pytest_collection_modifyitems(config, items):
