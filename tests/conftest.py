@@ -23,6 +23,41 @@ def pytest_configure(config):
     os.environ.setdefault("TORLAB_JOBS", "1")
 
 
+#: pytest-xdist (``--dist loadscope``) sends a test module's tests to one worker; these modules
+#: go with another one, because they read its session fixture (``shipped_run``'s Paper B run:
+#: one worker makes it instead of the other waiting for its lock)
+SCOPE_WITH = {"tests/test_validation.py": "tests/test_protocols.py"}
+#: the modules whose tests take longest together, in the quick suite (module fixtures: the fuzz
+#: sample, protocol runs, fits) or in the slow step (the whole fuzz corpus, coverage sweeps):
+#: they start first, so that neither worker is left with one of them at the end while the
+#: other is idle; the others follow in their usual order
+LONG_FIRST = ("tests/test_fuzz_corpus.py", "tests/test_fit_coverage.py",
+              "tests/test_removal_fit.py", "tests/test_retention_cli.py", "tests/test_trust.py",
+              "tests/test_protocols.py", "tests/test_validation.py", "tests/test_bands.py",
+              "tests/test_polach_uncertainty.py", "tests/test_faults.py", "tests/test_parallel.py",
+              "tests/test_fit_batch.py", "tests/test_fit_other.py")
+
+
+def pytest_collection_modifyitems(config, items):
+    """The long modules first (:data:`LONG_FIRST`); the order within a module is kept."""
+    rank = {m: k for k, m in enumerate(LONG_FIRST)}
+    items.sort(key=lambda it: rank.get(it.nodeid.split("::", 1)[0], len(rank)))
+
+
+def pytest_xdist_make_scheduler(config, log):
+    """``--dist loadscope`` with the modules of :data:`SCOPE_WITH` joined to theirs."""
+    if config.getvalue("dist") != "loadscope":
+        return None
+    from xdist.scheduler import LoadScopeScheduling
+
+    class JoinedScopes(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            scope = super()._split_scope(nodeid)
+            return SCOPE_WITH.get(scope.split("::", 1)[0], scope)
+
+    return JoinedScopes(config, log)
+
+
 @pytest.fixture
 def runner():
     from typer.testing import CliRunner

@@ -249,7 +249,8 @@ def mutate_text(data: bytes, rng: random.Random) -> list[tuple[str, bytes]]:
             l2 = list(ls)
             l2.insert(hdr + 1, ls[hdr])
             out.append(("duplicated_header", b"\n".join(l2)))
-        l2 = [ln for k, ln in enumerate(ls) if k not in set(dl)]
+        data_rows = set(dl)
+        l2 = [ln for k, ln in enumerate(ls) if k not in data_rows]
         out.append(("no_data_rows", b"\n".join(l2)))
         k0 = rng.choice(dl)
         out.append(("deleted_block", b"\n".join(ls[:k0] + ls[k0 + rng.randint(1, 30):])))

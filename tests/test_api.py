@@ -59,6 +59,7 @@ def _cells(md: str) -> list[str]:
     return re.findall(r"```python\n(.*?)```", md, flags=re.S)
 
 
+@pytest.mark.slow  # every cell of the notebook, end to end
 def test_notebook_example_runs(monkeypatch):
     """Every code cell of docs/notebook.md, in order, in one namespace (as a notebook would)."""
     import matplotlib

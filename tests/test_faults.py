@@ -191,6 +191,7 @@ def test_kill_inside_the_commit_never_loses_both_versions(project, point):
     assert _same_results(_complete(out), before)
 
 
+@pytest.mark.slow  # three processes; the lock itself: tests/test_trust.py
 def test_second_run_into_a_busy_folder_is_refused(project):
     before = _first_run(project)
     out = project / "res" / "out"
@@ -291,6 +292,7 @@ def _read_only(project: Path) -> list[str] | None:
             f"mount --bind {res} {res} && mount -o remount,bind,ro {res} && exec \"$@\"", "sh"]
 
 
+@pytest.mark.slow  # real torlab processes; in one process: tests/test_trust.py
 def test_read_only_output_place_is_exit_2_and_keeps_earlier_results(project):
     before = _first_run(project)
     out = project / "res" / "out"
@@ -317,6 +319,7 @@ def _small_file_limit() -> None:
     resource.setrlimit(resource.RLIMIT_FSIZE, (30_000, 30_000))
 
 
+@pytest.mark.slow  # a read-only place: above
 def test_full_disk_is_exit_2_and_keeps_earlier_results(project):
     before = _first_run(project)
     out = project / "res" / "out"
@@ -330,6 +333,7 @@ def test_full_disk_is_exit_2_and_keeps_earlier_results(project):
     assert _leftovers(project) == []
 
 
+@pytest.mark.slow  # more torlab processes
 def test_staging_folders_without_a_pid_are_cleaned(project):
     """Staging folders named by mkdtemp alone (no pid) are removed too: they hold no results."""
     before = _first_run(project)

@@ -257,6 +257,7 @@ def test_cli_fit_temperature_runs_and_reports_uncertainty(cli, tmp_path):
     assert r.exit_code == 2 and "--selection" in r.output
 
 
+@pytest.mark.slow  # 14 runs; the command: above
 def test_cli_fit_temperature_resolves_with_the_campaign(cli, tmp_path):
     """The shipped Paper C design (14 runs at 25-185 degC) resolves OFM1's mu_c1_T (truth
     -4e-4 1/K, sample_data/hpt/truth.yaml): the test keeps it and its interval holds the truth."""

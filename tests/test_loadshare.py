@@ -221,6 +221,7 @@ LUBRICANTS = [("iso", {}), ("barus", {"alpha": 1e-8}), ("barus", {"alpha": 6e-8}
 SHEARS = [("newtonian", {}), ("limiting", {"gamma_L": 0.08}), ("eyring", {"tau0": 5e6})]
 
 
+@pytest.mark.slow  # a sweep: 540 load-sharing problems at nine speeds, three shear laws
 def test_hard_case_sweep():
     """Speed 0-100 m/s, sigma 1 nm-1 um, load 1 N-100 kN, eta0 1e-4-10 Pa s, every
     viscosity and shear law, steel-steel and steel-glass: finite results or a named

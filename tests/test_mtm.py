@@ -175,7 +175,7 @@ def test_cli_mtm_reduce_writes_results_and_refuses_overwrite(tmp_path, cli):
     assert len(files) == 5
     hashes = {p: sha(p) for p in files}
     out = tmp_path / "out"
-    r = cli("mtm", "reduce", *files, MTM, "-o", out, "--duration", "20 min")
+    r = cli("mtm", "reduce", *files, MTM, "-o", out, "--duration", "20 min", "--no-plot")
     assert r.exit_code == 0, r.output
     # the synthetic files mark the application ("Time test after application"); the quirk
     # file's timed step does not, so it is a plain timed run unless asked for
@@ -199,7 +199,8 @@ def test_cli_mtm_reduce_writes_results_and_refuses_overwrite(tmp_path, cli):
     assert all(sha(p) == h for p, h in hashes.items())
     r = cli("mtm", "reduce", files[0], "-o", out)
     assert r.exit_code == 2 and "--force" in error_lines(r)[0]
-    r = cli("mtm", "reduce", files[0], "-o", out, "--force", "--application-time", "60 s")
+    r = cli("mtm", "reduce", files[0], "-o", out, "--force", "--application-time", "60 s",
+            "--no-plot")
     assert r.exit_code == 0, r.output
     assert pd.read_csv(out / "time_tests.csv")["application_source"].tolist() == ["given"]
 

@@ -110,7 +110,7 @@ def test_get_executor_from_the_options():
     from torlab.parallel import DaskExecutor
 
     with pytest.raises(TorlabInputError, match="--scheduler"):
-        DaskExecutor("tcp://127.0.0.1:1", timeout="2s")  # nothing listens there
+        DaskExecutor("tcp://127.0.0.1:1", timeout="0.3s")  # nothing listens there
 
 
 # ------------------------------------------------------------------------------ same bytes
@@ -273,6 +273,7 @@ def _files(folder: Path) -> dict[str, bytes]:
     return out
 
 
+@pytest.mark.slow  # a whole protocol on every executor (the parts: above)
 def test_protocol_run_bit_for_bit(tmp_path, executors):
     from torlab.protocols.runner import run_protocol
 
@@ -321,6 +322,7 @@ def _hpt_folder(tmp_path: Path, changes: dict[str, tuple[str, str]]) -> Path:
     return d
 
 
+@pytest.mark.slow  # worker processes again; their warnings: below
 def test_reduce_on_worker_processes_a_bad_file_among_many_is_one_error_line(tmp_path):
     """'torlab reduce --jobs 2' in a real process: the error raised in a worker reaches the
     console as one line naming the file and line, with the warning of another worker's file

@@ -80,6 +80,7 @@ def test_mu0_carries_the_relative_interval_of_mu_c2(tmp_path):
     assert a_hi - a_lo < 0.1 * (hi - lo)
 
 
+@pytest.mark.slow  # a process pool; executors bit for bit: tests/test_parallel.py
 def test_serial_and_processes_give_the_same_numbers(tmp_path):
     names = ["mu_c1", "mu_c2", "L_mue", "L_mup"]
     sd = np.array([0.01, 0.01, 1e-6, 0.2e-6])
@@ -113,6 +114,7 @@ def test_without_covariance_it_is_said(tmp_path):
     assert on.params == off.params and on.ci95 == off.ci95
 
 
+@pytest.mark.slow  # an HPT fit, then 12 Polach refits (the library's draws: quick tests above)
 def test_cli_with_a_layer_fitted_from_an_hpt_log(cli, tmp_path):
     r = cli("fit", "hpt", HPT / "hpt_OFM1_4uL_25C.txt", "--compliance",
             HPT / "rig_compliance.csv", "-o", tmp_path / "layer")

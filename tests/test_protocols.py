@@ -1,6 +1,8 @@
 """Test protocols: validation, the shipped protocols, reports, provenance, re-runs.
 
-Each shipped protocol runs once per session (module-scoped fixtures).  Its
+Each shipped protocol runs once per session (module-scoped fixtures).  The tests of the
+Paper A and Paper C runs (about ten seconds each) are in CI's slow step (``-m slow``); the
+quick suite runs Paper B's, from raw logs to reports.  Each run's
 ``summary.json`` is compared with ``tests/expected/<name>.json`` within the
 tolerances below; a changed number fails with a readable diff.  Set
 ``TORLAB_UPDATE_EXPECTED=1`` to rewrite the expected files after an intended
@@ -282,6 +284,7 @@ def _truth_crossing(product: str, threshold: float = 0.15) -> float | None:
     return m if law.amount_unit == "mg" else m / (law.density_kg_m3 * 1e-3)
 
 
+@pytest.mark.slow
 def test_paper_c_amount_against_truth(paper_c):
     _out, res = paper_c
     amt = res.summary["reports"]["amount"]
@@ -312,6 +315,7 @@ def test_paper_c_amount_against_truth(paper_c):
         assert v["crossing_mass_mg"] == pytest.approx(v["crossing_amount"] * mf, rel=1e-12)
 
 
+@pytest.mark.slow
 def test_paper_c_layers_and_traction(paper_c):
     out, res = paper_c
     s = res.summary
@@ -338,6 +342,7 @@ def test_paper_c_layers_and_traction(paper_c):
     assert sc.boundary.mu_c2 == pytest.approx(s["fits"]["hpt:OFM1"]["params"]["mu_c2"])
 
 
+@pytest.mark.slow
 def test_paper_c_expected_summary(paper_c):
     diffs = compare_summary("paper_c", paper_c[1].summary)
     assert not diffs, "summary.json changed:\n  " + "\n  ".join(diffs)
@@ -403,6 +408,7 @@ def test_paper_b_expected_summary(paper_b):
 
 
 # --------------------------------------------------------------------------- Paper A
+@pytest.mark.slow
 def test_paper_a_against_model_truth(paper_a):
     """The optical logs are generated from torlab's model (sample_data/optical/truth.yaml):
     the film, the fitted dry layer and the measured Stribeck points against that truth."""
@@ -439,13 +445,15 @@ def test_paper_a_against_model_truth(paper_a):
         assert np.max(np.abs(m["mu"].to_numpy() - want)) < 0.002, lab
 
 
+@pytest.mark.slow
 def test_paper_a_expected_summary(paper_a):
     diffs = compare_summary("paper_a", paper_a[1].summary)
     assert not diffs, "summary.json changed:\n  " + "\n  ".join(diffs)
 
 
 # --------------------------------------------------------------------------- reports, provenance
-@pytest.mark.parametrize("fixture", ["paper_a", "paper_b", "paper_c"])
+@pytest.mark.parametrize("fixture", [pytest.param("paper_a", marks=pytest.mark.slow), "paper_b",
+                                     pytest.param("paper_c", marks=pytest.mark.slow)])
 def test_report_files_and_provenance(request, fixture):
     out, res = request.getfixturevalue(fixture)
     s = json.loads((out / "summary.json").read_text())
@@ -566,6 +574,7 @@ def test_missing_output_option(tmp_path, cli):
 
 
 # --------------------------------------------------------------------------- real files
+@pytest.mark.slow  # a whole protocol on real exports
 def test_real_pcs_files_in_a_protocol(tmp_path):
     """The PCS parsers inside a protocol, on real MTM/ETM/EHD2 exports (skipped without them)."""
     if not REAL_PCS.is_dir():

@@ -98,6 +98,7 @@ def test_undetermined_viscosity_parameter_is_said_not_resolved():
     assert e["status"] == "not resolved" and e["verdict"] == "undetermined"
 
 
+@pytest.mark.slow  # a coverage sweep: 60 seeds
 def test_transition_interval_from_a_film_fit_holds_the_true_transition(tmp_path):
     """Synthetic truth: films from Hamrock-Dowson at alpha = 18 1/GPa with 4 % scatter,
     fitted for alpha (torlab fit film), the fitted parameter file applied to the scene.
@@ -129,6 +130,7 @@ def test_transition_interval_from_a_film_fit_holds_the_true_transition(tmp_path)
     assert np.median(widths) > 1.01  # a real interval, not a point
 
 
+@pytest.mark.slow  # a 20-speed band; the report's text: below
 def test_stribeck_report_prints_the_transition_with_its_interval():
     sc = load_scene(SCENES / "optical_paper_a_rough.yaml")
     lub = sc.lubricant

@@ -115,6 +115,7 @@ def test_fit_removal_params_carry_the_layer_and_the_law(fitted):
         json.loads((out / "summary.json").read_text())["params"]["k1"], rel=1e-12)
 
 
+@pytest.mark.slow  # eight HPT fits first
 def test_fit_removal_from_hpt_parameter_files_equals_from_logs(fitted, cli, tmp_path):
     """The amount series as 'torlab fit hpt' parameter files gives the same law as the logs."""
     out, _ = fitted

@@ -59,6 +59,7 @@ def _campaign(seed, tau, n_comp=4, n_rep=3):
     return ev, res, comp, truth
 
 
+@pytest.mark.slow  # a coverage sweep: 300 campaigns
 @pytest.mark.parametrize("tau", [0.0, 0.01])
 def test_repeats_give_intervals_that_hold_the_composition_mean(tau):
     """300 seeded campaigns (4 compositions x 3 repeats): with a test-to-test scatter tau =

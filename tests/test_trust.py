@@ -50,6 +50,24 @@ def _small_protocol(tmp_path: Path) -> Path:
     return p
 
 
+@pytest.fixture(scope="module")
+def small_run(tmp_path_factory):
+    """The small protocol run once, under the session's cache key: ``(protocol, out, result)``.
+    A test that changes the results works on its own copy (:func:`_copy_run`)."""
+    from torlab.protocols.runner import run_protocol
+
+    d = tmp_path_factory.mktemp("small")
+    p = _small_protocol(d)
+    return p, d / "out", run_protocol(p, d / "out")
+
+
+def _copy_run(small_run, dest: Path):
+    """``(protocol, out, result)`` with ``out`` a copy of the small run's results folder."""
+    p, out, res = small_run
+    shutil.copytree(out, dest)
+    return p, dest, res
+
+
 # ------------------------------------------------------------------------------ the cache
 class _Boom:
     """Unpickling this writes a marker file: proof that code from the cache ran."""
@@ -68,13 +86,11 @@ def _pickle_bomb(marker: Path) -> bytes:
     return pickle.dumps(b)
 
 
-def test_crafted_cache_cannot_run_code_and_is_never_reused(tmp_path):
+def test_crafted_cache_cannot_run_code_and_is_never_reused(tmp_path, small_run):
     """A results folder someone sends you with a crafted .cache: --force re-runs it safely."""
     from torlab.protocols.runner import run_protocol
 
-    p = _small_protocol(tmp_path)
-    out = tmp_path / "out"
-    r1 = run_protocol(p, out)
+    p, out, r1 = _copy_run(small_run, tmp_path / "out")
     cache = out / ".cache"
     entries = sorted(cache.glob("*.tlc"))
     assert entries and not list(cache.glob("*.pkl"))
@@ -103,13 +119,11 @@ def _entry(head: bytes, body: dict, arrays: bytes) -> bytes:
     return head + b"\n" + json.dumps(body).encode() + b"\n" + arrays
 
 
-def test_forged_cache_entry_is_recomputed_not_trusted(tmp_path):
+def test_forged_cache_entry_is_recomputed_not_trusted(tmp_path, small_run):
     """An entry edited to carry other numbers fails its HMAC: the true value is recomputed."""
     from torlab.protocols.runner import run_protocol
 
-    p = _small_protocol(tmp_path)
-    out = tmp_path / "out"
-    r1 = run_protocol(p, out)
+    p, out, r1 = _copy_run(small_run, tmp_path / "out")
     f_true = r1.summary["data"]["hpt"]["f_window"]
     forged = list((out / ".cache").glob("hpt-*.tlc"))
     for e in forged:
@@ -142,32 +156,30 @@ def test_entry_signed_with_another_key_is_rejected(tmp_path, monkeypatch):
     assert a2.rejected == 1
 
 
-def test_figures_of_a_results_folder_signed_elsewhere_are_drawn_again(tmp_path, monkeypatch):
+def test_figures_of_a_results_folder_signed_elsewhere_are_drawn_again(tmp_path, monkeypatch,
+                                                                       small_run):
     """A results folder someone sent you: its cached figures were replaced by other pictures
     whose sidecars carry a well-formed HMAC under the sender's key.  Your --force re-run
     draws every figure again and writes your own pictures; none of theirs is reused."""
     from torlab.protocols.cache import FigureStore, ResultCache
     from torlab.protocols.runner import run_protocol
 
-    p = _small_protocol(tmp_path)
-    monkeypatch.setenv("TORLAB_CONFIG_DIR", str(tmp_path / "you"))
-    mine = run_protocol(p, tmp_path / "mine")  # your own results, the reference pictures
-    pngs = sorted(f.relative_to(tmp_path / "mine") for f in (tmp_path / "mine").rglob("*.png")
-                  if ".cache" not in f.parts)
-    assert pngs and mine.timing["figures_drawn"] == len(pngs)
-    monkeypatch.setenv("TORLAB_CONFIG_DIR", str(tmp_path / "sender"))
-    out = tmp_path / "sent"
-    run_protocol(p, out)
+    # the sender's results: the small run, made under the session's key (the sender's)
+    p, out, _ = _copy_run(small_run, tmp_path / "sent")
     store = FigureStore(ResultCache(out / ".cache"))  # the sender's key
     figs = sorted((out / ".cache").glob("fig-*.png"))
-    assert len(figs) == len(pngs)
-    forged = (tmp_path / "mine" / pngs[0]).read_bytes()[::-1]  # another picture
+    forged = figs[0].read_bytes()[::-1]  # another picture
     for fig in figs:
         fig.write_bytes(forged)
         mac = store._mac(fig.name, forged)
         head = fig.with_name(fig.name + ".mac").read_text().split()
         fig.with_name(fig.name + ".mac").write_text(f"{head[0]} {head[1]} {mac}\n")
     monkeypatch.setenv("TORLAB_CONFIG_DIR", str(tmp_path / "you"))
+    mine = run_protocol(p, tmp_path / "mine")  # your own results, the reference pictures
+    pngs = sorted(f.relative_to(tmp_path / "mine") for f in (tmp_path / "mine").rglob("*.png")
+                  if ".cache" not in f.parts)
+    assert pngs and mine.timing["figures_drawn"] == len(pngs)
+    assert len(figs) == len(pngs)
     r = run_protocol(p, out, force=True)
     assert (r.timing["figures_drawn"], r.timing["figures_reused"]) == (len(pngs), 0)
     for rel in pngs:
@@ -554,7 +566,8 @@ def test_safe_name():
 def test_debug_is_accepted_anywhere(cli, tmp_path):
     for k, args in enumerate((["--debug", "predict", "traction"],
                               ["predict", "--debug", "traction"], ["predict", "traction"])):
-        r = cli(*args, SCENE, "--creepage", "0:0.05:3", "-o", tmp_path / str(k), "--debug")
+        r = cli(*args, SCENE, "--creepage", "0:0.05:3", "-o", tmp_path / str(k), "--debug",
+                "--no-plot")
         assert r.exit_code == 0, r.output
     r = cli("predict", "traction", tmp_path / "missing.yaml", "-o", tmp_path / "x", "--debug")
     assert isinstance(r.exception, TorlabInputError)  # --debug: the exception, not one line
@@ -718,12 +731,13 @@ def test_viscometer_with_the_wrong_position_sign_warns(cli, tmp_path):
     f = tmp_path / "v.txt"
     f.write_text("\n".join(src))
     ref = ROOT / "sample_data" / "visc" / "visc_reference_25C.txt"
-    r = cli("visc", "reduce", f, "--reference", ref, "-o", tmp_path / "o")
+    # the tables only (--no-plot): the warnings are the reduction's
+    r = cli("visc", "reduce", f, "--reference", ref, "-o", tmp_path / "o", "--no-plot")
     assert r.exit_code == 0
     warn = [ln for ln in error_lines(r) if ln.startswith("warning:")]
     assert len(warn) == 1 and "position_sign is -1" in warn[0]
     r = cli("visc", "reduce", ROOT / "sample_data" / "visc" / "visc_ester_25C.txt",
-            "--reference", ref, "-o", tmp_path / "ok")
+            "--reference", ref, "-o", tmp_path / "ok", "--no-plot")
     assert r.exit_code == 0 and not [ln for ln in error_lines(r) if ln.startswith("warning:")]
 
 

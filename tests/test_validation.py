@@ -22,6 +22,10 @@ from conftest import ROOT
 
 DOC = ROOT / "docs" / "validation.md"
 SCENES = ROOT / "protocols" / "scenes"
+#: the rows read from the Paper A and Paper C protocol runs (about ten seconds each, from raw
+#: logs to reports) run in CI's slow step with the regression tests of those runs
+#: (tests/test_protocols.py); the Paper B rows, from the quicker run, stay in the quick suite
+SHIPPED_A_C = pytest.mark.slow
 
 
 def _rows() -> dict[str, list[str]]:
@@ -126,6 +130,7 @@ def test_m7_paper_b_scene_pressure():
     _shows("M7", f"{p0:.0f} MPa")
 
 
+@SHIPPED_A_C
 def test_m8_elastic_asperities_underestimate_at_low_speed(shipped_run):
     """Chapter 6 (Paper A): the elastic asperity model heavily underestimates the coefficient at
     low speed and gets more accurate at higher speed (against the plastic one, which the
@@ -146,12 +151,14 @@ def test_m8_elastic_asperities_underestimate_at_low_speed(shipped_run):
 
 
 # ------------------------------------------------------------------ Paper A campaign
+@SHIPPED_A_C
 def test_a1_film_near_eq531(shipped_run):
     r = _sum(shipped_run, "paper_a")["reports"]["film"]["measured_to_model"]["smooth ball"]
     assert r["ratio_low95"] <= 1.0 <= r["ratio_high95"]
     _shows("A1", f"{r['ratio']:.3f}", f"[{r['ratio_low95']:.3f}, {r['ratio_high95']:.3f}]")
 
 
+@SHIPPED_A_C
 def test_a2_smooth_stribeck_very_low(shipped_run):
     out, _res = shipped_run("paper_a")
     import pandas as pd
@@ -164,6 +171,7 @@ def test_a2_smooth_stribeck_very_low(shipped_run):
     _shows("A2", f"{smooth.min():.4f}–{smooth.max():.3f}")
 
 
+@SHIPPED_A_C
 def test_a3_model_represents_the_data(shipped_run):
     st = _sum(shipped_run, "paper_a")["reports"]["stribeck"]["curves"]
     for lab in ("smooth ball", "rough ball"):
@@ -172,6 +180,7 @@ def test_a3_model_represents_the_data(shipped_run):
            f"{st['rough ball']['rms_measured_minus_model']:.1e}")
 
 
+@SHIPPED_A_C
 def test_a4_dry_saturation_low(shipped_run):
     mu = _sum(shipped_run, "paper_a")["reports"]["traction"]["curves"][
         "measured dry_traction_rough.csv"]["mu_max"]
@@ -248,6 +257,7 @@ def _c(shipped_run) -> dict:
     return _sum(shipped_run, "paper_c")
 
 
+@SHIPPED_A_C
 def test_c1_dry_friction_about_half(shipped_run):
     fw = _c(shipped_run)["data"]["hpt"]["f_window"]
     f = [v for k, v in fw.items() if k.startswith("hpt_dry_25C")]
@@ -256,6 +266,7 @@ def test_c1_dry_friction_about_half(shipped_run):
     _shows("C1", f"{m:.3f}")
 
 
+@SHIPPED_A_C
 def test_c2_temperature_lowers_dry_friction(shipped_run):
     s = _c(shipped_run)
     _lo, hi = s["fits"]["hpt-T:dry"]["ci95"]["mu_c2_T"]
@@ -268,6 +279,7 @@ def test_c2_temperature_lowers_dry_friction(shipped_run):
 PRODUCTS = ("OFM1", "OFM2", "SFM", "WFM-dry", "WFM-wet")
 
 
+@SHIPPED_A_C
 def test_c3_products_suppress_the_temperature_effect(shipped_run):
     f = _c(shipped_run)["fits"]
     _dry_lo, dry_hi = f["hpt-T:dry"]["ci95"]["mu_c2_T"]
@@ -281,6 +293,7 @@ def test_c3_products_suppress_the_temperature_effect(shipped_run):
     _shows("C3", f"{worst:.2f}")
 
 
+@SHIPPED_A_C
 def test_c4_no_product_rises_with_temperature(shipped_run):
     f = _c(shipped_run)["fits"]
     highest = max(f[f"hpt-T:{p}"]["ci95"]["mu_c2_T"][0] for p in PRODUCTS)
@@ -288,6 +301,7 @@ def test_c4_no_product_rises_with_temperature(shipped_run):
     _shows("C4", f"{highest:.5f}")
 
 
+@SHIPPED_A_C
 def test_c5_products_neutral_traction_trend(shipped_run):
     tr = _c(shipped_run)["reports"]["traction"]["curves"]
     shown = []
@@ -300,12 +314,14 @@ def test_c5_products_neutral_traction_trend(shipped_run):
     _shows("C5", *shown, f"{wet['probabilities']['neutral']:.2f}")
 
 
+@SHIPPED_A_C
 def test_c6_dry_trend_negative(shipped_run):
     v = _c(shipped_run)["reports"]["traction"]["curves"]["dry (Tab. 5.4)"]
     assert v["trend"] == "negative" and v["probabilities"]["negative"] >= 0.9
     _shows("C6", f"{100 * v['relative_change']:+.1f} %")
 
 
+@SHIPPED_A_C
 def test_c7_wet_fm_never_low(shipped_run):
     v = _c(shipped_run)["reports"]["amount"]["products"]["WFM-wet"]
     assert v["status"] == "above threshold at every amount"
@@ -313,6 +329,7 @@ def test_c7_wet_fm_never_low(shipped_run):
     _shows("C7", f"{v['p_status']:.3f}")
 
 
+@SHIPPED_A_C
 def test_c8_same_mass_for_every_product(shipped_run):
     h = _c(shipped_run)["reports"]["amount"]["mass_homogeneity"]
     assert set(h["products"]) == {"OFM1", "OFM2", "SFM", "WFM-dry"}
@@ -320,6 +337,7 @@ def test_c8_same_mass_for_every_product(shipped_run):
     _shows("C8", f"p = {h['p_value']:.2f}", f"{h['mass_mg']:.2f} mg")
 
 
+@SHIPPED_A_C
 def test_c9_one_microlitre_about_one_milligram(shipped_run):
     prods = _c(shipped_run)["reports"]["amount"]["products"]
     f = [v["mg_per_unit"] for p, v in prods.items() if v["amount_unit"] == "uL"]
@@ -328,6 +346,7 @@ def test_c9_one_microlitre_about_one_milligram(shipped_run):
 
 
 # ------------------------------------------------------------------ the Paper C report's calls
+@SHIPPED_A_C
 def test_paper_c_calls_no_trend_below_the_threshold(shipped_run):
     """Every trend the Paper C report calls has at least the protocol's probability; the
     others are 'undetermined' with their probabilities (issue: verdicts with evidence)."""
