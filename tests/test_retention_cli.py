@@ -406,6 +406,32 @@ def test_predict_retention_other_bad_input(fitted, cli, tmp_path):
     assert not (tmp_path / "p").exists()
 
 
+@pytest.mark.parametrize("edit, key", [
+    (("units", "k1", "x"), "retention.units.k1"),
+    (("units", "k1", "mm^2/J"), "retention.units.k1"),
+    (("units", "k9", "m^2/J"), "retention.units.k9"),
+    (("parameters", "k1", 2.0e-6), "retention.parameters.k1"),
+    (("parameters", "k1", "fast"), "retention.parameters.k1"),
+    (("ci95", "k1", [1.0, 2.0]), "retention.ci95.k1"),
+])
+def test_removal_file_readable_copies_must_agree_with_the_fit(fitted, tmp_path, edit, key):
+    """The numbers are read from fit_space; a units, parameters or ci95 entry edited by hand
+    (which would otherwise be ignored) is an error naming its key."""
+    from torlab.errors import TorlabInputError
+    from torlab.fit.removal import load_retention
+
+    out, _ = fitted
+    d = yaml.safe_load((out / "params.yaml").read_text())
+    load_retention(out / "params.yaml")  # the file as written loads
+    section, name, value = edit
+    d["retention"][section][name] = value
+    bad = tmp_path / "edited.yaml"
+    bad.write_text(yaml.safe_dump(d))
+    with pytest.raises(TorlabInputError) as e:
+        load_retention(bad)
+    assert key in str(e.value) and "edited.yaml" in str(e.value)
+
+
 # --------------------------------------------------------------------------- the protocol
 @pytest.fixture(scope="module")
 def protocol_run(tmp_path_factory):

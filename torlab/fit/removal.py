@@ -51,7 +51,7 @@ difference to the best and Akaike weight.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -1194,6 +1194,7 @@ def retention_from_dict(d: Any, *, path: str = "", fit: Any = None) -> Retention
                              or not (math.isfinite(dens) and dens > 0)):
         raise bad("must be a positive number (kg/m^3) or null", "density_kg_m3")
     vals = np.exp(theta)
+    _check_readable_copies(d, names, vals, bad)
     D = np.diag(vals)
     dof = d.get("dof", 10)
     res = RemovalFit.from_covariance(
@@ -1210,6 +1211,50 @@ def retention_from_dict(d: Any, *, path: str = "", fit: Any = None) -> Retention
             res.ci95[nm] = (float(iv[0]), float(iv[1]))
     return RetentionParams(layer=layer, removal=res, density=None if dens is None else float(dens),
                            source=path)
+
+
+def _check_readable_copies(d: dict, names: list[str], vals: np.ndarray,
+                           bad: Callable[[str, str], TorlabInputError]) -> None:
+    """The file's readable ``units``, ``parameters`` and ``ci95`` agree with ``fit_space``.
+
+    The fit's numbers are read from ``fit_space`` (the log-parameters and their
+    covariance); ``parameters``, ``units`` and ``ci95`` repeat them for people.  An edit
+    to one of those copies would otherwise be ignored silently, so a copy that
+    disagrees -- another unit, another value, an interval that leaves out the value --
+    is an error naming the key.
+    """
+    units = d.get("units")
+    if units is not None:
+        if not isinstance(units, dict):
+            raise bad("must be a map of parameter: unit", "units")
+        for nm, u in units.items():
+            want = LAW_UNITS.get(str(nm))
+            if want is None:
+                raise bad(f"unknown parameter {nm!r}; the laws have "
+                          f"{', '.join(LAW_UNITS)}", f"units.{nm}")
+            if str(u).replace(" ", "").replace("**", "^") != want:
+                raise bad(f"{nm} is read in {want} (the unit 'torlab fit removal' writes), "
+                          f"not {u!r}: refit instead of converting by hand", f"units.{nm}")
+    pars = d.get("parameters")
+    if pars is not None and not isinstance(pars, dict):
+        raise bad("must be a map of parameter: value", "parameters")
+    ci = d.get("ci95") if isinstance(d.get("ci95"), dict) else {}
+    for nm, v in zip(names, vals, strict=True):
+        if pars and nm in pars:
+            p = pars[nm]
+            if isinstance(p, bool) or not isinstance(p, (int, float)) or not math.isfinite(p):
+                raise bad("must be a number", f"parameters.{nm}")
+            if not math.isclose(p, v, rel_tol=1e-6):
+                raise bad(f"{p:.6g} disagrees with fit_space.values ({v:.6g}), which the "
+                          f"fit's numbers are read from: refit instead of editing",
+                          f"parameters.{nm}")
+        iv = ci.get(nm)
+        if iv is not None and not (isinstance(iv, list) and len(iv) == 2
+                                   and all(isinstance(x, (int, float))
+                                           and not isinstance(x, bool) and math.isfinite(x)
+                                           for x in iv)
+                                   and iv[0] <= v * (1 + 1e-9) and v <= iv[1] * (1 + 1e-9)):
+            raise bad(f"must be [low, high] around the value {v:.6g}", f"ci95.{nm}")
 
 
 def is_retention_file(path: str | Path) -> bool:
