@@ -45,6 +45,7 @@ from __future__ import annotations
 import contextvars
 import os
 import sys
+import threading
 import warnings
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
@@ -360,9 +361,22 @@ class DaskExecutor(Executor):
             self._own = False
 
 
+#: one task at a time per process on a Dask worker: Python's warning capture
+#: (``warnings.catch_warnings``) is process-wide, so two tasks on threads of one
+#: process would record (or lose) each other's warnings
+_DASK_TASK_LOCK = threading.Lock()
+
+
 def _dask_run(fn: Callable[[Any], Any], item: Any) -> tuple[Any, list[tuple[Any, ...]]]:
+    """A task on a Dask worker (:func:`_run`), one at a time in its process.
+
+    Run workers as processes with one thread each (``dask worker --nthreads 1``,
+    ``LocalCluster(processes=True, threads_per_worker=1)``) to use every core:
+    threads of one process take torlab's tasks in turn.
+    """
     _CURRENT.set(None)  # a task on a threaded worker starts no tasks of its own
-    return _run(fn, item)
+    with _DASK_TASK_LOCK:
+        return _run(fn, item)
 
 
 # ------------------------------------------------------------------------------ choosing
