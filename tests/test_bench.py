@@ -305,9 +305,14 @@ def test_bands_quick_rows():
     from torlab.bench import bands
 
     out = bands.run(quick=True)
-    rows = {r.variant.split(" (")[0]: r for r in out if r.component != "band draws"}
+    rows = {r.variant.split(" (")[0]: r for r in out
+            if r.component not in ("band draws", "sampled band on 2 processes")}
     assert set(rows) == {"plain curve", "band, automatic choice", "band, linear",
                          "band, sampling"}
+    # the sampled band on 2 processes as one task and as its blocks: the same band
+    par = {r.variant: r for r in out if r.component == "sampled band on 2 processes"}
+    assert set(par) == {"the band one task", "its blocks of draws as tasks"}
+    assert par["its blocks of draws as tasks"].error == 0.0
     # the draws one by one and many per call: the same numbers (error 0 against one by one)
     draws = [r for r in out if r.component == "band draws"]
     assert {r.variant.split(" (")[0] for r in draws} == {"row by row", "many draws per call"}
