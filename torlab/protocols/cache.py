@@ -581,6 +581,11 @@ def _dec_pandas(t: dict, d: int) -> Any:
     df = pd.DataFrame(dict(enumerate(data)), index=index, copy=False) if data \
         else pd.DataFrame(index=index)
     df.columns = cols
+    return _with_attrs(df, t, d)
+
+
+def _with_attrs(df: Any, t: dict, d: int) -> Any:
+    """``df`` with the table attributes stored in ``t`` (a table's ``attrs``)."""
     attrs = decode_value(t.get("attrs", {"__t": "dict", "v": []}), depth=d)
     if not isinstance(attrs, dict):
         raise BadEntry("bad table attributes")
@@ -614,11 +619,7 @@ def _dec_frame_blocks(t: dict, d: int) -> Any:
     if not np.array_equal(covered, np.arange(n_cols)):
         raise BadEntry("table blocks do not cover its columns once each")
     df = _frame_from_blocks(parts, index, cols)
-    attrs = decode_value(t.get("attrs", {"__t": "dict", "v": []}), depth=d)
-    if not isinstance(attrs, dict):
-        raise BadEntry("bad table attributes")
-    df.attrs.update(attrs)
-    return df
+    return _with_attrs(df, t, d)
 
 
 def _positions(js: Any, n_cols: int) -> Any:
