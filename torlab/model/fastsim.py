@@ -285,17 +285,7 @@ def e_strip(theta: np.ndarray, r: np.ndarray) -> np.ndarray:
 
 def _gauss_e(th: np.ndarray, rr: np.ndarray, n: int) -> np.ndarray:
     """:func:`e_strip` by the ``n``-point Gauss-Legendre rule on ``[0, theta]``."""
-    x, w = _gauss(n)
-    res = np.empty(th.shape)
-    # in pieces of _CHUNK_ELEMENTS nodes: temporaries that stay small are much faster
-    for sl in _row_chunks(th.size, x.size):
-        t = th[sl, None] * x[None, :]
-        st = np.sin(t)
-        den = st + rr[sl, None]
-        # the integrand tends to 0 with sin t where r = 0 (no layer): no 0/0 at theta = 0
-        f = np.divide(st * st, den, out=np.zeros_like(den), where=den > 0)
-        res[sl] = th[sl] * np.sum(w[None, :] * f, axis=1)
-    return res
+    return _gauss_piece(None, th, rr, n)
 
 
 #: Gauss-Legendre nodes of e_strip's rule: ``n >= _GAUSS_A / ln(rho)``, even, from
@@ -925,14 +915,20 @@ def _e_in_cell(theta: np.ndarray, r: np.ndarray, t0: np.ndarray, e0: np.ndarray)
     return out.reshape(shape)
 
 
-def _gauss_piece(a: np.ndarray, d: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """``integral_a^(a+d) sin^2 t / (sin t + r) dt`` by the :data:`_CELL_NODES`-point rule."""
-    x, w = _gauss(_CELL_NODES)
+def _gauss_piece(a: np.ndarray | None, d: np.ndarray, r: np.ndarray,
+                 n: int = _CELL_NODES) -> np.ndarray:
+    """``integral_a^(a+d) sin^2 t / (sin t + r) dt`` by the ``n``-point Gauss-Legendre rule
+    (``a`` None: from 0)."""
+    x, w = _gauss(n)
     out = np.empty(d.shape)
+    # in pieces of _CHUNK_ELEMENTS nodes: temporaries that stay small are much faster
     for sl in _row_chunks(d.size, x.size):
-        t = a[sl, None] + d[sl, None] * x[None, :]
+        t = d[sl, None] * x[None, :] if a is None else a[sl, None] + d[sl, None] * x[None, :]
         st = np.sin(t)
-        out[sl] = d[sl] * np.sum(w[None, :] * (st * st / (st + r[sl, None])), axis=1)
+        den = st + r[sl, None]
+        # the integrand tends to 0 with sin t where r = 0 (no layer): no 0/0 at sin t = 0
+        f = np.divide(st * st, den, out=np.zeros_like(den), where=den > 0)
+        out[sl] = d[sl] * np.sum(w[None, :] * f, axis=1)
     return out
 
 
