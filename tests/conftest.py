@@ -21,6 +21,25 @@ def pytest_configure(config):
 
     os.environ.setdefault("TORLAB_CONFIG_DIR", tempfile.mkdtemp(prefix="torlab-test-config-"))
     os.environ.setdefault("TORLAB_JOBS", "1")
+    _build_each_cli_once()
+
+
+def _build_each_cli_once() -> None:
+    """typer's ``CliRunner.invoke`` builds the click command tree from the typer app on every
+    call: for torlab's ~50 commands that is about 40 ms of reading type hints, which the
+    suite's ~500 invocations would pay again and again.  A ``torlab`` process builds it
+    once; so does the suite (the tree holds no state between invocations)."""
+    import typer.testing
+
+    build = typer.testing._get_command  # fails loudly if typer renames it
+    built: dict[int, tuple[object, object]] = {}
+
+    def get_command(app):
+        if id(app) not in built or built[id(app)][0] is not app:
+            built[id(app)] = (app, build(app))
+        return built[id(app)][1]
+
+    typer.testing._get_command = get_command
 
 
 #: pytest-xdist (``--dist loadscope``) sends a test module's tests to one worker; these modules

@@ -113,6 +113,101 @@ def test_get_executor_from_the_options():
         DaskExecutor("tcp://127.0.0.1:1", timeout="0.3s")  # nothing listens there
 
 
+# ------------------------------------------------------------------------------ an early worker
+_LOADED: list[int] = []
+
+
+def _mark_loaded() -> None:
+    _LOADED.append(os.getpid())
+
+
+def _where(x: int) -> tuple[int, bool]:
+    return os.getpid(), os.getpid() in _LOADED
+
+
+def _unpicklable(x: int):
+    return lambda: x
+
+
+def test_warm_worker_loads_first_then_runs_tasks_like_the_other_executors():
+    from torlab.parallel import WarmWorker
+
+    ww = WarmWorker(["json", _mark_loaded, "no_such_module_here"])  # a failing need is left
+    proc = ww._proc
+    try:
+        assert ww.map(_square, range(5)) == [x * x for x in range(5)]
+        pid, loaded = ww.map(_where, [0])[0]
+        assert pid == proc.pid != os.getpid() and loaded  # in the worker, after its needs
+        with warnings.catch_warnings(record=True) as w:
+            warnings.simplefilter("always")
+            assert ww.map(_warn, [1, 2]) == [1, 2]
+        assert sorted(str(x.message) for x in w if issubclass(x.category, TorlabWarning)) \
+            == ["task 1 says so", "task 2 says so"]
+        with pytest.raises(TorlabInputError, match="bad 3"):
+            ww.map(_fail, range(7))
+        assert ww.map(_inner, [0]) == ["serial"]
+        with pytest.raises(RuntimeError, match="could not be returned"):
+            ww.map(_unpicklable, [1])
+        assert ww.map(_square, [3]) == [9]  # still serving after an error
+    finally:
+        ww.close()
+    assert proc.exitcode == 0  # told to stop, and stopped
+
+
+def test_warm_worker_that_is_gone_leaves_the_tasks_to_this_process():
+    from torlab.parallel import WarmWorker
+
+    ww = WarmWorker([])
+    ww._proc.kill()
+    ww._proc.join()
+    assert ww.map(_where, [0]) == [(os.getpid(), False)]
+    ww.close()
+
+
+def test_warm_worker_only_where_a_second_process_helps(monkeypatch):
+    import torlab.parallel as par
+
+    monkeypatch.setattr(par, "usable_cores", lambda: 2)
+    monkeypatch.delenv("TORLAB_JOBS")
+    assert par.warm_worker([], jobs=1) is None
+    assert par.warm_worker([], scheduler="tcp://127.0.0.1:1") is None
+    monkeypatch.setenv("TORLAB_JOBS", "1")
+    assert par.warm_worker([]) is None
+    ww = par.warm_worker([], jobs=2)
+    assert isinstance(ww, par.WarmWorker)
+    ww.close()
+    monkeypatch.setattr(par, "usable_cores", lambda: 1)
+    assert par.warm_worker([], jobs=4) is None
+
+
+def test_predict_figure_drawn_by_the_early_worker_is_the_same(tmp_path, cli, monkeypatch):
+    import torlab.parallel as par
+
+    monkeypatch.setattr(par, "usable_cores", lambda: 2)
+    used = []
+    real = par.WarmWorker.map
+
+    def spy(self, fn, items, **kw):
+        used.append(fn.__name__)
+        return real(self, fn, items, **kw)
+
+    monkeypatch.setattr(par.WarmWorker, "map", spy)
+    for jobs in ("2", "1"):
+        r = cli("predict", "traction", SCENE, "-o", tmp_path / jobs, "--jobs", jobs,
+                "--creepage", "0:0.05:21")
+        assert r.exit_code == 0, r.output
+    assert used == ["_draw_task"]  # --jobs 2 only
+    assert (tmp_path / "2" / "traction.png").read_bytes() == \
+        (tmp_path / "1" / "traction.png").read_bytes()
+    for jobs in ("2", "1"):
+        r = cli("predict", "stribeck", ROOT / "protocols" / "scenes" / "optical_paper_a_rough.yaml",
+                "-o", tmp_path / f"s{jobs}", "--jobs", jobs, "--speed", "0.01:2:8")
+        assert r.exit_code == 0, r.output
+    assert used == ["_draw_task"] * 2
+    assert (tmp_path / "s2" / "stribeck.png").read_bytes() == \
+        (tmp_path / "s1" / "stribeck.png").read_bytes()
+
+
 # ------------------------------------------------------------------------------ same bytes
 def _same(a, b, what):
     assert type(a) is type(b), what

@@ -51,8 +51,9 @@ from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any
 
-__all__ = ["DaskExecutor", "Deferred", "Executor", "ProcessExecutor", "SerialExecutor", "activate",
-           "chunks", "current", "get_executor", "map_deferred", "map_tasks", "usable_cores", "use"]
+__all__ = ["DaskExecutor", "Deferred", "Executor", "ProcessExecutor", "SerialExecutor", "WarmWorker",
+           "activate", "chunks", "current", "get_executor", "map_deferred", "map_tasks",
+           "usable_cores", "use", "warm_worker"]
 
 _CURRENT: contextvars.ContextVar[Executor | None] = contextvars.ContextVar(
     "torlab_executor", default=None)
@@ -202,15 +203,8 @@ class ProcessExecutor(Executor):
             self._needs += [n for n in needs if n not in self._needs]
 
     def _load_needs(self) -> None:
-        """Import what :meth:`prepare` listed (just before the fork; a failure is left to the
-        task that needs it)."""
-        import importlib
-
-        for need in self._needs:
-            try:
-                need() if callable(need) else importlib.import_module(need)
-            except Exception:  # the task itself reports it, where it happens
-                pass
+        """Import what :meth:`prepare` listed (just before the fork)."""
+        _load(self._needs)
 
     def describe(self) -> str:
         return f"{self.workers} local processes"
@@ -282,6 +276,128 @@ class ProcessExecutor(Executor):
 
 def _noop(i: int) -> int:
     return i
+
+
+def _load(needs: Sequence[str | Callable[[], Any]]) -> None:
+    """Import modules (names) and call set-up functions; a failure is left to the task that
+    needs them, where it happens."""
+    import importlib
+
+    for need in needs:
+        try:
+            need() if callable(need) else importlib.import_module(need)
+        except Exception:
+            pass
+
+
+class WarmWorker(Executor):
+    """One worker process, forked at once, that loads what its tasks will need while this
+    process goes on with other work; the tasks of a later :meth:`map` run there.
+
+    A command that ends by drawing its figure (``torlab predict traction``) starts one
+    as it begins: the worker imports matplotlib and draws a throwaway figure (about a
+    third of the command's time) while the command itself loads the scene and
+    computes the curve; then it draws the real figure.  On two cores that takes the
+    import off the command's wall time.  Make one with :func:`warm_worker`, which
+    gives None where it would not help (one usable core, no ``fork``).
+
+    The tasks of a map run one after another in the worker, with their results,
+    warnings and first error returned as :class:`ProcessExecutor` returns them.  If
+    the worker is gone (killed, or it could not start), they run in this process.
+    """
+
+    kind = "processes"
+    workers = 1
+
+    def __init__(self, needs: Sequence[str | Callable[[], Any]]) -> None:
+        import multiprocessing as mp
+
+        ctx = mp.get_context("fork")
+        self._conn, child = ctx.Pipe()
+        self._proc: Any = ctx.Process(target=_warm_main, args=(child, os.getpid(), list(needs)),
+                                      daemon=True)
+        self._proc.start()
+        child.close()
+
+    def describe(self) -> str:
+        return "a worker process started early"
+
+    def _call(self, fn: Callable[[Any], Any], item: Any) -> tuple[Any, list[tuple[Any, ...]]]:
+        if self._proc is not None:
+            try:
+                self._conn.send((fn, item))
+                ok, payload = self._conn.recv()
+            except (EOFError, OSError, BrokenPipeError):  # the worker is gone
+                self._stop()
+            else:
+                if not ok:
+                    raise payload
+                return payload
+        return _run(fn, item)
+
+    def map(self, fn: Callable[[Any], Any], items: Iterable[Any], *,
+            description: str = "") -> list[Any]:
+        from torlab.progress import current as progress
+
+        items = list(items)
+        out = []
+        with progress().task(description, len(items) if description and len(items) > 1
+                             else 0) as advance:
+            for it in items:
+                out.append(self._call(fn, it))
+                advance()
+        return _results(out)
+
+    def _stop(self) -> None:
+        proc, self._proc = self._proc, None
+        if proc is None:
+            return
+        try:
+            self._conn.send(None)
+        except (OSError, BrokenPipeError):
+            pass
+        self._conn.close()
+        proc.join(timeout=5)
+        if proc.is_alive():  # pragma: no cover - a worker stuck in a task
+            proc.kill()
+            proc.join()
+
+    def close(self) -> None:
+        self._stop()
+
+
+def _warm_main(conn: Any, parent: int, needs: list[str | Callable[[], Any]]) -> None:
+    """A :class:`WarmWorker`'s process: load, then run tasks until told to stop."""
+    _worker_init(parent)
+    _load(needs)
+    while True:
+        try:
+            msg = conn.recv()
+        except (EOFError, OSError):
+            break
+        if msg is None:
+            break
+        fn, item = msg
+        try:
+            reply: tuple[bool, Any] = (True, _run(fn, item))
+        except Exception as e:  # returned to the caller, raised there
+            reply = (False, e)
+        try:
+            conn.send(reply)
+        except Exception as e:  # an unpicklable result or error: say what it was
+            conn.send((False, RuntimeError(f"a task's {'result' if reply[0] else 'error'} "
+                                           f"could not be returned: {e}")))
+    conn.close()
+
+
+def warm_worker(needs: Sequence[str | Callable[[], Any]], jobs: int | None = None,
+                scheduler: str | None = None) -> WarmWorker | None:
+    """A :class:`WarmWorker` loading ``needs``, or None where it would not help: ``--jobs 1``,
+    a Dask ``--scheduler``, one usable core, or no ``fork`` (macOS, Windows)."""
+    if scheduler or not sys.platform.startswith("linux") or usable_cores() < 2 \
+            or _job_count(jobs) < 2:
+        return None
+    return WarmWorker(needs)
 
 
 class DaskExecutor(Executor):
@@ -445,6 +561,14 @@ def get_executor(jobs: int | None = None, scheduler: str | None = None) -> Execu
     """
     if scheduler:
         return DaskExecutor(scheduler)
+    n = _job_count(jobs)
+    if n <= 1:
+        return SerialExecutor()
+    return ProcessExecutor(n)
+
+
+def _job_count(jobs: int | None) -> int:
+    """Worker processes for ``--jobs`` (None: ``TORLAB_JOBS``, else every usable core)."""
     if jobs is None and os.environ.get("TORLAB_JOBS", "").strip():
         try:
             jobs = int(os.environ["TORLAB_JOBS"])
@@ -453,10 +577,7 @@ def get_executor(jobs: int | None = None, scheduler: str | None = None) -> Execu
 
             raise TorlabInputError(f"TORLAB_JOBS={os.environ['TORLAB_JOBS']!r} is not a whole "
                                    "number of worker processes", key="TORLAB_JOBS") from None
-    n = usable_cores() if jobs is None or jobs <= 0 else int(jobs)
-    if n <= 1:
-        return SerialExecutor()
-    return ProcessExecutor(n)
+    return usable_cores() if jobs is None or jobs <= 0 else int(jobs)
 
 
 def map_tasks(fn: Callable[[Any], Any], items: Iterable[Any], *, description: str = "") -> list:

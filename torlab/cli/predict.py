@@ -118,11 +118,7 @@ def traction_cmd(
     the CSV, the band in the figure, the method and the dominant parameters in
     summary.json, and the trend with the probability of each class.
     """
-    from torlab.cli._common import parse_values, session
-    from torlab.model.predict import predict_traction
-    from torlab.outputs import OutputDir
-    from torlab.reports.render import parse_formats
-    from torlab.scene import load_scene
+    from torlab.reports.render import early_drawing, parse_formats
 
     files = require_files(scene, "scene")
     fmts = parse_formats(formats)
@@ -130,6 +126,27 @@ def traction_cmd(
         return _sweep(files, out, force, fmts, creepage=creepage, seconds=sweep, amount=amount,
                       band_length=band_length, track_radius=track_radius,
                       pass_interval=pass_interval)
+    # the figure's worker loads matplotlib while this process loads the scene and computes
+    with early_drawing(not no_plot, jobs, scheduler) as drawer:
+        pred, names = _traction(files, out, creepage, lateral, spin, force=force,
+                                formats=None if no_plot else fmts, drawer=drawer, jobs=jobs,
+                                scheduler=scheduler, quiet=quiet)
+    _print_modelled(pred.modelled, pred.summary.get("notes", []))
+    _print_band(pred.summary)
+    _print_trend(pred)
+    console().print(f"wrote {_written(names)} to {out}")
+
+
+def _traction(files: list[Path], out: Path, creepage: str, lateral: str, spin: str, *,
+              force: bool, formats: Sequence[str] | None, drawer: Any, jobs: int | None,
+              scheduler: str | None, quiet: bool) -> tuple[Any, list[str]]:
+    """``predict traction``'s work: the prediction, and the names of the files written
+    (``formats`` None: no figure; ``drawer``: where the figure is drawn)."""
+    from torlab.cli._common import parse_values, session
+    from torlab.model.predict import predict_traction
+    from torlab.outputs import OutputDir
+    from torlab.scene import load_scene
+
     _no_retention_file(files)
     sc = load_scene(*files)
     xi = parse_values(creepage, "dimensionless", "--creepage", "creepage")
@@ -149,17 +166,14 @@ def traction_cmd(
         summary = dict(pred.summary, creepage_range=[float(xi.min()), float(xi.max())],
                        n_points=int(xi.size))
         dest.write_json("summary.json", summary)
-        if not no_plot:
+        if formats is not None:
             from torlab.reports.predict import traction_figure
             from torlab.reports.render import plot, write_figures
 
             fig = plot(traction_figure, [(sc.name or files[0].stem, pred.table)],
                        boundary=sc.boundary, title=f"Traction: {sc.name or files[0].stem}")
-            names += write_figures(dest, [("traction", fig)], fmts)[0]
-    _print_modelled(pred.modelled, pred.summary.get("notes", []))
-    _print_band(pred.summary)
-    _print_trend(pred)
-    console().print(f"wrote {_written(names)} to {out}")
+            names += write_figures(dest, [("traction", fig)], formats, executor=drawer)[0]
+    return pred, names
 
 
 def _print_trend(pred: Any) -> None:
@@ -343,44 +357,47 @@ def stribeck_cmd(
     """
     import numpy as np
 
-    from torlab.cli._common import parse_values, session
-    from torlab.errors import TorlabInputError
-    from torlab.model.mixed import predict_stribeck
-    from torlab.outputs import OutputDir
-    from torlab.reports.render import parse_formats
-    from torlab.scene import load_scene
+    from torlab.reports.render import early_drawing
 
-    files = require_files(scene, "scene")
-    fmts = parse_formats(formats)
-    sc = load_scene(*files)
-    if sc.lubricant is None:
-        raise TorlabInputError("a Stribeck curve needs a lubricated scene (lubricant: section)",
-                               path=files[0], key="lubricant")
-    v = parse_values(speed, "velocity", "--speed", "speed")
-    if log and ":" in speed and "," not in speed:
-        if v[0] <= 0:
-            raise TorlabInputError("log-spaced speeds must start above 0 (or use --linear)",
-                                   key="--speed")
-        v = np.geomspace(v[0], v[-1], v.size)
-    xi = parse_values(creepage, "dimensionless", "--creepage", "creepage")
-    if xi.size != 1:
-        raise TorlabInputError("give one creepage", key="--creepage")
-    dest = OutputDir(out, force=force, inputs=files, command=command_line())
-    names = ["stribeck.csv", "summary.json"]
-    with dest, session(jobs, scheduler, quiet):
-        pred = predict_stribeck(sc, v, float(xi[0]))
-        dest.write_csv("stribeck.csv", pred.table,
-                       allow_missing=("lambda", "mu_ehl", "mu_boundary", "max_temperature_C",
-                                      "max_temperature_low95_C", "max_temperature_high95_C"))
-        dest.write_json("summary.json", pred.summary)
-        if not no_plot:
-            from torlab.reports.predict import stribeck_figure
-            from torlab.reports.render import plot, write_figures
+    with early_drawing(not no_plot, jobs, scheduler) as drawer:
+        from torlab.cli._common import parse_values, session
+        from torlab.errors import TorlabInputError
+        from torlab.model.mixed import predict_stribeck
+        from torlab.outputs import OutputDir
+        from torlab.reports.render import parse_formats
+        from torlab.scene import load_scene
 
-            fig = plot(stribeck_figure, pred.table,
-                       title=f"Stribeck curve: {sc.name or files[0].stem}",
-                       creepage=pred.creepage)
-            names += write_figures(dest, [("stribeck", fig)], fmts)[0]
+        files = require_files(scene, "scene")
+        fmts = parse_formats(formats)
+        sc = load_scene(*files)
+        if sc.lubricant is None:
+            raise TorlabInputError("a Stribeck curve needs a lubricated scene (lubricant: section)",
+                                   path=files[0], key="lubricant")
+        v = parse_values(speed, "velocity", "--speed", "speed")
+        if log and ":" in speed and "," not in speed:
+            if v[0] <= 0:
+                raise TorlabInputError("log-spaced speeds must start above 0 (or use --linear)",
+                                       key="--speed")
+            v = np.geomspace(v[0], v[-1], v.size)
+        xi = parse_values(creepage, "dimensionless", "--creepage", "creepage")
+        if xi.size != 1:
+            raise TorlabInputError("give one creepage", key="--creepage")
+        dest = OutputDir(out, force=force, inputs=files, command=command_line())
+        names = ["stribeck.csv", "summary.json"]
+        with dest, session(jobs, scheduler, quiet):
+            pred = predict_stribeck(sc, v, float(xi[0]))
+            dest.write_csv("stribeck.csv", pred.table,
+                           allow_missing=("lambda", "mu_ehl", "mu_boundary", "max_temperature_C",
+                                          "max_temperature_low95_C", "max_temperature_high95_C"))
+            dest.write_json("summary.json", pred.summary)
+            if not no_plot:
+                from torlab.reports.predict import stribeck_figure
+                from torlab.reports.render import plot, write_figures
+
+                fig = plot(stribeck_figure, pred.table,
+                           title=f"Stribeck curve: {sc.name or files[0].stem}",
+                           creepage=pred.creepage)
+                names += write_figures(dest, [("stribeck", fig)], fmts, executor=drawer)[0]
     _print_modelled(pred.modelled, pred.summary.get("notes", []))
     _print_band(pred.summary)
     s = pred.summary

@@ -197,23 +197,14 @@ def _needs(p: Any) -> list[Any]:
     (:meth:`torlab.parallel.Executor.prepare`) instead of once in every worker: the fits'
     optimiser (which the amount report's crossings need here too) and the figures'
     matplotlib.  Nothing is loaded when no worker starts (a re-run from the cache)."""
+    from torlab.reports.render import prepare_drawing
+
     needs: list[Any] = []
     if any(getattr(p.fits, k, None) for k in ("hpt_layers", "traction_layers", "lubricants")) \
             or getattr(p.reports, "amount", None) is not None:
         needs.append("scipy.optimize")
-    needs.append(_figures_ready)
+    needs.append(prepare_drawing)
     return needs
-
-
-def _figures_ready() -> None:
-    import io
-
-    from torlab.reports.plotting import subplots
-
-    # matplotlib with torlab's style, its Agg canvas, its fonts and the PNG writer
-    fig, ax = subplots()
-    ax.set_xlabel("x")
-    fig.savefig(io.BytesIO(), format="png")
 
 
 def _rel(p: Path, base: Path) -> str:

@@ -29,12 +29,14 @@ import io
 import json
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["DEFAULT_FORMATS", "FORMATS", "Plot", "RenderStats", "figure_key", "parse_formats",
-           "plot", "plot_digest", "render", "render_figures", "write_figures"]
+__all__ = ["DEFAULT_FORMATS", "FORMATS", "Plot", "RenderStats", "early_drawing", "figure_key",
+           "parse_formats", "plot", "plot_digest", "prepare_drawing", "render", "render_figures",
+           "write_figures"]
 
 #: file formats torlab writes figures in
 FORMATS = ("png", "svg", "pdf")
@@ -172,6 +174,47 @@ def render(fig: Any, fmt: str, dpi: float | None = None) -> bytes:
         kw["pil_kwargs"] = {"compress_level": 3}
     fig.savefig(buf, format=fmt, dpi=dpi or STYLE["savefig.dpi"], **kw)
     return buf.getvalue()
+
+
+def prepare_drawing() -> None:
+    """Load what drawing a figure needs -- matplotlib with torlab's style, its Agg canvas,
+    its fonts and the PNG writer -- by drawing a throwaway figure."""
+    from torlab.reports.plotting import subplots
+
+    fig, ax = subplots()
+    ax.set_xlabel("x")
+    fig.savefig(io.BytesIO(), format="png")
+
+
+def _load_drawing() -> None:
+    """The modules of :func:`prepare_drawing` without its throwaway figure (what an early
+    worker loads: the figure it then draws loads the rest)."""
+    import importlib
+
+    from torlab.reports.plotting import _mpl
+
+    _mpl()
+    for m in ("matplotlib.backends.backend_agg", "matplotlib.font_manager", "PIL.PngImagePlugin"):
+        importlib.import_module(m)
+
+
+@contextmanager
+def early_drawing(enabled: bool = True, jobs: int | None = None,
+                  scheduler: str | None = None) -> Iterator[Any]:
+    """A worker process that loads matplotlib now, while the command computes, and draws
+    its figures at the end (:class:`torlab.parallel.WarmWorker`): pass what this yields
+    as ``executor=`` to :func:`write_figures`.  Yields None when ``enabled`` is false or
+    a second process would not help (``--jobs 1``, ``--scheduler``, one core): the
+    figures are then drawn on the command's executor as usual.  The worker is stopped
+    when the block ends, whatever happens in it."""
+    from torlab.parallel import warm_worker
+
+    worker = warm_worker([_load_drawing], jobs, scheduler) if enabled else None
+    try:
+        yield worker
+    finally:
+        if worker is not None:
+            worker.close()
 
 
 def _draw_task(task: tuple[Plot, tuple[str, ...], float | None]) -> dict[str, bytes]:
