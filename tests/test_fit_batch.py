@@ -50,6 +50,7 @@ def traction_runs(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow  # four traction fits with --xlsx; folders, patterns and joint fits: the hpt and film tests below
 def test_traction_folder_gives_one_fit_per_curve(traction_runs):
     folder = traction_runs["folder"]
     # the film log and the notes are left out (said), the two curves fitted one by one
@@ -68,6 +69,7 @@ def test_traction_folder_gives_one_fit_per_curve(traction_runs):
     assert abs(single.loc["mu_c2", "value"] - 0.26) < 0.01 or lo <= 0.26 <= hi
 
 
+@pytest.mark.slow  # four traction fits with --xlsx; folders, patterns and joint fits: the hpt and film tests below
 def test_traction_joint_fit_of_a_repeat(traction_runs):
     """A curve and its exact copy: the same least-squares minimum, standard errors smaller
     by sqrt((n - p)/(2n - p)) (the residual variance over twice the points)."""
@@ -81,6 +83,7 @@ def test_traction_joint_fit_of_a_repeat(traction_runs):
     assert not (traction_runs["joint"] / "fit_summary.csv").exists()
 
 
+@pytest.mark.slow  # four traction fits with --xlsx; folders, patterns and joint fits: the hpt and film tests below
 def test_fit_xlsx_holds_the_tables(traction_runs):
     from openpyxl import load_workbook
 

@@ -176,6 +176,7 @@ OPT = ROOT / "sample_data" / "optical"
 VISC = ROOT / "sample_data" / "visc"
 
 
+@pytest.mark.slow  # fit traction then predict as commands: also tests/test_bands.py; the plateau: test_fit_traction.py
 def test_cli_fit_traction_dry_feeds_predict(cli, tmp_path):
     # the dry optical log is generated from the model with a known layer (truth.yaml): the
     # fitted layer, fed to predict, must reproduce the true plateau and the slope near zero

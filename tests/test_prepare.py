@@ -37,6 +37,7 @@ print("ok")
     assert r.returncode == 0 and r.stdout.strip() == "ok", r.stderr
 
 
+@pytest.mark.slow  # two protocol runs in new interpreters; prepare itself: above
 def test_warm_protocol_run_loads_no_optimiser_and_no_matplotlib(tmp_path):
     """A re-run that finds everything in its cache starts no worker, so the modules the
     runner prepares for them (scipy.optimize, matplotlib) are never loaded."""
