@@ -195,3 +195,29 @@ test_mutated_real_pcs_files_all = pytest.mark.realdata(pytest.mark.slow(_fuzz(_r
 def test_unmutated_sources_parse(i):
     kind, raw = SOURCES[i]
     _parse_and_reduce(kind, raw, f"src-{i}.txt")
+
+
+@pytest.mark.parametrize(("reader", "sample"), [
+    ("torlab.parsers.hpt:read_hpt", "hpt/hpt_OFM1_4uL_25C.txt"),
+    ("torlab.parsers.viscometer:read_viscometer", "visc/visc_ester_25C.txt"),
+    ("torlab.parsers.pcs:read_pcs", "mtm/mtm_TOR-A_20uL.txt"),
+    ("torlab.parsers.optical:read_optical", "optical/dry_traction_rough.csv"),
+])
+def test_a_digit_of_another_script_is_an_error_naming_its_line(tmp_path, reader, sample):
+    """Python's float() reads '\u0664' (Arabic-Indic four), pandas does not: the two parsers
+    of a data row must agree, so the row is refused with its line and column (it once
+    passed the exact scan after pandas had refused it: an internal error)."""
+    import importlib
+    import re
+
+    mod, name = reader.split(":")
+    read = getattr(importlib.import_module(mod), name)
+    lines = (ROOT / "sample_data" / sample).read_text(encoding="utf-8").split("\n")
+    k = next(k for k in range(int(0.7 * len(lines)), len(lines))
+             if re.search("[0-9]", lines[k]) and not lines[k].startswith("#"))
+    lines[k] = re.sub("[0-9]", "\u0664", lines[k], count=1)
+    bad = tmp_path / (sample.split("/")[1])
+    bad.write_text("\n".join(lines), encoding="utf-8")
+    with pytest.raises(TorlabInputError, match="is not a number") as e:
+        read(bad)
+    assert e.value.line == k + 1 and e.value.path == str(bad)

@@ -24,8 +24,9 @@ import numpy as np
 
 from torlab.errors import TorlabInputError
 
+# ASCII digits only: float() also reads the digits of other scripts ('\u0664'), pandas does not
 _NUMBER_FIELD = re.compile(r"[+-]?(?:(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|inf(?:inity)?|nan)",
-                           re.IGNORECASE)
+                           re.IGNORECASE | re.ASCII)
 
 __all__ = ["LogMetadata", "PathOrBuffer", "detect_delimiter", "header_key", "number_field",
            "parse_log_columns", "parse_numeric_rows", "read_log_header", "read_text",
