@@ -164,6 +164,25 @@ def test_warm_worker_that_is_gone_leaves_the_tasks_to_this_process():
     ww.close()
 
 
+def _forever() -> None:
+    import time
+
+    time.sleep(600)
+
+
+def test_warm_worker_never_used_is_not_waited_for():
+    """A command that fails before its figure closes the worker while it is still loading:
+    it is killed, not waited for."""
+    import signal
+
+    from torlab.parallel import WarmWorker
+
+    ww = WarmWorker([_forever])
+    proc = ww._proc
+    ww.close()
+    assert proc.exitcode == -signal.SIGKILL
+
+
 def test_warm_worker_only_where_a_second_process_helps(monkeypatch):
     import torlab.parallel as par
 
@@ -206,6 +225,12 @@ def test_predict_figure_drawn_by_the_early_worker_is_the_same(tmp_path, cli, mon
     assert used == ["_draw_task"] * 2
     assert (tmp_path / "s2" / "stribeck.png").read_bytes() == \
         (tmp_path / "s1" / "stribeck.png").read_bytes()
+    # a bad scene with the worker started: one error line, nothing written, nothing drawn
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(SCENE.read_text() + "\nno_such_key: 1\n")
+    r = cli("predict", "traction", bad, "-o", tmp_path / "bad", "--jobs", "2")
+    assert r.exit_code == 2 and "no_such_key" in r.output, r.output
+    assert not (tmp_path / "bad").exists() and used == ["_draw_task"] * 2
 
 
 # ------------------------------------------------------------------------------ same bytes

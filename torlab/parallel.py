@@ -303,7 +303,9 @@ class WarmWorker(Executor):
 
     The tasks of a map run one after another in the worker, with their results,
     warnings and first error returned as :class:`ProcessExecutor` returns them.  If
-    the worker is gone (killed, or it could not start), they run in this process.
+    the worker is gone (killed, or it could not start), they run in this process.  A
+    worker that was never sent a task is killed when it is closed: a command that stops
+    at an input error does not wait for the worker's imports.
     """
 
     kind = "processes"
@@ -318,6 +320,7 @@ class WarmWorker(Executor):
                                       daemon=True)
         self._proc.start()
         child.close()
+        self._sent = False
 
     def describe(self) -> str:
         return "a worker process started early"
@@ -325,6 +328,7 @@ class WarmWorker(Executor):
     def _call(self, fn: Callable[[Any], Any], item: Any) -> tuple[Any, list[tuple[Any, ...]]]:
         if self._proc is not None:
             try:
+                self._sent = True
                 self._conn.send((fn, item))
                 ok, payload = self._conn.recv()
             except (EOFError, OSError, BrokenPipeError):  # the worker is gone
@@ -352,10 +356,13 @@ class WarmWorker(Executor):
         proc, self._proc = self._proc, None
         if proc is None:
             return
-        try:
-            self._conn.send(None)
-        except (OSError, BrokenPipeError):
-            pass
+        if not self._sent:  # never used (the command failed first): no need to wait for it
+            proc.kill()
+        else:
+            try:
+                self._conn.send(None)
+            except (OSError, BrokenPipeError):
+                pass
         self._conn.close()
         proc.join(timeout=5)
         if proc.is_alive():  # pragma: no cover - a worker stuck in a task
