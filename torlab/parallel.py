@@ -295,10 +295,10 @@ class WarmWorker(Executor):
     process goes on with other work; the tasks of a later :meth:`map` run there.
 
     A command that ends by drawing its figure (``torlab predict traction``) starts one
-    as it begins: the worker imports matplotlib and draws a throwaway figure (about a
-    third of the command's time) while the command itself loads the scene and
-    computes the curve; then it draws the real figure.  On two cores that takes the
-    import off the command's wall time.  Make one with :func:`warm_worker`, which
+    as it begins: the worker imports matplotlib with its Agg canvas, fonts and PNG writer
+    (about a third of the command's time) while the command itself loads the scene and
+    computes the curve; then it draws the figure.  On two cores that takes the import
+    off the command's wall time.  Make one with :func:`warm_worker`, which
     gives None where it would not help (one usable core, no ``fork``).
 
     The tasks of a map run one after another in the worker, with their results,

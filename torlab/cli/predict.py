@@ -357,18 +357,18 @@ def stribeck_cmd(
     """
     import numpy as np
 
-    from torlab.reports.render import early_drawing
+    from torlab.reports.render import early_drawing, parse_formats
 
+    files = require_files(scene, "scene")
+    fmts = parse_formats(formats)
+    # the figure's worker loads matplotlib while this process loads the scene and computes
     with early_drawing(not no_plot, jobs, scheduler) as drawer:
         from torlab.cli._common import parse_values, session
         from torlab.errors import TorlabInputError
         from torlab.model.mixed import predict_stribeck
         from torlab.outputs import OutputDir
-        from torlab.reports.render import parse_formats
         from torlab.scene import load_scene
 
-        files = require_files(scene, "scene")
-        fmts = parse_formats(formats)
         sc = load_scene(*files)
         if sc.lubricant is None:
             raise TorlabInputError("a Stribeck curve needs a lubricated scene (lubricant: section)",
