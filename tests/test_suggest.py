@@ -96,6 +96,27 @@ def test_fit_removal_answers_with_its_options(cli, tmp_path, option, value, flag
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.parametrize(("kw", "key"), [
+    ({"laws": ["zero_ordr"]}, "laws"), ({"law": "first_ordr"}, "law"),
+    ({"transfer": "fitt"}, "transfer"), ({"transfer": 1.5}, "transfer"),
+    ({"skip": "autoo"}, "skip"), ({"track_radius": "20 C"}, "track_radius"),
+    ({"duration": "5 kg"}, "duration"), ({"application_time": "x"}, "application_time"),
+])
+def test_fit_removal_names_a_bad_option_before_any_fit(monkeypatch, kw, key):
+    """A misspelt option is named before the layer's HPT fits (or anything else) run."""
+    import torlab.fit.amount as amount
+    from torlab import api
+    from torlab.errors import TorlabInputError
+
+    def no_fit(*a, **k):
+        raise AssertionError("the HPT fits ran before the options were checked")
+
+    monkeypatch.setattr(amount, "amount_layer", no_fit)
+    with pytest.raises(TorlabInputError) as e:
+        api.fit_removal(RET / "mtm_retention_1uL.txt", [RET], **kw)
+    assert e.value.key == key, e.value
+
+
 @pytest.mark.parametrize(("args", "hint"), [
     (("fit", "temperature", HPT / "hpt_OFM1_4uL_25C.txt", "--selection", "tst"),
      "did you mean 'test'?"),

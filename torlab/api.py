@@ -479,10 +479,17 @@ def fit_removal(tests: Any, layer: Any, *, scene: Any = None, density: Any = Non
         ``to_params(path)`` writes the parameter file ``predict_retention`` reads.
     """
     from torlab.fit.amount import amount_layer
-    from torlab.fit.removal import TimeTest, default_tribometer_scene, read_time_test
+    from torlab.fit.removal import TimeTest, check_options, default_tribometer_scene, read_time_test
     from torlab.fit.removal import fit_removal as _fit
     from torlab.model.amount import AmountLayer
 
+    # the options first: a misspelt word or unit is named before the layer's HPT fits run
+    sk = _word_or_si(skip, "auto", "time", "skip")
+    tr = _word_or_si(transfer, "fit", "dimensionless", "transfer")
+    check_options(laws, law, tr)
+    t_app = _si(application_time, "time", "application_time")
+    radius = _si(track_radius, "length", "track_radius")
+    dur = _si(duration, "time", "duration")
     dens = _si(density, "density", "density", "density")
     if isinstance(layer, AmountLayer):
         lay = layer
@@ -498,14 +505,10 @@ def fit_removal(tests: Any, layer: Any, *, scene: Any = None, density: Any = Non
             dens = ds.pop() if len(ds) == 1 else None
     items = tests if isinstance(tests, (list, tuple)) else [tests]
     tt = [t if isinstance(t, TimeTest) else read_time_test(
-        t, step=step, amount=amount, density=dens,
-        application_time=_si(application_time, "time", "application_time"),
-        track_radius=_si(track_radius, "length", "track_radius")) for t in items]
+        t, step=step, amount=amount, density=dens, application_time=t_app,
+        track_radius=radius) for t in items]
     sc = default_tribometer_scene() if scene is None else _scene(scene)
-    sk = _word_or_si(skip, "auto", "time", "skip")
-    tr = _word_or_si(transfer, "fit", "dimensionless", "transfer")
-    res = _fit(tt, lay, sc, laws=laws, law=law, transfer=tr, skip=sk,
-               duration=_si(duration, "time", "duration"))
+    res = _fit(tt, lay, sc, laws=laws, law=law, transfer=tr, skip=sk, duration=dur)
     if scene is None:
         res.meta["notes"] = [*res.meta.get("notes", []), "tribometer: the default PCS MTM ball "
                              "on disc (19.05 mm steel ball on a steel disc)"]

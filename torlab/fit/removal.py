@@ -70,7 +70,8 @@ from torlab.model.removal import (
     passes_solution,
 )
 
-__all__ = ["RemovalFit", "RetentionParams", "TimeTest", "default_tribometer_scene", "fit_removal",
+__all__ = ["RemovalFit", "RetentionParams", "TimeTest", "check_options", "default_tribometer_scene",
+           "fit_removal",
            "is_retention_file", "is_time_test_input", "load_retention", "read_time_test", "removal_figure",
            "retention_from_dict", "time_test"]
 
@@ -507,6 +508,32 @@ class _Spec:
     transfer_fit: bool
 
 
+def check_options(laws: Sequence[str], law: str | None = None, transfer: Any = 1.0) -> list[str]:
+    """The removal fit's option words, checked before any work: the candidate laws (returned,
+    in order, without repeats) and the transfer (a fraction in (0, 1] or ``"fit"``).
+
+    Raises
+    ------
+    TorlabInputError
+        An unknown law (with the nearest known one), no law, or a bad transfer; keyed
+        by its option (``laws``, ``law``, ``transfer``).
+    """
+    cands = list(dict.fromkeys([*laws, *([law] if law else [])]))
+    if not cands:
+        raise TorlabInputError("no candidate removal law", key="laws")
+    for nm in cands:
+        _spec(nm, False, "laws" if nm in laws else "law")
+    if transfer != "fit":
+        try:
+            value = float(transfer)
+        except (TypeError, ValueError):
+            raise TorlabInputError(f"transfer must be a fraction or 'fit', got {transfer!r}",
+                                   key="transfer") from None
+        if not (0 < value <= 1):
+            raise TorlabInputError(f"transfer must be in (0, 1], got {value:g}", key="transfer")
+    return cands
+
+
 def _spec(law: str, transfer_fit: bool, key: str = "laws") -> _Spec:
     if law not in LAWS:
         from torlab._suggest import did_you_mean
@@ -915,18 +942,9 @@ def fit_removal(tests: TimeTest | Sequence[TimeTest], layer: Any, scene: Any, *,
     if not items:
         raise TorlabInputError("no time test given")
     fit_tr = transfer == "fit"
+    cands = check_options(laws, law, transfer)
     if not fit_tr:
-        try:
-            transfer = float(transfer)
-        except (TypeError, ValueError):
-            raise TorlabInputError(f"transfer must be a fraction or 'fit', got {transfer!r}",
-                                   key="transfer") from None
-        if not (0 < transfer <= 1):
-            raise TorlabInputError(f"transfer must be in (0, 1], got {transfer:g}",
-                                   key="transfer")
-    cands = list(dict.fromkeys([*laws, *([law] if law else [])]))
-    if not cands:
-        raise TorlabInputError("no candidate removal law", key="laws")
+        transfer = float(transfer)
     specs = [_spec(nm, fit_tr, "laws" if nm in laws else "law") for nm in cands]
     preps = [_prepare(tt, scene, layer, skip=skip, duration=duration, per_interval=per_interval,
                       max_transfer=1.0 if fit_tr else float(transfer), fit_transfer=fit_tr)
