@@ -1,6 +1,6 @@
 """``python -m torlab`` runs the command-line interface."""
 
-from torlab.cli import main
+from torlab.cli import run
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run()

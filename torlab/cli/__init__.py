@@ -30,7 +30,7 @@ from typer.core import TyperGroup
 from torlab import __version__
 from torlab.errors import TorlabError, ValidationErrors
 
-__all__ = ["app", "main"]
+__all__ = ["app", "main", "run"]
 
 _STATE: dict[str, Any] = {"debug": False, "argv": None, "warnings": [], "hidden_warnings": []}
 
@@ -222,10 +222,43 @@ def _one_blas_thread(argv: Sequence[str]) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Console entry point (``torlab``)."""
+    """Run one ``torlab`` command line (``argv``, default ``sys.argv[1:]``); raises
+    ``SystemExit`` with its exit code, as a console program does.  From a notebook or a
+    script: ``main(["predict", "traction", "scene.yaml", "-o", "out"])``."""
     import time
 
     _STATE["t_start"] = time.perf_counter()
     _one_blas_thread(list(sys.argv[1:] if argv is None else argv))
     cmd = typer.main.get_command(app)
     return cmd.main(args=argv, prog_name="torlab", standalone_mode=True)
+
+
+def run() -> None:
+    """The ``torlab`` program (and ``python -m torlab``): :func:`main`, then a quick exit.
+
+    When a command returns, its results are written and committed, its worker
+    processes and progress threads stopped and its messages printed.  What is left of
+    a normal interpreter shutdown is freeing every object and module one by one: 0.1 s
+    after ``predict traction``, 0.25 s after a warm protocol run (a fifth of it).  The
+    program flushes its output and ends the process at once instead (``os._exit``)
+    with the command's exit code.  An exception that escapes :func:`main` (a bug)
+    takes the normal way out, with its traceback.
+    """
+    import os
+
+    try:
+        main()
+        code: Any = 0
+    except SystemExit as e:
+        code = e.code
+    if code is None:
+        code = 0
+    elif not isinstance(code, int):  # sys.exit("message"): printed, exit code 1
+        print(code, file=sys.stderr)
+        code = 1
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # a closed pipe (`torlab ... | head`)
+            pass
+    os._exit(code)
