@@ -32,12 +32,12 @@ def _build_each_cli_once() -> None:
     import typer.testing
 
     build = typer.testing._get_command  # fails loudly if typer renames it
-    built: dict[int, tuple[object, object]] = {}
+    built: dict[object, object] = {}  # typer app -> its click command
 
     def get_command(app):
-        if id(app) not in built or built[id(app)][0] is not app:
-            built[id(app)] = (app, build(app))
-        return built[id(app)][1]
+        if app not in built:
+            built[app] = build(app)
+        return built[app]
 
     typer.testing._get_command = get_command
 
