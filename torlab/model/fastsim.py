@@ -273,36 +273,20 @@ def e_strip(theta: np.ndarray, r: np.ndarray) -> np.ndarray:
     other = ~closed
     if other.any():
         th, rr = theta[other], r[other]
-        out[other] = _gauss_e(th, rr, _gauss_nodes(th, rr))
+        out[other] = _gauss_piece(None, th, rr, _gauss_nodes(th, rr))
     return out
 
 
 @cache
 def _gauss_rules() -> tuple[np.ndarray, np.ndarray]:
-    """Nodes and weights on [0, 1] of every rule :func:`_gauss_nodes` chooses, one row per
-    rule (row ``k``: the ``2k``-point rule), padded with zero weights to 24 columns."""
+    """Nodes and weights on [0, 1] of every even Gauss-Legendre rule from 6 to 24 points,
+    one row per rule (row ``k``: the ``2k``-point rule), padded with zero weights to 24
+    columns."""
     x = np.zeros((13, 24))
     w = np.zeros((13, 24))
     for n in range(_GAUSS_MIN, 25, 2):
         x[n // 2, :n], w[n // 2, :n] = _gauss(n)
     return x, w
-
-
-def _gauss_e(th: np.ndarray, rr: np.ndarray, nodes: np.ndarray) -> np.ndarray:
-    """:func:`e_strip` on ``[0, theta]`` by the Gauss-Legendre rule of ``nodes`` points
-    (even, 6 to 24), each element its own, all in one pass: the padding's zero weights
-    add nothing (an element's sum differs from its rule's alone only in summation order)."""
-    xs, ws = _gauss_rules()
-    out = np.empty(th.shape)
-    for sl in _row_chunks(th.size, xs.shape[1]):
-        k = nodes[sl] // 2
-        t = th[sl, None] * xs[k]
-        st = np.sin(t)
-        den = st + rr[sl, None]
-        # the integrand tends to 0 with sin t where r = 0 (no layer): no 0/0 at sin t = 0
-        f = np.divide(st * st, den, out=np.zeros_like(den), where=den > 0)
-        out[sl] = th[sl] * np.sum(ws[k] * f, axis=1)
-    return out
 
 
 #: Gauss-Legendre nodes of e_strip's rule: ``n >= _GAUSS_A / ln(rho)``, even, from
@@ -933,19 +917,26 @@ def _e_in_cell(theta: np.ndarray, r: np.ndarray, t0: np.ndarray, e0: np.ndarray)
 
 
 def _gauss_piece(a: np.ndarray | None, d: np.ndarray, r: np.ndarray,
-                 n: int = _CELL_NODES) -> np.ndarray:
-    """``integral_a^(a+d) sin^2 t / (sin t + r) dt`` by the ``n``-point Gauss-Legendre rule
-    (``a`` None: from 0)."""
-    x, w = _gauss(n)
+                 nodes: np.ndarray | int = _CELL_NODES) -> np.ndarray:
+    """``integral_a^(a+d) sin^2 t / (sin t + r) dt`` (``a`` None: from 0) by the
+    Gauss-Legendre rule of ``nodes`` points (even, 6 to 24; one count for all or one per
+    element), every element in one pass: each row takes its rule's nodes and weights,
+    padded with zero weights to the largest rule in use, which add nothing (a row's sum
+    differs from its rule's alone only in the order of the additions)."""
+    xs, ws = _gauss_rules()
+    k_all = np.broadcast_to(np.asarray(nodes) // 2, d.shape)
+    m = 2 * int(k_all.max()) if d.size else 0
     out = np.empty(d.shape)
     # in pieces of _CHUNK_ELEMENTS nodes: temporaries that stay small are much faster
-    for sl in _row_chunks(d.size, x.size):
-        t = d[sl, None] * x[None, :] if a is None else a[sl, None] + d[sl, None] * x[None, :]
+    for sl in _row_chunks(d.size, m):
+        k = k_all[sl]
+        x, w = xs[k, :m], ws[k, :m]
+        t = d[sl, None] * x if a is None else a[sl, None] + d[sl, None] * x
         st = np.sin(t)
         den = st + r[sl, None]
         # the integrand tends to 0 with sin t where r = 0 (no layer): no 0/0 at sin t = 0
         f = np.divide(st * st, den, out=np.zeros_like(den), where=den > 0)
-        out[sl] = d[sl] * np.sum(w[None, :] * f, axis=1)
+        out[sl] = d[sl] * np.sum(w * f, axis=1)
     return out
 
 
