@@ -71,9 +71,8 @@ from torlab.model.removal import (
 )
 
 __all__ = ["RemovalFit", "RetentionParams", "TimeTest", "check_options", "default_tribometer_scene",
-           "fit_removal",
-           "is_retention_file", "is_time_test_input", "load_retention", "read_time_test", "removal_figure",
-           "retention_from_dict", "time_test"]
+           "fit_removal", "is_retention_file", "is_time_test_input", "load_retention",
+           "read_time_test", "removal_figure", "retention_from_dict", "time_test"]
 
 # the law parameters' units, registered where the fit results list units
 for _k, _u in LAW_UNITS.items():
