@@ -147,11 +147,15 @@ class Executor:
         with progress().task(description, len(items) if description and len(items) > 1
                              else 0) as advance:
             for it in items:
-                res, ws = _run(fn, it)
+                res, ws = self._run_one(fn, it)
                 _reissue(ws)
                 out.append(res)
                 advance()
         return out
+
+    def _run_one(self, fn: Callable[[Any], Any], item: Any) -> tuple[Any, list[tuple[Any, ...]]]:
+        """One task of :meth:`map`: its result and its warnings (here: in this process)."""
+        return _run(fn, item)
 
     def prepare(self, *needs: str | Callable[[], Any]) -> None:
         """Modules (names) or set-up functions the coming tasks will need: loaded in this
@@ -325,7 +329,7 @@ class WarmWorker(Executor):
     def describe(self) -> str:
         return "a worker process started early"
 
-    def _call(self, fn: Callable[[Any], Any], item: Any) -> tuple[Any, list[tuple[Any, ...]]]:
+    def _run_one(self, fn: Callable[[Any], Any], item: Any) -> tuple[Any, list[tuple[Any, ...]]]:
         if self._proc is not None:
             try:
                 self._sent = True
@@ -338,19 +342,6 @@ class WarmWorker(Executor):
                     raise payload
                 return payload
         return _run(fn, item)
-
-    def map(self, fn: Callable[[Any], Any], items: Iterable[Any], *,
-            description: str = "") -> list[Any]:
-        from torlab.progress import current as progress
-
-        items = list(items)
-        out = []
-        with progress().task(description, len(items) if description and len(items) > 1
-                             else 0) as advance:
-            for it in items:
-                out.append(self._call(fn, it))
-                advance()
-        return _results(out)
 
     def _stop(self) -> None:
         proc, self._proc = self._proc, None
