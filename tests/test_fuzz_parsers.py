@@ -221,3 +221,18 @@ def test_a_digit_of_another_script_is_an_error_naming_its_line(tmp_path, reader,
     with pytest.raises(TorlabInputError, match="is not a number") as e:
         read(bad)
     assert e.value.line == k + 1 and e.value.path == str(bad)
+
+
+def test_a_digit_of_another_script_is_one_error_line_from_the_command(cli, tmp_path):
+    from conftest import error_lines
+
+    lines = (ROOT / "sample_data" / "hpt" / "hpt_OFM1_4uL_25C.txt").read_text().split("\n")
+    k = next(k for k in range(len(lines) // 2, len(lines)) if lines[k][:1].isdigit())
+    lines[k] = "\u0664" + lines[k][1:]
+    bad = tmp_path / "hpt_bad.txt"
+    bad.write_text("\n".join(lines), encoding="utf-8")
+    r = cli("hpt", "reduce", bad, "-o", tmp_path / "out")
+    errs = error_lines(r)
+    assert r.exit_code == 2 and len(errs) == 1 and "Traceback" not in r.output, r.output
+    assert f"hpt_bad.txt:{k + 1}" in errs[0] and "is not a number" in errs[0], errs[0]
+    assert not (tmp_path / "out").exists()
