@@ -87,7 +87,9 @@ def _timing_line(res: Any) -> str:
 
     compute: reductions, fits, predictions and the reports' numbers; figures: drawing;
     I/O: reading and writing cache entries, figures and results; the rest: starting
-    Python, imports, loading and checking the protocol (from the command's start).
+    Python, imports, loading and checking the protocol (from the command's start).  These
+    are wall times of the stages: figures drawn on idle workers while the sections were
+    computed (said as "n started while computing") are inside compute's time.
     """
     import time
 
@@ -98,9 +100,14 @@ def _timing_line(res: Any) -> str:
         t["total"] = time.perf_counter() - _STATE["t_start"]
         t["other"] = max(t["total"] - t["compute"] - t["figures"] - t["io"], 0.0)
     return (f"cache: {res.cache_hits} results reused, {res.cache_misses} computed; figures: "
-            f"{t['figures_reused']} reused, {t['figures_drawn']} drawn; {t['total']:.1f} s = "
+            f"{t['figures_reused']} reused, {t['figures_drawn']} drawn"
+            f"{_alongside(t.get('figures_ahead', 0))}; {t['total']:.1f} s = "
             f"compute {t['compute']:.1f} s + figures {t['figures']:.1f} s + I/O {t['io']:.1f} s "
             f"+ start-up, imports and checks {t['other']:.1f} s ({t['executor']})")
+
+
+def _alongside(n: int) -> str:
+    return f" ({n} started while computing)" if n else ""
 
 
 def _print_key_numbers(summary: dict) -> None:

@@ -210,18 +210,25 @@ class RunContext:
                 out[i] = v
         return out
 
-    def cached_map(self, kind: str, fn: Any, tasks: list[tuple[dict[str, Any], Any]],
-                   description: str = "") -> list[Any]:
+    def cached_map(self, kind: str | list[str], fn: Any, tasks: list[tuple[dict[str, Any], Any]],
+                   description: str = "", uses: Any = None, short: bool = False) -> list[Any]:
         """``fn(arg)`` for ``(cache parts, arg)`` tasks: entries in the cache are reused, the
-        others computed on the run's executor (:mod:`torlab.parallel`) and stored."""
+        others computed on the run's executor (:mod:`torlab.parallel`) and stored.
+
+        ``kind``: the cache kind of every task, or one per task (tasks of several kinds in
+        one map, so that no worker waits between them).  ``uses``: which of the
+        executor's prepared modules the tasks use (:meth:`torlab.parallel.Executor.map`;
+        None: all).  ``short``: the tasks take milliseconds each, so they go to the
+        workers in blocks (four per worker)."""
         import time
 
         from torlab.parallel import current
 
+        kinds = [kind] * len(tasks) if isinstance(kind, str) else list(kind)
         out: list[Any] = [None] * len(tasks)
         todo = []
         for i, (parts, _) in enumerate(tasks):
-            hit, v = self.cache.lookup(kind, **parts)
+            hit, v = self.cache.lookup(kinds[i], **parts)
             if hit:
                 out[i] = v
             else:
@@ -233,13 +240,14 @@ class RunContext:
             t0 = time.perf_counter()
             # a task may defer part of its work (a sampled band's draws): those parts run
             # as tasks of their own, on every worker (torlab.parallel.Deferred)
+            size = -(-len(todo) // (4 * max(1, ex.workers))) if short else 1
             vals = map_deferred(ex, fn, [tasks[i][1] for i in todo], description=description,
-                                subtasks="band: parameter draws")
+                                subtasks="band: parameter draws", uses=uses, chunksize=size)
             self.cache.compute_seconds += time.perf_counter() - t0
             self.cache.misses += len(todo)
             for i, v in zip(todo, vals, strict=True):
                 out[i] = v
-                self.cache.store(kind, v, **tasks[i][0])
+                self.cache.store(kinds[i], v, **tasks[i][0])
         return out
 
 

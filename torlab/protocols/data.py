@@ -57,7 +57,8 @@ def reduce_data(ctx: RunContext) -> None:
         parts = [{"sha": ctx.sha(f), "name": f.name, "options": key} for f in files]
         reds = ctx.cached_map(section, _reduce_task,
                               [(pt, (name, f, prepared, section)) for pt, f in
-                               zip(parts, files, strict=True)], f"{section}: reducing files")
+                               zip(parts, files, strict=True)], f"{section}: reducing files",
+                              uses=(), short=True)  # no optimiser, no matplotlib: loaded meanwhile
         for red, pt in zip(reds, parts, strict=True):
             ctx.keys[id(red)] = ctx.cache.key(section, **pt)
         ctx.reductions[section] = reds

@@ -27,6 +27,10 @@ from torlab.protocols.context import RunContext, add_covariance
 
 __all__ = ["fit_all", "measured_traction"]
 
+#: what the fit tasks use of the run's prepared modules (:meth:`torlab.parallel.Executor.map`):
+#: the optimiser, not matplotlib (loaded meanwhile, for the figures)
+_OPTIMISER = ("scipy.optimize",)
+
 
 def fit_all(ctx: RunContext) -> None:
     """Fit every parameter set the protocol asks for, in order."""
@@ -85,9 +89,6 @@ def fit_hpt_layers(ctx: RunContext) -> None:
         others = [r for r in runs if all(r is not x for x in at_t)
                   and r.meta.temperature is not None]
         plan.append((label, at_t, others))
-    layers = ctx.cached_map("fit_hpt", _fit_hpt_task, [
-        ({"runs": [ctx.keys[id(r)] for r in at_t]}, [r.detail for r in at_t])
-        for _, at_t, _ in plan], "fits: HPT layers")
     temp_jobs = []
     for label, at_t, others in plan:
         if cfg.temperature_coefficients and others:
@@ -98,14 +99,21 @@ def fit_hpt_layers(ctx: RunContext) -> None:
                        else cfg.temperature + 273.15 for c in curves]
             temp_jobs.append((label, ({"runs": [ctx.keys[id(c)] for c in curves],
                                        "temps": temps_K, "selection": cfg.selection},
-                                      ([c.detail for c in curves], temps_K, cfg.selection))))
+                                      ("temperature", ([c.detail for c in curves], temps_K,
+                                                       cfg.selection)))))
         elif cfg.temperature_coefficients and any("thermal" in sd for sd in ctx.lp.scenes.values()):
             ctx.notes.append(f"fits.hpt_layers: {label} has no run at another temperature: its "
                              "temperature coefficients are not measured (the scene's values "
                              "are used as exact)")
-    temps = dict(zip([lab for lab, _ in temp_jobs], ctx.cached_map(
-        "fit_temperature", _fit_temperature_task, [j for _, j in temp_jobs],
-        "fits: temperature coefficients"), strict=True))
+    # the layer fits and the temperature fits do not depend on each other: one map, the
+    # longer temperature fits first, so that no worker waits between them
+    layer_jobs = [({"runs": [ctx.keys[id(r)] for r in at_t]}, ("layer", [r.detail for r in at_t]))
+                  for _, at_t, _ in plan]
+    res = ctx.cached_map(["fit_temperature"] * len(temp_jobs) + ["fit_hpt"] * len(layer_jobs),
+                         _fit_task, [j for _, j in temp_jobs] + layer_jobs,
+                         "fits: HPT layers and temperature coefficients", uses=_OPTIMISER)
+    temps = dict(zip([lab for lab, _ in temp_jobs], res[:len(temp_jobs)], strict=True))
+    layers = res[len(temp_jobs):]
     for (label, _, _), res in zip(plan, layers, strict=True):
         scene_dict = res.to_scene_dict()
         if label in temps:
@@ -113,18 +121,17 @@ def fit_hpt_layers(ctx: RunContext) -> None:
         ctx.add_fit(f"hpt:{label}", res, scene_dict)
 
 
-def _fit_hpt_task(details: list[Any]) -> Any:
-    """The HPT layer fit of one product's runs (an executor task)."""
-    from torlab.fit.layer import fit_layer_hpt
+def _fit_task(job: tuple[str, Any]) -> Any:
+    """One product's HPT layer fit (``("layer", details)``) or temperature coefficients
+    (``("temperature", (details, temperatures_K, selection))``): an executor task."""
+    what, arg = job
+    if what == "layer":
+        from torlab.fit.layer import fit_layer_hpt
 
-    return fit_layer_hpt(details)
-
-
-def _fit_temperature_task(job: tuple[list[Any], list[float], str]) -> Any:
-    """The temperature coefficients of one product's runs (an executor task)."""
+        return fit_layer_hpt(arg)
     from torlab.fit.temperature import fit_temperature_coefficients
 
-    details, temps_K, selection = job
+    details, temps_K, selection = arg
     return fit_temperature_coefficients(details, temps_K, selection=selection)
 
 

@@ -54,7 +54,9 @@ class RunResult:
     cache_hits: int
     cache_misses: int
     notes: list[str] = field(default_factory=list)
-    #: seconds: ``compute``, ``figures``, ``io``, ``other``, ``total``; figures drawn/reused
+    #: seconds: ``compute``, ``figures``, ``io``, ``other``, ``total`` (wall time of each
+    #: stage); figures ``figures_drawn``, ``figures_reused``, and ``figures_ahead``: drawn
+    #: while the sections computed (their drawing is inside ``compute``'s wall time)
     timing: dict[str, Any] = field(default_factory=dict)
 
 
@@ -107,7 +109,7 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
     from torlab.protocols.loader import LoadedProtocol, load_protocol
     from torlab.protocols.sections import build_sections
     from torlab.reports.html import render_html, render_markdown, write_figures, write_tables
-    from torlab.reports.render import parse_formats
+    from torlab.reports.render import FiguresAhead, parse_formats
 
     t0 = time.perf_counter()
     lp = protocol if isinstance(protocol, LoadedProtocol) else load_protocol(protocol)
@@ -129,13 +131,22 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
             io0 = rc.io_seconds + dest.io_seconds
             reduce_data(run)
             fit_all(run)
-            sections = build_sections(run)
-            t_stages = time.perf_counter() - t1
-            io_stages = rc.io_seconds + dest.io_seconds - io0
-            t1 = time.perf_counter()
-            io0 = rc.io_seconds + dest.io_seconds
-            fig = write_figures(dest, sections, formats, store=rc.figures if cache else None,
-                                executor=ex)
+            # each section's figures start as soon as it is built, drawn whenever a
+            # worker would otherwise wait while the later sections compute
+            ahead = FiguresAhead(formats, store=rc.figures if cache else None, executor=ex)
+            try:
+                sections = build_sections(run, ready=lambda s: ahead.start(
+                    [(f"{s.key}/{f.name}", f.fig) for f in s.figures]))
+                t_stages = time.perf_counter() - t1
+                io_stages = rc.io_seconds + dest.io_seconds - io0
+                t1 = time.perf_counter()
+                io0 = rc.io_seconds + dest.io_seconds
+                fig = write_figures(dest, sections, formats,
+                                    store=rc.figures if cache else None, executor=ex,
+                                    ahead=ahead)
+            except BaseException:
+                ahead.cancel()
+                raise
             t_figures = time.perf_counter() - t1
             io_figures = rc.io_seconds + dest.io_seconds - io0
         t2 = time.perf_counter()
@@ -173,7 +184,7 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
                   "figures": max(t_figures - io_figures, 0.0),
                   "io": t_io + io_stages + io_figures + time.perf_counter() - t2,
                   "figures_drawn": fig.drawn, "figures_reused": fig.reused,
-                  "executor": ex.describe()}
+                  "figures_ahead": fig.ahead, "executor": ex.describe()}
         summary["run"] = {"seconds": round(time.perf_counter() - t0, 2), "cache_hits": rc.hits,
                           "cache_misses": rc.misses, "command": command,
                           "figures_drawn": fig.drawn, "figures_reused": fig.reused}

@@ -22,15 +22,31 @@ from torlab.protocols.context import RunContext, finite
 __all__ = ["build_sections"]
 
 
-def build_sections(ctx: RunContext) -> list[Any]:
-    """Every report section the protocol asks for, then the fitted parameter sets."""
+def build_sections(ctx: RunContext, ready: Any = None) -> list[Any]:
+    """Every report section the protocol asks for, then the fitted parameter sets.
+
+    ``ready(section)`` is called as soon as each section is built (a protocol run starts
+    drawing its figures then).  The fitted sets come last in the report but are built
+    first when no other section adds to them (the film and retention sections do), so
+    their figures can be drawn while the other sections compute.
+    """
     r = ctx.p.reports
     builders = (("amount", amount), ("time_test", time_test), ("traction", traction),
                 ("stribeck", stribeck), ("film", film), ("retention", retention))
-    out = [fn(ctx) for key, fn in builders if getattr(r, key) is not None]
-    if ctx.fit_rows:
-        out.append(fits_section(ctx))
-    return out
+    wanted = [(key, fn) for key, fn in builders if getattr(r, key) is not None]
+    ready = ready or (lambda section: None)
+    fits = None
+    if ctx.fit_rows and not any(key in ("film", "retention") for key, _ in wanted):
+        fits = fits_section(ctx)
+        ready(fits)
+    out = []
+    for _, fn in wanted:
+        out.append(fn(ctx))
+        ready(out[-1])
+    if fits is None and ctx.fit_rows:
+        fits = fits_section(ctx)
+        ready(fits)
+    return out + ([fits] if fits is not None else [])
 
 
 def amount(ctx: RunContext) -> Any:

@@ -72,18 +72,19 @@ class Section:
 
 
 def write_figures(dest: Any, sections: list[Section], formats: Any = None, *, store: Any = None,
-                  executor: Any = None) -> Any:
+                  executor: Any = None, ahead: Any = None) -> Any:
     """Write every section's figures (``<key>/<name>.<format>``); returns the
     :class:`~torlab.reports.render.RenderStats`.
 
     The bytes shown in the HTML (PNG, else SVG) are kept on the section
-    (:attr:`Section.images`).
+    (:attr:`Section.images`).  ``ahead``: figures already started
+    (:class:`~torlab.reports.render.FiguresAhead`).
     """
     from torlab.reports.render import DEFAULT_FORMATS, render_figures
 
     formats = tuple(formats or DEFAULT_FORMATS)
     items = [(f"{s.key}/{f.name}", f.fig) for s in sections for f in s.figures]
-    images, stats = render_figures(items, formats, store=store, executor=executor)
+    images, stats = render_figures(items, formats, store=store, executor=executor, ahead=ahead)
     for s in sections:
         for f in s.figures:
             got = images[f"{s.key}/{f.name}"]

@@ -34,7 +34,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["DEFAULT_FORMATS", "FORMATS", "Plot", "RenderStats", "early_drawing", "figure_key",
+__all__ = ["DEFAULT_FORMATS", "FORMATS", "FiguresAhead", "Plot", "RenderStats", "early_drawing", "figure_key",
            "parse_formats", "plot", "plot_digest", "prepare_drawing", "render", "render_figures",
            "write_figures"]
 
@@ -235,21 +235,28 @@ def _close(fig: Any) -> None:
 
 @dataclass
 class RenderStats:
-    """What :func:`render_figures` did: figures drawn and reused, seconds spent."""
+    """What :func:`render_figures` did: figures drawn and reused, seconds spent.
+
+    ``ahead``: how many of the drawn figures were drawn in the background before
+    (:class:`FiguresAhead`), while other work ran; ``seconds`` is the time spent in
+    :func:`render_figures` itself.
+    """
 
     drawn: int = 0
     reused: int = 0
     seconds: float = 0.0
+    ahead: int = 0
 
     def add(self, other: RenderStats) -> None:
         self.drawn += other.drawn
         self.reused += other.reused
         self.seconds += other.seconds
+        self.ahead += other.ahead
 
 
 def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DEFAULT_FORMATS, *,
                    store: Any = None, executor: Any = None, dpi: float | None = None,
-                   description: str = "drawing figures"
+                   description: str = "drawing figures", ahead: FiguresAhead | None = None
                    ) -> tuple[dict[str, dict[str, bytes]], RenderStats]:
     """Every figure in every format: ``{name: {format: bytes}}`` and the statistics.
 
@@ -264,6 +271,9 @@ def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DE
         are reused, new ones stored.  None: everything is drawn.
     executor
         Where figures are drawn (:mod:`torlab.parallel`; default :func:`~torlab.parallel.current`).
+    ahead
+        Figures started earlier (:class:`FiguresAhead`, same formats and dpi): a figure
+        that shows the same as one of them is taken from there.
     """
     from torlab.parallel import current
 
@@ -284,9 +294,20 @@ def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DE
                 _close(p)
             stats.drawn += 1
             continue
-        dg = plot_digest(p) if store is not None else None
+        dg = (ahead.digest(p) if ahead is not None else plot_digest(p)) \
+            if store is not None or ahead is not None else None
         keys = {f: figure_key(p, f, dpi, digest=dg) if dg is not None else None
                 for f in formats}
+        early = ahead.take(dg) if ahead is not None and dg is not None else None
+        if early is not None:  # drawn in the background while the run computed
+            out[name] = early
+            if store is not None:
+                for f, k in keys.items():
+                    if k is not None:
+                        store.put(k, f, early[f])
+            stats.drawn += 1
+            stats.ahead += 1
+            continue
         got = {f: store.get(keys[f], f) for f in formats if keys[f] is not None} \
             if store is not None else {}
         if len(got) == len(formats) and all(v is not None for v in got.values()):
@@ -311,6 +332,83 @@ def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DE
         stats.drawn += len(todo)
     stats.seconds = time.perf_counter() - t0
     return out, stats
+
+
+class FiguresAhead:
+    """Figures drawn in the background (:meth:`torlab.parallel.Executor.background`) before
+    they are written: a protocol run starts each report section's figures as soon as the
+    section is built, and they are drawn whenever a worker would otherwise wait (between
+    and at the ends of the later sections' computations).  :func:`render_figures` takes
+    them by what they show (:func:`plot_digest`), so a figure is the same whether it was
+    drawn ahead or not.
+
+    Parameters
+    ----------
+    formats, dpi
+        As for :func:`render_figures` (the same must be asked there).
+    store
+        A :class:`FigureStore`: figures it holds are not drawn ahead (they are reused).
+    executor
+        Where they are drawn (default :func:`~torlab.parallel.current`); nothing is drawn
+        ahead on a Dask cluster (figures are drawn in this process there).
+    """
+
+    def __init__(self, formats: Sequence[str] = DEFAULT_FORMATS, *, store: Any = None,
+                 executor: Any = None, dpi: float | None = None) -> None:
+        from torlab.parallel import current
+
+        self.formats, self.dpi, self.store = tuple(formats), dpi, store
+        self.executor = executor if executor is not None else current()
+        self._digests: dict[int, tuple[Any, str | None]] = {}
+        self._started: dict[str, tuple[Any, int]] = {}  # digest -> (batch, index)
+        self._batches: list[Any] = []
+
+    def digest(self, p: Plot) -> str | None:
+        """:func:`plot_digest`, computed once per plot."""
+        got = self._digests.get(id(p))
+        if got is None or got[0] is not p:
+            got = (p, plot_digest(p))
+            self._digests[id(p)] = got
+        return got[1]
+
+    def start(self, items: Sequence[tuple[str, Any]]) -> int:
+        """Start drawing the :class:`Plot` items not in the store; returns how many."""
+        if getattr(self.executor, "kind", "") == "dask":
+            return 0
+        todo: list[tuple[str, Plot]] = []
+        for _, p in items:
+            if not isinstance(p, Plot):
+                continue
+            dg = self.digest(p)
+            if dg is None or dg in self._started or any(d == dg for d, _ in todo):
+                continue
+            if self.store is not None and all(
+                    self.store.get(figure_key(p, f, self.dpi, digest=dg), f) is not None
+                    for f in self.formats):
+                continue
+            todo.append((dg, p))
+        if not todo:
+            return 0
+        batch = self.executor.background(_draw_task, [(p, self.formats, self.dpi)
+                                                      for _, p in todo],
+                                         description="drawing figures")
+        self._batches.append(batch)
+        for i, (dg, _) in enumerate(todo):
+            self._started[dg] = (batch, i)
+        return len(todo)
+
+    def take(self, digest: str) -> dict[str, bytes] | None:
+        """The figure with this digest in every format, if it was started (waits for it)."""
+        got = self._started.get(digest)
+        if got is None:
+            return None
+        batch, i = got
+        return batch.results()[i]
+
+    def cancel(self) -> None:
+        """Drop the figures not started yet (a run that failed)."""
+        for b in self._batches:
+            b.cancel()
 
 
 def write_figures(dest: Any, items: Sequence[tuple[str, Any]],

@@ -1,0 +1,250 @@
+"""How a local pool spends its cores: blocks of short tasks, workers forked before the
+modules they do not use are loaded, and background tasks that only take idle workers.
+
+These change where time goes, never a result: every test here checks results, order,
+warnings and errors (the first in task order), and the ordering rules themselves --
+which process has which module, which task started before which -- not durations.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+import types
+import warnings
+
+import pytest
+
+from torlab.errors import TorlabInputError, TorlabWarning
+from torlab.parallel import ProcessExecutor, SerialExecutor
+
+LINUX = sys.platform.startswith("linux")
+
+
+def _square(x: int) -> int:
+    return x * x
+
+
+def _warn(x: int) -> int:
+    warnings.warn(TorlabWarning(f"task {x} says so"), stacklevel=1)
+    return x
+
+
+def _fail(x: int) -> int:
+    if x in (3, 5):
+        raise TorlabInputError(f"bad {x}", key="k")
+    return x
+
+
+def _stamp(job: tuple[str, float]) -> tuple[str, float]:
+    """Sleep, then say which task this was and when it started."""
+    name, sleep = job
+    t = time.time()
+    time.sleep(sleep)
+    return name, t
+
+
+def _loaded(name: str) -> bool:
+    return name in sys.modules
+
+
+def _slow_loaded(name: str) -> bool:
+    time.sleep(1.0)  # long enough for the parent to load the module meanwhile
+    return name in sys.modules
+
+
+# ------------------------------------------------------------------------------ blocks
+def test_blocks_of_tasks_keep_order_warnings_and_the_first_error():
+    with ProcessExecutor(2) as ex:
+        for size in (1, 2, 3, 4, 7, 50):
+            assert ex.map(_square, range(23), chunksize=size) == [x * x for x in range(23)]
+            with warnings.catch_warnings(record=True) as w:
+                warnings.simplefilter("always")
+                assert ex.map(_warn, [1, 2, 3], chunksize=size) == [1, 2, 3]
+            said = [str(x.message) for x in w if issubclass(x.category, TorlabWarning)]
+            assert sorted(said) == ["task 1 says so", "task 2 says so", "task 3 says so"]
+            # 3 and 5 fail: in one block or in two, 3 is raised, as itself
+            with pytest.raises(TorlabInputError, match="bad 3"):
+                ex.map(_fail, range(9), chunksize=size)
+
+
+def test_serial_map_takes_and_ignores_the_block_size():
+    assert SerialExecutor().map(_square, range(5), chunksize=3) == [0, 1, 4, 9, 16]
+
+
+# ------------------------------------------------------------------------------ uses
+@pytest.mark.skipif(not LINUX, reason="workers are forked on Linux")
+def test_workers_start_before_what_their_tasks_do_not_use_and_get_it_at_the_next_map():
+    """A map with ``uses=()`` forks its workers without the prepared module and loads it in
+    this process while they work; the next map that uses it forks the workers again,
+    with it.  Run in a fresh interpreter (the module must not be loaded yet)."""
+    code = """
+import sys
+from torlab.parallel import ProcessExecutor
+import tests.test_scheduling as t
+name = "xml.dom.minidom"  # a module nothing in torlab loads
+assert name not in sys.modules
+ex = ProcessExecutor(2)
+ex.prepare(name)
+with ex:
+    first = ex.map(t._slow_loaded, [name] * 2, uses=())
+    assert first == [False, False], first    # forked before it was loaded
+    assert name in sys.modules               # loaded here while they worked
+    pool = ex._pool
+    assert ex.map(t._loaded, [name] * 4) == [True] * 4   # forked again, with it
+    assert ex._pool is not pool
+    pool = ex._pool
+    assert ex.map(t._loaded, [name] * 4, uses=()) == [True] * 4
+    assert ex._pool is pool                  # nothing new to inherit: same workers
+print("ok")
+"""
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       timeout=120)
+    assert r.returncode == 0 and r.stdout.strip() == "ok", r.stderr
+
+
+# ------------------------------------------------------------------------------ background
+def test_background_results_in_order_with_warnings_and_the_first_error():
+    for ex in (SerialExecutor(), ProcessExecutor(2)):
+        with ex:
+            bg = ex.background(_square, range(9))
+            assert ex.map(_square, range(4)) == [0, 1, 4, 9]  # a map meanwhile
+            assert bg.results() == [x * x for x in range(9)], ex.kind
+            assert bg.results() == [x * x for x in range(9)]  # asked again: the same
+            bg = ex.background(_warn, [1, 2])
+            with warnings.catch_warnings(record=True) as w:
+                warnings.simplefilter("always")
+                assert bg.results() == [1, 2]
+            said = sorted(str(x.message) for x in w if issubclass(x.category, TorlabWarning))
+            assert said == ["task 1 says so", "task 2 says so"], ex.kind
+            with pytest.raises(TorlabInputError, match="bad 3"):
+                ex.background(_fail, range(7)).results()
+
+
+_CALLS: list[int] = []
+
+
+def _count(x: int) -> int:
+    _CALLS.append(x)
+    return x
+
+
+def test_serial_background_runs_when_its_results_are_asked_for():
+    _CALLS.clear()
+    bg = SerialExecutor().background(_count, [1, 2, 3])
+    assert _CALLS == []
+    assert bg.results() == [1, 2, 3] and _CALLS == [1, 2, 3]
+
+
+@pytest.mark.skipif(not LINUX, reason="the background feed is for forked workers")
+def test_background_tasks_never_queue_ahead_of_a_map():
+    """Background tasks take only idle workers: of six, two start at once on the idle pool;
+    a map's tasks submitted next start before any other background task."""
+    with ProcessExecutor(2) as ex:
+        ex.map(_square, range(2))  # workers up
+        bg = ex.background(_stamp, [(f"bg{i}", 0.3) for i in range(6)])
+        time.sleep(0.1)  # the feed has given the idle workers their first two
+        fg = ex.map(_stamp, [("fg0", 0.05), ("fg1", 0.05)])
+        got = bg.results()
+    assert [n for n, _ in got] == [f"bg{i}" for i in range(6)]
+    starts = sorted(got + fg, key=lambda r: r[1])
+    order = [n for n, _ in starts]
+    assert set(order[:2]) == {"bg0", "bg1"}, order
+    assert set(order[2:4]) == {"fg0", "fg1"}, order
+
+
+@pytest.mark.skipif(not LINUX, reason="workers are forked on Linux")
+def test_no_new_workers_while_background_tasks_run():
+    """A need prepared while background tasks run does not fork the pool again under them
+    (the tasks would be lost): the map runs on the same workers, which import it
+    themselves; once the background is done, the next map forks again."""
+    with ProcessExecutor(2) as ex:
+        ex.map(_square, range(2))
+        pool = ex._pool
+        bg = ex.background(_stamp, [(f"bg{i}", 0.2) for i in range(4)])
+        ex.prepare("xml.dom.minidom")
+        assert ex.map(_square, range(4)) == [0, 1, 4, 9]
+        assert ex._pool is pool
+        assert [n for n, _ in bg.results()] == ["bg0", "bg1", "bg2", "bg3"]
+        assert ex.map(_loaded, ["xml.dom.minidom"] * 2) == [True, True]
+        assert ex._pool is not pool
+
+
+@pytest.mark.skipif(not LINUX, reason="the background feed is for forked workers")
+def test_cancelled_background_says_so():
+    with ProcessExecutor(2) as ex:
+        bg = ex.background(_stamp, [(f"bg{i}", 0.2) for i in range(8)])
+        bg.cancel()
+        with pytest.raises(RuntimeError, match="cancelled"):
+            bg.results()
+        assert ex.map(_square, range(3)) == [0, 1, 4]  # the pool is still fine
+
+
+# ------------------------------------------------------------------------------ figures ahead
+def _plots():
+    import numpy as np
+    import pandas as pd
+
+    from torlab.reports.predict import traction_figure
+    from torlab.reports.render import plot
+
+    xi = np.linspace(0, 0.01, 21)
+    out = []
+    for k in (1.0, 2.0, 3.0):
+        t = pd.DataFrame({"creepage": xi, "mu": 0.3 * np.tanh(k * 200 * xi)})
+        out.append((f"f{k:g}", plot(traction_figure, [("a", t)], title=f"k = {k:g}")))
+    return out
+
+
+def test_figures_drawn_ahead_are_the_figures_drawn_at_the_end(tmp_path):
+    from torlab.protocols.cache import FigureStore, ResultCache
+    from torlab.reports.render import FiguresAhead, render_figures
+
+    items = _plots()
+    plain, st0 = render_figures(items, ("png", "svg"))
+    assert (st0.drawn, st0.ahead) == (3, 0)
+    for ex in (SerialExecutor(), ProcessExecutor(2)):
+        with ex:
+            store = FigureStore(ResultCache(tmp_path / f"cache-{ex.kind}"))
+            ahead = FiguresAhead(("png", "svg"), store=store, executor=ex)
+            assert ahead.start(items[:2]) == 2
+            assert ahead.start(items[:2]) == 0  # started already
+            got, st = render_figures(items, ("png", "svg"), store=store, executor=ex,
+                                     ahead=ahead)
+            assert (st.drawn, st.ahead, st.reused) == (3, 2, 0), ex.kind
+            assert got == plain, ex.kind
+            # all three are in the store now: none is drawn ahead again, all are reused
+            again = FiguresAhead(("png", "svg"), store=store, executor=ex)
+            assert again.start(items) == 0
+            got, st = render_figures(items, ("png", "svg"), store=store, executor=ex,
+                                     ahead=again)
+            assert (st.drawn, st.reused) == (0, 3) and got == plain
+
+
+def test_sections_built_in_report_order_with_the_fits_first_when_nothing_adds_to_them(
+        monkeypatch):
+    """The fitted sets are built (and their figures started) first unless the film or the
+    retention section adds to them; the report's order is the same either way."""
+    import torlab.protocols.sections as S
+
+    built: list[str] = []
+    for key in ("amount", "time_test", "traction", "stribeck", "film", "retention"):
+        monkeypatch.setattr(S, key, lambda ctx, key=key: (built.append(key),
+                                                           types.SimpleNamespace(key=key))[1])
+    monkeypatch.setattr(S, "fits_section", lambda ctx: (built.append("fits"),
+                                                        types.SimpleNamespace(key="fits"))[1])
+
+    def ctx(**reports):
+        keys = ("amount", "time_test", "traction", "stribeck", "film", "retention")
+        r = types.SimpleNamespace(**{k: reports.get(k) for k in keys})
+        return types.SimpleNamespace(p=types.SimpleNamespace(reports=r), fit_rows=[{}])
+
+    for reports, first in (({"amount": 1, "traction": 1}, "fits"),
+                           ({"amount": 1, "film": 1}, "amount"),
+                           ({"traction": 1, "retention": 1}, "traction")):
+        built.clear()
+        ready: list[str] = []
+        out = S.build_sections(ctx(**reports), ready=lambda s, ready=ready: ready.append(s.key))
+        assert [s.key for s in out] == [*reports, "fits"]  # (given in the report's order)
+        assert built[0] == first and ready == built, (reports, built)
