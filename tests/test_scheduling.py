@@ -248,3 +248,48 @@ def test_sections_built_in_report_order_with_the_fits_first_when_nothing_adds_to
         out = S.build_sections(ctx(**reports), ready=lambda s, ready=ready: ready.append(s.key))
         assert [s.key for s in out] == [*reports, "fits"]  # (given in the report's order)
         assert built[0] == first and ready == built, (reports, built)
+
+
+# ------------------------------------------------------------------------------ meanwhile
+def test_waiting_work_is_done_during_the_next_map_or_at_flush_and_dropped_at_close():
+    done: list[str] = []
+    SerialExecutor().meanwhile(lambda: done.append("serial"))
+    assert done == ["serial"]  # no workers: at once
+    with ProcessExecutor(2) as ex:
+        ex.meanwhile(lambda: done.append("a"))
+        assert done == ["serial"]
+        assert ex.map(_square, range(3)) == [0, 1, 4] and done == ["serial", "a"]
+        ex.meanwhile(lambda: done.append("b"))
+        ex.prepare("xml.dom.minidom")  # the next map forks the workers again: b still waits
+        pool = ex._pool
+        ex.map(_square, range(3))
+        assert ex._pool is not pool and done == ["serial", "a", "b"]
+        ex.meanwhile(lambda: done.append("c"))
+        ex.flush()
+        assert done == ["serial", "a", "b", "c"]
+        ex.meanwhile(lambda: done.append("d"))
+    assert done == ["serial", "a", "b", "c"]  # closed without a flush: a run that failed
+
+
+def test_a_run_on_worker_processes_stores_every_result_it_computed(tmp_path):
+    """Results are stored in the cache while later tasks run (and the workers are forked
+    again between the reductions and the fits): a re-run computes nothing."""
+    import shutil
+    from pathlib import Path
+
+    from torlab.protocols.runner import run_protocol
+
+    root = Path(__file__).resolve().parents[1]
+    for f in sorted((root / "sample_data/hpt").glob("hpt_OFM1_*uL_25C*.txt")):
+        shutil.copy(f, tmp_path / f.name)
+    (tmp_path / "p.yaml").write_text(
+        "version: 1\nname: small\ndata:\n  hpt:\n    files: [hpt_*.txt]\n"
+        "fits:\n  hpt_layers:\n    amounts: [4 uL]\n    joint: true\n"
+        "    temperature_coefficients: false\n"
+        "reports:\n  amount: {}\n")
+    with ProcessExecutor(2) as ex:
+        cold = run_protocol(tmp_path / "p.yaml", tmp_path / "out", executor=ex)
+        warm = run_protocol(tmp_path / "p.yaml", tmp_path / "out", force=True, executor=ex)
+    assert cold.cache_misses > 3 and cold.cache_hits == 0
+    assert (warm.cache_misses, warm.cache_hits) == (0, cold.cache_misses)
+    assert warm.timing["figures_drawn"] == 0

@@ -263,6 +263,15 @@ class Executor:
         """One task of :meth:`map`: its result and its warnings (here: in this process)."""
         return _run(fn, item)
 
+    def meanwhile(self, chore: Callable[[], Any]) -> None:
+        """Work of this process that may wait (storing results in a cache): done while the
+        next :meth:`map`'s tasks run (:class:`ProcessExecutor`), or at :meth:`flush`.  Here:
+        at once."""
+        chore()
+
+    def flush(self) -> None:
+        """Do the :meth:`meanwhile` work still waiting."""
+
     def prepare(self, *needs: str | Callable[[], Any]) -> None:
         """Modules (names) or set-up functions the coming tasks will need: loaded in this
         process before workers are forked, so that they load once, not once per worker
@@ -333,9 +342,17 @@ class ProcessExecutor(Executor):
         self._busy = 0  # tasks (or blocks) submitted to the pool and not done
         self._idle = threading.Condition()
         self._feeds: list[_Feed] = []  # background work
+        self._chores: list[Callable[[], Any]] = []  # meanwhile()
 
     def prepare(self, *needs: str | Callable[[], Any]) -> None:
         self._needs += [n for n in needs if n not in self._needs]
+
+    def meanwhile(self, chore: Callable[[], Any]) -> None:
+        self._chores.append(chore)
+
+    def flush(self) -> None:
+        while self._chores:
+            self._chores.pop(0)()
 
     def _load_needs(self, needs: Sequence[str | Callable[[], Any]] | None = None) -> None:
         """Import what :meth:`prepare` listed (``needs``: only those), once."""
@@ -356,7 +373,7 @@ class ProcessExecutor(Executor):
                 and any(n not in self._inherited for n in uses) \
                 and not any(f.active() for f in self._feeds):  # never under background work
             self._load_needs(uses)  # before the old workers go: nothing waits on them
-            self.close()
+            self._shutdown()
         if self._pool is None:
             from concurrent.futures import ProcessPoolExecutor
 
@@ -398,6 +415,7 @@ class ProcessExecutor(Executor):
         out: list[Any] = [None] * len(blocks)
         try:
             with progress().task(description, len(items) if description else 0) as advance:
+                self.flush()  # this process's waiting work, while the tasks run
                 if sys.platform.startswith("linux"):
                     # what the tasks do not use: loaded here while they run, one need at
                     # a time, until they are done (the rest while later tasks run)
@@ -450,7 +468,7 @@ class ProcessExecutor(Executor):
     def background(self, fn: Callable[[Any], Any], items: Iterable[Any], *,
                    description: str = "") -> Background:
         items = list(items)
-        if len(items) <= 1 or not sys.platform.startswith("linux"):
+        if not items or not sys.platform.startswith("linux"):
             return super().background(fn, items, description=description)
         pool = self._start(None)  # every prepared need, before the feeding thread starts
         feed = _Feed(self, pool, fn, items)
@@ -458,9 +476,14 @@ class ProcessExecutor(Executor):
         return Background(lambda: feed.results(description), feed.cancel)
 
     def close(self) -> None:
+        self._chores = []  # not done: the caller did not flush (a run that failed)
         for feed in self._feeds:
             feed.cancel()
         self._feeds = []
+        self._shutdown()
+
+    def _shutdown(self) -> None:
+        """Close the workers (idle: a new :meth:`map` forks others)."""
         if self._pool is not None:
             pool, self._pool = self._pool, None
             pool.shutdown(wait=True, cancel_futures=True)

@@ -247,7 +247,11 @@ class RunContext:
             self.cache.misses += len(todo)
             for i, v in zip(todo, vals, strict=True):
                 out[i] = v
+            # stored while the next map's tasks run (encoding tables takes a while), or at
+            # the run's end (torlab.parallel.Executor.meanwhile)
+            ex.meanwhile(lambda todo=todo, vals=vals: [
                 self.cache.store(kinds[i], v, **tasks[i][0])
+                for i, v in zip(todo, vals, strict=True)])
         return out
 
 

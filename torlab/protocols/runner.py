@@ -177,6 +177,7 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
             intro += [f"Note: {n}" for n in run.notes]
         dest.write_text("report.html", render_html(title, intro, sections, prov))
         dest.write_text("report.md", render_markdown(title, intro, sections, prov))
+        ex.flush()  # results still to be stored in the cache
         rc.prune()
         # honest split: reading and writing (cache entries, cached figures, result files)
         # is I/O wherever it happened; what remains of each stage is its own work
