@@ -293,3 +293,13 @@ def test_a_run_on_worker_processes_stores_every_result_it_computed(tmp_path):
     assert cold.cache_misses > 3 and cold.cache_hits == 0
     assert (warm.cache_misses, warm.cache_hits) == (0, cold.cache_misses)
     assert warm.timing["figures_drawn"] == 0
+
+
+@pytest.mark.skipif(not LINUX, reason="the background feed is for forked workers")
+def test_waiting_work_is_done_while_background_tasks_finish():
+    done: list[str] = []
+    with ProcessExecutor(2) as ex:
+        bg = ex.background(_stamp, [("bg0", 0.2), ("bg1", 0.2)])
+        ex.meanwhile(lambda: done.append("stored"))
+        got = bg.results()
+        assert done == ["stored"] and [n for n, _ in got] == ["bg0", "bg1"]

@@ -160,6 +160,7 @@ class _Feed:
     def results(self, description: str) -> list[Any]:
         from torlab.progress import current as progress
 
+        self.ex.flush()  # this process's waiting work, while the last tasks run
         with progress().task(description, len(self.items) if description else 0) as advance:
             self.thread.join()  # every task submitted (the workers are free by now)
             if self.stopped:
@@ -265,8 +266,8 @@ class Executor:
 
     def meanwhile(self, chore: Callable[[], Any]) -> None:
         """Work of this process that may wait (storing results in a cache): done while the
-        next :meth:`map`'s tasks run (:class:`ProcessExecutor`), or at :meth:`flush`.  Here:
-        at once."""
+        next :meth:`map`'s tasks run, or while this process waits for background tasks
+        (:class:`ProcessExecutor`), or at :meth:`flush`.  Here: at once."""
         chore()
 
     def flush(self) -> None:
