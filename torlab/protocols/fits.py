@@ -28,8 +28,8 @@ from torlab.protocols.context import RunContext, add_covariance
 __all__ = ["fit_all", "measured_traction"]
 
 #: what the fit tasks use of the run's prepared modules (:meth:`torlab.parallel.Executor.map`):
-#: the optimiser, not matplotlib (loaded meanwhile, for the figures)
-_OPTIMISER = ("scipy.optimize",)
+#: the optimiser and the fits' own modules, not matplotlib (loaded meanwhile, for the figures)
+_OPTIMISER = ("scipy.optimize", "torlab.fit.layer", "torlab.fit.temperature")
 
 
 def fit_all(ctx: RunContext) -> None:

@@ -205,17 +205,32 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
 
 
 def _needs(p: Any) -> list[Any]:
-    """What the protocol's tasks will import, loaded once before local workers are forked
-    (:meth:`torlab.parallel.Executor.prepare`) instead of once in every worker: the fits'
-    optimiser (which the amount report's crossings need here too) and the figures'
-    matplotlib.  Nothing is loaded when no worker starts (a re-run from the cache)."""
+    """What the protocol's tasks will import, loaded once in this process and inherited by
+    the local workers (:meth:`torlab.parallel.Executor.prepare`) instead of once in every
+    worker: the fits' optimiser (which the amount report's crossings need here too), the
+    figures' matplotlib, and torlab's own modules of the fits, predictions and figures.
+    In the order the stages need them: the executor loads them one at a time while
+    earlier tasks run.  Nothing is loaded when no worker starts (a re-run from the cache).
+    """
     from torlab.reports.render import prepare_drawing
 
+    r = p.reports
+    fits = any(getattr(p.fits, k, None) for k in ("hpt_layers", "traction_layers", "lubricants"))
     needs: list[Any] = []
-    if any(getattr(p.fits, k, None) for k in ("hpt_layers", "traction_layers", "lubricants")) \
-            or getattr(p.reports, "amount", None) is not None:
+    if fits or getattr(r, "amount", None) is not None:
         needs.append("scipy.optimize")
+    if getattr(p.fits, "hpt_layers", None):
+        needs += ["torlab.fit.layer", "torlab.fit.temperature"]
     needs.append(prepare_drawing)
+    if getattr(r, "traction", None) is not None or getattr(r, "stribeck", None) is not None:
+        needs += ["torlab.model.predict", "torlab.model.bands", "torlab.uncertainty",
+                  "torlab._stats"]
+    if fits:
+        needs.append("torlab.reports.fit")
+    report_modules = {"amount": "amount", "time_test": "timetest", "traction": "traction",
+                      "stribeck": "stribeck"}
+    needs += [f"torlab.reports.{m}" for key, m in report_modules.items()
+              if getattr(r, key, None) is not None]
     return needs
 
 
