@@ -54,7 +54,7 @@ LONG_FIRST = ("tests/test_fuzz_corpus.py", "tests/test_fit_coverage.py",
               "tests/test_removal_fit.py", "tests/test_retention_cli.py", "tests/test_trust.py",
               "tests/test_protocols.py", "tests/test_validation.py", "tests/test_bands.py",
               "tests/test_polach_uncertainty.py", "tests/test_faults.py", "tests/test_parallel.py",
-              "tests/test_fit_batch.py", "tests/test_fit_other.py")
+              "tests/test_fit_batch.py", "tests/test_fit_other.py", "tests/test_scheduling.py")
 
 
 def pytest_collection_modifyitems(config, items):
