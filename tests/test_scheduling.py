@@ -8,7 +8,6 @@ which process has which module, which task started before which -- not durations
 
 from __future__ import annotations
 
-import subprocess
 import sys
 import time
 import types
@@ -74,34 +73,37 @@ def test_serial_map_takes_and_ignores_the_block_size():
 
 
 # ------------------------------------------------------------------------------ uses
+@pytest.fixture
+def fresh_module(tmp_path, monkeypatch):
+    """The name of a module no test has loaded (written for this test, on ``sys.path``;
+    forked workers inherit the path)."""
+    name = f"torlab_probe_{tmp_path.name.replace('-', '_')}"
+    (tmp_path / f"{name}.py").write_text("VALUE = 1\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    yield name
+    sys.modules.pop(name, None)
+
+
 @pytest.mark.skipif(not LINUX, reason="workers are forked on Linux")
-def test_workers_start_before_what_their_tasks_do_not_use_and_get_it_at_the_next_map():
+def test_workers_start_before_what_their_tasks_do_not_use_and_get_it_at_the_next_map(
+        fresh_module):
     """A map with ``uses=()`` forks its workers without the prepared module and loads it in
     this process while they work; the next map that uses it forks the workers again,
-    with it.  Run in a fresh interpreter (the module must not be loaded yet)."""
-    code = """
-import sys
-from torlab.parallel import ProcessExecutor
-import tests.test_scheduling as t
-name = "xml.dom.minidom"  # a module nothing in torlab loads
-assert name not in sys.modules
-ex = ProcessExecutor(2)
-ex.prepare(name)
-with ex:
-    first = ex.map(t._slow_loaded, [name] * 2, uses=())
-    assert first == [False, False], first    # forked before it was loaded
-    assert name in sys.modules               # loaded here while they worked
-    pool = ex._pool
-    assert ex.map(t._loaded, [name] * 4) == [True] * 4   # forked again, with it
-    assert ex._pool is not pool
-    pool = ex._pool
-    assert ex.map(t._loaded, [name] * 4, uses=()) == [True] * 4
-    assert ex._pool is pool                  # nothing new to inherit: same workers
-print("ok")
-"""
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                       timeout=120)
-    assert r.returncode == 0 and r.stdout.strip() == "ok", r.stderr
+    with it."""
+    name = fresh_module
+    assert name not in sys.modules
+    ex = ProcessExecutor(2)
+    ex.prepare(name)
+    with ex:
+        first = ex.map(_slow_loaded, [name] * 2, uses=())
+        assert first == [False, False]      # forked before it was loaded
+        assert name in sys.modules          # loaded here while they worked
+        pool = ex._pool
+        assert ex.map(_loaded, [name] * 4) == [True] * 4   # forked again, with it
+        assert ex._pool is not pool
+        pool = ex._pool
+        assert ex.map(_loaded, [name] * 4, uses=()) == [True] * 4
+        assert ex._pool is pool             # nothing new to inherit: the same workers
 
 
 # ------------------------------------------------------------------------------ background
@@ -269,6 +271,7 @@ def test_waiting_work_is_done_during_the_next_map_or_at_flush_and_dropped_at_clo
     assert done == ["serial", "a", "b", "c"]  # closed without a flush: a run that failed
 
 
+@pytest.mark.slow  # two protocol runs; the waiting stores across a new fork: quick, above
 def test_a_run_on_worker_processes_stores_every_result_it_computed(tmp_path):
     """Results are stored in the cache while later tasks run (and the workers are forked
     again between the reductions and the fits): a re-run computes nothing."""
