@@ -33,6 +33,14 @@ use(executor):`` says otherwise), so library code deep inside a computation
 (a band's draws) finds it without a parameter.  Inside a worker, :func:`current`
 is serial: tasks never start tasks of their own.
 
+**Spending the cores** (:class:`ProcessExecutor`; none of it changes a result).
+``map(..., uses=...)`` forks the workers before the prepared modules their tasks do not
+use, which this process loads while they work; ``map(..., chunksize=n)`` sends many
+short tasks in blocks; :meth:`Executor.background` starts tasks that only take idle
+workers (a protocol's figures while its later sections compute); and
+:meth:`Executor.meanwhile` is this process's own work that may wait for the next tasks
+(storing results in the cache).
+
 **Work a task finds.**  A task that discovers independent work of its own (a
 protocol's prediction whose band turns out sampled: 20 blocks of draws) returns
 it as a :class:`Deferred` instead of doing it alone in its worker;
@@ -51,9 +59,9 @@ from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any
 
-__all__ = ["Background", "DaskExecutor", "Deferred", "Executor", "ProcessExecutor", "SerialExecutor", "WarmWorker",
-           "activate", "chunks", "current", "get_executor", "map_deferred", "map_tasks",
-           "usable_cores", "use", "warm_worker"]
+__all__ = ["Background", "DaskExecutor", "Deferred", "Executor", "ProcessExecutor",
+           "SerialExecutor", "WarmWorker", "activate", "chunks", "current", "get_executor",
+           "map_deferred", "map_tasks", "usable_cores", "use", "warm_worker"]
 
 _CURRENT: contextvars.ContextVar[Executor | None] = contextvars.ContextVar(
     "torlab_executor", default=None)

@@ -13,6 +13,9 @@ data it plots.  :func:`render_figures` then
 3. draws the others on the executor (:mod:`torlab.parallel`: one figure per task,
    every requested format from one drawing), and stores them.
 
+A protocol run starts each section's figures early (:class:`FiguresAhead`), on workers
+that would otherwise wait; :func:`render_figures` takes those by what they show.
+
 Formats: PNG by default, SVG and PDF on request (:data:`FORMATS`; ``--formats
 png,svg`` on the commands, ``reports.figure_formats`` in a protocol).  SVG and
 PDF are written reproducibly (fixed SVG ids, no PDF creation date), so a cached
@@ -34,9 +37,9 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["DEFAULT_FORMATS", "FORMATS", "FiguresAhead", "Plot", "RenderStats", "early_drawing", "figure_key",
-           "parse_formats", "plot", "plot_digest", "prepare_drawing", "render", "render_figures",
-           "write_figures"]
+__all__ = ["DEFAULT_FORMATS", "FORMATS", "FiguresAhead", "Plot", "RenderStats", "early_drawing",
+           "figure_key", "parse_formats", "plot", "plot_digest", "prepare_drawing", "render",
+           "render_figures", "write_figures"]
 
 #: file formats torlab writes figures in
 FORMATS = ("png", "svg", "pdf")
