@@ -2,14 +2,30 @@
 
 from __future__ import annotations
 
+import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
 
 def _loaded(name: str) -> bool:
     return name in sys.modules
+
+
+def small_fit_protocol(folder: Path) -> Path:
+    """``folder/p.yaml``: the OFM1 logs at 25 °C, one joint layer fit, the amount report
+    (a protocol with reductions, fits and figures, small enough for a quick test)."""
+    root = Path(__file__).resolve().parents[1]
+    for f in sorted((root / "sample_data/hpt").glob("hpt_OFM1_*uL_25C*.txt")):
+        shutil.copy(f, folder / f.name)
+    p = folder / "p.yaml"
+    p.write_text("version: 1\nname: small\ndata:\n  hpt:\n    files: [hpt_*.txt]\n"
+                 "fits:\n  hpt_layers:\n    amounts: [4 uL]\n    joint: true\n"
+                 "    temperature_coefficients: false\n"
+                 "reports:\n  amount: {}\n")
+    return p
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="workers are forked on Linux")
@@ -41,17 +57,8 @@ print("ok")
 def test_warm_protocol_run_loads_no_optimiser_and_no_matplotlib(tmp_path):
     """A re-run that finds everything in its cache starts no worker, so the modules the
     runner prepares for them (scipy.optimize, matplotlib) are never loaded."""
-    import shutil
-    from pathlib import Path
-
     root = Path(__file__).resolve().parents[1]
-    for f in sorted((root / "sample_data/hpt").glob("hpt_OFM1_*uL_25C*.txt")):
-        shutil.copy(f, tmp_path / f.name)
-    (tmp_path / "p.yaml").write_text(
-        "version: 1\nname: small\ndata:\n  hpt:\n    files: [hpt_*.txt]\n"
-        "fits:\n  hpt_layers:\n    amounts: [4 uL]\n    joint: true\n"
-        "    temperature_coefficients: false\n"
-        "reports:\n  amount: {}\n")
+    small_fit_protocol(tmp_path)
     code = f"""
 import sys
 from torlab.parallel import ProcessExecutor

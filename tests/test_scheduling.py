@@ -15,25 +15,12 @@ import warnings
 
 import pytest
 
+from tests.test_parallel import _fail, _square, _warn
+from tests.test_prepare import small_fit_protocol
 from torlab.errors import TorlabInputError, TorlabWarning
 from torlab.parallel import ProcessExecutor, SerialExecutor
 
 LINUX = sys.platform.startswith("linux")
-
-
-def _square(x: int) -> int:
-    return x * x
-
-
-def _warn(x: int) -> int:
-    warnings.warn(TorlabWarning(f"task {x} says so"), stacklevel=1)
-    return x
-
-
-def _fail(x: int) -> int:
-    if x in (3, 5):
-        raise TorlabInputError(f"bad {x}", key="k")
-    return x
 
 
 def _stamp(job: tuple[str, float]) -> tuple[str, float]:
@@ -275,22 +262,12 @@ def test_waiting_work_is_done_during_the_next_map_or_at_flush_and_dropped_at_clo
 def test_a_run_on_worker_processes_stores_every_result_it_computed(tmp_path):
     """Results are stored in the cache while later tasks run (and the workers are forked
     again between the reductions and the fits): a re-run computes nothing."""
-    import shutil
-    from pathlib import Path
-
     from torlab.protocols.runner import run_protocol
 
-    root = Path(__file__).resolve().parents[1]
-    for f in sorted((root / "sample_data/hpt").glob("hpt_OFM1_*uL_25C*.txt")):
-        shutil.copy(f, tmp_path / f.name)
-    (tmp_path / "p.yaml").write_text(
-        "version: 1\nname: small\ndata:\n  hpt:\n    files: [hpt_*.txt]\n"
-        "fits:\n  hpt_layers:\n    amounts: [4 uL]\n    joint: true\n"
-        "    temperature_coefficients: false\n"
-        "reports:\n  amount: {}\n")
+    p = small_fit_protocol(tmp_path)
     with ProcessExecutor(2) as ex:
-        cold = run_protocol(tmp_path / "p.yaml", tmp_path / "out", executor=ex)
-        warm = run_protocol(tmp_path / "p.yaml", tmp_path / "out", force=True, executor=ex)
+        cold = run_protocol(p, tmp_path / "out", executor=ex)
+        warm = run_protocol(p, tmp_path / "out", force=True, executor=ex)
     assert cold.cache_misses > 3 and cold.cache_hits == 0
     assert (warm.cache_misses, warm.cache_hits) == (0, cold.cache_misses)
     assert warm.timing["figures_drawn"] == 0
