@@ -202,11 +202,14 @@ def test_figures_drawn_ahead_are_the_figures_drawn_at_the_end(tmp_path):
             got, st = render_figures(items, ("png",), store=store, executor=ex, ahead=ahead)
             assert (st.drawn, st.ahead, st.reused) == (2, 1, 0), ex.kind
             assert got == plain, ex.kind
-            # both are in the store now: none is drawn ahead again, both are reused
+            # both are in the store now: none is drawn ahead again, both are reused,
+            # each read from the store once
+            hits = store.hits
             again = FiguresAhead(("png",), store=store, executor=ex)
             assert again.start(items) == 0
             got, st = render_figures(items, ("png",), store=store, executor=ex, ahead=again)
             assert (st.drawn, st.reused) == (0, 2) and got == plain
+            assert store.hits - hits == 2
 
 
 def test_sections_built_in_report_order_with_the_fits_first_when_nothing_adds_to_them(

@@ -285,6 +285,7 @@ def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DE
     formats = tuple(formats)
     out: dict[str, dict[str, bytes]] = {}
     todo: list[tuple[str, Plot, dict[str, str | None]]] = []
+    new: list[tuple[str, dict[str, str | None], dict[str, bytes]]] = []  # drawn: to store
     for name, p in items:
         if not isinstance(p, Plot):  # a figure drawn by other code
             try:
@@ -303,16 +304,13 @@ def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DE
                 for f in formats}
         early = ahead.take(dg) if ahead is not None and dg is not None else None
         if early is not None:  # drawn in the background while the run computed
-            out[name] = early
-            if store is not None:
-                for f, k in keys.items():
-                    if k is not None:
-                        store.put(k, f, early[f])
-            stats.drawn += 1
+            new.append((name, keys, early))
             stats.ahead += 1
             continue
-        got = {f: store.get(keys[f], f) for f in formats if keys[f] is not None} \
-            if store is not None else {}
+        got = ahead.stored(dg) if ahead is not None and dg is not None else None
+        if got is None:  # (what FiguresAhead found in the store is not read twice)
+            got = {f: store.get(keys[f], f) for f in formats if keys[f] is not None} \
+                if store is not None else {}
         if len(got) == len(formats) and all(v is not None for v in got.values()):
             out[name] = got  # type: ignore[assignment]
             stats.reused += 1
@@ -326,13 +324,14 @@ def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DE
             ex = SerialExecutor()
         drawn = ex.map(_draw_task, [(p, formats, dpi) for _, p, _ in todo],
                        description=description)
-        for (name, _, keys), res in zip(todo, drawn, strict=True):
-            out[name] = res
-            if store is not None:
-                for f, k in keys.items():
-                    if k is not None:
-                        store.put(k, f, res[f])
-        stats.drawn += len(todo)
+        new += [(name, keys, res) for (name, _, keys), res in zip(todo, drawn, strict=True)]
+    for name, keys, res in new:  # drawn here or ahead: into the store
+        out[name] = res
+        if store is not None:
+            for f, k in keys.items():
+                if k is not None:
+                    store.put(k, f, res[f])
+    stats.drawn += len(new)
     stats.seconds = time.perf_counter() - t0
     return out, stats
 
@@ -364,6 +363,7 @@ class FiguresAhead:
         self.executor = executor if executor is not None else current()
         self._digests: dict[int, tuple[Any, str | None]] = {}
         self._started: dict[str, tuple[Any, int]] = {}  # digest -> (batch, index)
+        self._stored: dict[str, dict[str, bytes]] = {}  # digest -> the store's images
         self._batches: list[Any] = []
 
     def digest(self, p: Plot) -> str | None:
@@ -383,12 +383,15 @@ class FiguresAhead:
             if not isinstance(p, Plot):
                 continue
             dg = self.digest(p)
-            if dg is None or dg in self._started or any(d == dg for d, _ in todo):
+            if dg is None or dg in self._started or dg in self._stored \
+                    or any(d == dg for d, _ in todo):
                 continue
-            if self.store is not None and all(
-                    self.store.get(figure_key(p, f, self.dpi, digest=dg), f) is not None
-                    for f in self.formats):
-                continue
+            if self.store is not None:
+                got = {f: self.store.get(figure_key(p, f, self.dpi, digest=dg), f)
+                       for f in self.formats}
+                if all(v is not None for v in got.values()):  # reused, not drawn
+                    self._stored[dg] = got  # type: ignore[assignment]
+                    continue
             todo.append((dg, p))
         if not todo:
             return 0
@@ -399,6 +402,10 @@ class FiguresAhead:
         for i, (dg, _) in enumerate(todo):
             self._started[dg] = (batch, i)
         return len(todo)
+
+    def stored(self, digest: str) -> dict[str, bytes] | None:
+        """The figure with this digest as :meth:`start` found it in the store, if it did."""
+        return self._stored.get(digest)
 
     def take(self, digest: str) -> dict[str, bytes] | None:
         """The figure with this digest in every format, if it was started (waits for it)."""
