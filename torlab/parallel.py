@@ -381,8 +381,7 @@ class ProcessExecutor(Executor):
         if self._pool is not None and method == "fork" \
                 and any(n not in self._inherited for n in uses) \
                 and not any(f.active() for f in self._feeds):  # never under background work
-            self._load_needs(uses)  # before the old workers go: nothing waits on them
-            self._shutdown()
+            self._shutdown()  # idle workers; the new ones are forked below, with ``uses``
         if self._pool is None:
             from concurrent.futures import ProcessPoolExecutor
 
