@@ -29,7 +29,7 @@ __all__ = ["fit_all", "measured_traction"]
 
 #: what the fit tasks use of the run's prepared modules (:meth:`torlab.parallel.Executor.map`):
 #: the optimiser and the fits' own modules, not matplotlib (loaded meanwhile, for the figures)
-_OPTIMISER = ("scipy.optimize", "torlab.fit.layer", "torlab.fit.temperature")
+_FITS_USE = ("scipy.optimize", "torlab.fit.layer", "torlab.fit.temperature")
 
 
 def fit_all(ctx: RunContext) -> None:
@@ -111,7 +111,7 @@ def fit_hpt_layers(ctx: RunContext) -> None:
                   for _, at_t, _ in plan]
     res = ctx.cached_map(["fit_temperature"] * len(temp_jobs) + ["fit_hpt"] * len(layer_jobs),
                          _fit_task, [j for _, j in temp_jobs] + layer_jobs,
-                         "fits: HPT layers and temperature coefficients", uses=_OPTIMISER)
+                         "fits: HPT layers and temperature coefficients", uses=_FITS_USE)
     temps = dict(zip([lab for lab, _ in temp_jobs], res[:len(temp_jobs)], strict=True))
     layers = res[len(temp_jobs):]
     for (label, _, _), res in zip(plan, layers, strict=True):
