@@ -100,6 +100,9 @@ def load_yaml_text(text: str, path: str | os.PathLike[str] | None = None) -> Yam
         mark = getattr(e, "problem_mark", None) or getattr(e, "context_mark", None)
         line = None if mark is None else mark.line + 1
         problem = getattr(e, "problem", None) or str(e).splitlines()[0]
+        if "nesting depth" in problem:  # libyaml (>= 0.2.6) scans ahead and has its own limit
+            raise TorlabInputError(f"YAML nested deeper than {MAX_DEPTH} levels", path=spath,
+                                   line=line) from None
         raise TorlabInputError(f"not valid YAML: {problem}", path=spath, line=line) from None
     except (ValueError, OverflowError) as e:  # e.g. an integer with too many digits, 2021-13-45
         raise TorlabInputError(f"not valid YAML: {str(e).splitlines()[0]}", path=spath) from None
