@@ -661,3 +661,29 @@ reports:
     p.write_text(bad)
     r = cli("run", p, "-o", tmp_path / "out2")
     assert r.exit_code == 2 and "base run 3" in r.output and "Traceback" not in r.output
+
+
+def test_results_carry_no_path_of_this_machine(tmp_path):
+    """A results folder is sent to others: its tables, fits and reports do not name the
+    folders the data and the rig compliance were read from on this machine (they are named
+    as written in the protocol).  The provenance records keep what the user typed: the
+    command line, and the input manifest with each input's path and SHA-256."""
+    from torlab.protocols.runner import run_protocol
+
+    (tmp_path / "data").mkdir()
+    (tmp_path / "proto").mkdir()
+    for f in sorted((ROOT / "sample_data/hpt").glob("hpt_OFM1_*uL_25C.txt")):
+        shutil.copy(f, tmp_path / "data" / f.name)
+    shutil.copy(ROOT / "sample_data/hpt/rig_compliance.csv", tmp_path / "data")
+    p = tmp_path / "proto" / "small.yaml"
+    p.write_text(SMALL.replace("[hpt_*.txt]", "[../data/hpt_*.txt]\n"
+                               "    compliance: ../data/rig_compliance.csv"))
+    out = tmp_path / "out"
+    run_protocol(p.resolve(), out)
+    texts = {f: "\n".join(ln for ln in f.read_text().splitlines() if "torlab run " not in ln)
+             for f in out.rglob("*") if f.is_file() and f.name != "torlab-manifest.json"
+             and f.suffix in (".csv", ".yaml", ".json", ".md", ".html", ".txt")}
+    assert len(texts) > 5
+    assert any("../data/rig_compliance.csv" in t for t in texts.values())
+    leaks = [f.name for f, t in texts.items() if str(tmp_path) in t]
+    assert leaks == []

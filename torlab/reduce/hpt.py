@@ -72,6 +72,7 @@ class RigCompliance:
     u: np.ndarray
     source: str = ""
     extrapolated: bool = field(default=False, compare=False)
+    file: Path | None = field(default=None, compare=False)
 
     @classmethod
     def linear(cls, compliance: float, source: str = "") -> RigCompliance:
@@ -82,8 +83,14 @@ class RigCompliance:
                    source or f"linear {compliance * 1e12:.4g} um/MPa")
 
     @classmethod
-    def from_file(cls, path: str | Path) -> RigCompliance:
-        """Read a compliance curve (see class docstring)."""
+    def from_file(cls, path: str | Path, *, name: str | None = None) -> RigCompliance:
+        """Read a compliance curve (see class docstring).
+
+        ``name`` is the file's name in :attr:`source` (the reduced tables'
+        ``compliance`` column; default: ``path`` as given; messages always give
+        ``path``).  A protocol names it as written in the protocol, so that its
+        results carry no path of the machine they were computed on.
+        """
         from torlab.parsers._text import parse_numeric_rows, read_text, split_unit
         from torlab.units import parse_unit_factor
 
@@ -122,7 +129,7 @@ class RigCompliance:
                                    "stress", path=display)
         if tau[0] > 0:
             tau, u = np.r_[0.0, tau], np.r_[u[0] - tau[0] * (u[1] - u[0]) / (tau[1] - tau[0]), u]
-        return cls(tau, u - u[0], source=str(display))
+        return cls(tau, u - u[0], source=name or str(display), file=Path(path))
 
     @classmethod
     def from_spec(cls, spec: Any, where: str = "compliance") -> RigCompliance | None:
@@ -142,8 +149,7 @@ class RigCompliance:
     @property
     def path(self) -> Path | None:
         """The curve file it was read from (None for a constant)."""
-        p = Path(self.source) if self.source else None
-        return p if p is not None and p.is_file() else None
+        return self.file
 
     def __call__(self, tau: np.ndarray) -> np.ndarray:
         """Rig displacement at shear stress ``tau`` (Pa) -> m."""
