@@ -26,14 +26,14 @@ def section_options(ctx: RunContext, section: str) -> tuple[dict[str, Any], dict
     if section == "hpt":
         spec = d.compliance_spec
         comp: Any = None if spec is None else spec[1]
-        key = None if spec is None else [spec[0], ctx.sha(spec[1]) if spec[0] == "file" else spec[1]]
+        key = None if spec is None else list(spec)
         if spec is not None and spec[0] == "file":
             from torlab.reduce.hpt import RigCompliance
 
             # named as written in the protocol (relative to its folder): the reduced tables
             # and the fits carry that name, not a path of this machine
             comp = RigCompliance.from_file(spec[1], name=d.compliance)
-            key.append(d.compliance)
+            key = ["file", ctx.sha(spec[1]), d.compliance]
         return ({"window": d.window, "source": d.source, "compliance": comp},
                 {"window": d.window, "source": d.source, "compliance": key})
     if section == "mtm":

@@ -72,7 +72,8 @@ class RigCompliance:
     u: np.ndarray
     source: str = ""
     extrapolated: bool = field(default=False, compare=False)
-    file: Path | None = field(default=None, compare=False)
+    #: the curve file it was read from (None for a constant)
+    path: Path | None = field(default=None, compare=False)
 
     @classmethod
     def linear(cls, compliance: float, source: str = "") -> RigCompliance:
@@ -129,7 +130,7 @@ class RigCompliance:
                                    "stress", path=display)
         if tau[0] > 0:
             tau, u = np.r_[0.0, tau], np.r_[u[0] - tau[0] * (u[1] - u[0]) / (tau[1] - tau[0]), u]
-        return cls(tau, u - u[0], source=name or str(display), file=Path(path))
+        return cls(tau, u - u[0], source=name or str(display), path=Path(path))
 
     @classmethod
     def from_spec(cls, spec: Any, where: str = "compliance") -> RigCompliance | None:
@@ -145,11 +146,6 @@ class RigCompliance:
         from torlab.units import to_si
 
         return cls.linear(to_si(str(spec), "compliance", where=where))
-
-    @property
-    def path(self) -> Path | None:
-        """The curve file it was read from (None for a constant)."""
-        return self.file
 
     def __call__(self, tau: np.ndarray) -> np.ndarray:
         """Rig displacement at shear stress ``tau`` (Pa) -> m."""
