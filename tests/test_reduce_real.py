@@ -21,7 +21,7 @@ def reduced(tmp_path_factory):
 
     from torlab.cli import app
 
-    for name in ("demo_3.txt", "demo_5.txt", "ETM_slim_mapper.txt"):
+    for name in ("demo_3.txt", "demo_5.txt", "demo_12.txt", "ETM_slim_mapper.txt"):
         real_pcs_file(name)
     out = tmp_path_factory.mktemp("real") / "out"
     before = {p: sha(p) for p in REAL_PCS.iterdir()}
@@ -51,12 +51,14 @@ def test_folder_detects_each_file_and_leaves_out_the_licence(reduced):
     out, text = reduced
     for name, first in (("demo_3.txt", "EHD261 Test Data File"),
                         ("demo_5.txt", "MTM311 Test Data File"),
+                        ("demo_12.txt", "EHD261 Test Data File"),
                         ("ETM_slim_mapper.txt", "Step 1 started at 10/05/2019")):
         assert f"{name}: read as pcs" in text and first in text, name
     assert "left out LICENSE.txt" in " ".join(text.split())
     s = pd.read_csv(out / "summary.csv")
     assert s.groupby("file")["step"].count().to_dict() == {
-        "ETM_slim_mapper.txt": 501, "demo_3.txt": 2, "demo_5.txt": 1}
+        "ETM_slim_mapper.txt": 501, "demo_3.txt": 2, "demo_5.txt": 1,
+        "demo_12.txt": 3}  # its three FILM steps (40, 60, 80 degC)
 
 
 @pytest.mark.realdata
@@ -139,10 +141,12 @@ def test_as_overrides_detection_and_bad_instrument_is_one_line(tmp_path, cli):
 
 @pytest.mark.realdata
 def test_glob_pattern_expanded_by_torlab(tmp_path, cli):
-    real_pcs_file("demo_5.txt")
+    for name in ("demo_3.txt", "demo_5.txt", "demo_12.txt"):
+        real_pcs_file(name)
     r = cli("reduce", str(REAL_PCS / "demo_*.txt"), "-o", tmp_path / "o")
     assert r.exit_code == 0, r.output
-    assert set(pd.read_csv(tmp_path / "o" / "summary.csv")["file"]) == {"demo_3.txt", "demo_5.txt"}
+    assert set(pd.read_csv(tmp_path / "o" / "summary.csv")["file"]) == {"demo_3.txt", "demo_5.txt",
+                                                                       "demo_12.txt"}
 
 
 # --- step kinds the real files lack, on the hand-made quirk file -------------------------------
