@@ -45,6 +45,10 @@ class Case:
     special: str | None = None  # fifo, folder, device, missing, symlink-device
     extra: dict[str, bytes] = field(default_factory=dict)  # companion files by name
     args: tuple[str, ...] = ()  # options replacing (or added to) the command's defaults
+    #: for a case of a reported problem: the outcome it must have (ok, input_error) and a
+    #: text its error line (or, when ok, its console output or warnings) must hold
+    expect: str | None = None
+    expect_in: str = ""
 
     @property
     def name(self) -> str:
@@ -373,7 +377,50 @@ def build_corpus(seed: int = 20240613) -> list[Case]:
     for special in ("fifo", "device", "missing"):
         cases.append(Case("fit_removal", "-", special, special=special, extra=layer_files))
     cases += _more_commands(seed, src, removal)
+    cases += reported_cases()
     return cases
+
+
+#: what a planted file in the work folder must still hold after a case (a write outside OUT)
+VICTIM = b"precious\n"
+
+
+def reported_cases() -> list[Case]:
+    """The reported problems, each with the outcome it must have (``Case.expect``).
+
+    Environment cases plant files next to OUT before the command runs (``extra`` key
+    ``__plant__``); every case's run checks that ``victim.txt`` in the work folder, when
+    there is one, still holds :data:`VICTIM` (:func:`run_case`).
+    """
+    hpt = (SAMPLE / "hpt" / "hpt_OFM1_4uL_25C.txt").read_bytes()
+    out: list[Case] = []
+    for plant, text in (("lock_symlink", "lock file"), ("lock_dangling", "lock file"),
+                        ("lock_hardlink", "lock file"), ("lock_fifo", "lock file"),
+                        ("out_symlink", "symbolic link")):
+        out.append(Case("hpt", "hpt_OFM1_4uL_25C", f"planted_{plant}", hpt,
+                        extra={"__plant__": plant.encode()}, expect="input_error",
+                        expect_in=text))
+    return out
+
+
+def _plant(what: str, work: Path) -> None:
+    """Files someone else put next to OUT (``work/out``) before the run."""
+    victim = work / "victim.txt"
+    victim.write_bytes(VICTIM)
+    lock = work / ".out.lock"
+    if what == "lock_symlink":
+        lock.symlink_to("victim.txt")
+    elif what == "lock_dangling":
+        lock.symlink_to(work / "created-through-link.txt")
+    elif what == "lock_hardlink":
+        os.link(victim, lock)
+    elif what == "lock_fifo":
+        os.mkfifo(lock)
+    elif what == "out_symlink":
+        (work / "elsewhere").mkdir()
+        (work / "out").symlink_to(work / "elsewhere", target_is_directory=True)
+    else:
+        raise ValueError(what)
 
 
 #: option values tried on every option of the commands below (a few per option, seeded)
@@ -526,6 +573,8 @@ def _companions(case: Case, work: Path) -> list[Path]:
 
 def _command(case: Case, work: Path) -> list[str]:
     p = _place(case, work)
+    if "__plant__" in case.extra:
+        _plant(case.extra["__plant__"].decode(), work)
     out = str(work / "out")
     r = case.reader
     if r == "hpt":
@@ -625,6 +674,11 @@ def run_case(case: Case, work: Path, runner: object, plots: bool = True) -> Outc
     out = res.output or ""
     err = getattr(res, "stderr", "") or ""
     code = res.exit_code
+    victim = work / "victim.txt"
+    if (victim.is_file() and victim.read_bytes() != VICTIM) or \
+            (work / "created-through-link.txt").exists() or \
+            ((work / "elsewhere").is_dir() and any((work / "elsewhere").iterdir())):
+        return Outcome(case, code, "wrote_outside", "a file outside OUT was written", hidden)
     if res.exception is not None and not isinstance(res.exception, SystemExit):
         import traceback
 
@@ -644,7 +698,8 @@ def run_case(case: Case, work: Path, runner: object, plots: bool = True) -> Outc
         return Outcome(case, code, "input_error" if code == 2 else "numerical_error",
                        first[0][:200], hidden)
     if code == 0:
-        return Outcome(case, code, "ok", "", hidden)
+        warned = [ln for ln in err.splitlines() if ln.startswith("warning: ")]
+        return Outcome(case, code, "ok", " | ".join(warned)[:600], hidden)
     return Outcome(case, code, "bug", f"exit code {code}", hidden)
 
 

@@ -144,16 +144,16 @@ import os, signal, sys
 import torlab.outputs as o
 point = sys.argv[1]
 real_replace, real_exchange = os.replace, o._exchange
-def replace(a, b):
+def replace(a, b, **kw):
     if point in ("before-first-rename", "between-renames") and ".out.old-" in str(b):
         if point == "before-first-rename":
             os.kill(os.getpid(), signal.SIGKILL)
-        real_replace(a, b)
+        real_replace(a, b, **kw)
         os.kill(os.getpid(), signal.SIGKILL)
-    return real_replace(a, b)
-def exchange(a, b):
+    return real_replace(a, b, **kw)
+def exchange(folder, a, b):
     if point == "after-exchange":
-        real_exchange(a, b) or sys.exit("no renameat2 here")
+        real_exchange(folder, a, b) or sys.exit("no renameat2 here")
         os.kill(os.getpid(), signal.SIGKILL)
     return False  # two renames (the path for systems without an atomic exchange)
 o.os.replace = replace

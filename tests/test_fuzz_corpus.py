@@ -20,7 +20,7 @@ import os
 import pytest
 from fuzz_corpus import build_corpus, run_corpus
 
-BAD = ("traceback", "bug", "hang", "leaked_warning")
+BAD = ("traceback", "bug", "hang", "leaked_warning", "wrote_outside")
 
 
 #: the named cases of test_issue_cases; in the sample too, but for the two whole protocol
@@ -57,7 +57,7 @@ def corpus(request, tmp_path_factory):
         firsts = {c.reader: k for k, c in reversed(list(enumerate(cases)))}  # one per reader
         cases = [c for k, c in enumerate(cases)
                  if k % (STRIDE if c.reader not in NEW_COMMANDS else NEW_STRIDE) == 0
-                 or c.special or c.name in NAMED or firsts[c.reader] == k]
+                 or c.special or c.name in NAMED or c.expect or firsts[c.reader] == k]
     return request.param, run_corpus(cases, tmp_path_factory.mktemp("corpus"), CliRunner(),
                                      plots=request.param == "whole")
 
@@ -132,6 +132,16 @@ def test_issue_cases(corpus, name, kind):
     assert o.kind == kind, o.detail
 
 
+def test_reported_cases_have_their_expected_outcome(outcomes):
+    """Each reported problem (``fuzz_corpus.reported_cases``) ends as it must: the right
+    numbers (exit 0) or the error line that names it."""
+    cases = [o for o in outcomes if o.case.expect]
+    assert cases
+    wrong = [f"{o.case.name}: {o.kind} {o.detail!r}" for o in cases
+             if o.kind != o.case.expect or o.case.expect_in not in o.detail]
+    assert not wrong, "\n".join(wrong)
+
+
 def test_every_error_names_its_file(outcomes):
     """One line naming the input (or the option) that is wrong."""
     def names(o) -> bool:
@@ -141,7 +151,8 @@ def test_every_error_names_its_file(outcomes):
                     or (opt == "--sweep" and "sweep:" in o.detail):
                 return True
         return any(w in o.detail for w in ("input", "rig2", "/dev/zero", "does-not-exist",
-                                           "scene.yaml", "hpt_OFM1", "removal.yaml"))
+                                           "scene.yaml", "hpt_OFM1", "removal.yaml",
+                                           "/out: "))  # the output folder
 
     unnamed = [o for o in outcomes if o.kind == "input_error" and not names(o)]
     assert not unnamed, [f"{o.case.name}: {o.detail}" for o in unnamed[:8]]

@@ -492,7 +492,7 @@ def test_commit_replaces_and_keeps_files_written_during_the_run(tmp_path, monkey
     from torlab.outputs import OutputDir
 
     if not exchange:
-        monkeypatch.setattr(outputs, "_exchange", lambda a, b: False)
+        monkeypatch.setattr(outputs, "_exchange", lambda folder, a, b: False)
     out = tmp_path / "out"
     with OutputDir(out) as d:
         d.write_text("data/a.csv", "old")
@@ -526,17 +526,17 @@ def test_force_refuses_a_user_file_inside_a_result_subfolder(tmp_path):
 @pytest.mark.parametrize("err, fragment", [(28, "no space left"), (30, "read-only"),
                                            (13, "permission denied")])
 def test_write_failures_are_exit_2_and_leave_nothing(cli, tmp_path, monkeypatch, err, fragment):
-    import pathlib
-
     import pandas as pd
 
-    def full(self, *a, **k):
+    from torlab import outputs
+
+    def full(*a, **k):
         raise OSError(err, os.strerror(err))
 
     out = tmp_path / "out"
     # the table is written through pandas or, without it, as bytes: both fail
     monkeypatch.setattr(pd.DataFrame, "to_csv", full)
-    monkeypatch.setattr(pathlib.Path, "write_bytes", full)
+    monkeypatch.setattr(outputs, "_write_file", full)
     r = cli("predict", "traction", SCENE, "--creepage", "0:0.05:3", "-o", out)
     assert r.exit_code == 2
     (line,) = error_lines(r)
@@ -545,12 +545,12 @@ def test_write_failures_are_exit_2_and_leave_nothing(cli, tmp_path, monkeypatch,
 
 
 def test_unwritable_place_is_exit_2(cli, tmp_path, monkeypatch):
-    import tempfile
+    from torlab import outputs
 
     def denied(*a, **k):
         raise PermissionError(13, "Permission denied")
 
-    monkeypatch.setattr(tempfile, "mkdtemp", denied)
+    monkeypatch.setattr(outputs, "_private_dir", denied)
     r = cli("predict", "traction", SCENE, "--creepage", "0:0.05:3", "-o", tmp_path / "out")
     assert r.exit_code == 2 and "permission denied" in error_lines(r)[0]
 

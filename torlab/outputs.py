@@ -22,6 +22,12 @@
   user's own files.  A file a user puts into the folder *while* the run works
   is moved into the new results at the commit.  A target that contains one of
   the command's *input* files is always refused.
+* **Never through a link.**  The lock file, the staging folder, every file and
+  sub-folder written and the swap are opened or renamed relative to a descriptor of
+  their folder without following a symbolic link (``openat`` with ``O_NOFOLLOW``): a
+  link planted as ``.OUT.lock``, an OUT that is a link, or a staging folder replaced by a
+  link during the run is an :class:`~torlab.errors.OutputWriteError` (exit code 2), and
+  nothing is written where it points.
 * **Clear errors.**  A folder that cannot be written (read-only, no permission,
   disk full) is a :class:`~torlab.errors.OutputWriteError` naming the path
   (exit code 2), and nothing is left behind.
@@ -209,9 +215,100 @@ def _writing(where: str | os.PathLike[str]) -> Iterator[None]:
         raise OutputWriteError(f"cannot write the results: {reason}", path=where) from None
 
 
+# ---------------------------------------------------------------------------- no links
+# Every name torlab writes next to or inside the output folder is opened relative to a
+# descriptor of its folder (``openat``) and without following a symbolic link, so a link
+# planted in OUT's parent (``.OUT.lock -> victim``) can never redirect a write.
+_O_NOFOLLOW = getattr(os, "O_NOFOLLOW", 0)
+_O_DIRECTORY = getattr(os, "O_DIRECTORY", 0)
+_O_CLOEXEC = getattr(os, "O_CLOEXEC", 0)
+_O_NONBLOCK = getattr(os, "O_NONBLOCK", 0)
+_O_DIRREF = getattr(os, "O_PATH", os.O_RDONLY)  # a folder held only to name things in it
+#: the ``*at`` system calls (Linux, macOS, BSD); elsewhere paths checked with ``lstat``
+_AT = all(f in os.supports_dir_fd for f in (os.open, os.mkdir, os.stat, os.unlink, os.rename))
+
+
+class _Dir:
+    """A folder held open: names in it are resolved against the folder itself, not a path
+    that someone could swap for a link between a check and a use."""
+
+    def __init__(self, path: Path, *, nofollow: bool = False) -> None:
+        self.path = path
+        self.fd: int | None = None
+        if _AT:
+            flags = (os.O_RDONLY if nofollow else _O_DIRREF) | _O_DIRECTORY | _O_CLOEXEC
+            self.fd = os.open(path, flags | (_O_NOFOLLOW if nofollow else 0))
+
+    def sub(self, name: str) -> _Dir:
+        """The sub-folder ``name`` (never through a link)."""
+        d = _Dir.__new__(_Dir)
+        d.path = self.path / name
+        d.fd = None
+        if self.fd is not None:
+            d.fd = os.open(name, os.O_RDONLY | _O_DIRECTORY | _O_NOFOLLOW | _O_CLOEXEC,
+                           dir_fd=self.fd)
+        elif self.lstat(name) is not None and stat.S_ISLNK(self.lstat(name).st_mode):
+            raise OSError(errno.ELOOP, os.strerror(errno.ELOOP), str(d.path))
+        return d
+
+    def _at(self, name: str) -> tuple[Any, dict[str, Any]]:
+        return (name, {"dir_fd": self.fd}) if self.fd is not None else (self.path / name, {})
+
+    def open(self, name: str, flags: int, mode: int = 0o666) -> int:
+        """``open(name)`` without following a link (``ELOOP`` for a link)."""
+        p, kw = self._at(name)
+        if self.fd is None:
+            st = self.lstat(name)
+            if st is not None and stat.S_ISLNK(st.st_mode):
+                raise OSError(errno.ELOOP, os.strerror(errno.ELOOP), str(p))
+        return os.open(p, flags | _O_NOFOLLOW | _O_CLOEXEC, mode, **kw)
+
+    def lstat(self, name: str) -> os.stat_result | None:
+        p, kw = self._at(name)
+        try:
+            return os.stat(p, follow_symlinks=False, **kw)
+        except FileNotFoundError:
+            return None
+
+    def mkdir(self, name: str, mode: int = 0o777) -> None:
+        p, kw = self._at(name)
+        os.mkdir(p, mode, **kw)
+
+    def unlink(self, name: str) -> None:
+        p, kw = self._at(name)
+        os.unlink(p, **kw)
+
+    def rename(self, src: str, dst: str) -> None:
+        """Rename ``src`` to ``dst`` in this folder (replacing ``dst``; a link is renamed
+        or replaced itself, never followed)."""
+        if self.fd is not None:
+            os.replace(src, dst, src_dir_fd=self.fd, dst_dir_fd=self.fd)
+        else:
+            os.replace(self.path / src, self.path / dst)
+
+    def close(self) -> None:
+        fd, self.fd = self.fd, None
+        if fd is not None:
+            with contextlib.suppress(OSError):
+                os.close(fd)
+
+
+def _link_error(what: str, where: Path | None, target: Path) -> OutputWriteError:
+    """``what`` (``where``; None: the output folder itself) is a symbolic link."""
+    if where is None:
+        return OutputWriteError(f"{what} is a symbolic link; torlab never writes through a "
+                                "link (give the folder it points to, or another -o)", path=target)
+    return OutputWriteError(f"{what} {where} is a symbolic link; torlab never writes through "
+                            "a link (remove it, or choose another -o)", path=target)
+
+
 # ---------------------------------------------------------------------------- lock
 class _Lock:
     """An exclusive, non-blocking OS lock on a lock file (released when the process dies).
+
+    The lock file is opened in its folder without following a link and must be a regular
+    file with no other hard link: a link planted as ``.OUT.lock`` is refused, and nothing
+    is written to it.
 
     A process forked while the lock is held (a worker of
     :class:`torlab.parallel.ProcessExecutor`) closes its copy of the descriptor at once
@@ -219,8 +316,10 @@ class _Lock:
     killed run must not keep its output folder locked.
     """
 
-    def __init__(self, path: Path, target: Path) -> None:
-        self.path = path
+    def __init__(self, folder: _Dir, name: str, target: Path) -> None:
+        self.folder = folder
+        self.name = name
+        self.path = folder.path / name
         self.target = target
         self.fd: int | None = None
         _LOCKS.add(self)
@@ -228,23 +327,36 @@ class _Lock:
     def acquire(self) -> None:
         for _ in range(20):
             with _writing(self.target):
-                fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
-            if not _try_lock(fd):
-                holder = _read_pid(fd)
+                try:
+                    fd = self.folder.open(self.name, os.O_RDWR | os.O_CREAT | _O_NONBLOCK, 0o644)
+                except OSError as e:
+                    if e.errno == errno.ELOOP:
+                        raise _link_error("the lock file", self.path, self.target) from None
+                    raise
+            try:
+                st = os.fstat(fd)
+                if not stat.S_ISREG(st.st_mode) or st.st_nlink != 1:
+                    raise OutputWriteError(
+                        f"the lock file {self.path} is not a plain file torlab made (a "
+                        f"{'file with other hard links' if stat.S_ISREG(st.st_mode) else 'FIFO, device or socket'}); "
+                        "remove it, or choose another -o", path=self.target)
+                if not _try_lock(fd):
+                    holder = _read_pid(fd)
+                    who = f" (pid {holder})" if holder else ""
+                    raise OutputBusyError(
+                        f"another torlab run{who} is writing to this output folder; wait for it "
+                        "to finish or choose another -o", path=self.target)
+            except BaseException:
                 os.close(fd)
-                who = f" (pid {holder})" if holder else ""
-                raise OutputBusyError(
-                    f"another torlab run{who} is writing to this output folder; wait for it to "
-                    "finish or choose another -o", path=self.target)
-            try:  # the holder we waited for may have removed the file: lock the current one
-                same = os.path.samestat(os.fstat(fd), os.stat(self.path))
-            except FileNotFoundError:
-                same = False
-            if not same:
+                raise
+            # the holder we waited for may have removed the file: lock the current one
+            now = self.folder.lstat(self.name)
+            if now is None or not os.path.samestat(st, now):
                 os.close(fd)
                 continue
-            os.ftruncate(fd, 0)
-            os.write(fd, f"{os.getpid()}\n".encode())
+            with _writing(self.target):
+                os.ftruncate(fd, 0)
+                os.write(fd, f"{os.getpid()}\n".encode())
             self.fd = fd
             return
         raise OutputBusyError("could not lock the output folder (its lock file keeps "
@@ -252,12 +364,16 @@ class _Lock:
 
     def release(self) -> None:
         if self.fd is None:
+            self.folder.close()
             return
         fd, self.fd = self.fd, None
-        with contextlib.suppress(OSError):
-            os.unlink(self.path)
+        with contextlib.suppress(OSError):  # only our own lock file, never one put in its place
+            now = self.folder.lstat(self.name)
+            if now is not None and os.path.samestat(os.fstat(fd), now):
+                self.folder.unlink(self.name)
         with contextlib.suppress(OSError):
             os.close(fd)  # closing releases the lock
+        self.folder.close()
 
     def __del__(self) -> None:
         self.release()
@@ -273,6 +389,7 @@ def _forget_locks_in_child() -> None:
         if fd is not None:
             with contextlib.suppress(OSError):
                 os.close(fd)
+            lk.folder.close()
 
 
 if hasattr(os, "register_at_fork"):
@@ -307,8 +424,9 @@ def _read_pid(fd: int) -> int | None:
 
 
 # ---------------------------------------------------------------------------- atomic swap
-def _exchange(a: Path, b: Path) -> bool:
-    """Atomically swap two paths (Linux ``renameat2(RENAME_EXCHANGE)``); False if unsupported."""
+def _exchange(folder: _Dir, a: str, b: str) -> bool:
+    """Atomically swap two names of ``folder`` (Linux ``renameat2(RENAME_EXCHANGE)``);
+    False if unsupported."""
     if not sys.platform.startswith("linux"):
         return False
     try:
@@ -320,18 +438,30 @@ def _exchange(a: Path, b: Path) -> bool:
         return False
     fn.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint]
     at_fdcwd, rename_exchange = -100, 2
-    rc = fn(at_fdcwd, os.fsencode(a), at_fdcwd, os.fsencode(b), rename_exchange)
+    if folder.fd is None:
+        dfd, a_, b_ = at_fdcwd, os.fsencode(folder.path / a), os.fsencode(folder.path / b)
+    else:
+        dfd, a_, b_ = folder.fd, os.fsencode(a), os.fsencode(b)
+    rc = fn(dfd, a_, dfd, b_, rename_exchange)
     if rc == 0:
         return True
     err = ctypes.get_errno()
     if err in (errno.EINVAL, errno.ENOSYS, errno.ENOTSUP, errno.EOPNOTSUPP):
         return False  # file system or kernel without the flag: two renames instead
-    raise OSError(err, os.strerror(err), os.fspath(a))
+    raise OSError(err, os.strerror(err), os.fspath(folder.path / a))
 
 
 def _remove_tree(p: Path) -> None:
     """Delete a folder of ours: renamed to a ``trash`` name first, so that a half-deleted
-    folder can never be mistaken for complete results."""
+    folder can never be mistaken for complete results.  A link is removed, never followed
+    (``shutil.rmtree`` walks by descriptors on Linux; a read-only folder inside is made
+    writable only when it is a folder, not a link)."""
+    try:
+        if stat.S_ISLNK(os.lstat(p).st_mode):
+            os.unlink(p)
+            return
+    except OSError:
+        return
     trash = p.with_name(re.sub(r"\.(old|staging)-", ".trash-", p.name, count=1))
     if trash != p:
         try:
@@ -342,14 +472,34 @@ def _remove_tree(p: Path) -> None:
 
     def writable(fn: Any, path: str, exc: Any) -> None:  # a read-only folder of ours
         with contextlib.suppress(OSError):
-            os.chmod(os.path.dirname(path), 0o700)
-            os.chmod(path, 0o700)
+            for d in (os.path.dirname(path), path):
+                if stat.S_ISDIR(os.lstat(d).st_mode):
+                    os.chmod(d, 0o700)
             fn(path)
 
     if sys.version_info >= (3, 12):
         shutil.rmtree(p, onexc=writable)
     else:
         shutil.rmtree(p, onerror=writable)
+
+
+def _mine(st: os.stat_result) -> bool:
+    """Whether a file or folder belongs to this process's user (always, without owners)."""
+    return not hasattr(os, "geteuid") or st.st_uid == os.geteuid()
+
+
+def _private_dir(folder: _Dir, prefix: str) -> str:
+    """Make a new folder ``prefix<random>`` (mode 0700) in ``folder``; its name."""
+    import secrets
+
+    for _ in range(100):
+        name = f"{prefix}{secrets.token_hex(5)}"
+        try:
+            folder.mkdir(name, 0o700)
+        except FileExistsError:
+            continue
+        return name
+    raise FileExistsError(errno.EEXIST, "no free name for a staging folder", str(folder.path))
 
 
 # ---------------------------------------------------------------------------- the folder
@@ -359,7 +509,8 @@ class OutputDir:
     Parameters
     ----------
     target
-        Folder the results end up in.
+        Folder the results end up in.  Its last part may not be a symbolic link (the
+        folders above it may: they are the user's own path).
     force
         Replace earlier torlab results in ``target``.
     inputs
@@ -382,7 +533,8 @@ class OutputDir:
     OutputExistsError
         ``target`` holds results (without ``force``) or files torlab did not write.
     OutputWriteError
-        The place cannot be written.
+        The place cannot be written, or a name torlab writes (the folder, its lock file)
+        is a symbolic link.
     """
 
     def __init__(
@@ -395,7 +547,12 @@ class OutputDir:
         keep: Iterable[str] = (),
     ) -> None:
         self.target = Path(target)
-        self._real = self.target.resolve()
+        t = self.target
+        # the user's path to the folder is resolved; its last part is never followed
+        if t.name in ("", ".", ".."):
+            self._real = t.resolve()
+        else:
+            self._real = t.parent.resolve() / t.name
         self.force = force
         self.command = command
         self.inputs = [Path(p) for p in inputs]
@@ -405,16 +562,16 @@ class OutputDir:
         #: seconds spent writing files (for a command's honest time split)
         self.io_seconds = 0.0
         self._staging: Path | None = None
-        t = self.target
-        if t.exists() and not t.is_dir():
-            raise TorlabInputError("output path exists and is not a folder", path=t)
+        self._stage: _Dir | None = None
+        self._check_kind(t)
         self._check_inputs()
         parent = self._real.parent
         with _writing(parent):
             parent.mkdir(parents=True, exist_ok=True)
-        self._lock = _Lock(parent / f".{self._real.name}.lock", t)
-        self._lock.acquire()
+            self._parent = _Dir(parent)
+        self._lock = _Lock(self._parent, f".{self._real.name}.lock", t)
         try:
+            self._lock.acquire()
             self._recover()
             self._check_target()
         except BaseException:
@@ -422,6 +579,19 @@ class OutputDir:
             raise
 
     # -- checks -------------------------------------------------------------
+    def _check_kind(self, t: Path) -> None:
+        try:
+            st = os.lstat(self._real)
+        except FileNotFoundError:
+            return
+        except OSError as e:
+            raise OutputWriteError(f"cannot read the output folder ({e.strerror})",
+                                   path=t) from None
+        if stat.S_ISLNK(st.st_mode):
+            raise _link_error("the output folder", None, t)
+        if not stat.S_ISDIR(st.st_mode):
+            raise TorlabInputError("output path exists and is not a folder", path=t)
+
     def _check_inputs(self) -> None:
         tres = self._real
         for inp in self.inputs:
@@ -435,12 +605,11 @@ class OutputDir:
 
     def _check_target(self) -> None:
         t = self.target
-        if t.exists() and not t.is_dir():
-            raise TorlabInputError("output path exists and is not a folder", path=t)
-        if not t.exists():
+        self._check_kind(t)
+        if not os.path.lexists(self._real):
             return
         try:
-            empty = next(t.iterdir(), None) is None
+            empty = next(self._real.iterdir(), None) is None
         except OSError as e:
             raise OutputWriteError(f"cannot read the output folder ({e.strerror})",
                                    path=t) from None
@@ -450,7 +619,7 @@ class OutputDir:
             raise OutputExistsError(
                 "output folder already holds results; use --force to replace them or choose "
                 "another -o", path=t)
-        foreign = _foreign_files(t)
+        foreign = _foreign_files(self._real)
         if foreign:
             more = "" if len(foreign) <= 3 else f" and {len(foreign) - 3} more"
             raise OutputExistsError(
@@ -460,26 +629,33 @@ class OutputDir:
     def _recover(self) -> None:
         """Put back results hidden by an interrupted commit; delete killed runs' leftovers.
 
-        Runs under the lock, so no other process is using any of these folders.
+        Runs under the lock, so no other process is using any of these folders.  Only
+        folders of this user are touched (a folder someone else put there is not ours to
+        restore or delete), never a link.
         """
         t = self._real
         pre = f".{t.name}."
         try:
-            entries = [e for e in t.parent.iterdir() if e.name.startswith(pre)
-                       and e.is_dir() and not e.is_symlink()]
+            entries = []
+            for e in os.scandir(t.parent):
+                if not e.name.startswith(pre):
+                    continue
+                st = e.stat(follow_symlinks=False)
+                if stat.S_ISDIR(st.st_mode) and _mine(st):
+                    entries.append((Path(e.path), st.st_mtime_ns))
         except OSError:
             return
-        olds = sorted((e for e in entries if e.name.startswith(pre + "old-")),
-                      key=lambda e: e.stat().st_mtime_ns)
-        if olds and not t.exists():
+        olds = [p for p, _ in sorted(entries, key=lambda x: x[1])
+                if p.name.startswith(pre + "old-")]
+        if olds and not os.path.lexists(t):
             newest = olds.pop()
             with _writing(self.target):
-                os.replace(newest, t)
+                self._parent.rename(newest.name, t.name)
             self._note(f"restored the earlier results of {self.target} from an interrupted "
                        "run")
-        for e in entries:
-            if e.name.startswith((pre + "staging-", pre + "trash-")) or e in olds:
-                self._retire(e)
+        for p, _ in entries:
+            if p.name.startswith((pre + "staging-", pre + "trash-")) or p in olds:
+                self._retire(p)
 
     def _note(self, text: str) -> None:
         """Record ``text`` in :attr:`notes` and issue it as a TorlabWarning (one CLI line)."""
@@ -493,37 +669,88 @@ class OutputDir:
     # -- staging ------------------------------------------------------------
     @property
     def staging(self) -> Path:
-        """Folder files are written to before :meth:`commit`."""
+        """Folder files are written to before :meth:`commit` (mode 0700 until then)."""
         if self._staging is None:
             t = self._real
             with _writing(t.parent):
-                self._staging = Path(tempfile.mkdtemp(
-                    prefix=f".{t.name}.staging-{os.getpid()}-", dir=t.parent))
-                if t.exists():
-                    for name in self.keep:  # linked where possible: kept files are only
+                name = _private_dir(self._parent, f".{t.name}.staging-{os.getpid()}-")
+                self._stage = self._parent.sub(name)
+                self._staging = t.parent / name
+                if os.path.isdir(t) and not os.path.islink(t):
+                    for k in self.keep:  # linked where possible: kept files are only
                         # ever replaced (unlinked, written anew), never changed in place
-                        _copy_regular(t / name, self._staging / name, link=True)
+                        _copy_regular(t / k, self._staging / k, link=True)
         return self._staging
 
-    def path(self, name: str) -> Path:
-        """Staging path for ``name`` (a relative path), recorded in the manifest."""
+    def _check_staging(self) -> None:
+        """The staging folder's name still names the folder this run made."""
+        assert self._stage is not None and self._staging is not None
+        if self._stage.fd is None:
+            return
+        now = self._parent.lstat(self._staging.name)
+        if now is None or not os.path.samestat(now, os.fstat(self._stage.fd)):
+            raise OutputWriteError(f"the staging folder {self._staging} was moved or replaced "
+                                   "during the run; nothing was written", path=self.target)
+
+    def _rel(self, name: str) -> Path:
         rel = Path(name)
-        if rel.is_absolute() or ".." in rel.parts:
+        if rel.is_absolute() or ".." in rel.parts or not rel.parts:
             raise ValueError(f"output names must be relative paths inside the folder: {name!r}")
-        p = self.staging / rel
+        return rel
+
+    def _folder_of(self, rel: Path) -> _Dir:
+        """The staging sub-folder holding ``rel`` (made if missing; never through a link).
+        The caller closes it."""
+        _ = self.staging  # made on first use
+        assert self._stage is not None
+        d = self._stage
+        opened: list[_Dir] = []
+        try:
+            for part in rel.parts[:-1]:
+                with contextlib.suppress(FileExistsError):
+                    d.mkdir(part)
+                d = d.sub(part)
+                opened.append(d)
+        except BaseException:
+            for o in opened:
+                o.close()
+            raise
+        for o in opened[:-1]:
+            o.close()
+        if not opened:  # the caller's own handle on the staging folder
+            d = _Dir.__new__(_Dir)
+            d.path = self._stage.path
+            d.fd = os.dup(self._stage.fd) if self._stage.fd is not None else None
+        return d
+
+    def _open_new(self, name: str) -> int:
+        """A new file ``name`` in staging, open for writing: any file of that name (a hard
+        link to a carried-over file) is unlinked first; never opened through a link."""
+        rel = self._rel(name)
+        d = self._folder_of(rel)
+        try:
+            with contextlib.suppress(FileNotFoundError):
+                d.unlink(rel.name)
+            fd = d.open(rel.name, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+        finally:
+            d.close()
+        if rel.as_posix() not in self.files and rel.as_posix() != MANIFEST:
+            self.files.append(rel.as_posix())
+        return fd
+
+    def path(self, name: str) -> Path:
+        """Staging path for ``name`` (a relative path), recorded in the manifest.
+
+        Its folders are made (never through a link); the caller writes the file itself
+        and must not write through an existing file of that name (unlink it first).
+        """
+        rel = self._rel(name)
         with _writing(self.target / rel):
-            p.parent.mkdir(parents=True, exist_ok=True)
+            self._folder_of(rel).close()
+            self._check_staging()
         if rel.as_posix() not in self.files:
             self.files.append(rel.as_posix())
-        return p
-
-    def _fresh(self, p: Path) -> Path:
-        """``p``, no longer a hard link to a carried-over file (``keep``) if it was one."""
-        if self.keep:
-            with contextlib.suppress(OSError):
-                if os.lstat(p).st_nlink > 1:
-                    p.unlink()
-        return p
+        return self.staging / rel
 
     def final_path(self, name: str) -> Path:
         """Where ``name`` will be after :meth:`commit`."""
@@ -536,9 +763,8 @@ class OutputDir:
     def write_bytes(self, name: str, data: bytes) -> Path:
         """Write a binary file."""
         t0 = time.perf_counter()
-        p = self._fresh(self.path(name))
         with _writing(self.final_path(name)):
-            p.write_bytes(data)
+            _write_file(self._open_new(name), data)
         self.io_seconds += time.perf_counter() - t0
         return self.final_path(name)
 
@@ -572,12 +798,13 @@ class OutputDir:
                 bad.append(c)
         if bad:
             raise ValueError(f"refusing to write non-finite values to {name}: columns {bad}")
-        p = self._fresh(self.path(name))
         with _writing(self.final_path(name)):
+            fd = self._open_new(name)
             if cols is None:
-                df.to_csv(p, index=False, float_format=float_format, lineterminator="\n")
+                with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
+                    df.to_csv(f, index=False, float_format=float_format, lineterminator="\n")
             else:
-                p.write_bytes(columns_csv(cols, float_format).encode("utf-8"))
+                _write_file(fd, columns_csv(cols, float_format).encode("utf-8"))
         self.io_seconds += time.perf_counter() - t0
         return self.final_path(name)
 
@@ -627,25 +854,35 @@ class OutputDir:
             "inputs": {str(p): sha256_file(p) for p in self.inputs if p.is_file()},
             "files": sorted(self.files),
         }
-        (st / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
+        _write_file(self._open_new(MANIFEST), (json.dumps(manifest, indent=2) + "\n").encode())
+        self._check_staging()
         t = self._real
-        if not t.exists():
-            os.replace(st, t)
-            self._staging = None
+        now = self._parent.lstat(t.name)
+        if now is not None and stat.S_ISLNK(now.st_mode):
+            raise _link_error("the output folder", None, self.target)
+        if now is None:
+            self._parent.rename(st.name, t.name)
+            self._close_stage()
             return self.target
-        if _exchange(st, t):
+        if _exchange(self._parent, st.name, t.name):
             old = st  # the staging path now holds the earlier results
         else:
             old = t.with_name(f".{t.name}.old-{os.getpid()}-{time.monotonic_ns()}")
-            os.replace(t, old)
+            self._parent.rename(t.name, old.name)
             try:
-                os.replace(st, t)
+                self._parent.rename(st.name, t.name)
             except BaseException:
-                os.replace(old, t)
+                self._parent.rename(old.name, t.name)
                 raise
-        self._staging = None
+        self._close_stage()
         self._retire(old)
         return self.target
+
+    def _close_stage(self) -> None:
+        self._staging = None
+        if self._stage is not None:
+            self._stage.close()
+            self._stage = None
 
     def _retire(self, old: Path) -> None:
         """Delete a replaced or left-over folder, first moving any user file in it into the results.
@@ -657,11 +894,11 @@ class OutputDir:
         file cannot be moved, the folder is kept, renamed so that it is visible.
         """
         t = self._real
-        if old.is_symlink():  # -o named a link: drop the link, never touch what it points to
+        if old.is_symlink():  # a link put in its place: drop it, never touch what it points to
             with contextlib.suppress(OSError):
                 old.unlink()
             return
-        if (old / MANIFEST).is_file() and t.is_dir():
+        if (old / MANIFEST).is_file() and t.is_dir() and not t.is_symlink():
             try:
                 for rel in _foreign_files(old):
                     dst = t / rel
@@ -685,8 +922,10 @@ class OutputDir:
     def abort(self) -> None:
         """Discard the staged files; the target is left as it was; release the lock."""
         if self._staging is not None:
-            shutil.rmtree(self._staging, ignore_errors=True)
-            self._staging = None
+            with contextlib.suppress(OSError, OutputWriteError):
+                self._check_staging()  # a folder put in its place is not ours to delete
+                _remove_tree(self._staging)
+            self._close_stage()
         self._lock.release()
 
     def close(self) -> None:
@@ -702,6 +941,11 @@ class OutputDir:
         else:
             self.abort()
 
+
+def _write_file(fd: int, data: bytes) -> None:
+    """Write all of ``data`` to the open file ``fd`` and close it."""
+    with os.fdopen(fd, "wb") as f:
+        f.write(data)
 
 # ---------------------------------------------------------------------------- helpers
 def _manifest_files(t: Path) -> set[str]:
