@@ -100,7 +100,7 @@ def test_entry_stores_a_table_once_per_dtype_and_its_bytes_raw(tmp_path):
 def test_json_tree_outside_an_entry_is_unchanged():
     """Outside an entry encode_value gives the JSON-only tree (base64 arrays) that
     digest_value hashes: its text fast paths give what the generic conversion gives."""
-    from torlab.protocols.cache import _enc_column, _enc_index, encode_value
+    from torlab.codec import _enc_column, _enc_index, encode_value
 
     s = pd.Series(["a", None, "c"], dtype="str")
     generic = s.astype(object).where(s.notna(), None).tolist()
@@ -119,7 +119,7 @@ def test_json_tree_outside_an_entry_is_unchanged():
 def test_signed_entry_with_a_broken_tree_is_refused(tmp_path, breakage):
     """Even with the right key (torlab's own entry, damaged), a tree pointing outside its
     data or at nothing is a BadEntry (recomputed), never an out-of-bounds read."""
-    from torlab.protocols.cache import BadEntry
+    from torlab.codec import BadEntry
 
     c = _cache(tmp_path)
     df = pd.DataFrame({"a": [1.0, 2.0], "b": [3.0, 4.0], "n": np.array([1, 2])})
@@ -156,7 +156,7 @@ def test_signed_entry_with_a_broken_tree_is_refused(tmp_path, breakage):
 
 def test_version_1_entry_is_recomputed(tmp_path):
     """An entry of the earlier format (arrays base64 in the JSON) is not read: recomputed."""
-    from torlab.protocols.cache import BadEntry, encode_value
+    from torlab.codec import BadEntry, encode_value
 
     c = _cache(tmp_path)
     payload = json.dumps({"format": "torlab-cache", "version": 1, "entry": "k-1.tlc",

@@ -53,7 +53,7 @@ def test_xlsx_without_openpyxl_says_how_to_install(monkeypatch, tmp_path):
     import builtins
 
     from torlab.errors import TorlabInputError
-    from torlab.instruments.output import write_xlsx
+    from torlab.outputs import write_xlsx
 
     real = builtins.__import__
 

@@ -192,7 +192,8 @@ def test_figures_of_a_results_folder_signed_elsewhere_are_drawn_again(tmp_path, 
                                    "pickle:loads", "torlab..x:Y"])
 def test_cache_decodes_only_torlab_data_classes_even_with_a_valid_key(tmp_path, tname):
     """Data-only: an entry naming any other type is refused although its HMAC is right."""
-    from torlab.protocols.cache import BadEntry, ResultCache
+    from torlab.codec import BadEntry
+    from torlab.protocols.cache import ResultCache
 
     c = ResultCache(tmp_path)
     name = "k-1.tlc"
@@ -208,7 +209,7 @@ def test_cache_decodes_only_torlab_data_classes_even_with_a_valid_key(tmp_path, 
 def test_cache_round_trip_of_result_data():
     import pandas as pd
 
-    from torlab.protocols.cache import decode_value, encode_value
+    from torlab.codec import decode_value, encode_value
     from torlab.reduce.viscometer import Calibration
 
     df = pd.DataFrame({"x_m": [1.0, np.nan, 3.0], "n": np.array([1, 2, 3], dtype=np.int64),
@@ -235,7 +236,7 @@ _plain = st.recursive(
 @settings(max_examples=150, deadline=None)
 @given(_plain)
 def test_cache_round_trip_of_any_plain_value(v):
-    from torlab.protocols.cache import decode_value, encode_value
+    from torlab.codec import decode_value, encode_value
 
     assert decode_value(json.loads(json.dumps(encode_value(v)))) == v
 
@@ -243,7 +244,8 @@ def test_cache_round_trip_of_any_plain_value(v):
 @settings(max_examples=150, deadline=None)
 @given(st.binary(max_size=300))
 def test_cache_loads_refuses_arbitrary_bytes_cleanly(tmp_path_factory, data):
-    from torlab.protocols.cache import BadEntry, ResultCache
+    from torlab.codec import BadEntry
+    from torlab.protocols.cache import ResultCache
 
     c = ResultCache(None)
     with pytest.raises(BadEntry):
@@ -556,7 +558,7 @@ def test_unwritable_place_is_exit_2(cli, tmp_path, monkeypatch):
 
 
 def test_safe_name():
-    from torlab.outputs import safe_name
+    from torlab.files import safe_name
 
     assert "/" not in safe_name("../../x") and not safe_name("../../x").startswith(".")
     assert safe_name("") == "_" and safe_name("OFM1-dry") == "OFM1-dry"

@@ -5,8 +5,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-from torlab._unit_table import CANDIDATES, KNOWN, generate
-from torlab.units import _normalise_unit, parse_unit_factor, to_si
+from torlab._unit_table import CANDIDATES, KNOWN
+from torlab.units import _normalise_unit, generate_unit_table, parse_unit_factor, to_si
 
 REPO = Path(__file__).resolve().parents[1]
 SCENE = REPO / "protocols" / "scenes" / "wheel_rail_tab54.yaml"
@@ -14,13 +14,14 @@ SCENE = REPO / "protocols" / "scenes" / "wheel_rail_tab54.yaml"
 
 def test_every_stored_unit_is_what_pint_gives():
     # pint computes each entry now (the table is bypassed); equal to the last bit
-    fresh = generate()
+    fresh = generate_unit_table()
     assert set(fresh) == set(KNOWN)
     for key, value in KNOWN.items():
         assert fresh[key] == value, key
-    from torlab._unit_table import KIND_DIMENSIONS, UNIT_DIMENSIONS, generate_dimensions
+    from torlab._unit_table import KIND_DIMENSIONS, UNIT_DIMENSIONS
+    from torlab.units import generate_unit_dimensions
 
-    assert generate_dimensions() == (UNIT_DIMENSIONS, KIND_DIMENSIONS)
+    assert generate_unit_dimensions() == (UNIT_DIMENSIONS, KIND_DIMENSIONS)
 
 
 def test_every_candidate_spelling_is_stored_and_used():

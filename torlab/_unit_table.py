@@ -3,8 +3,9 @@ every entry against pint).
 
 :func:`torlab.units.parse_unit_factor` looks a normalised unit up here before it
 loads pint, so a command that reads an ordinary scene or protocol does not pay
-pint's start-up.  Regenerate with ``python -m torlab._unit_table`` after changing
-:data:`CANDIDATES` or the unit normalisation.
+pint's start-up.  Regenerate with ``python -m torlab.units`` after changing
+:data:`CANDIDATES` or the unit normalisation (:func:`torlab.units.generate_unit_table`
+prints the entries).  Data only: this module imports nothing.
 """
 
 from __future__ import annotations
@@ -304,32 +305,3 @@ KIND_DIMENSIONS: dict[str, str] = {
     'inverse_length': '1 / [length]',
 }
 
-
-def generate() -> dict[tuple[str, str], tuple[float, float]]:
-    """:data:`KNOWN` computed by pint now (what the test compares with)."""
-    from torlab.units import _normalise_unit, _pint_factor
-
-    out = {}
-    for kind, units in CANDIDATES.items():
-        for unit in units:
-            u = _normalise_unit(unit)
-            out[(u, kind)] = _pint_factor(unit, u, kind)
-    return out
-
-
-def generate_dimensions() -> tuple[dict[str, str], dict[str, str]]:
-    """:data:`UNIT_DIMENSIONS` and :data:`KIND_DIMENSIONS` computed by pint now."""
-    from torlab.units import KINDS, _normalise_unit, registry
-
-    ureg = registry()
-    units = {_normalise_unit(u) for us in CANDIDATES.values() for u in us}
-    unit_dims = {u: str(ureg.Quantity(1.0, u).dimensionality) for u in sorted(units)}
-    kind_dims = {k: str(ureg.get_dimensionality(d)) for k, (d, _) in KINDS.items() if d}
-    return unit_dims, kind_dims
-
-
-if __name__ == "__main__":  # pragma: no cover
-    for k, v in generate().items():
-        print(f"    {k!r}: {(float(v[0]), float(v[1]))!r},")
-    for d in generate_dimensions():
-        print(d)

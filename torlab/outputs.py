@@ -32,43 +32,37 @@
   disk full) is a :class:`~torlab.errors.OutputWriteError` naming the path
   (exit code 2), and nothing is left behind.
 
+Single files (reading a regular file, hashing, an atomic write, a safe name) are
+:mod:`torlab.files`, which this module builds on.
+
 Example
 -------
 >>> with OutputDir("out", force=False, inputs=["run1.txt"]) as out:   # doctest: +SKIP
 ...     out.write_csv("reduced.csv", df)
-...     out.save_figure("curve.png", fig)
+...     write_figures(out, [("curve", fig)])   # torlab.reports.render
 """
 
 from __future__ import annotations
 
 import contextlib
 import errno
-import hashlib
 import json
 import os
 import re
 import shutil
 import stat
 import sys
-import tempfile
 import time
 import weakref
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
 from torlab import __version__
 from torlab.errors import OutputBusyError, OutputExistsError, OutputWriteError, TorlabInputError
+from torlab.files import sha256_file, writing
 
-__all__ = [
-    "MANIFEST",
-    "OutputDir",
-    "atomic_write_bytes",
-    "atomic_write_text",
-    "columns_csv",
-    "safe_name",
-    "sha256_file",
-]
+__all__ = ["MANIFEST", "OutputDir", "columns_csv", "write_xlsx"]
 
 MANIFEST = "torlab-manifest.json"
 
@@ -102,117 +96,48 @@ def columns_csv(cols: Mapping[str, Any], float_format: str = "%.10g") -> str:
     w.writerows(zip(*cells, strict=True))
     return buf.getvalue()
 
+def write_xlsx(path: str | os.PathLike[str] | Any, tables: Mapping[str, Any]) -> Any:
+    """Write tables as the sheets of one Excel workbook (openpyxl).
 
-def sha256_file(path: str | os.PathLike[str], chunk: int = 1 << 20) -> str:
-    """Hex SHA-256 of a regular file's bytes.
+    Sheet names are cut to Excel's 31 characters (made unique); every sheet
+    keeps the CSV's column names, so units stay in the headers.
 
-    Raises
-    ------
-    TorlabInputError
-        ``path`` is not a regular file (a FIFO or a device such as ``/dev/zero``
-        would block or never end).
-    """
-    h = hashlib.sha256()
-    with open_regular(path) as f:
-        while b := f.read(chunk):
-            h.update(b)
-    return h.hexdigest()
+    Parameters
+    ----------
+    path
+        A file name or a binary buffer.
+    tables
+        Sheet name -> pandas DataFrame.
 
-
-def open_regular(path: str | os.PathLike[str]) -> Any:
-    """Open ``path`` for binary reading, refusing anything that is not a regular file.
-
-    The file is opened without blocking (a FIFO with no writer would otherwise
-    hang the open) and checked with ``fstat`` on the open descriptor, so a path
-    swapped between a check and the open cannot slip through.
+    Returns
+    -------
+    The path (a :class:`~pathlib.Path`) or the buffer written to.
 
     Raises
     ------
     TorlabInputError
-        Missing, a folder, a device, FIFO or socket, or unreadable.
+        openpyxl is not installed (the message says how to install it).
     """
-    p = os.fspath(path)
-    nonblock = getattr(os, "O_NONBLOCK", 0)
-    flags = os.O_RDONLY | nonblock | getattr(os, "O_BINARY", 0)
     try:
-        fd = os.open(p, flags)
-    except FileNotFoundError:
-        raise TorlabInputError("file not found", path=p) from None
-    except IsADirectoryError:
-        raise TorlabInputError("is a folder, expected a file", path=p) from None
-    except OSError as e:
-        raise TorlabInputError(f"cannot read ({e.strerror})", path=p) from None
-    try:
-        st = os.fstat(fd)
-        if stat.S_ISDIR(st.st_mode):
-            raise TorlabInputError("is a folder, expected a file", path=p)
-        if not stat.S_ISREG(st.st_mode):
-            raise TorlabInputError("not a regular file (a device, FIFO or socket); give a file",
-                                   path=p)
-        if nonblock:
-            os.set_blocking(fd, True)
-        return os.fdopen(fd, "rb")
-    except BaseException:
-        os.close(fd)
-        raise
+        import openpyxl  # noqa: F401
+    except ImportError:
+        raise TorlabInputError("--xlsx needs openpyxl: pip install 'torlab[xlsx]' (or pip "
+                               "install openpyxl)", key="--xlsx") from None
+    import pandas as pd
 
-
-def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
-    """Write ``data`` to ``path`` via a temporary file and ``os.replace``."""
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, p)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
-def atomic_write_text(path: str | os.PathLike[str], text: str) -> None:
-    """Write UTF-8 ``text`` atomically (see :func:`atomic_write_bytes`)."""
-    atomic_write_bytes(path, text.encode("utf-8"))
-
-
-_UNSAFE = re.compile(r"[^A-Za-z0-9._+=@,-]+")
-
-
-def safe_name(text: str, *, max_len: int = 80) -> str:
-    """A file-name part made from user text (a product name, a label).
-
-    Path separators, ``..``, leading dots, spaces and control characters become
-    ``_``, so a product called ``../../x`` cannot name a file outside the output
-    folder; an empty result becomes ``_``.
-    """
-    s = _UNSAFE.sub("_", str(text)).strip("._") or "_"
-    return s[:max_len]
-
-
-# ---------------------------------------------------------------------------- write errors
-_ENV_ERRNOS = {errno.ENOSPC: "no space left on the device",
-               errno.EDQUOT: "disk quota exceeded",
-               errno.EROFS: "read-only file system",
-               errno.EACCES: "permission denied",
-               errno.EPERM: "operation not permitted",
-               errno.EFBIG: "file too large for this file system or limit"}
-
-
-@contextlib.contextmanager
-def _writing(where: str | os.PathLike[str]) -> Iterator[None]:
-    """Turn an operating-system write failure into an :class:`OutputWriteError`."""
-    try:
-        yield
-    except OSError as e:
-        if isinstance(e, (FileNotFoundError, IsADirectoryError, NotADirectoryError)) and \
-                e.errno not in _ENV_ERRNOS:
-            raise OutputWriteError(f"cannot write the results ({e.strerror}); was the output "
-                                   "folder moved or changed during the run?", path=where) from None
-        reason = _ENV_ERRNOS.get(e.errno or 0, e.strerror or type(e).__name__)
-        raise OutputWriteError(f"cannot write the results: {reason}", path=where) from None
+    path = Path(path) if isinstance(path, (str, os.PathLike)) else path
+    used: set[str] = set()
+    with pd.ExcelWriter(path, engine="openpyxl") as xw:
+        for name, df in tables.items():
+            sheet = name[:31]
+            k = 1
+            while sheet in used:
+                tail = f"~{k}"
+                sheet = name[:31 - len(tail)] + tail
+                k += 1
+            used.add(sheet)
+            df.to_excel(xw, sheet_name=sheet, index=False)
+    return path
 
 
 # ---------------------------------------------------------------------------- no links
@@ -326,7 +251,7 @@ class _Lock:
 
     def acquire(self) -> None:
         for _ in range(20):
-            with _writing(self.target):
+            with writing(self.target):
                 try:
                     fd = self.folder.open(self.name, os.O_RDWR | os.O_CREAT | _O_NONBLOCK, 0o644)
                 except OSError as e:
@@ -354,7 +279,7 @@ class _Lock:
             if now is None or not os.path.samestat(st, now):
                 os.close(fd)
                 continue
-            with _writing(self.target):
+            with writing(self.target):
                 os.ftruncate(fd, 0)
                 os.write(fd, f"{os.getpid()}\n".encode())
             self.fd = fd
@@ -566,7 +491,7 @@ class OutputDir:
         self._check_kind(t)
         self._check_inputs()
         parent = self._real.parent
-        with _writing(parent):
+        with writing(parent):
             parent.mkdir(parents=True, exist_ok=True)
             self._parent = _Dir(parent)
         self._lock = _Lock(self._parent, f".{self._real.name}.lock", t)
@@ -649,7 +574,7 @@ class OutputDir:
                 if p.name.startswith(pre + "old-")]
         if olds and not os.path.lexists(t):
             newest = olds.pop()
-            with _writing(self.target):
+            with writing(self.target):
                 self._parent.rename(newest.name, t.name)
             self._note(f"restored the earlier results of {self.target} from an interrupted "
                        "run")
@@ -672,7 +597,7 @@ class OutputDir:
         """Folder files are written to before :meth:`commit` (mode 0700 until then)."""
         if self._staging is None:
             t = self._real
-            with _writing(t.parent):
+            with writing(t.parent):
                 name = _private_dir(self._parent, f".{t.name}.staging-{os.getpid()}-")
                 self._stage = self._parent.sub(name)
                 self._staging = t.parent / name
@@ -745,7 +670,7 @@ class OutputDir:
         and must not write through an existing file of that name (unlink it first).
         """
         rel = self._rel(name)
-        with _writing(self.target / rel):
+        with writing(self.target / rel):
             self._folder_of(rel).close()
             self._check_staging()
         if rel.as_posix() not in self.files:
@@ -763,7 +688,7 @@ class OutputDir:
     def write_bytes(self, name: str, data: bytes) -> Path:
         """Write a binary file."""
         t0 = time.perf_counter()
-        with _writing(self.final_path(name)):
+        with writing(self.final_path(name)):
             _write_file(self._open_new(name), data)
         self.io_seconds += time.perf_counter() - t0
         return self.final_path(name)
@@ -798,7 +723,7 @@ class OutputDir:
                 bad.append(c)
         if bad:
             raise ValueError(f"refusing to write non-finite values to {name}: columns {bad}")
-        with _writing(self.final_path(name)):
+        with writing(self.final_path(name)):
             fd = self._open_new(name)
             if cols is None:
                 with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
@@ -808,33 +733,21 @@ class OutputDir:
         self.io_seconds += time.perf_counter() - t0
         return self.final_path(name)
 
-    def write_xlsx(self, name: str, tables: dict[str, Any]) -> Path:
+    def write_xlsx(self, name: str, tables: Mapping[str, Any]) -> Path:
         """Write tables as the sheets of one Excel workbook (``--xlsx`` of every command
-        that writes tables; :func:`torlab.instruments.output.write_xlsx`: sheet names cut
-        to Excel's 31 characters, the CSVs' column names with their units)."""
+        that writes tables; :func:`write_xlsx`: sheet names cut to Excel's 31 characters,
+        the CSVs' column names with their units)."""
         import io
-
-        from torlab.instruments.output import write_xlsx
 
         buf = io.BytesIO()
         write_xlsx(buf, tables)
         return self.write_bytes(name, buf.getvalue())
 
-    def save_figure(self, name: str, fig: Any, **kw: Any) -> Path:
-        """Save a figure (format from the suffix): a :class:`~torlab.reports.render.Plot`
-        or a matplotlib figure (closed after saving).  No ``bbox_inches="tight"`` pass:
-        torlab's figures have a fixed layout (:mod:`torlab.reports.plotting`)."""
-        from torlab.reports.render import render_figures
-
-        stem, _, fmt = name.rpartition(".")
-        images, _ = render_figures([(stem, fig)], (fmt.lower() or "png",), dpi=kw.get("dpi"))
-        return self.write_bytes(name, images[stem][fmt.lower() or "png"])
-
     # -- commit -------------------------------------------------------------
     def commit(self) -> Path:
         """Write the manifest and move the results into place atomically; release the lock."""
         try:
-            with _writing(self.target):
+            with writing(self.target):
                 return self._commit()
         except BaseException:
             self.abort()

@@ -462,3 +462,35 @@ def _show(value: float, r: Range) -> str:
         return f"{(value - offset) / scale:.4g} {r.display}"
     except Exception:  # a display unit pint cannot read: SI
         return f"{value:.4g} {KINDS[r.kind][1]}"
+
+
+# ------------------------------------------------------------------------------ the stored table
+def generate_unit_table() -> dict[tuple[str, str], tuple[float, float]]:
+    """:data:`torlab._unit_table.KNOWN` computed by pint now (what the test compares with)."""
+    from torlab._unit_table import CANDIDATES
+
+    out = {}
+    for kind, units in CANDIDATES.items():
+        for unit in units:
+            u = _normalise_unit(unit)
+            out[(u, kind)] = _pint_factor(unit, u, kind)
+    return out
+
+
+def generate_unit_dimensions() -> tuple[dict[str, str], dict[str, str]]:
+    """:data:`torlab._unit_table.UNIT_DIMENSIONS` and ``KIND_DIMENSIONS`` computed by pint
+    now."""
+    from torlab._unit_table import CANDIDATES
+
+    ureg = registry()
+    units = {_normalise_unit(u) for us in CANDIDATES.values() for u in us}
+    unit_dims = {u: str(ureg.Quantity(1.0, u).dimensionality) for u in sorted(units)}
+    kind_dims = {k: str(ureg.get_dimensionality(d)) for k, (d, _) in KINDS.items() if d}
+    return unit_dims, kind_dims
+
+
+if __name__ == "__main__":  # pragma: no cover  (python -m torlab.units: the table's entries)
+    for k, v in generate_unit_table().items():
+        print(f"    {k!r}: {(float(v[0]), float(v[1]))!r},")
+    for d in generate_unit_dimensions():
+        print(d)

@@ -192,7 +192,7 @@ def load_yaml(path: str | os.PathLike[str]) -> YamlDoc:
         If the file cannot be read, is not a regular file, is too large, is not
         valid YAML, repeats a key or exceeds a limit.
     """
-    from torlab.outputs import open_regular
+    from torlab.files import open_regular
 
     p = Path(path)
     with open_regular(p) as f:

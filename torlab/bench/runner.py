@@ -526,6 +526,8 @@ def write_bench_outputs(result: BenchResult, out: Any, command: str) -> list[str
     names = ["bench.csv", "bench.md"]
     out.write_csv("bench.csv", table, allow_missing=missing)
     out.write_text("bench.md", bench_markdown(result, command))
+    from torlab.reports.render import write_figures
+
     comps: list[str] = []
     for r in result.rows:
         if r.component not in comps:
@@ -533,7 +535,6 @@ def write_bench_outputs(result: BenchResult, out: Any, command: str) -> list[str
     for c in comps:
         rs = [r for r in result.rows if r.component == c]
         if _plottable(rs):
-            name = f"plots/{_slug(c)}.png"
-            out.save_figure(name, time_error_figure(c, rs))
-            names.append(name)
+            written, _ = write_figures(out, [(f"plots/{_slug(c)}", time_error_figure(c, rs))])
+            names += written
     return names

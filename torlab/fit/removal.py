@@ -165,7 +165,7 @@ def is_time_test_input(path: Path) -> bool:
             return True
     except TorlabInputError:
         return False
-    from torlab.outputs import open_regular
+    from torlab.files import open_regular
 
     with open_regular(path) as fh:
         return b"step_time_s" in fh.read(2000).split(b"\n", 1)[0]
@@ -266,7 +266,7 @@ def read_time_test(path: str | Path, *, step: int | None = None,
     path = Path(path)
     label = path.name
     amount_text: str | None = None
-    from torlab.outputs import open_regular
+    from torlab.files import open_regular
 
     with open_regular(path) as fh:  # a regular file only: no FIFO or device is waited on
         text_start = fh.read(200).decode("utf-8", "replace")

@@ -350,7 +350,7 @@ class FitResult:
             from pathlib import Path
 
             from torlab.errors import TorlabInputError
-            from torlab.outputs import atomic_write_text
+            from torlab.files import atomic_write_text
             from torlab.yamlio import dump_yaml
 
             p = Path(path)

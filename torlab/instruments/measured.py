@@ -42,7 +42,7 @@ def read_csv(path: Path, need: tuple[tuple[str, ...], ...], what: str) -> tuple[
     import pandas as pd
 
     from torlab.errors import TorlabInputError
-    from torlab.outputs import open_regular
+    from torlab.files import open_regular
 
     try:
         with open_regular(path) as fh:  # a regular file only: no FIFO or device is waited on

@@ -11,12 +11,9 @@ Excel workbook of every table (``tables.xlsx``).
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
-from torlab.errors import TorlabInputError
-
-__all__ = ["write_reductions", "write_xlsx"]
+__all__ = ["write_reductions"]
 
 
 def _unique_stems(reds: list[Any]) -> list[str]:
@@ -99,35 +96,3 @@ def write_reductions(dest: Any, reds: list[Any], options: dict[str, dict[str, An
         written.append("tables.xlsx")
     return written
 
-
-def write_xlsx(path: str | Path | Any, tables: dict[str, Any]) -> Any:
-    """Write tables as the sheets of one Excel workbook (openpyxl).
-
-    Sheet names are cut to Excel's 31 characters (made unique); every sheet
-    keeps the CSV's column names, so units stay in the headers.
-
-    Raises
-    ------
-    TorlabInputError
-        openpyxl is not installed (the message says how to install it).
-    """
-    try:
-        import openpyxl  # noqa: F401
-    except ImportError:
-        raise TorlabInputError("--xlsx needs openpyxl: pip install 'torlab[xlsx]' (or pip "
-                               "install openpyxl)", key="--xlsx") from None
-    import pandas as pd
-
-    path = Path(path) if isinstance(path, (str, Path)) else path
-    used: set[str] = set()
-    with pd.ExcelWriter(path, engine="openpyxl") as xw:
-        for name, df in tables.items():
-            sheet = name[:31]
-            k = 1
-            while sheet in used:
-                tail = f"~{k}"
-                sheet = name[:31 - len(tail)] + tail
-                k += 1
-            used.add(sheet)
-            df.to_excel(xw, sheet_name=sheet, index=False)
-    return path

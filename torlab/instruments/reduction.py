@@ -167,7 +167,7 @@ class Reduction:
 
     def to_xlsx(self, path: str | Path) -> Path:
         """Write every table as one sheet of an Excel workbook (needs openpyxl)."""
-        from torlab.instruments.output import write_xlsx
+        from torlab.outputs import write_xlsx
 
         return write_xlsx(path, {k: v for k, v in self.tables.items()})
 

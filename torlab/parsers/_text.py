@@ -73,7 +73,7 @@ def read_text(src: PathOrBuffer, *, name: str | None = None) -> tuple[str, str]:
         unreadable.
     """
     if isinstance(src, (str, os.PathLike)):
-        from torlab.outputs import open_regular
+        from torlab.files import open_regular
 
         p = Path(src)
         display = name or str(p)

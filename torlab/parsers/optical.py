@@ -211,7 +211,7 @@ def open_optical(src: PathOrBuffer, *, name: str | None = None) -> OpticalSource
             raise TorlabInputError(f"cannot read ({e.strerror})", path=display) from None
         if os.path.isdir(path):
             raise TorlabInputError("is a folder, expected a file", path=display)
-        from torlab.outputs import open_regular
+        from torlab.files import open_regular
 
         try:
             with open_regular(path) as f:

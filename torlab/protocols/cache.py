@@ -11,18 +11,10 @@ use are dropped, so the cache never grows beyond one run's results.
 folder may come from someone else, so an entry is
 
 * *data only*: a JSON tree with a schema (:data:`FORMAT`, :data:`FORMAT_VERSION`)
-  followed by the raw bytes of its arrays: numbers, strings, lists, mappings,
-  numpy arrays of plain numeric or text dtypes, pandas tables built from such
-  columns, and torlab's own result dataclasses, rebuilt field by field after
-  checking that the stored field names are exactly the class's (a changed class
-  is a schema mismatch and the entry is recomputed).  No pickle, no ``eval``, no
-  class named by the file outside ``torlab``.  The tree names each array's dtype
-  (plain kinds only: no objects, no records), shape and offset in the binary
-  part, which is bounds-checked before numpy views it (``np.frombuffer``: the
-  bytes are read as numbers, never as objects); a table's columns of one dtype
-  are stored as one 2-D block, and an object met twice in a value (the same
-  table in a reduction's ``tables`` and its ``detail``) is stored once and
-  decoded as one object again.
+  followed by the raw bytes of its arrays, as :func:`torlab.codec.encode_with_arrays`
+  writes them (numbers, text, arrays, tables and torlab's own result classes; no
+  pickle, no ``eval``, no class named by the file outside ``torlab``; a changed
+  result class is a schema mismatch and the entry is recomputed);
 * *authenticated*: the first line carries an HMAC-SHA256 of the rest of the file
   (tree and arrays) under a key kept outside the results folder
   (:func:`cache_key_file`: the user's configuration folder, created with mode
@@ -34,9 +26,7 @@ folder may come from someone else, so an entry is
 
 An entry is ``torlab-cache 2 <hmac>\n<JSON tree>\n<array bytes>`` (the JSON line is
 padded with spaces so that the arrays start at a multiple of 8 bytes).  Version 1
-entries (the arrays base64 in the JSON) are recomputed.  :func:`encode_value` and
-:func:`decode_value` outside an entry give and take a JSON-only tree (arrays in
-base64), which :func:`digest_value` hashes.
+entries (the arrays base64 in the JSON) are recomputed.
 
 A value that cannot be written as data (e.g. one holding a function) is
 simply not cached.
@@ -44,27 +34,22 @@ simply not cached.
 
 from __future__ import annotations
 
-import base64
 import contextlib
-import contextvars
-import dataclasses
 import hashlib
 import hmac
-import importlib
 import json
-import math
 import os
-import re
 import secrets
 import sys
 import time
 from collections.abc import Callable
-from functools import cache
 from pathlib import Path
 from typing import Any, TypeVar
 
-__all__ = ["CACHE_DIR", "FORMAT", "FORMAT_VERSION", "FigureStore", "ResultCache", "cache_key_file",
-           "decode_value", "digest_value", "encode_value", "file_sha256"]
+from torlab.codec import BadEntry, NotCacheable, decode_with_arrays, encode_with_arrays
+
+__all__ = ["CACHE_DIR", "FORMAT", "FORMAT_VERSION", "FigureStore", "ResultCache",
+           "cache_key_file"]
 
 CACHE_DIR = ".cache"
 FORMAT = "torlab-cache"
@@ -76,19 +61,6 @@ SUFFIX = ".tlc"
 #: entries larger than this are not read (a crafted folder must not exhaust memory)
 MAX_ENTRY_BYTES = 512 << 20
 T = TypeVar("T")
-
-
-@cache
-def _sha(path: str, mtime_ns: int, size: int) -> str:
-    from torlab.outputs import sha256_file
-
-    return sha256_file(path)
-
-
-def file_sha256(path: str | Path) -> str:
-    """SHA-256 of a file (memoised on path, modification time and size)."""
-    st = Path(path).stat()
-    return _sha(str(Path(path).resolve()), st.st_mtime_ns, st.st_size)
 
 
 # ------------------------------------------------------------------------------ the key
@@ -134,572 +106,6 @@ def _load_key() -> tuple[bytes, bool]:
         with os.fdopen(fd, "w", encoding="ascii") as f:
             f.write(secrets.token_hex(32) + "\n")
     return _PROCESS_KEY, False
-
-
-# ------------------------------------------------------------------------------ encoding
-class NotCacheable(Exception):
-    """The value holds something that is not plain data (it is then not cached)."""
-
-
-class BadEntry(Exception):
-    """A stored entry does not match the schema (it is then recomputed)."""
-
-
-_DTYPE_KINDS = set("biufcUMm")  # bool, int, uint, float, complex, text, datetime, timedelta
-_TYPE_NAME = re.compile(r"^torlab(?:\.[a-z_][a-z0-9_]*)+:[A-Za-z_][A-Za-z0-9_]*$")
-_PD_EXT_DTYPES = {"str", "string", "boolean", "Int64", "Int32", "Float64", "category"}
-
-
-class _Sink:
-    """Where :func:`encode_value` puts the arrays' bytes while an entry is written (its
-    binary part), and the objects it has met (an object met again is a reference)."""
-
-    def __init__(self) -> None:
-        self.chunks: list[Any] = []
-        self.size = 0
-        #: id -> (the object, kept alive so that its id is not reused; its number or None
-        #: while it is being encoded)
-        self.seen: dict[int, tuple[Any, int | None]] = {}
-        self.n = 0
-
-    def add(self, a: Any) -> int:
-        """Append a contiguous array's bytes (at a multiple of 8); its offset."""
-        pad = -self.size % 8
-        if pad:
-            self.chunks.append(b"\0" * pad)
-            self.size += pad
-        at = self.size
-        if a.nbytes:
-            self.chunks.append(memoryview(a.reshape(-1).view("u1")))
-            self.size += a.nbytes
-        return at
-
-
-_SINK: contextvars.ContextVar[_Sink | None] = contextvars.ContextVar("torlab_cache_sink",
-                                                                    default=None)
-
-
-def _shareable(v: Any) -> bool:
-    """Objects stored once however often a value holds them (arrays, tables, result classes)."""
-    mod = type(v).__module__
-    return (mod.startswith("numpy") and type(v).__name__ == "ndarray") or (
-        mod.startswith("pandas") and type(v).__name__ in ("DataFrame", "Series")) or (
-        dataclasses.is_dataclass(v) and not isinstance(v, type))
-
-
-def encode_value(v: Any) -> Any:
-    """A JSON-ready tree for ``v`` (see the module docstring); raises :class:`NotCacheable`."""
-    sink = _SINK.get()
-    if sink is not None and _shareable(v):
-        seen = sink.seen.get(id(v))
-        if seen is not None:
-            if seen[1] is None:
-                raise NotCacheable("a value that contains itself")
-            return {"__t": "ref", "i": seen[1]}
-        sink.seen[id(v)] = (v, None)
-        tree = _encode(v)
-        sink.seen[id(v)] = (v, sink.n)
-        tree["def"] = sink.n
-        sink.n += 1
-        return tree
-    return _encode(v)
-
-
-def _encode(v: Any) -> Any:
-    import numpy as np
-
-    if v is None or isinstance(v, (bool, str)):
-        return v
-    if isinstance(v, int) and not isinstance(v, bool):
-        return v if abs(v) < 2 ** 53 else {"__t": "bigint", "v": str(v)}
-    if isinstance(v, float):
-        return v if math.isfinite(v) else {"__t": "float", "v": repr(v)}
-    if isinstance(v, np.generic):
-        return {"__t": "np", "dtype": _dtype_str(np.asarray(v).dtype), "v": encode_value(v.item())}
-    if isinstance(v, np.ndarray):
-        return _enc_array(v)
-    if isinstance(v, list):
-        return [encode_value(x) for x in v]
-    if isinstance(v, tuple):
-        return {"__t": "tuple", "v": [encode_value(x) for x in v]}
-    if isinstance(v, (set, frozenset)):
-        return {"__t": "frozenset" if isinstance(v, frozenset) else "set",
-                "v": [encode_value(x) for x in v]}
-    if isinstance(v, dict):
-        return {"__t": "dict", "v": [[encode_value(k), encode_value(x)] for k, x in v.items()]}
-    if isinstance(v, Path):
-        return {"__t": "path", "v": str(v)}
-    import datetime as dt
-
-    if isinstance(v, dt.datetime):
-        return {"__t": "datetime", "v": v.isoformat()}
-    if isinstance(v, dt.date):
-        return {"__t": "date", "v": v.isoformat()}
-    mod = type(v).__module__
-    if mod.startswith("pandas"):
-        return _enc_pandas(v)
-    if dataclasses.is_dataclass(v) and not isinstance(v, type):
-        name = _type_name(type(v))
-        return {"__t": "dc", "type": name,
-                "fields": {f.name: encode_value(getattr(v, f.name)) for f in dataclasses.fields(v)}}
-    if hasattr(v, "model_dump") and hasattr(type(v), "model_validate"):  # pydantic (scenes)
-        return {"__t": "model", "type": _type_name(type(v)),
-                "v": encode_value(v.model_dump(mode="python"))}
-    raise NotCacheable(type(v).__qualname__)
-
-
-def _type_name(cls: type) -> str:
-    name = f"{cls.__module__}:{cls.__qualname__}"
-    if not _TYPE_NAME.match(name):
-        raise NotCacheable(name)
-    return name
-
-
-def _dtype_str(dt: Any) -> str:
-    if dt.kind not in _DTYPE_KINDS:
-        raise NotCacheable(f"dtype {dt}")
-    return dt.str
-
-
-def _enc_array(a: Any) -> Any:
-    import numpy as np
-
-    if a.dtype.kind == "O":
-        return {"__t": "ndo", "shape": list(a.shape), "v": [encode_value(x) for x in a.ravel()]}
-    a = np.ascontiguousarray(a)
-    if _DIGEST.get():  # digest_value: the bytes' hash stands for them
-        return {"__t": "nd", "dtype": _dtype_str(a.dtype), "shape": list(a.shape),
-                "sha256": hashlib.sha256(a.reshape(-1).view(np.uint8)).hexdigest()}
-    sink = _SINK.get()
-    if sink is not None:  # an entry: the bytes go to its binary part
-        return {"__t": "nd", "dtype": _dtype_str(a.dtype), "shape": list(a.shape),
-                "at": sink.add(a)}
-    return {"__t": "nd", "dtype": _dtype_str(a.dtype), "shape": list(a.shape),
-            "b64": base64.b64encode(a.tobytes()).decode("ascii")}
-
-
-_DIGEST: contextvars.ContextVar[bool] = contextvars.ContextVar("torlab_cache_digest",
-                                                               default=False)
-
-
-def digest_value(v: Any) -> str:
-    """SHA-256 (hex) of a value as :func:`encode_value` encodes it, each array's bytes hashed
-    where the encoding would carry them as base64 (a content key without the cost of
-    writing the data out); raises :class:`NotCacheable` like :func:`encode_value`."""
-    token = _DIGEST.set(True)
-    try:
-        tree = encode_value(v)
-    finally:
-        _DIGEST.reset(token)
-    blob = json.dumps(tree, sort_keys=True, separators=(",", ":"), allow_nan=False)
-    return hashlib.sha256(blob.encode("utf-8")).hexdigest()
-
-
-def _enc_column(s: Any) -> Any:
-    import numpy as np
-
-    dt = s.dtype
-    name = str(dt)
-    if name in _PD_EXT_DTYPES:
-        if name in ("str", "string"):  # the same list, without a where() pass
-            vals = s.to_numpy(dtype=object, na_value=None).tolist()
-        else:
-            vals = s.astype(object).where(s.notna(), None).tolist()
-        return {"ext": name, "v": encode_value(vals)}
-    if isinstance(dt, np.dtype):
-        return {"v": _enc_array(s.to_numpy())}
-    if name.startswith("datetime64[") and "," in name:  # tz-aware
-        raise NotCacheable(name)
-    raise NotCacheable(f"pandas dtype {name}")
-
-
-def _enc_index(ix: Any) -> Any:
-    import pandas as pd
-
-    if isinstance(ix, pd.RangeIndex):
-        return {"range": [int(ix.start), int(ix.stop), int(ix.step)], "name": encode_value(ix.name)}
-    if isinstance(ix, pd.MultiIndex):
-        raise NotCacheable("MultiIndex")
-    if str(ix.dtype) in ("str", "string"):  # column names: what _enc_column gives, directly
-        vals = ix.to_numpy(dtype=object, na_value=None).tolist()
-        return {"col": {"ext": str(ix.dtype), "v": encode_value(vals)},
-                "name": encode_value(ix.name)}
-    return {"col": _enc_column(pd.Series(ix)), "name": encode_value(ix.name)}
-
-
-def _enc_pandas(v: Any) -> Any:
-    import pandas as pd
-
-    if isinstance(v, pd.DataFrame):
-        if isinstance(v.columns, pd.MultiIndex):
-            raise NotCacheable("MultiIndex columns")
-        if _SINK.get() is not None:
-            return _enc_frame_blocks(v)
-        return {"__t": "df", "columns": _enc_index(v.columns),
-                "data": [_enc_column(col) for _, col in v.items()],
-                "index": _enc_index(v.index), "attrs": encode_value(dict(v.attrs))}
-    if isinstance(v, pd.Series):
-        return {"__t": "series", "name": encode_value(v.name), "data": _enc_column(v),
-                "index": _enc_index(v.index)}
-    if isinstance(v, pd.Timestamp):
-        return {"__t": "timestamp", "v": v.isoformat()}
-    raise NotCacheable(type(v).__qualname__)
-
-
-def _enc_frame_blocks(v: Any) -> Any:
-    """A table in an entry: its columns of each plain numpy dtype as one 2-D array
-    ``(columns, rows)`` with their positions, the others (text, objects) one by one.
-    The same order as :func:`_dec_pandas` reads them (columns, blocks, index, attrs)."""
-    import numpy as np
-
-    groups: dict[str, list[int]] = {}
-    other: list[int] = []
-    for j, dt in enumerate(v.dtypes):
-        if isinstance(dt, np.dtype) and dt.kind in _DTYPE_KINDS:
-            groups.setdefault(dt.str, []).append(j)
-        else:
-            other.append(j)
-    columns = _enc_index(v.columns)
-    blocks = [[js, _enc_array(np.ascontiguousarray(v.iloc[:, js].to_numpy().T))]
-              for js in groups.values()]
-    cols = [[j, _enc_column(v.iloc[:, j])] for j in other]
-    return {"__t": "df", "columns": columns, "blocks": blocks, "cols": cols,
-            "index": _enc_index(v.index), "attrs": encode_value(dict(v.attrs))}
-
-
-class _Reading:
-    """What :func:`decode_value` needs inside an entry: its binary part, the objects
-    decoded so far by number (for references)."""
-
-    def __init__(self, buf: Any) -> None:
-        self.buf = buf
-        self.objs: dict[int, Any] = {}
-
-
-_READING: contextvars.ContextVar[_Reading | None] = contextvars.ContextVar(
-    "torlab_cache_reading", default=None)
-
-
-def decode_value(t: Any, *, depth: int = 0) -> Any:
-    """Rebuild a value from :func:`encode_value`'s tree; raises :class:`BadEntry`."""
-    v = _decode(t, depth)
-    if type(t) is dict and "def" in t:  # an object later parts of the value refer to
-        rd = _READING.get()
-        k = t["def"]
-        if rd is None or type(k) is not int or k in rd.objs:
-            raise BadEntry("bad object number")
-        rd.objs[k] = v
-    return v
-
-
-def _decode(t: Any, depth: int) -> Any:
-    if depth > 200:
-        raise BadEntry("nested too deeply")
-    if t is None or isinstance(t, (bool, int, float, str)):
-        return t
-    d = depth + 1
-    if isinstance(t, list):
-        return [decode_value(x, depth=d) for x in t]
-    if not isinstance(t, dict) or not isinstance(t.get("__t"), str):
-        raise BadEntry("not an encoded value")
-    tag = t["__t"]
-    try:
-        if tag == "ref":
-            rd = _READING.get()
-            k = t["i"]
-            if rd is None or type(k) is not int or k not in rd.objs:
-                raise BadEntry("reference to an object not decoded before")
-            return rd.objs[k]
-        if tag == "dict":
-            return {_hashable(decode_value(k, depth=d)): decode_value(x, depth=d)
-                    for k, x in t["v"]}
-        if tag == "tuple":
-            return tuple(decode_value(x, depth=d) for x in _list(t["v"]))
-        if tag in ("set", "frozenset"):
-            items = (_hashable(decode_value(x, depth=d)) for x in _list(t["v"]))
-            return set(items) if tag == "set" else frozenset(items)
-        if tag == "float":
-            if t["v"] not in ("nan", "inf", "-inf"):
-                raise BadEntry("bad float")
-            return float(t["v"])
-        if tag == "bigint":
-            s = t["v"]
-            if not isinstance(s, str) or len(s) > 400:
-                raise BadEntry("bad integer")
-            return int(s)
-        if tag == "np":
-            import numpy as np
-
-            return np.asarray(decode_value(t["v"], depth=d), dtype=_dtype(t["dtype"]))[()]
-        if tag in ("nd", "ndo"):
-            return _dec_array(t, d)
-        if tag == "path":
-            return Path(_str(t["v"]))
-        if tag in ("datetime", "date", "timestamp"):
-            import datetime as dt
-
-            if tag == "timestamp":
-                import pandas as pd
-
-                return pd.Timestamp(_str(t["v"]))
-            cls = dt.datetime if tag == "datetime" else dt.date
-            return cls.fromisoformat(_str(t["v"]))
-        if tag in ("df", "series"):
-            return _dec_pandas(t, d)
-        if tag == "dc":
-            return _dec_dataclass(t, d)
-        if tag == "model":
-            cls = _resolve_type(t["type"])
-            if not hasattr(cls, "model_validate"):
-                raise BadEntry(f"{t['type']} is not a model")
-            return cls.model_validate(decode_value(t["v"], depth=d))
-    except BadEntry:
-        raise
-    except (KeyError, TypeError, ValueError, AttributeError, OverflowError) as e:
-        raise BadEntry(f"{tag}: {type(e).__name__}: {e}") from None
-    raise BadEntry(f"unknown tag {tag!r}")
-
-
-def _list(v: Any) -> list:
-    if not isinstance(v, list):
-        raise BadEntry("expected a list")
-    return v
-
-
-def _str(v: Any) -> str:
-    if not isinstance(v, str):
-        raise BadEntry("expected a string")
-    return v
-
-
-def _hashable(v: Any) -> Any:
-    if isinstance(v, list):
-        raise BadEntry("a list cannot be a key")
-    return v
-
-
-def _dtype(s: Any) -> Any:
-    import numpy as np
-
-    if not isinstance(s, str) or len(s) > 32:
-        raise BadEntry("bad dtype")
-    dt = np.dtype(s)
-    if dt.kind not in _DTYPE_KINDS or dt.fields is not None or dt.subdtype is not None:
-        raise BadEntry(f"dtype {s!r} not allowed")
-    return dt
-
-
-def _shape(s: Any) -> tuple[int, ...]:
-    if not isinstance(s, list) or len(s) > 32 or not all(
-            isinstance(n, int) and not isinstance(n, bool) and n >= 0 for n in s):
-        raise BadEntry("bad shape")
-    return tuple(s)
-
-
-def _dec_array(t: dict, d: int) -> Any:
-    import numpy as np
-
-    shape = _shape(t["shape"])
-    n = math.prod(shape)
-    if t["__t"] == "ndo":
-        items = _list(t["v"])
-        if len(items) != n:
-            raise BadEntry("array size does not match its shape")
-        out = np.empty(n, dtype=object)
-        for i, x in enumerate(items):
-            out[i] = decode_value(x, depth=d)
-        return out.reshape(shape)
-    dt = _dtype(t["dtype"])
-    if "at" in t:  # in an entry's binary part: a view of the bytes read (no copy)
-        rd = _READING.get()
-        at = t["at"]
-        if rd is None or type(at) is not int or not 0 <= at <= len(rd.buf) - n * dt.itemsize:
-            raise BadEntry("array outside the entry's data")
-        if n == 0 or dt.itemsize == 0:
-            return np.empty(shape, dtype=dt)
-        return np.frombuffer(rd.buf, dtype=dt, count=n, offset=at).reshape(shape)
-    raw = base64.b64decode(_str(t["b64"]), validate=True)
-    if len(raw) != n * dt.itemsize:
-        raise BadEntry("array size does not match its shape")
-    return np.frombuffer(raw, dtype=dt).reshape(shape).copy()
-
-
-def _dec_column(c: Any, d: int) -> Any:
-    import pandas as pd
-
-    if not isinstance(c, dict):
-        raise BadEntry("bad column")
-    if "ext" in c:
-        if c["ext"] not in _PD_EXT_DTYPES:
-            raise BadEntry(f"pandas dtype {c['ext']!r} not allowed")
-        vals = decode_value(c["v"], depth=d)
-        if c["ext"] in ("str", "string") and type(vals) is list and all(
-                type(x) is str for x in vals):  # text without gaps: the direct constructor
-            return pd.Series(pd.array(vals, dtype=c["ext"]))
-        return pd.Series(vals, dtype=object).astype(c["ext"])
-    arr = _dec_array(c["v"], d)
-    if arr.ndim != 1:
-        raise BadEntry("a column must be one-dimensional")
-    return pd.Series(arr)
-
-
-def _dec_index(ix: Any, d: int) -> Any:
-    import pandas as pd
-
-    if not isinstance(ix, dict):
-        raise BadEntry("bad index")
-    name = decode_value(ix.get("name"), depth=d)
-    if "range" in ix:
-        a, b, s = (int(x) for x in _list(ix["range"]))
-        return pd.RangeIndex(a, b, s, name=name)
-    c = ix["col"]
-    if isinstance(c, dict) and c.get("ext") in ("str", "string") and type(c.get("v")) is list \
-            and all(type(x) is str for x in c["v"]):  # column names: the direct constructor
-        return pd.Index(c["v"], dtype=c["ext"], name=name)
-    return pd.Index(_dec_column(c, d), name=name)
-
-
-def _dec_pandas(t: dict, d: int) -> Any:
-    import pandas as pd
-
-    if "blocks" in t:
-        return _dec_frame_blocks(t, d)
-    index = _dec_index(t["index"], d)
-    if t["__t"] == "series":
-        s = _dec_column(t["data"], d)
-        if len(s) != len(index):
-            raise BadEntry("series length does not match its index")
-        s.index = index
-        s.name = decode_value(t["name"], depth=d)
-        return s
-    cols = _dec_index(t["columns"], d)
-    data = [_dec_column_values(c, d) for c in _list(t["data"])]
-    if len(cols) != len(data) or any(len(v) != len(index) for v in data):
-        raise BadEntry("table columns do not match")
-    # one constructor call from the columns' values (numpy arrays or Series of an extension
-    # dtype): much faster than joining one Series per column
-    df = pd.DataFrame(dict(enumerate(data)), index=index, copy=False) if data \
-        else pd.DataFrame(index=index)
-    df.columns = cols
-    return _with_attrs(df, t, d)
-
-
-def _with_attrs(df: Any, t: dict, d: int) -> Any:
-    """``df`` with the table attributes stored in ``t`` (a table's ``attrs``)."""
-    attrs = decode_value(t.get("attrs", {"__t": "dict", "v": []}), depth=d)
-    if not isinstance(attrs, dict):
-        raise BadEntry("bad table attributes")
-    df.attrs.update(attrs)
-    return df
-
-
-def _dec_frame_blocks(t: dict, d: int) -> Any:
-    """A table stored by :func:`_enc_frame_blocks` (each dtype's columns one 2-D block)."""
-    import numpy as np
-
-    if t["__t"] != "df":
-        raise BadEntry("blocks outside a table")
-    cols = _dec_index(t["columns"], d)
-    n_cols = len(cols)
-    parts = []  # (values: 2-D (columns, rows) array or 1-D column, positions)
-    for item in _list(t["blocks"]):
-        js, node = _list(item)
-        arr = _dec_array(node, d)
-        parts.append((arr, _positions(js, n_cols)))
-    for item in _list(t["cols"]):
-        j, node = _list(item)
-        parts.append((_dec_column_values(node, d), _positions([j], n_cols)))
-    index = _dec_index(t["index"], d)
-    n = len(index)
-    for arr, pos in parts:
-        want = (pos.size, n) if arr.ndim == 2 else (n,) if pos.size == 1 else None
-        if arr.shape != want:
-            raise BadEntry("table block does not match its columns and index")
-    covered = np.sort(np.concatenate([pos for _, pos in parts])) if parts else np.zeros(0)
-    if not np.array_equal(covered, np.arange(n_cols)):
-        raise BadEntry("table blocks do not cover its columns once each")
-    df = _frame_from_blocks(parts, index, cols)
-    return _with_attrs(df, t, d)
-
-
-def _positions(js: Any, n_cols: int) -> Any:
-    import numpy as np
-
-    if not isinstance(js, list) or not js or not all(
-            type(j) is int and 0 <= j < n_cols for j in js):
-        raise BadEntry("bad column positions")
-    return np.asarray(js, dtype=np.intp)
-
-
-def _frame_from_blocks(parts: list[tuple[Any, Any]], index: Any, cols: Any) -> Any:
-    """A DataFrame from checked ``(block, positions)`` parts: with pandas' block constructor
-    where it has one (pandas >= 3: no copy, no consolidation), else column by column."""
-    import numpy as np
-    import pandas as pd
-
-    try:
-        from pandas.api.internals import create_dataframe_from_blocks
-    except ImportError:  # older pandas: the public constructor
-        create_dataframe_from_blocks = None
-    if create_dataframe_from_blocks is not None:
-        blocks = [(a if a.ndim == 2 or not isinstance(a, np.ndarray) else a.reshape(1, -1), pos)
-                  for a, pos in parts]
-        return create_dataframe_from_blocks(blocks, index=index, columns=cols)
-    data: dict[int, Any] = {}
-    for a, pos in parts:
-        if a.ndim == 2:
-            data.update(zip(pos.tolist(), a, strict=True))
-        else:
-            data[int(pos[0])] = a
-    if not data:
-        df = pd.DataFrame(index=index)
-    else:
-        df = pd.DataFrame({j: data[j] for j in range(len(cols))}, index=index, copy=False)
-    df.columns = cols
-    return df
-
-
-def _dec_column_values(c: Any, d: int) -> Any:
-    """A column's values: a numpy array, or a Series for an extension dtype (no index)."""
-    if isinstance(c, dict) and "ext" not in c and "v" in c:
-        arr = _dec_array(c["v"], d)
-        if arr.ndim != 1:
-            raise BadEntry("a column must be one-dimensional")
-        return arr
-    return _dec_column(c, d).array
-
-
-def _resolve_type(name: Any) -> type:
-    """A class of torlab's own named ``module:Class`` (nothing outside ``torlab``)."""
-    if not isinstance(name, str) or not _TYPE_NAME.match(name):
-        raise BadEntry(f"type {name!r} not allowed")
-    modname, qual = name.split(":")
-    try:
-        mod = importlib.import_module(modname)
-    except ImportError:
-        raise BadEntry(f"no module {modname}") from None
-    cls = getattr(mod, qual, None)
-    if not isinstance(cls, type) or cls.__module__ != modname:
-        raise BadEntry(f"no class {name}")
-    return cls
-
-
-def _dec_dataclass(t: dict, d: int) -> Any:
-    cls = _resolve_type(t["type"])
-    if not dataclasses.is_dataclass(cls):
-        raise BadEntry(f"{t['type']} is not a result class")
-    stored = t["fields"]
-    if not isinstance(stored, dict):
-        raise BadEntry("bad fields")
-    fields = dataclasses.fields(cls)
-    if set(stored) != {f.name for f in fields}:  # the class changed: schema mismatch
-        raise BadEntry(f"{t['type']}: fields differ from this torlab's")
-    vals = {f.name: decode_value(stored[f.name], depth=d) for f in fields}
-    obj = cls(**{f.name: vals[f.name] for f in fields if f.init})
-    for f in fields:
-        if not f.init:
-            object.__setattr__(obj, f.name, vals[f.name])
-    return obj
 
 
 # ------------------------------------------------------------------------------ the cache
@@ -766,18 +172,13 @@ class ResultCache:
         padded to a multiple of 8 bytes), the arrays' bytes."""
         from torlab import __version__
 
-        sink = _Sink()
-        token = _SINK.set(sink)
-        try:
-            tree = encode_value(value)
-        finally:
-            _SINK.reset(token)
+        tree, chunks = encode_with_arrays(value)
         body = {"format": FORMAT, "version": FORMAT_VERSION, "torlab": __version__,
                 "entry": name, "kind": kind, "value": tree}
         text = json.dumps(body, separators=(",", ":"), allow_nan=False).encode("utf-8")
         head_len = len(FORMAT) + len(str(FORMAT_VERSION)) + 64 + 3
         text += b" " * (-(head_len + len(text) + 1) % 8) + b"\n"
-        payload = b"".join([text, *sink.chunks])
+        payload = b"".join([text, *chunks])
         return f"{FORMAT} {FORMAT_VERSION} {self._mac(payload)}\n".encode("ascii") + payload
 
     def loads(self, name: str, kind: str, data: bytes | bytearray) -> Any:
@@ -804,17 +205,11 @@ class ResultCache:
         if not isinstance(body, dict) or body.get("entry") != name or body.get("kind") != kind \
                 or body.get("torlab") != __version__:
             raise BadEntry("entry header does not match")
-        token = _READING.set(_Reading(view[end + 1:]))
-        try:
-            return decode_value(body.get("value"))
-        except RecursionError:
-            raise BadEntry("nested too deeply") from None
-        finally:
-            _READING.reset(token)
+        return decode_with_arrays(body.get("value"), view[end + 1:])
 
     def _read(self, p: Path) -> bytearray | None:
         from torlab.errors import TorlabInputError
-        from torlab.outputs import open_regular
+        from torlab.files import open_regular
 
         try:
             with open_regular(p) as f:
@@ -884,11 +279,11 @@ class ResultCache:
             self.io_seconds += time.perf_counter() - t0
 
     def _write(self, name: str, blob: bytes) -> None:
-        from torlab.outputs import _writing
+        from torlab.files import writing
 
         p = self.folder / name  # type: ignore[operator]
         target = self.register(f"{CACHE_DIR}/{name}") if self.register is not None else p
-        with _writing(target):
+        with writing(target):
             target.parent.mkdir(parents=True, exist_ok=True)
             # a new file, never written through: the carried-over cache's files may be hard
             # links to the earlier results' (torlab.outputs.OutputDir keep=)

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from torlab.errors import FitError, TorlabInputError
-from torlab.outputs import safe_name
+from torlab.files import safe_name
 from torlab.progress import Progress
 
 __all__ = ["Progress", "RunContext", "add_covariance", "finite"]
@@ -85,9 +85,9 @@ class RunContext:
 
     def sha(self, path: Path) -> str:
         """SHA-256 of a file (cached by the result cache)."""
-        from torlab.protocols.cache import file_sha256
+        from torlab.files import sha256_file_cached
 
-        return file_sha256(path)
+        return sha256_file_cached(path)
 
     def reduction(self, path: Path) -> Any:
         """The reduction of one of the protocol's data files."""

@@ -99,10 +99,11 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
         A data file, fit or prediction fails (nothing is written then).
     """
     from torlab import __version__
+    from torlab.files import sha256_file_cached
     from torlab.outputs import OutputDir
     from torlab.parallel import current
     from torlab.progress import Progress
-    from torlab.protocols.cache import CACHE_DIR, ResultCache, file_sha256
+    from torlab.protocols.cache import CACHE_DIR, ResultCache
     from torlab.protocols.context import RunContext, finite
     from torlab.protocols.data import reduce_data
     from torlab.protocols.fits import fit_all
@@ -155,9 +156,9 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
         prov = {
             "torlab_version": __version__,
             "protocol_file": lp.path.name if lp.path else "<text>",
-            "protocol_sha256": file_sha256(lp.path) if lp.path else "",
+            "protocol_sha256": sha256_file_cached(lp.path) if lp.path else "",
             "command": command,
-            "inputs": {_rel(p, base): file_sha256(p) for p in inputs if lp.path is None
+            "inputs": {_rel(p, base): sha256_file_cached(p) for p in inputs if lp.path is None
                        or p != lp.path},
         }
         summary = {

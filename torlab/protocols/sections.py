@@ -15,8 +15,8 @@ from typing import Any
 import numpy as np
 
 from torlab.errors import TorlabInputError
+from torlab.files import safe_name
 from torlab.model.plausible import result_notes
-from torlab.outputs import safe_name
 from torlab.protocols.context import RunContext, finite
 
 __all__ = ["build_sections"]
@@ -67,7 +67,7 @@ def amount(ctx: RunContext) -> Any:
                                    f"{', '.join(missing)}", key="reports.amount.products")
     fits = stats = None
     if series is not None and len(series):
-        from torlab.protocols.cache import digest_value
+        from torlab.codec import digest_value
         from torlab.reports.amount import amount_statistics, fit_crossings
 
         opts = {"threshold": cfg.threshold, "band": tuple(cfg.band), "curve": cfg.curve,

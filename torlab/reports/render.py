@@ -7,7 +7,7 @@ data it plots.  :func:`render_figures` then
 1. keys every figure by the SHA-256 of what it shows (:func:`figure_key`: the
    drawing function, the source of its module and of the style module, the style
    version, the matplotlib and torlab versions, the file format and the plotted
-   data itself, encoded as the protocol cache encodes results);
+   data itself, encoded by :mod:`torlab.codec`, as the protocol cache encodes results);
 2. takes the figures whose key is in the cache (:class:`FigureStore`) as they are
    -- a re-run that changed nothing imports no matplotlib at all;
 3. draws the others on the executor (:mod:`torlab.parallel`: one figure per task,
@@ -124,12 +124,12 @@ def _versions() -> str:
 
 def _source_hash(module: str) -> str:
     """SHA-256 of a module's source file (memoised on its modification time)."""
-    from torlab.protocols.cache import file_sha256
+    from torlab.files import sha256_file_cached
 
     mod = sys.modules.get(module)
     f = getattr(mod, "__file__", None)
     try:
-        return file_sha256(f) if f else ""
+        return sha256_file_cached(f) if f else ""
     except OSError:
         return ""
 
@@ -138,7 +138,7 @@ def plot_digest(p: Plot) -> str | None:
     """The hash of what a figure shows, whatever its format (None if its data cannot be
     encoded): the drawing function, its module's and the style module's source, the
     style, the library versions and the plotted data."""
-    from torlab.protocols.cache import NotCacheable, digest_value
+    from torlab.codec import NotCacheable, digest_value
     from torlab.reports.plotting import STYLE, STYLE_VERSION
 
     try:
