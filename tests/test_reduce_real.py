@@ -85,7 +85,7 @@ def test_mtm_demo5_plain_timed_run(reduced):
 
 @pytest.mark.realdata
 def test_ehd2_demo3_film_steps_labelled_by_temperature(reduced):
-    out, _ = reduced
+    out, output = reduced
     st = pd.read_csv(out / "demo_3_steps.csv")
     # mean of 'Lube Temp' (column 10) over lines 23-43 and 61-81: 40.1762 and 100.7238 °C
     assert st["label"].tolist() == ["40.2 °C", "100.7 °C"]
@@ -95,8 +95,16 @@ def test_ehd2_demo3_film_steps_labelled_by_temperature(reduced):
     h = {lab: g["film_thickness_m"].to_numpy() for lab, g in film.groupby("label", sort=False)}
     assert h["40.2 °C"][[0, -1]] == pytest.approx([24.4e-9, 540.2e-9])
     assert h["100.7 °C"][[0, -1]] == pytest.approx([4.8e-9, 123.6e-9])
-    # the film steps log only 'Traction Force 1 (N)' (column 22): 0.7975 N at 20.025 N
-    assert film["traction_coefficient"].iloc[0] == pytest.approx(0.7975 / 20.025)
+    # the film steps log only 'Traction Force 1 (N)' (column 22): 0.7975 N at 20.025 N and
+    # SRR 0.000 in every row: the ratio is the load cell's offset, kept as the two columns,
+    # not as a traction coefficient (none in the table, a note says why)
+    assert film[["traction_force_1_N", "ball_load_N"]].iloc[0].tolist() == pytest.approx(
+        [0.7975, 20.025])
+    assert "traction_coefficient" not in film
+    assert "traction_coefficient_mean" not in st
+    text = " ".join(output.split())
+    assert ("film step(s) 2, 5: Traction Force 1 / Ball Load is 0.036-0.044 at pure rolling"
+            in text and "load cell's offset, not a traction coefficient" in text)
     assert (out / "demo_3_film.png").stat().st_size > 10_000
 
 

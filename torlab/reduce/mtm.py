@@ -44,7 +44,8 @@ Curves
 :func:`reduce_pcs` turns every data step of a PCS file into tidy curves, one
 table per step kind: traction steps -> mu against SRR, Stribeck steps -> mu
 against rolling speed, timed steps (ball or pin on disc) -> mu against time,
-film steps (EHD2) -> film thickness and traction against rolling speed, mapper
+film steps (EHD2) -> film thickness against rolling speed (their ``Traction Force
+1 / Ball Load`` at pure rolling is the load cell's offset: noted, not a coefficient), mapper
 and unknown step types -> mu against the x column of their own header; each row
 with every column the step logged.  The coefficient is the signed one (see
 :mod:`torlab.parsers.pcs`); SRR is a fraction as PCS defines it.  EHD2 film
@@ -500,6 +501,7 @@ def reduce_pcs(df: Any, meta: PcsMetadata, *, time_tests: bool = True,
     xcols: dict[str, list[str]] = {}
     rows, tts, notes = [], [], []
     plain_timed = []
+    rolling_offsets: list[tuple[int, float, float, float]] = []
     for st in meta.steps:
         if not st.has_data:
             continue
@@ -509,6 +511,10 @@ def reduce_pcs(df: Any, meta: PcsMetadata, *, time_tests: bool = True,
         sub = df.loc[sel]
         kind = step_kind(st)
         m = mu[sel] if mu is not None else np.full(int(sel.sum()), np.nan)
+        if kind == "film":
+            m, offset = _rolling_force_ratio(sub, m)
+            if offset is not None:
+                rolling_offsets.append((st.number, *offset))
         logged = [c for c in value_cols if sub[c].notna().any()]
         x = st.plot_x if st.plot_x in logged and st.plot_x != "traction_coefficient" else \
             CURVE_X.get(kind, "step_time_s")
@@ -537,6 +543,18 @@ def reduce_pcs(df: Any, meta: PcsMetadata, *, time_tests: bool = True,
         tt = _time_test(meta, st, sub["step_time_s"].to_numpy(dtype=float), m, time_test_options)
         if tt is not None:
             tts.append(tt)
+    if rolling_offsets:
+        lo = min(o[1] for o in rolling_offsets)
+        hi = max(o[2] for o in rolling_offsets)
+        srr = max(o[3] for o in rolling_offsets)
+        notes.append(f"film step(s) {', '.join(str(o[0]) for o in rolling_offsets)}: Traction "
+                     f"Force 1 / Ball Load is {lo:.3f}-{hi:.3f} at pure rolling (|SRR| at most "
+                     f"{100 * srr:.2g} %), where there is no traction to measure: it is the load "
+                     "cell's offset, not a traction coefficient, and is neither tabled nor "
+                     "plotted as one (traction_force_1_N and ball_load_N are kept)")
+        if not any(np.isfinite(r["traction_coefficient_mean"]) for r in rows
+                   if "traction_coefficient_mean" in r):
+            src = ""
     if plain_timed:
         notes.append(f"timed step(s) {', '.join(map(str, plain_timed))}: no application marked, "
                      "reduced as plain timed runs (ask for the time-test analysis after "
@@ -567,6 +585,39 @@ def reduce_pcs(df: Any, meta: PcsMetadata, *, time_tests: bool = True,
     steps = steps[[c for c in steps.columns if steps[c].dtype == object or steps[c].notna().any()]]
     return PcsReduction(meta=meta, curves=curves, steps=steps, time_tests=tts, mu_source=src,
                         curve_x=curve_x, curve_y=curve_y, notes=notes)
+
+
+#: a film step whose rows all slide less than this (|SRR|, fraction) is at pure rolling
+ROLLING_SRR = 0.02
+
+
+def _rolling_force_ratio(sub: Any, m: np.ndarray) -> tuple[np.ndarray, tuple[float, float, float]
+                                                            | None]:
+    """A film step's coefficient, blanked where it is ``Traction Force 1 / Ball Load`` at
+    pure rolling.
+
+    The EHD2 logs one traction force in its film steps; at ``|SRR| <= 2 %`` (the
+    rolling the film is measured at) the contact carries no traction to speak of, and
+    the ratio (0.04-0.18 in real exports) is the load cell's zero offset.  Rows with a
+    coefficient of their own (a ``Traction Coeff`` or ``Traction Force`` column) keep it.
+
+    Returns
+    -------
+    (coefficient, (min, max, largest |SRR|) of the blanked ratios or None)
+    """
+    if "traction_force_1_N" not in sub or "srr" not in sub:
+        return m, None
+    own = np.zeros(len(sub), dtype=bool)
+    for c in ("traction_coefficient_signed", "traction_coefficient", "traction_force_N"):
+        if c in sub:
+            own |= np.isfinite(sub[c].to_numpy(dtype=float))
+    srr = np.abs(sub["srr"].to_numpy(dtype=float))
+    ratio = np.isfinite(m) & ~own
+    if not ratio.any() or not np.all(np.isfinite(srr[ratio]) & (srr[ratio] <= ROLLING_SRR)):
+        return m, None
+    out = m.copy()
+    out[ratio] = np.nan
+    return out, (float(np.min(m[ratio])), float(np.max(m[ratio])), float(np.max(srr[ratio])))
 
 
 def _step_row(meta: PcsMetadata, st: Any, kind: str, label: str, x: str, sub: Any,

@@ -40,7 +40,8 @@ def curve_figure(red: Any, kind: str) -> Any:
     The y column (coefficient, or film thickness) against the x column of the
     steps' own header: traction steps against SRR (%), Stribeck steps against
     rolling speed (log axis), timed steps against step time, film steps (EHD2)
-    film thickness (nm) and coefficient against rolling speed (log axes).
+    film thickness (nm), and a coefficient where the steps have one, against rolling speed
+    (log axes).
     Steps are labelled (film steps by temperature) and coloured in file order;
     more than ten are drawn thin in viridis with a colour bar.
     """
