@@ -529,3 +529,95 @@ def test_retention_protocol_problems_listed_with_line_and_key(cli, tmp_path):
     lines = error_lines(cli("run", p, "-o", tmp_path / "out"))
     assert any("needs data.mtm" in ln for ln in lines)
     assert not (tmp_path / "out").exists()
+
+
+# --------------------------------------------------------------------------- wording, hints, inputs
+def test_unquoted_hpt_pattern_is_an_error_not_extra_time_tests(cli, tmp_path):
+    """``--hpt hpt_*.txt`` unquoted: the shell gives --hpt the first log and the time tests
+    the others; torlab names them instead of fitting them as time tests."""
+    r = cli("fit", "removal", *TESTS, "--hpt", HPT[0], *HPT[1:], "-o", tmp_path / "o")
+    assert r.exit_code == 2
+    (line,) = error_lines(r)
+    assert f"{HPT[1]} and {len(HPT) - 2} more: an HPT log among the time tests" in line
+    assert "quote the pattern" in line and "--hpt" in line and "dry run" not in line
+    assert not (tmp_path / "o").exists()
+
+
+def test_amount_above_the_tested_range_names_the_option(fitted, cli, tmp_path):
+    r = cli("predict", "retention", TAB54, fitted[0] / "params.yaml", "--amount", "5e6 mg/m^2",
+            "--draws", "0", "-o", tmp_path / "p")
+    assert r.exit_code == 2
+    (line,) = [ln for ln in error_lines(r) if ln.startswith("error")]
+    assert "above the largest tested amount" in line and "--hold-above" in line
+    assert "above='hold'" not in line and line.startswith("error: --amount:")
+    r = cli("predict", "retention", TAB54, fitted[0] / "params.yaml", "--amount", "5e6 mg/m^2",
+            "--draws", "0", "--hold-above", "-o", tmp_path / "p")
+    assert r.exit_code == 0, r.output
+    s = json.loads((tmp_path / "p" / "summary.json").read_text())
+    assert any("is held above it" in n for n in s["notes"])
+
+
+def test_amount_above_the_tested_range_in_python_names_the_keyword(fitted):
+    import torlab
+    from torlab.model.amount import AboveTestedError
+
+    with pytest.raises(AboveTestedError, match=r"above='hold'"):
+        torlab.predict_retention(TAB54, fitted[0] / "params.yaml", "5e6 mg/m^2", n_draws=0)
+    p = torlab.predict_retention(TAB54, fitted[0] / "params.yaml", "5e6 mg/m^2", n_draws=0, above="hold")
+    assert p.summary["initial_amount_mg_m2"] == pytest.approx(5e6)
+
+
+def test_mu_above_the_band_at_the_application_is_never_in_it(fitted, cli, tmp_path):
+    """A band below the initial coefficient: mu never enters it (it is above it from the
+    start) -- not "enters the band from the application on"."""
+    r = cli("predict", "retention", TAB54, fitted[0] / "params.yaml", "--amount", "100000 mg/m^2",
+            "--draws", "0", "--band", "0.05:0.1", "-o", tmp_path / "p")
+    assert r.exit_code == 0, r.output
+    s = json.loads((tmp_path / "p" / "summary.json").read_text())
+    assert s["mu_initial"] > 0.1  # the premise: above the band at the application
+    enter = s["passes_to_enter_band"]
+    assert enter["status"].startswith("never in the band") and enter["above_band_at_application"]
+    assert s["passes_to_leave_band"]["status"] == "above the band from the application on"
+    text = " ".join(r.output.split())
+    assert "enters the band (crosses 0.05): never (above the band" in text
+    assert "enters the band (crosses 0.05): from the application on" not in text
+    # mu inside the band at the application: in it from the application on
+    r = cli("predict", "retention", TAB54, fitted[0] / "params.yaml", "--amount", "100000 mg/m^2",
+            "--draws", "0", "--band", f"0.05:{s['mu_initial'] + 0.05:.3f}", "-o", tmp_path / "q")
+    s = json.loads((tmp_path / "q" / "summary.json").read_text())
+    assert s["passes_to_enter_band"]["status"] == "in the band from the application on"
+
+
+def _zero_rate(params, tmp_path, variance=0.0):
+    d = yaml.safe_load(params.read_text())
+    r = d["retention"]
+    r["parameters"]["k1"] = 0.0
+    r["ci95"]["k1"] = [0.0, 0.0]
+    fs = r["fit_space"]
+    fs["values"] = [float("-inf")]
+    fs["covariance"] = [[variance]]
+    fs["covariance_without_layer"] = [[0.0]]
+    fs["layer_sensitivity"] = [[0.0] * len(fs["layer_sensitivity"][0])]
+    out = tmp_path / "zero.yaml"
+    out.write_text(yaml.safe_dump(d, sort_keys=False))
+    assert "-.inf" in out.read_text()
+    return out
+
+
+def test_a_zero_removal_rate_can_be_written(fitted, cli, tmp_path):
+    """k1 = 0 (ln = -inf): no removal, the coefficient stays at its initial value."""
+    zero = _zero_rate(fitted[0] / "params.yaml", tmp_path)
+    r = cli("predict", "retention", TAB54, zero, "--amount", "100000 mg/m^2", "--passes",
+            "500", "--draws", "20", "-o", tmp_path / "p")
+    assert r.exit_code == 0, r.output
+    t = pd.read_csv(tmp_path / "p" / "retention.csv")
+    assert np.ptp(t["mu"]) == 0.0 and np.ptp(t["amount_mg_m2"]) == 0.0
+    assert t["amount_mg_m2"].iloc[-1] == pytest.approx(1e5)
+    s = json.loads((tmp_path / "p" / "summary.json").read_text())
+    assert s["passes_to_enter_band"]["passes"] is None
+    assert any("no removal (rate zero)" in n for n in s["notes"])
+    bad = _zero_rate(fitted[0] / "params.yaml", tmp_path / "..", variance=0.1)
+    r = cli("predict", "retention", TAB54, bad, "--amount", "100000 mg/m^2", "-o",
+            tmp_path / "q")
+    assert r.exit_code == 2
+    assert "retention.fit_space.covariance: a removal rate of zero" in error_lines(r)[-1]

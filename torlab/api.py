@@ -38,6 +38,7 @@ Example::
 
 from __future__ import annotations
 
+import copy
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -442,7 +443,8 @@ def fit_removal(tests: Any, layer: Any, *, scene: Any = None, density: Any = Non
                 step: int | None = None, compliance: Any = None, repeatability: float = 0.0,
                 dry_amount: Any = None, temperature: Any = None,
                 laws: Sequence[str] = ("zero_order", "first_order"), law: str | None = None,
-                transfer: Any = 1.0, skip: Any = "auto", duration: Any = None) -> Any:
+                transfer: Any = 1.0, skip: Any = "auto", duration: Any = None,
+                above: str = "error") -> Any:
     """A product's removal law from time tests after application (Paper B) and its HPT amount
     series (Paper C); ``docs/model/retention.md``.
 
@@ -471,6 +473,10 @@ def fit_removal(tests: Any, layer: Any, *, scene: Any = None, density: Any = Non
     laws, law, transfer, skip, duration
         As :func:`torlab.fit.removal.fit_removal` (``skip``/``duration`` as times,
         ``transfer`` a fraction or ``"fit"``).
+    above
+        Above the largest tested amount: ``"error"`` (default) or ``"hold"`` the
+        layer of the largest (for a layer from HPT inputs; an ``AmountLayer``
+        given keeps its own).
 
     Returns
     -------
@@ -497,7 +503,7 @@ def fit_removal(tests: Any, layer: Any, *, scene: Any = None, density: Any = Non
         items = layer if isinstance(layer, (list, tuple)) else [layer]
         lay, series, _, _ = amount_layer(
             items, compliance=compliance, density=dens, dry_amount=dry_amount,
-            repeatability=repeatability,
+            repeatability=repeatability, above=above,
             temperature=_si(temperature, "temperature", "temperature"))
         if dens is None:  # the density the HPT runs state, for the time tests' volumes
             ds = {float(f.meta["product_density"]) for f in series
@@ -544,6 +550,17 @@ def _retention_inputs(scene: Any, params: Any) -> tuple[Any, Any]:
     return _scene(scene, overlays or None), found[0]
 
 
+def _layer_above(layer: Any, above: str | None) -> Any:
+    """The amount layer with ``above`` (``"error"`` or ``"hold"``; None: as it is)."""
+    if above is None or above == layer.above:
+        return layer
+    if above not in ("error", "hold"):
+        raise TorlabInputError(f"above must be 'error' or 'hold', got {above!r}", key="above")
+    layer = copy.copy(layer)
+    layer.above = above
+    return layer
+
+
 def _band(band: Any) -> tuple[float, float]:
     if isinstance(band, str):
         parts = band.split(":")
@@ -559,7 +576,7 @@ def predict_retention(scene: Any, params: Any, amount: Any, *, creepage: Any = "
                       band: Any = (0.15, 0.25), band_length: Any = None,
                       track_radius: Any = None, pass_interval: Any = None, density: Any = None,
                       transfer: Any = None, n_draws: int = 200, seed: int = 0,
-                      points: int = 501) -> Any:
+                      points: int = 501, above: str | None = None) -> Any:
     """The coefficient against axle passes after one application, with 95 % intervals, and
     the passes until it enters and leaves the band (``docs/model/retention.md``).
 
@@ -591,6 +608,9 @@ def predict_retention(scene: Any, params: Any, amount: Any, *, creepage: Any = "
         (default the fit's).
     n_draws, seed, points
         Parameter draws for the intervals, their seed, table rows.
+    above
+        Above the largest tested amount of the HPT series: ``"error"`` or ``"hold"``
+        the layer of the largest; default the parameter file's (``"error"``).
 
     Returns
     -------
@@ -603,6 +623,7 @@ def predict_retention(scene: Any, params: Any, amount: Any, *, creepage: Any = "
     from torlab.model.retention import predict_retention as _predict
 
     sc, rp = _retention_inputs(scene, params)
+    layer = _layer_above(rp.layer, above)
     v = _si(speed, "velocity", "speed", "speed")
     if v is not None:
         sc = sc.model_copy(update={"kinematics": sc.kinematics.model_copy(update={"speed": v})})
@@ -628,7 +649,7 @@ def predict_retention(scene: Any, params: Any, amount: Any, *, creepage: Any = "
                                        key="passes")
         else:
             kw["passes"] = np.asarray(passes, dtype=float)
-    pred = _predict(sc, rp.layer, rp.removal, amount, creepage=xi, track_radius=r,
+    pred = _predict(sc, layer, rp.removal, amount, creepage=xi, track_radius=r,
                     band_length=_si(band_length, "length", "band_length"),
                     density=dens if dens is not None else rp.density,
                     transfer=_si(transfer, "dimensionless", "transfer"), band=_band(band),
@@ -642,15 +663,16 @@ def predict_retention(scene: Any, params: Any, amount: Any, *, creepage: Any = "
 def predict_sweep(scene: Any, params: Any, amount: Any, *, seconds: Any,
                   creepage: Any = "0:0.05:101", band_length: Any = None, track_radius: Any = None,
                   pass_interval: Any = None, density: Any = None, transfer: Any = None,
-                  n_draws: int = 100, seed: int = 0, trend_tolerance: float = 0.01) -> Any:
+                  n_draws: int = 100, seed: int = 0, trend_tolerance: float = 0.01,
+                  above: str | None = None) -> Any:
     """A traction curve recorded during a slip sweep of ``seconds`` while the product is
     removed, beside the steady curve at the applied amount (thesis H4.1); the verdict says
     whether removal turns the curve positive, with its probability over parameter draws.
 
     ``creepage``: ``"start:stop:count"`` (the ramp and the points recorded);
     ``seconds``: ``"60 s"`` or s; the time between passes of a band point is a disc track's
-    revolution (``track_radius``) or ``pass_interval`` on a rail; other parameters as
-    :func:`predict_retention`.  Returns a :class:`~torlab.model.retention.SweepPrediction`.
+    revolution (``track_radius``) or ``pass_interval`` on a rail; other parameters (and
+    ``above``) as :func:`predict_retention`.  Returns a :class:`~torlab.model.retention.SweepPrediction`.
     """
     from torlab.model.retention import simulate_sweep
 
@@ -660,7 +682,8 @@ def predict_sweep(scene: Any, params: Any, amount: Any, *, seconds: Any,
         raise TorlabInputError("a sweep needs a rising creepage range start:stop:count with "
                                "start >= 0 and at least 3 points", key="creepage")
     dens = _si(density, "density", "density", "density")
-    sw = simulate_sweep(sc, rp.layer, rp.removal, amount, creepage=(float(xi[0]), float(xi[-1])),
+    sw = simulate_sweep(sc, _layer_above(rp.layer, above), rp.removal, amount,
+                        creepage=(float(xi[0]), float(xi[-1])),
                         seconds=_si(seconds, "time", "sweep", "duration"),
                         track_radius=_si(track_radius, "length", "track_radius", "track_radius"),
                         pass_interval=_si(pass_interval, "time", "pass_interval", "duration"),

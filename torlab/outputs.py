@@ -62,7 +62,7 @@ from torlab import __version__
 from torlab.errors import OutputBusyError, OutputExistsError, OutputWriteError, TorlabInputError
 from torlab.files import sha256_file, writing
 
-__all__ = ["MANIFEST", "OutputDir", "columns_csv", "write_xlsx"]
+__all__ = ["MANIFEST", "OutputDir", "columns_csv", "sheet_units", "write_xlsx"]
 
 MANIFEST = "torlab-manifest.json"
 
@@ -96,11 +96,65 @@ def columns_csv(cols: Mapping[str, Any], float_format: str = "%.10g") -> str:
     w.writerows(zip(*cells, strict=True))
     return buf.getvalue()
 
+#: column-name suffix -> (unit shown, factor from SI); the longest suffix that matches wins
+_SUFFIX_UNITS = {
+    "_Pa_s": ("Pa·s", 1.0), "_1_Pa": ("1/GPa", 1e9), "_m_Pa": ("m/Pa", 1.0),
+    "_Pa": ("MPa", 1e-6), "_m_s": ("m/s", 1.0), "_mg_m2": ("mg/m²", 1.0), "_m2": ("mm²", 1e6),
+    "_1_m": ("1/m", 1.0), "_1_per_K": ("1/K", 1.0), "_mg": ("mg", 1.0), "_uL": ("µL", 1.0),
+    "_N": ("N", 1.0), "_C": ("°C", 1.0), "_K": ("K", 1.0), "_Hz": ("Hz", 1.0), "_s": ("s", 1.0),
+    "_m": ("m", 1.0),
+}
+#: lengths: the unit the figures use for them, by a word of the column name (else mm)
+_LENGTH_UNITS = ((("film", "thickness", "wavelength", "separation", "h_star", "sigma"),
+                  ("nm", 1e9)),
+                 (("displacement", "u_layer", "wear", "l_mu", "window", "band_width"),
+                  ("µm", 1e6)))
+#: fractions the figures show in per cent (SRR, creepage, electrical contact resistance)
+_PERCENT = ("srr", "creepage", "ecr")
+
+
+def sheet_units(df: Any) -> Any:
+    """A table in the units of torlab's figures, each header naming its unit in brackets.
+
+    The CSVs keep SI (``srr`` a fraction, ``displacement_m``, ``shear_stress_Pa``); the
+    figures show per cent, µm, MPa and nm.  An Excel sheet is read next to the figures,
+    so ``--xlsx`` converts: SRR and creepage (and columns named ``srr_…``,
+    ``creepage_…``) and ECR to per cent, stresses and pressures to MPa, pressure-viscosity
+    coefficients to 1/GPa, film thicknesses and wavelengths to nm, displacements and
+    wear to µm, other lengths to mm, areas to mm²; speeds stay in m/s as the figures show
+    them.  ``displacement_m`` becomes ``displacement [µm]``, ``srr`` ``srr [%]``; columns
+    without a unit suffix (coefficients, text) are left as they are.
+    """
+    import pandas as pd
+
+    out = {}
+    for col in df.columns:
+        name, values = str(col), df[col]
+        numeric = pd.api.types.is_numeric_dtype(values) and not pd.api.types.is_bool_dtype(values)
+        low = name.lower()
+        if numeric and (low in _PERCENT or low.startswith(tuple(f"{w}_" for w in _PERCENT))) \
+                and not any(low.endswith(sfx) for sfx in _SUFFIX_UNITS):
+            out[f"{name} [%]"] = values * 100.0
+            continue
+        sfx = next((k for k in sorted(_SUFFIX_UNITS, key=len, reverse=True)
+                    if name.endswith(k) and len(name) > len(k)), None)
+        if not numeric or sfx is None:
+            out[name] = values
+            continue
+        unit, factor = _SUFFIX_UNITS[sfx]
+        if sfx == "_m":
+            unit, factor = next((u for words, u in _LENGTH_UNITS
+                                 if any(w in low for w in words)), ("mm", 1e3))
+        out[f"{name[:-len(sfx)]} [{unit}]"] = values * factor if factor != 1.0 else values
+    return pd.DataFrame(out, index=df.index)
+
+
 def write_xlsx(path: str | os.PathLike[str] | Any, tables: Mapping[str, Any]) -> Any:
     """Write tables as the sheets of one Excel workbook (openpyxl).
 
-    Sheet names are cut to Excel's 31 characters (made unique); every sheet
-    keeps the CSV's column names, so units stay in the headers.
+    Sheet names are cut to Excel's 31 characters (made unique); every sheet is in
+    the units of the figures, with the unit of each column in its header
+    (:func:`sheet_units`: ``srr [%]``, ``displacement [µm]``), where the CSVs keep SI.
 
     Parameters
     ----------
@@ -136,7 +190,7 @@ def write_xlsx(path: str | os.PathLike[str] | Any, tables: Mapping[str, Any]) ->
                 sheet = name[:31 - len(tail)] + tail
                 k += 1
             used.add(sheet)
-            df.to_excel(xw, sheet_name=sheet, index=False)
+            sheet_units(df).to_excel(xw, sheet_name=sheet, index=False)
     return path
 
 
@@ -736,7 +790,7 @@ class OutputDir:
     def write_xlsx(self, name: str, tables: Mapping[str, Any]) -> Path:
         """Write tables as the sheets of one Excel workbook (``--xlsx`` of every command
         that writes tables; :func:`write_xlsx`: sheet names cut to Excel's 31 characters,
-        the CSVs' column names with their units)."""
+        the figures' units, each named in its column's header)."""
         import io
 
         buf = io.BytesIO()

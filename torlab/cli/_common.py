@@ -16,6 +16,7 @@ from torlab.grids import parse_values
 __all__ = [
     "ForceOpt",
     "FormatsOpt",
+    "HoldAboveOpt",
     "JobsOpt",
     "OutOpt",
     "QuietOpt",
@@ -23,8 +24,10 @@ __all__ = [
     "XlsxOpt",
     "command_line",
     "console",
+    "hold_above_hint",
     "option_keys",
     "parse_values",
+    "print_renderable",
     "print_table",
     "require_files",
     "session",
@@ -53,11 +56,47 @@ QuietOpt = Annotated[bool, typer.Option(
     "terminal).")]
 
 
+HoldAboveOpt = Annotated[bool, typer.Option(
+    "--hold-above", help="Above the largest amount the HPT series tested, hold the layer of "
+    "that amount (said in the notes) instead of refusing: the layer is not known there.")]
+
+
+@contextmanager
+def hold_above_hint() -> Iterator[None]:
+    """Say how to hold the layer above the tested amounts with the command's option
+    (``--hold-above``), not with the library's keyword (``above='hold'``)."""
+    from torlab.model.amount import AboveTestedError
+
+    try:
+        yield
+    except AboveTestedError as e:
+        key = "--" + e.key.replace("_", "-") if e.key and not e.key.startswith("-") else e.key
+        raise e.with_hint("--hold-above", key=key) from None
+
+
 def console() -> Any:
     """A rich console on stdout (imported lazily)."""
     from rich.console import Console
 
     return Console(highlight=False, soft_wrap=True)
+
+
+def print_renderable(renderable: Any) -> None:
+    """Print a rich table (or other renderable) on stdout, never wrapped to fit a width
+    the output does not have.
+
+    On a terminal the table fits the terminal, as rich draws it.  When the output is
+    not a terminal (a pipe, a log, CI) there is no width to fit: rich would assume 80
+    columns and fold long cells (file names) into pieces, so the console is widened
+    to the table's natural width and every cell stays on one line.
+    """
+    from rich.measure import Measurement
+
+    c = console()
+    if not c.is_terminal:
+        natural = Measurement.get(c, c.options.update_width(1 << 16), renderable).maximum
+        c.width = max(c.width, natural)
+    c.print(renderable)
 
 
 def command_line() -> str:
@@ -112,7 +151,7 @@ def print_table(rows: Sequence[dict[str, Any]], title: str = "", formats: dict[s
             else:
                 cells.append(str(v))
         t.add_row(*cells)
-    console().print(t)
+    print_renderable(t)
 
 
 @contextmanager

@@ -6,7 +6,7 @@ from typing import Annotated, Any
 
 import typer
 
-from torlab.cli._common import ForceOpt, OutOpt, QuietOpt, command_line, console
+from torlab.cli._common import ForceOpt, OutOpt, QuietOpt, command_line, console, print_renderable
 
 
 def register(root: typer.Typer) -> None:
@@ -72,7 +72,6 @@ def _print_tables(result: Any) -> None:
 
     from torlab.bench.runner import display_rows
 
-    c = console()
     shown = display_rows(result)
     comps: list[str] = []
     for r in result.rows:
@@ -103,4 +102,4 @@ def _print_tables(result: Any) -> None:
             if len(t.columns) == 6:
                 cells.append(d["reference"])
             t.add_row(*cells, style=style)
-        c.print(t)
+        print_renderable(t)

@@ -23,6 +23,7 @@ import typer
 from torlab.cli._common import (
     ForceOpt,
     FormatsOpt,
+    HoldAboveOpt,
     JobsOpt,
     OutOpt,
     QuietOpt,
@@ -30,6 +31,7 @@ from torlab.cli._common import (
     XlsxOpt,
     command_line,
     console,
+    hold_above_hint,
     option_keys,
     print_table,
     require_files,
@@ -584,6 +586,7 @@ def removal_cmd(
                                           "track, or 'fit'.")] = "1",
     skip: Annotated[str, typer.Option(help="Time after the application left out of the fit "
                                       "(the film phase), or 'auto'.")] = "auto",
+    hold_above: HoldAboveOpt = False,
     force: ForceOpt = False,
     xlsx: XlsxOpt = False,
     formats: FormatsOpt = None,
@@ -602,15 +605,17 @@ def removal_cmd(
     from torlab.outputs import OutputDir
 
     files = require_files(tests, "time-test", keep=is_time_test_input)
+    _no_hpt_logs_among_time_tests(files, hpt)
     layer_files = require_files([Path(h) for h in hpt], "HPT", keep=is_layer_input)
     extra = [scene] if scene else []
     comp = _compliance(compliance, extra)
-    with option_keys(removal_cmd):
+    with hold_above_hint(), option_keys(removal_cmd):
         res = fit_removal(files, layer_files, scene=scene, density=density, amount=amount,
                           track_radius=track_radius, application_time=application_time,
                           compliance=comp, repeatability=repeatability,
                           laws=[x.strip() for x in laws.split(",") if x.strip()], law=law,
-                          transfer=transfer.strip(), skip=skip.strip())
+                          transfer=transfer.strip(), skip=skip.strip(),
+                          above="hold" if hold_above else "error")
     dest = OutputDir(out, force=force, inputs=[*files, *layer_files, *extra],
                      command=command_line())
     with dest:
@@ -623,6 +628,29 @@ def removal_cmd(
         console().print(f"[yellow]note:[/yellow] {n}")
     console().print(f"wrote {', '.join(_FILES)}, law_selection.csv, amount_layer.csv/.png"
                     f"{', tables.xlsx' if xlsx else ''} to {out}")
+
+
+def _no_hpt_logs_among_time_tests(files: list[Path], hpt: list[str]) -> None:
+    """Refuse HPT logs among the time tests: the shell expands an unquoted ``--hpt
+    hpt/*.txt`` into ``--hpt hpt/a.txt hpt/b.txt ...``, which gives ``--hpt`` only the first
+    file and the time tests the others."""
+    from torlab.errors import TorlabInputError
+    from torlab.instruments.measured import detected
+
+    logs = []
+    for f in files:
+        try:
+            if detected(f) == "hpt":
+                logs.append(f)
+        except TorlabInputError:
+            continue
+    if logs:
+        more = f" and {len(logs) - 1} more" if len(logs) > 1 else ""
+        first = f" after --hpt {hpt[0]}" if len(hpt) == 1 else ""
+        raise TorlabInputError(
+            f"{logs[0]}{more}: an HPT log among the time tests; an unquoted pattern{first} gives "
+            "--hpt only its first file and the time tests the others: quote the pattern "
+            "(--hpt 'hpt/*.txt') or repeat --hpt before each file", key="--hpt")
 
 
 def _write_removal(dest: Any, res: Any, *, xlsx: bool, formats: Any) -> None:

@@ -11,6 +11,7 @@ import typer
 from torlab.cli._common import (
     ForceOpt,
     FormatsOpt,
+    HoldAboveOpt,
     JobsOpt,
     NoPlotOpt,
     OutOpt,
@@ -18,6 +19,7 @@ from torlab.cli._common import (
     SchedulerOpt,
     command_line,
     console,
+    hold_above_hint,
     option_keys,
     require_files,
 )
@@ -97,6 +99,7 @@ def traction_cmd(
     track_radius: Annotated[str | None, typer.Option(help="With --sweep: disc track.")] = None,
     pass_interval: Annotated[str | None, typer.Option(help="With --sweep: time between "
                                                       "passes on a rail.")] = None,
+    hold_above: HoldAboveOpt = False,
     force: ForceOpt = False,
     no_plot: NoPlotOpt = False,
     formats: FormatsOpt = None,
@@ -125,7 +128,7 @@ def traction_cmd(
     if sweep is not None or amount is not None:
         return _sweep(files, out, force, fmts, creepage=creepage, seconds=sweep, amount=amount,
                       band_length=band_length, track_radius=track_radius,
-                      pass_interval=pass_interval)
+                      pass_interval=pass_interval, above="hold" if hold_above else None)
     # the figure's worker loads matplotlib while this process loads the scene and computes
     with early_drawing(not no_plot, jobs, scheduler) as drawer:
         pred, names = _traction(files, out, creepage, lateral, spin, force=force,
@@ -234,7 +237,7 @@ def _sweep(files: list[Path], out: Path, force: bool, formats: Sequence[str],
     if kw["seconds"] is None or kw["amount"] is None:
         raise TorlabInputError("a slip sweep needs both --sweep (its duration) and --amount",
                                key="--sweep" if kw["seconds"] is None else "--amount")
-    with option_keys(traction_cmd):
+    with hold_above_hint(), option_keys(traction_cmd):
         sw = predict_sweep(files[0], files[1:], kw.pop("amount"), **kw)
     with OutputDir(out, force=force, inputs=files, command=command_line()) as dest:
         names = write_sweep(dest, sw, title="", formats=formats)
@@ -277,6 +280,7 @@ def retention_cmd(
     draws: Annotated[int, typer.Option(help="Parameter draws for the 95 % intervals (0: "
                                        "none).")] = 200,
     seed: Annotated[int, typer.Option(help="Seed of the draws.")] = 0,
+    hold_above: HoldAboveOpt = False,
     force: ForceOpt = False,
     formats: FormatsOpt = None,
 ) -> None:
@@ -302,12 +306,12 @@ def retention_cmd(
         raise TorlabInputError("cycles are revolutions of a disc track: give --track-radius",
                                key="--cycles")
     n = passes or cycles
-    with option_keys(retention_cmd):
+    with hold_above_hint(), option_keys(retention_cmd):
         pred = predict_retention(
             files[0], files[1:], amount, creepage=creepage, time=time, speed=speed, band=band,
             passes=None if n is None else to_si(n, "dimensionless", where=given[0]),
             band_length=band_length, track_radius=track_radius, pass_interval=pass_interval,
-            density=density, n_draws=draws, seed=seed)
+            density=density, n_draws=draws, seed=seed, above="hold" if hold_above else None)
     axis = "time" if time else "cycles" if track_radius else "passes"
     with OutputDir(out, force=force, inputs=files, command=command_line()) as dest:
         names = write_retention(dest, pred, axis=axis, formats=formats)

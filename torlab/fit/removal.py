@@ -60,7 +60,7 @@ import numpy as np
 
 from torlab.errors import FitError, TorlabInputError
 from torlab.fit.result import PARAM_UNITS, FitResult, student_t
-from torlab.model.amount import MG_M2, areal_density, parse_amount
+from torlab.model.amount import MG_M2, AboveTestedError, areal_density, parse_amount
 from torlab.model.removal import (
     LAW_UNITS,
     LAWS,
@@ -432,6 +432,9 @@ def _prepare(tt: TimeTest, scene: Any, layer: Any, *, skip: Any, duration: float
         top = m_app * max_transfer
         try:
             layer.check(top)
+        except AboveTestedError as e:
+            raise e.with_hint(e.hint, key="amount", prefix=f"{tt.label}: ",
+                              suffix=" (the applied amount in the band)") from None
         except TorlabInputError as e:
             raise TorlabInputError(f"{tt.label}: {e.message} (the applied amount in the band)",
                                    key="amount") from None
@@ -1149,6 +1152,18 @@ def _matrix(v: Any, shape: tuple[int, int], where: str, path: str) -> np.ndarray
     return a
 
 
+def _log_values(v: Any, k: int, path: str) -> np.ndarray:
+    """``fit_space.values``: the log parameters, finite except the rate's, which may be
+    ``-.inf`` (a rate of zero: the product is not removed)."""
+    try:
+        a = np.asarray([v], dtype=float)
+    except (TypeError, ValueError):
+        a = np.zeros(0)
+    if a.shape == (1, k) and a[0, 0] == -math.inf and np.all(np.isfinite(a[0, 1:])):
+        return a[0]
+    return _matrix([v], (1, k), "retention.fit_space.values", path)[0]
+
+
 def retention_from_dict(d: Any, *, path: str = "", fit: Any = None) -> RetentionParams:
     """:class:`RetentionParams` from the ``retention:`` section (every value checked).
 
@@ -1182,18 +1197,24 @@ def retention_from_dict(d: Any, *, path: str = "", fit: Any = None) -> Retention
     if not 1 <= k <= 3 or names[0] != f"k{order}" or \
             any(n not in ("spread", "transfer") for n in names[1:]):
         raise bad(f"names {names} do not fit the law {law}", "fit_space.names")
-    theta = _matrix([fs.get("values")], (1, k), "retention.fit_space.values", path)[0]
+    theta = _log_values(fs.get("values"), k, path)
     cov = _matrix(fs.get("covariance"), (k, k), "retention.fit_space.covariance", path)
     cov0 = _matrix(fs.get("covariance_without_layer", cov), (k, k),
                    "retention.fit_space.covariance_without_layer", path)
     for c, nm in ((cov, "covariance"), (cov0, "covariance_without_layer")):
         if not np.allclose(c, c.T, rtol=1e-6, atol=0.0) or np.any(np.diag(c) < 0):
             raise bad("must be symmetric with a non-negative diagonal", f"fit_space.{nm}")
+        if theta[0] == -math.inf and np.any(c[0] != 0):
+            raise bad(f"a removal rate of zero ({names[0]}: 0, ln = -.inf) is exact: its row "
+                      "and column must be zero", f"fit_space.{nm}")
     layer = AmountLayer.from_dict(d.get("layer"), path=path or None, key="retention.layer")
     n_nodes = layer.nodes.size
     G = fs.get("layer_sensitivity", [])
     if G:
-        _matrix(G, (k, 4 * n_nodes), "retention.fit_space.layer_sensitivity", path)
+        g = _matrix(G, (k, 4 * n_nodes), "retention.fit_space.layer_sensitivity", path)
+        if theta[0] == -math.inf and np.any(g[0] != 0):
+            raise bad(f"a removal rate of zero ({names[0]}: 0) does not follow the layer: its "
+                      "row must be zero", "fit_space.layer_sensitivity")
         _matrix([fs.get("layer_nodes_mg_m2")], (1, n_nodes),
                 "retention.fit_space.layer_nodes_mg_m2", path)
     pars = d.get("parameters") if isinstance(d.get("parameters"), dict) else {}

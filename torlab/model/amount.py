@@ -53,6 +53,7 @@ __all__ = [
     "HPT_AREA",
     "LAYER_NAMES",
     "MG_M2",
+    "AboveTestedError",
     "AmountLayer",
     "areal_density",
     "parse_amount",
@@ -219,6 +220,28 @@ def _fit_amount(fit: Any, *, area: float, density: float | None) -> float:
                                "amounts explicitly (amounts=...)")
     dens = density if density is not None else meta.get("product_density")
     return areal_density(f"{val} {unit}", area=area, density=dens, where=f"{_label(fit)} amount")
+
+
+class AboveTestedError(TorlabInputError):
+    """An amount above the largest tested amount of the HPT series, where the layer is not
+    known.
+
+    The message ends with how to go on: test a larger amount, or hold the last fit.  The
+    way to hold it is ``hint``: ``above='hold'`` in Python (the default); a command says
+    its own option instead (:meth:`with_hint`, ``--hold-above``).
+    """
+
+    def __init__(self, what: str, *, hint: str = "above='hold'", **where: Any) -> None:
+        self.what, self.hint = what, hint
+        super().__init__(f"{what} (test a larger amount, or hold the last fit with {hint})",
+                         **where)
+
+    def with_hint(self, hint: str, *, key: str | None = None,
+                  prefix: str = "", suffix: str = "") -> AboveTestedError:
+        """The same error with another way to hold the fit (a command-line option), key or
+        context (``prefix``/``suffix`` around what is above the range)."""
+        return AboveTestedError(f"{prefix}{self.what}{suffix}", hint=hint, path=self.path,
+                                line=self.line, key=self.key if key is None else key)
 
 
 @dataclass
@@ -433,10 +456,10 @@ class AmountLayer:
         if np.any(m < 0):
             raise TorlabInputError(f"negative amount ({np.min(m) / MG_M2:g} mg/m^2)", key=where)
         if self.above == "error" and np.any(m > self.m_max * (1 + 1e-12)):
-            raise TorlabInputError(
+            raise AboveTestedError(
                 f"amount {np.max(m) / MG_M2:.4g} mg/m^2 is above the largest tested amount "
-                f"{self.m_max / MG_M2:.4g} mg/m^2 of the HPT series: the layer is not known there "
-                "(test a larger amount, or hold the last fit with above='hold')", key=where)
+                f"{self.m_max / MG_M2:.4g} mg/m^2 of the HPT series: the layer is not known there",
+                key=where)
 
     def _eval(self, interp: Any, m: np.ndarray, dry: np.ndarray, top: np.ndarray) -> np.ndarray:
         m = np.asarray(m, dtype=float)

@@ -364,7 +364,10 @@ def predict_retention(scene: Any, layer: Any, removal: Any, amount: Any, *, cree
     if dt is not None:
         cols["time_s"] = Nq * dt
     out = pd.DataFrame(cols)
+    above_band = bool(mu[0, 0] > band[1])
     for key, cr in crossings.items():
+        if key == "passes_to_enter_band" and cr["passes"] == 0.0:
+            cr["above_band_at_application"] = above_band
         cr["status"] = _crossing_status(cr, layer, key)
     modelled = [f"Hertz contact ({contact.patch.method}), band width 2b = {bnd.width * 1e3:.4g} mm"
                 f" ({bnd.kind}{'' if bnd.track_length is None else f', track {bnd.track_length * 1e3:.4g} mm'})",
@@ -410,7 +413,12 @@ def predict_retention(scene: Any, layer: Any, removal: Any, amount: Any, *, cree
 
 
 def _below_tested(m0: float, layer: Any) -> list[str]:
-    """A note when the applied amount lies below the smallest tested amount."""
+    """A note when the applied amount lies below the smallest tested amount, or above the
+    largest where the layer holds its last fit (``above="hold"``)."""
+    if m0 > layer.m_max * (1 + 1e-12):
+        return [f"initial amount {m0 / MG_M2:.4g} mg/m^2 is above the largest tested amount "
+                f"{layer.m_max / MG_M2:.4g} mg/m^2 of the HPT series: the layer of that amount is "
+                "held above it (not known there; test a larger amount)"]
     if m0 >= layer.m_min:
         return []
     where = ("at or below the dry anchor: the dry coefficient from the first pass"
@@ -444,7 +452,11 @@ def _crossing_status(cr: dict[str, Any], layer: Any, key: str) -> str:
         return ("never: the coefficient stays below the band" if key == "passes_to_enter_band"
                 else "never: the coefficient stays below the band's upper limit")
     if cr["passes"] == 0.0:
-        return "at or above this limit from the application on"
+        if cr.get("above_band_at_application"):
+            return ("never in the band: the coefficient at the application is already above "
+                    "the band's upper limit")
+        return ("in the band from the application on" if key == "passes_to_enter_band"
+                else "above the band from the application on")
     s = "crosses"
     if cr["amount_mg_m2"] is not None and cr["amount_mg_m2"] * MG_M2 < layer.m_min:
         s += (" below the smallest tested amount: the passes depend on the assumed dry anchor "

@@ -247,6 +247,8 @@ def crossing_text(cr: dict[str, Any]) -> str:
     """``"244 passes (95 %: 207-289)"`` of a crossing of the retention summary."""
     if cr["passes"] is None:
         return "never"
+    if cr.get("above_band_at_application"):
+        return "never (above the band from the application on)"
     if cr["passes"] == 0.0 and not cr.get("high95"):
         return "from the application on"
     lo, hi = cr.get("low95"), cr.get("high95")
@@ -295,9 +297,11 @@ def retention_section(product: str, fit: Any, layer: Any, pred: Any, sweep: Any 
         f"Prediction on '{s['scene']}' at creepage {100 * s['creepage']:.3g} %: applied "
         f"{s['applied']}, i.e. {s['initial_amount_mg_m2']:.4g} mg/m² in the band "
         f"({s['initial_amount_from']}); μ from {s['mu_initial']:.3f} to the dry {s['mu_dry']:.3f}. "
-        f"Band {s['band'][0]:g}–{s['band'][1]:g}: entered after "
-        f"{crossing_text(s['passes_to_enter_band'])}, left after "
-        f"{crossing_text(s['passes_to_leave_band'])}.",
+        f"Band {s['band'][0]:g}–{s['band'][1]:g}: " + (
+            "never entered: μ is above it from the application on."
+            if s["passes_to_enter_band"].get("above_band_at_application") else
+            f"entered after {crossing_text(s['passes_to_enter_band'])}, left after "
+            f"{crossing_text(s['passes_to_leave_band'])}."),
         "Modelled: " + "; ".join(m for m in s["modelled"] if m not in pred.notes) + ".",
     ]
     figs = [Figure("removal_fit", plot(removal_figure, fit),
