@@ -106,6 +106,9 @@ from torlab.instruments import Option
 from torlab.instruments.reduction import Reduction
 
 NAME = "toy"
+TITLE = "toy rig"
+FILES = "toy logs"
+EXTENSIONS = (".csv",)
 OPTIONS = {"scale": Option("length", 1e-3, "A length.", check="positive")}
 
 
@@ -146,8 +149,7 @@ def test_a_new_instrument_is_one_module_and_one_registry_entry(tmp_path, monkeyp
 
     (tmp_path / "toy_instrument.py").write_text(TOY)
     monkeypatch.syspath_prepend(str(tmp_path))
-    entry = instruments.Instrument("toy", "toy rig", "toy_instrument", "toy logs")
-    monkeypatch.setitem(instruments.REGISTRY, "toy", entry)
+    monkeypatch.setitem(instruments.REGISTRY, "toy", instruments.Instrument("toy_instrument"))
     f = tmp_path / "run1.csv"
     f.write_text("# toy log\nx\n1\n2\n")
     r = cli("reduce", f, "-O", "scale=2 mm", "-o", tmp_path / "o")

@@ -135,16 +135,6 @@ def reduce_files(paths: PathLike | Sequence[PathLike], instrument: str | None = 
 
 
 # ------------------------------------------------------------------ fits
-def _hpt_item(item: Any, compliance: Any) -> Any:
-    from torlab.instruments.reduction import Reduction
-
-    if isinstance(item, (str, os.PathLike)):
-        return reduce_file(item, "hpt", compliance=compliance).detail
-    if isinstance(item, Reduction):
-        return item.detail
-    return item
-
-
 def fit_hpt(curves: Any, *, compliance: Any = None, sigma: Any = None) -> Any:
     """The third-body layer ``mu_c1, mu_c2, L_mue, L_mup`` from HPT curves (thesis
     Eqs. 5.24-5.29); several curves (repeats of one product and amount) fitted jointly.
@@ -152,8 +142,9 @@ def fit_hpt(curves: Any, *, compliance: Any = None, sigma: Any = None) -> Any:
     Parameters
     ----------
     curves
-        One or a list of: HPT log paths, :class:`Reduction` objects of HPT logs,
-        :class:`~torlab.reduce.hpt.HptResult` or reduced DataFrames.
+        One or a list of: HPT logs or reduced CSVs (paths), :class:`Reduction` objects
+        of HPT logs, :class:`~torlab.reduce.hpt.HptResult` or reduced DataFrames
+        (:func:`torlab.fit.layer.hpt_curves`).
     compliance
         Rig compliance: a curve file, ``"0.012 um/MPa"``, m/Pa, or a
         :class:`~torlab.reduce.hpt.RigCompliance` (default: the one the
@@ -165,16 +156,11 @@ def fit_hpt(curves: Any, *, compliance: Any = None, sigma: Any = None) -> Any:
     -------
     FitResult
     """
-    from torlab.fit.layer import fit_layer_hpt
-    from torlab.reduce.hpt import RigCompliance
+    from torlab.fit.layer import fit_layer_hpt, hpt_curves
     from torlab.units import to_si
 
-    comp = RigCompliance.from_spec(compliance)
-    items = curves if isinstance(curves, (list, tuple)) else [curves]
-    prepared = [_hpt_item(c, comp) for c in items]
     s = None if sigma is None else to_si(sigma, "pressure", where="sigma")
-    return fit_layer_hpt(prepared, sigma=s, compliance=None if isinstance(
-        items[0], (str, os.PathLike)) else comp)
+    return fit_layer_hpt(hpt_curves(curves, compliance=compliance, sigma=s))
 
 
 def fit_temperature(curves: Any, temperatures: Any = None, *,
@@ -184,12 +170,14 @@ def fit_temperature(curves: Any, temperatures: Any = None, *,
 
     ``temperatures`` (one per run, ``"50 degC"`` or degC) default to the logs' headers.
     """
+    from torlab.fit.layer import hpt_curves
     from torlab.fit.result import FitResult
     from torlab.fit.temperature import fit_temperature_coefficients
     from torlab.reduce.hpt import RigCompliance
 
     comp = RigCompliance.from_spec(compliance)
-    items = [c if isinstance(c, FitResult) else _hpt_item(c, comp) for c in curves]
+    items = [c if isinstance(c, FitResult) else hpt_curves(c, compliance=comp)[0]
+             for c in curves]
     temps = None if temperatures is None else \
         [_si(t, "temperature", "temperatures", "temperature") + 273.15 for t in temperatures]
     tref = _si(reference_temperature, "temperature", "reference_temperature", "temperature")

@@ -38,7 +38,6 @@ from torlab.cli._common import (
 )
 from torlab.instruments.measured import (
     film_data,
-    hpt_items,
     is_hpt_input,
     loads,
     traction_data,
@@ -160,18 +159,6 @@ def _compliance(value: str | None, inputs: list[Path]) -> Any:
     return comp
 
 
-def _prepare_hpt(items: list[Any], compliance: Any) -> list[Any]:
-    from torlab.fit.layer import hpt_curve
-
-    res = []
-    for it in items:
-        if isinstance(it, tuple):
-            res.append(hpt_curve(it[1], name=it[0].name, compliance=compliance))
-        else:
-            res.append(hpt_curve(it, compliance=compliance if not it.compliance else None))
-    return res
-
-
 # ------------------------------------------------------------------------------------------
 # commands
 # ------------------------------------------------------------------------------------------
@@ -195,13 +182,13 @@ def hpt_cmd(
     One fit per curve (a sub-folder per curve and fit_summary.csv when there are several)
     or, with --joint, one fit to all curves.
     """
-    from torlab.fit.layer import fit_layer_hpt, fit_layers_hpt
+    from torlab.fit.layer import fit_layer_hpt, fit_layers_hpt, hpt_curves
     from torlab.outputs import OutputDir
 
     files = require_files(inputs, "HPT", keep=is_hpt_input)
     extra: list[Path] = []
     comp = _compliance(compliance, extra)
-    curves = _prepare_hpt(hpt_items(files, comp), comp)
+    curves = hpt_curves(files, compliance=comp)
     results = [fit_layer_hpt(curves)] if joint or len(curves) == 1 else fit_layers_hpt(curves)
     names: list[str] = []
     fits = [(_stem(f, names), r) for f, r in zip(files, results, strict=False)]
@@ -342,7 +329,7 @@ def temperature_cmd(
     """Temperature coefficients mu_c1_T, mu_c2_T (thesis Eqs. 5.26-5.27) from one layer fit
     per run: ln mu_ci against T; each coefficient kept or fixed to 0 (--selection).  The
     runs together give one fit; each run's layer fit is in runs/<name>/."""
-    from torlab.fit.layer import fit_layers_hpt
+    from torlab.fit.layer import fit_layers_hpt, hpt_curves
     from torlab.fit.temperature import fit_temperature_coefficients
     from torlab.outputs import OutputDir
     from torlab.units import check_range, to_si
@@ -354,7 +341,7 @@ def temperature_cmd(
     Tref = check_range("temperature", to_si(reference_temperature, "temperature",
                                             where="--reference-temperature"),
                        where="--reference-temperature")
-    curves = _prepare_hpt(hpt_items(files, comp), comp)
+    curves = hpt_curves(files, compliance=comp)
     fits = fit_layers_hpt(curves)
     res = fit_temperature_coefficients(fits, reference_temperature_C=Tref, selection=sel)
     dest = OutputDir(out, force=force, inputs=[*files, *extra], command=command_line())

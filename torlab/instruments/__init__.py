@@ -1,25 +1,16 @@
-"""The instrument registry: one entry per instrument / file format.
+"""The instrument registry: every instrument torlab reads, one module each.
 
-Every instrument torlab reads is one module of this package and one entry of
-:data:`REGISTRY`.  A module provides
+An instrument is one module of this package (what it declares:
+:mod:`torlab.instruments.plugin`) and one line of :data:`INSTRUMENTS`.  From
+those declarations come detection (:func:`detect`), folder expansion
+(:func:`expand_inputs`), options with units and "did you mean"
+(:func:`convert_options`), ``torlab reduce`` and the command group ``torlab
+<instrument> reduce`` (:mod:`torlab.cli.instruments`), the protocol's ``data:``
+sections (:mod:`torlab.protocols.schema`, :mod:`torlab.protocols.data`), and the
+reduction loop they all share (:func:`reduce_file`, :func:`reduce_batch`).
 
-* ``detect(head) -> str``: why the first lines of a file are this format
-  (``""`` when they are not);
-* ``read(path, **options) -> (DataFrame, metadata)``: the parser;
-* ``reduce(path, **options) -> Reduction``: the reduction
-  (:class:`~torlab.instruments.reduction.Reduction`: tables, key numbers, notes);
-* ``OPTIONS``: the reduction's options (:class:`Option`: unit kind, default,
-  help), so options given as unit strings (``window="20 um"``) are converted
-  and misspelt names get a suggestion;
-* ``figures(red)``, ``collect(reds, options)`` (the tables and figures over all
-  files: ``summary.csv`` ...), ``display(reds)`` (console rows), and the
-  measured curves it holds (``traction_curves``, ``stribeck_curves``,
-  ``film_curves``).
-
-``torlab reduce``, the instrument commands (``torlab hpt reduce`` ...) and the
-protocol runner are loops over this registry (:func:`reduce_file`,
-:func:`reduce_files`); detection exists once (:func:`detect`).  Modules are
-imported when first used, so ``import torlab`` stays light.
+The instrument modules declare; they import numerical libraries inside their
+functions, so reading the registry (``torlab --help``) stays light.
 """
 
 from __future__ import annotations
@@ -28,14 +19,20 @@ import glob
 import importlib
 import os
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
+from types import ModuleType
 from typing import Any
 
 from torlab.errors import TorlabInputError
+from torlab.instruments.plugin import HEAD_BYTES, Command, Option, read_head
+from torlab.instruments.plugin import convert_options as _convert_options
 
 __all__ = [
+    "HEAD_BYTES",
+    "INSTRUMENTS",
     "REGISTRY",
+    "Command",
     "Instrument",
     "Option",
     "convert_options",
@@ -48,71 +45,101 @@ __all__ = [
     "reduce_files",
 ]
 
-#: bytes read from the start of a file to detect its format
-HEAD_BYTES = 4096
-#: file name endings a folder is searched for
-DATA_SUFFIXES = (".txt", ".csv", ".tsv", ".dat", ".log")
-
-
-@dataclass(frozen=True)
-class Option:
-    """One option of a reduction.
-
-    ``kind`` is a :data:`torlab.units.KINDS` quantity kind (values may be
-    unit strings such as ``"20 um"``; plain numbers are SI), or ``"number"``,
-    ``"text"``, ``"flag"``, ``"choice"``, ``"path"``, ``"paths"``, ``"object"``
-    (a library object passed as it is).  ``check`` is ``"positive"``,
-    ``"nonneg"``, ``"fraction"`` (0 < v <= 1) or ``"open_fraction"`` (0 < v < 1).
-    """
-
-    kind: str
-    default: Any = None
-    help: str = ""
-    choices: tuple[str, ...] = ()
-    check: str = ""
+#: every instrument torlab reads, in detection order: a file is read by the first whose
+#: ``detect`` accepts its first lines
+INSTRUMENTS: tuple[str, ...] = (
+    # PCS exports first: the optical tribometer also reads EHD2 exports (with --as optical),
+    # and a PCS first line ('MTM311 Test Data File', 'Step 1 started at') is the PCS's own
+    "torlab.instruments.pcs",
+    # torlab's own logs: each begins with its '# torlab-<kind>' signature, so their order
+    # among themselves does not matter
+    "torlab.instruments.hpt",
+    "torlab.instruments.optical",
+    "torlab.instruments.visc",
+)
 
 
 @dataclass(frozen=True)
 class Instrument:
-    """A registry entry: name, what it reads, the module that does it.
+    """A registry entry: the module that declares the instrument (imported once).
 
-    ``aliases`` maps other names (``mtm``, ``ehd2``) to preset options
-    (``{"family": "MTM"}``).
+    Its declarations are read through the properties (``name``, ``title``, ``files``,
+    ``aliases``, ``options``, ``extensions``, ``command``) and its functions through
+    :meth:`impl`.
     """
 
-    name: str
-    title: str
     module: str
-    files: str
-    aliases: dict[str, dict[str, Any]] = field(default_factory=dict)
 
-    def impl(self) -> Any:
-        """The instrument's module (imported on first use)."""
+    def impl(self) -> ModuleType:
+        """The instrument's module."""
         return importlib.import_module(self.module)
+
+    @property
+    def name(self) -> str:
+        """Registry name (``--as``)."""
+        return self.impl().NAME
+
+    @property
+    def title(self) -> str:
+        """What the instrument is."""
+        return self.impl().TITLE
+
+    @property
+    def files(self) -> str:
+        """What files it reads."""
+        return self.impl().FILES
+
+    @property
+    def aliases(self) -> dict[str, dict[str, Any]]:
+        """Other names, each with the options it presets (``{"mtm": {"family": "MTM"}}``)."""
+        return getattr(self.impl(), "ALIASES", {})
+
+    @property
+    def extensions(self) -> tuple[str, ...]:
+        """File name endings a folder is searched for."""
+        return tuple(self.impl().EXTENSIONS)
+
+    @property
+    def also_reads(self) -> tuple[str, ...]:
+        """Other instruments whose files its reduction reads (optical: PCS EHD2 exports)."""
+        return tuple(getattr(self.impl(), "ALSO_READS", ()))
 
     @property
     def options(self) -> dict[str, Option]:
         """The reduction's options."""
         return self.impl().OPTIONS
 
+    @property
+    def command(self) -> Command | None:
+        """Its command group and protocol section (None: reached through ``torlab reduce``)."""
+        return getattr(self.impl(), "COMMAND", None)
 
-def _entry(name: str, title: str, files: str, aliases: dict[str, dict[str, Any]] | None = None
-           ) -> Instrument:
-    return Instrument(name, title, f"torlab.instruments.{name}", files, aliases or {})
+
+def _registry(modules: Iterable[str]) -> dict[str, Instrument]:
+    out: dict[str, Instrument] = {}
+    for m in modules:
+        inst = Instrument(m)
+        if inst.name in out:  # pragma: no cover - a declaration mistake
+            raise ValueError(f"two instruments are named {inst.name!r}")
+        out[inst.name] = inst
+    return out
 
 
-#: every instrument torlab reads, in detection order
-REGISTRY: dict[str, Instrument] = {
-    "pcs": _entry("pcs", "PCS Instruments MTM / ETM / EHD2", "'Test Data File' text exports",
-                  {"mtm": {"family": "MTM"}, "etm": {"family": "ETM"},
-                   "ehd2": {"family": "EHD2"}, "ehd": {"family": "EHD2"}}),
-    "hpt": _entry("hpt", "high-pressure torsion rig", "torlab-hpt logs (other CSVs with --map)",
-                  {"torsion": {}}),
-    "optical": _entry("optical", "optical ball-on-disc tribometer",
-                      "torlab-optical logs; PCS EHD2 exports with --as optical",
-                      {"tribometer": {}}),
-    "visc": _entry("visc", "falling-body viscometer", "torlab-visc logs", {"viscometer": {}}),
-}
+#: registry name -> entry, in detection order (:data:`INSTRUMENTS`)
+REGISTRY: dict[str, Instrument] = _registry(INSTRUMENTS)
+
+
+def data_suffixes() -> tuple[str, ...]:
+    """File name endings a folder is searched for: every instrument's, once each."""
+    return tuple(dict.fromkeys(e.lower() for i in REGISTRY.values() for e in i.extensions))
+
+
+def by_command(name: str) -> Instrument:
+    """The instrument whose command group / protocol section is ``name`` (``"mtm"``)."""
+    for inst in REGISTRY.values():
+        if inst.command is not None and inst.command.name == name:
+            return inst
+    raise KeyError(name)
 
 
 def get_instrument(name: str) -> Instrument:
@@ -135,17 +162,6 @@ def _lookup(name: str) -> tuple[Instrument, dict[str, Any]]:
                            f"{did_you_mean(key, names)}", key="--as")
 
 
-def _head(path: Path) -> str:
-    with open(path, "rb") as f:
-        raw = f.read(HEAD_BYTES)
-    for enc in ("utf-8-sig", "cp1252"):
-        try:
-            return raw.decode(enc)
-        except UnicodeDecodeError:
-            continue
-    return raw.decode("utf-8", errors="replace")
-
-
 def detect(path: str | os.PathLike[str]) -> tuple[Instrument, str]:
     """Which instrument wrote ``path``, and why (from its first lines).
 
@@ -159,7 +175,7 @@ def detect(path: str | os.PathLike[str]) -> tuple[Instrument, str]:
         raise TorlabInputError("file not found", path=p)
     if p.is_dir():
         raise TorlabInputError("is a folder; give the files in it", path=p)
-    head = _head(p)
+    head = read_head(p)
     for inst in REGISTRY.values():
         why = inst.impl().detect(head)
         if why:
@@ -171,74 +187,14 @@ def detect(path: str | os.PathLike[str]) -> tuple[Instrument, str]:
 
 
 def convert_options(inst: Instrument | str, options: dict[str, Any]) -> dict[str, Any]:
-    """Check option names and convert values (unit strings to SI) for ``inst``'s reduction.
+    """Check option names and convert values (unit strings to SI) for ``inst``'s reduction
+    (:func:`torlab.instruments.plugin.convert_options`).
 
     Options not given take their defaults.  Unknown names are errors with a
     "did you mean" suggestion.
     """
-    from torlab._suggest import did_you_mean
-
     inst = get_instrument(inst) if isinstance(inst, str) else inst
-    spec: dict[str, Option] = inst.options
-    out = {k: o.default for k, o in spec.items()}
-    for k, v in options.items():
-        name = k.replace("-", "_")
-        if name not in spec:
-            raise TorlabInputError(f"unknown option {k!r} for {inst.name} (options: "
-                                   f"{', '.join(spec)}){did_you_mean(name, spec)}", key=k)
-        out[name] = None if v is None else _convert(spec[name], v, name)
-    return out
-
-
-def _convert(o: Option, v: Any, name: str) -> Any:
-    from torlab.units import KINDS, to_si
-
-    if o.kind == "object":
-        return v
-    if o.kind == "flag":
-        return bool(v)
-    if o.kind == "text":
-        return str(v)
-    if o.kind == "path":
-        return Path(v)
-    if o.kind == "paths":
-        return [Path(x) for x in ([v] if isinstance(v, (str, os.PathLike)) else v)]
-    if o.kind == "choice":
-        s = str(v).strip().lower()
-        low = {c.lower(): c for c in o.choices}
-        if s not in low:
-            from torlab._suggest import did_you_mean
-
-            raise TorlabInputError(f"{v!r} is not a known {name.replace('_', ' ')} (choose "
-                                   f"{', '.join(o.choices)}){did_you_mean(s, o.choices)}",
-                                   key=name)
-        return low[s]
-    if o.kind == "number":
-        try:
-            x = float(v)
-        except (TypeError, ValueError):
-            raise TorlabInputError(f"{v!r} is not a number", key=name) from None
-    elif o.kind in KINDS:
-        x = to_si(v, o.kind, where=name)
-    else:  # pragma: no cover - a registry mistake
-        raise ValueError(f"option {name}: unknown kind {o.kind!r}")
-    _check(o.check, x, name, v)
-    return x
-
-
-def _check(check: str, x: float, name: str, given: Any) -> None:
-    import math
-
-    bad = {
-        "positive": (lambda v: v > 0, "must be positive"),
-        "nonneg": (lambda v: v >= 0, "must not be negative"),
-        "fraction": (lambda v: 0 < v <= 1, "must be in (0, 1]"),
-        "open_fraction": (lambda v: 0 < v < 1, "must be in (0, 1)"),
-    }.get(check)
-    if not math.isfinite(x):
-        raise TorlabInputError(f"{given!r} is not a finite number", key=name)
-    if bad is not None and not bad[0](x):
-        raise TorlabInputError(f"{given!r} {bad[1]}", key=name)
+    return _convert_options(inst.options, options, inst.name)
 
 
 def expand_inputs(items: Iterable[str | os.PathLike[str]], what: str = "input",
@@ -273,7 +229,7 @@ def expand_inputs(items: Iterable[str | os.PathLike[str]], what: str = "input",
             continue
         if p.is_dir():
             found = sorted(q for q in p.iterdir() if q.is_file() and not q.name.startswith(".")
-                           and q.suffix.lower() in DATA_SUFFIXES)
+                           and q.suffix.lower() in data_suffixes())
             src = f"folder {p}"
         elif any(ch in str(it) for ch in "*?["):
             found = sorted(Path(q) for q in glob.glob(str(it), recursive=True) if Path(q).is_file())
@@ -298,10 +254,6 @@ def expand_inputs(items: Iterable[str | os.PathLike[str]], what: str = "input",
     return out, notes
 
 
-#: instruments whose reduction also reads another's files (the optical reduction reads EHD2)
-ALSO_READS = {"optical": ("pcs",)}
-
-
 def is_instrument(name: str | None) -> Any:
     """A ``keep`` filter for :func:`expand_inputs`: files the instrument ``name`` reads
     (detected as it, or as one it also reads; any instrument when ``None``)."""
@@ -310,7 +262,7 @@ def is_instrument(name: str | None) -> Any:
             found = detect(p)[0].name
         except TorlabInputError:
             return False
-        return name is None or found == name or found in ALSO_READS.get(name, ())
+        return name is None or found == name or found in get_instrument(name).also_reads
 
     return keep
 

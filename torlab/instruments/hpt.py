@@ -11,20 +11,38 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from torlab.instruments import Option
+from torlab.instruments.plugin import Command, Option
 from torlab.instruments.reduction import Reduction
 
 NAME = "hpt"
+TITLE = "high-pressure torsion rig"
+FILES = "torlab-hpt logs (other CSVs with --map)"
+EXTENSIONS = (".txt", ".csv", ".tsv", ".dat", ".log")  # another rig's table, with a column map
+ALIASES: dict[str, dict[str, Any]] = {"torsion": {}}
 
 OPTIONS: dict[str, Option] = {
     "window": Option("length", 20e-6, "Displacement window before the maximum over which f is "
-                     "averaged.", check="positive"),
+                     "averaged.", check="positive", unit="um", quantity="displacement_window"),
     "source": Option("choice", "auto", "Displacement from the 'motor' angle, the 'encoder' "
                      "angle, or 'auto' (motor where logged).", ("auto", "motor", "encoder")),
-    "compliance": Option("object", None, "Rig compliance to subtract: a curve file, a constant "
-                         "such as '0.012 um/MPa', or a RigCompliance."),
-    "map": Option("object", None, "Column map (YAML file or dict) for another rig's CSV."),
+    "compliance": Option("object", None, "Rig compliance to subtract: a curve file (torlab-hpt "
+                         "log of a dry run, or CSV with shear_stress and displacement columns) "
+                         "or a constant such as '0.012 um/MPa'."),
+    "map": Option("path", None, "Column map (YAML) for another rig's CSV layout; see "
+                  "docs/formats/hpt.md.", key=None, reads_any=True),
 }
+
+COMMAND = Command(
+    "hpt", "High-pressure torsion (HPT) rig: reduce raw logs to shear stress and friction "
+    "against displacement.",
+    """Reduce HPT logs: S, r_e, sigma = F/S, tau = M/(r_e S), f = tau/sigma against
+    displacement (thesis Eqs. 5.1-5.4), and f over the last 20 um before the maximum.
+
+    Writes per input '<name>_reduced.csv' (SI units in the column names), 'summary.csv',
+    and 'hpt.png' with every run on one figure.
+    """,
+    "Raw HPT logs (torlab-hpt format, or another rig's CSV with --map); folders and patterns "
+    "such as 'logs/*.txt' are expanded.", argument="raw", what="HPT log")
 
 
 def detect(head: str) -> str:

@@ -15,7 +15,6 @@ from torlab.errors import TorlabInputError
 __all__ = [
     "detected",
     "film_data",
-    "hpt_items",
     "is_hpt_input",
     "loads",
     "numbers",
@@ -128,22 +127,6 @@ def is_hpt_input(path: Path) -> bool:
         return True
     with open(path, "rb") as f:
         return b"shear_stress_Pa" in f.read(2000).split(b"\n", 1)[0]
-
-
-def hpt_items(files: list[Path], compliance: Any) -> list[Any]:
-    """Raw HPT logs are reduced (instrument registry); reduced CSVs (``torlab hpt reduce``
-    output) are read as they are."""
-    from torlab.instruments import reduce_file
-
-    out = []
-    for f in files:
-        if detected(f) == "hpt":
-            out.append(reduce_file(f, "hpt", compliance=compliance).detail)
-        else:
-            df, _ = read_csv(f, (("shear_stress_Pa",), ("displacement_raw_m", "displacement_m")),
-                              "a reduced HPT curve")
-            out.append((f, df))
-    return out
 
 
 def traction_data(path: Path) -> tuple[Any, Any, str]:

@@ -12,23 +12,42 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from torlab.instruments import Option
+from torlab.instruments.plugin import Command, Option, read_head
 from torlab.instruments.reduction import Curve, Reduction
 
 NAME = "optical"
+TITLE = "optical ball-on-disc tribometer"
+FILES = "torlab-optical logs; PCS EHD2 exports with --as optical"
+EXTENSIONS = (".txt", ".csv")
+ALIASES: dict[str, dict[str, Any]] = {"tribometer": {}}
+#: other instruments whose files this reduction reads: PCS EHD2 exports
+ALSO_READS = ("pcs",)
 
 OPTIONS: dict[str, Option] = {
     "window": Option("time", 4.0, "Averaging window at the end of each set condition (Paper A: "
-                     "4 s).", check="positive"),
-    "test": Option("choice", None, "Test type (default: the log's 'test' header, else "
-                   "detected).", ("dry_traction", "film_thickness", "stribeck", "traction")),
+                     "4 s).", check="positive", unit="s"),
+    "test": Option("choice", None, "Test type: dry_traction, film_thickness, stribeck or "
+                   "traction (default: the log's 'test' header, else detected).",
+                   ("dry_traction", "film_thickness", "stribeck", "traction"), key=None),
     "symmetry_tolerance": Option("number", 0.10, "Relative tolerance of the ±SRR symmetry check.",
                                  check="nonneg"),
     "symmetry_abs": Option("number", 0.005, "Absolute tolerance (coefficient) of the ±SRR "
                            "symmetry check.", check="nonneg"),
 }
+
+COMMAND = Command(
+    "optical", "Optical ball-on-disc tribometer (thesis 5.1.1): windowed averages at each set "
+    "condition, traction / Stribeck / film-thickness tests (Tab. 5.2).",
+    """Reduce optical tribometer logs: mean coefficient, speeds, load and film thickness over the
+    last WINDOW of every set condition; rolling speed U = (u_ball + u_disc)/2 and
+    SRR = (u_ball - u_disc)/U (thesis Eq. 2.4); the Tab. 5.2 test type; for traction tests the
+    negative SRR folded onto positive with a symmetry check (EHD2 exports too).
+
+    Writes per input '<name>_points.csv' (one row per condition), '<name>_folded.csv' (traction
+    tests) and '<name>.png'; 'summary.csv' with one row per input.
+    """,
+    "torlab-optical logs (docs/formats/optical.md) or PCS EHD2 exports; folders and patterns "
+    "are expanded.", argument="logs", what="optical log")
 
 
 def detect(head: str) -> str:
@@ -37,10 +56,9 @@ def detect(head: str) -> str:
 
 
 def _is_pcs(path: Path) -> bool:
-    from torlab.instruments import _head
     from torlab.instruments.pcs import detect as pcs_detect
 
-    return bool(pcs_detect(_head(path)))
+    return bool(pcs_detect(read_head(path)))
 
 
 def read(path: Path, **_: Any) -> tuple[Any, Any]:
@@ -127,6 +145,8 @@ def display(reds: list[Reduction]) -> list[tuple[str, list[dict], dict]]:
 # ------------------------------------------------------------------ measured curves
 def traction_curves(red: Reduction) -> list[Curve]:
     """The folded traction curve, one per rolling speed (|SRR|, mu)."""
+    import numpy as np
+
     from torlab.reduce.optical import speed_groups
 
     res = red.detail

@@ -13,43 +13,67 @@ import re
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from torlab.instruments import Option
+from torlab.instruments.plugin import Command, Option
 from torlab.instruments.reduction import Curve, Reduction
 
 NAME = "pcs"
+TITLE = "PCS Instruments MTM / ETM / EHD2"
+FILES = "'Test Data File' text exports"
+EXTENSIONS = (".txt",)
+ALIASES: dict[str, dict[str, Any]] = {"mtm": {"family": "MTM"}, "etm": {"family": "ETM"},
+                                      "ehd2": {"family": "EHD2"}, "ehd": {"family": "EHD2"}}
 _FIRST = re.compile(r"^\s*((MTM|ETM|EHD)\w*\s+Test\s+Data\s+File|Step\s+1\b.*started\s+at)",
                     re.IGNORECASE)
 
 OPTIONS: dict[str, Option] = {
-    "family": Option("choice", None, "Read the files as MTM, ETM or EHD2 exports (default: "
-                     "detected from the first line).", ("MTM", "ETM", "EHD2")),
+    "family": Option("choice", None, "Read the files as MTM, ETM or EHD2 (default: detected "
+                     "from the first line).", ("MTM", "ETM", "EHD2"), flag="--instrument",
+                     key="instrument"),
     "after_application": Option("flag", None, "Analyse every timed step as a time test after "
-                                "application (default: only where the file marks an "
-                                "application)."),
+                                "application (default: only steps whose description marks an "
+                                "application).", key=None),
     "threshold": Option("number", 0.15, "Low-adhesion threshold of the time tests.",
-                        check="nonneg"),
-    "application_time": Option("time", None, "Application moment on the step-time axis "
-                               "(implies after_application)."),
-    "recovery_fraction": Option("number", 0.9, "Recovered at this fraction of the way back "
-                                "from the minimum to the plateau.", check="fraction"),
+                        check="coefficient", group="time_test"),
+    "application_time": Option("time", None, "Application moment on the step-time axis (e.g. "
+                               "'60 s'; implies the analysis after application); default: "
+                               "detected as the largest drop.", check="nonneg",
+                               group="time_test"),
+    "recovery_fraction": Option("number", 0.9, "Recovered when the coefficient is this "
+                                "fraction of the way back from the minimum to the plateau.",
+                                check="fraction", group="time_test"),
     "recovery_level": Option("number", None, "Recovered when the coefficient reaches this "
-                             "fixed value instead."),
-    "smooth": Option("time", 10.0, "Running-median window for the minimum and the crossings.",
-                     check="nonneg"),
+                             "fixed value instead.", group="time_test"),
+    "smooth": Option("time", 10.0, "Running-median window for the minimum and the crossings "
+                     "('0 s': raw samples).", check="nonneg", unit="s", group="time_test"),
     "min_drop": Option("number", 0.05, "Smallest drop taken as the application when "
-                       "detecting it.", check="nonneg"),
+                       "detecting it.", check="nonneg", group="time_test"),
     "min_rise": Option("number", 0.03, "Smallest plateau - minimum taken as a recovery.",
-                       check="nonneg"),
+                       check="nonneg", group="time_test"),
     "tail": Option("time", 120.0, "Window at the end over which the plateau is the median.",
-                   check="positive"),
-    "duration": Option("time", None, "Evaluate up to this time after the application.",
-                       check="positive"),
+                   check="positive", unit="s", group="time_test"),
+    "duration": Option("time", None, "Evaluate up to this time after the application (Paper "
+                       "B: '20 min'); default: to the end of the step.", check="positive",
+                       group="time_test"),
 }
 #: options of the time-test analysis (passed to time_test_metrics)
-_TIME_TEST = ("threshold", "application_time", "recovery_fraction", "recovery_level", "smooth",
-              "min_drop", "min_rise", "tail", "duration")
+_TIME_TEST = tuple(k for k, o in OPTIONS.items() if o.group == "time_test")
+
+COMMAND = Command(
+    "mtm", "PCS Instruments MTM/ETM (and EHD2) exports: every step kind (traction, Stribeck, "
+    "timed, film, mapper ...); time tests after application (Paper B).",
+    """Reduce PCS exports: every data step (traction, Stribeck, ball- or pin-on-disc timed,
+    film, mapper, and unknown step types) as the coefficient against the x column of its own
+    header (SRR, rolling speed, time), with every logged column; EHD2 film steps labelled by
+    temperature; the time-test figures after application (thesis Fig. 5.9: application,
+    minimum, time to recover, mean after recovery, time below the threshold) of timed steps
+    that mark an application, or of all with --after-application.
+
+    Writes per input '<name>_steps.csv', '<name>_<kind>.csv' and '<name>_<kind>.png' for each
+    step kind present, '<name>_time_test.png', '<name>_metadata.json'; 'summary.csv' (one row
+    per data step) and 'time_tests.csv'.
+    """,
+    "PCS text exports (MTM311/ETM/EHD261 'Test Data File'); folders and patterns such as "
+    "'exports/*.txt' are expanded.", argument="files", what="PCS export")
 
 
 def detect(head: str) -> str:
@@ -152,6 +176,8 @@ def _mean(df: Any, col: str) -> float:
 # ------------------------------------------------------------------ measured curves
 def traction_curves(red: Reduction) -> list[Curve]:
     """One curve per traction step: |SRR| and |mu| (folded), with the step's mean speed."""
+    import numpy as np
+
     d = red.detail.curves.get("traction")
     if d is None:
         return []
@@ -167,6 +193,8 @@ def traction_curves(red: Reduction) -> list[Curve]:
 
 def stribeck_curves(red: Reduction) -> list[Curve]:
     """The Stribeck steps' points, sorted by rolling speed."""
+    import numpy as np
+
     d = red.detail.curves.get("stribeck")
     if d is None:
         return []

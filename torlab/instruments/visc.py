@@ -15,28 +15,51 @@ from pathlib import Path
 from typing import Any
 
 from torlab.errors import TorlabInputError
-from torlab.instruments import Option
+from torlab.instruments.plugin import Command, Option, convert_options
 from torlab.instruments.reduction import Reduction
 
 NAME = "visc"
+TITLE = "falling-body viscometer"
+FILES = "torlab-visc logs"
+EXTENSIONS = (".txt", ".log")
+ALIASES: dict[str, dict[str, Any]] = {"viscometer": {}}
 
 OPTIONS: dict[str, Option] = {
     "reference": Option("paths", None, "Reference-liquid log(s) with a 'reference_viscosity' "
-                        "header: calibrate K from them."),
+                        "header: calibrate K from them (repeat for several)."),
     "calibration_constant": Option("text", None, "K of eta = K (rho_body - rho_liquid) / v, e.g. "
-                                   "'1.9e-8 m^3/s^2'."),
-    "calibration": Option("object", None, "A Calibration (instead of the above)."),
+                                   "'1.9e-8 m^3/s^2' (instead of the header or a reference "
+                                   "log)."),
+    "calibration": Option("object", None, "A Calibration (instead of the above).", flag=None,
+                          key=None),
     "tol": Option("number", 0.02, "Steady part: local slope within this fraction of the "
                   "terminal velocity.", check="open_fraction"),
-    "density_model": Option("choice", None, "Liquid density against pressure (default: the "
-                            "log's header).", ("constant", "dowson-higginson")),
-    "law": Option("text", "barus,roelands", "Fits: barus, roelands or both (comma list)."),
+    "density_model": Option("choice", None, "Liquid density against pressure: constant or "
+                            "dowson-higginson (default: the log's header).",
+                            ("constant", "dowson-higginson")),
+    "law": Option("text", "barus,roelands", "Fits: barus, roelands or both (comma list).",
+                  key=None),
     "fit_eta0": Option("flag", False, "Fit eta0 with Roelands Z (default: eta0 from the "
                        "atmospheric points)."),
-    "eta0": Option("viscosity", None, "Fix the Roelands eta0.", check="positive"),
+    "eta0": Option("viscosity", None, "Fix the Roelands eta0 (e.g. '65 mPa*s').",
+                   check="positive", quantity="viscosity"),
     "confidence": Option("number", 0.95, "Level of the confidence intervals.",
                          check="open_fraction"),
 }
+
+COMMAND = Command(
+    "visc", "Falling-body high-pressure viscometer (thesis 5.1.5): terminal velocities, "
+    "viscosity per pressure step, Barus and Roelands fits.",
+    """Reduce viscometer logs: falls found in the LVDT trace, terminal velocity from each fall's
+    steady part, eta = K (rho_body - rho_liquid) / v per fall and per pressure step; then the
+    Barus alpha (ln eta against p) and Roelands Z fits with confidence intervals and residuals.
+
+    Writes per input '<name>_falls.csv', '<name>_steps.csv', '<name>_fit.csv',
+    '<name>_lubricant_<law>.yaml' (the scene's lubricant: block), '<name>_falls.png',
+    '<name>_fit.png'; 'summary.csv' and, with --reference, 'calibration.csv'.
+    """,
+    "torlab-visc logs of the sample liquid (docs/formats/viscometer.md).", argument="logs",
+    what="viscometer log")
 
 
 def detect(head: str) -> str:
@@ -92,10 +115,8 @@ def reduce(path: Path, **opts: Any) -> Reduction:
     from torlab.yamlio import dump_yaml
 
     if not opts.get("prepared"):
-        from torlab.instruments import get_instrument, prepare_options
-
-        opts = prepare_options(get_instrument(NAME), {k: v for k, v in opts.items()
-                                                      if k in OPTIONS})
+        opts = prepare(convert_options(OPTIONS, {k: v for k, v in opts.items() if k in OPTIONS},
+                                       NAME))
     df, meta = read(path)
     res = reduce_viscometer(df, meta, calibration=opts.get("calibration"), tol=opts["tol"],
                             density_model=opts.get("density_model"))

@@ -124,15 +124,15 @@ def fit_hpt_layers(ctx: RunContext) -> None:
 def _fit_task(job: tuple[str, Any]) -> Any:
     """One product's HPT layer fit (``("layer", details)``) or temperature coefficients
     (``("temperature", (details, temperatures_K, selection))``): an executor task."""
+    from torlab.fit.layer import fit_layer_hpt, hpt_curves
+
     what, arg = job
     if what == "layer":
-        from torlab.fit.layer import fit_layer_hpt
-
-        return fit_layer_hpt(arg)
+        return fit_layer_hpt(hpt_curves(arg))
     from torlab.fit.temperature import fit_temperature_coefficients
 
     details, temps_K, selection = arg
-    return fit_temperature_coefficients(details, temps_K, selection=selection)
+    return fit_temperature_coefficients(hpt_curves(details), temps_K, selection=selection)
 
 
 def _temperature(ctx: RunContext, label: str, tres: Any, scene_dict: dict[str, Any]) -> None:

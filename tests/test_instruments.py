@@ -1,0 +1,121 @@
+"""The instrument registry: every module declares what the commands and protocols are made
+from, reading the registry loads no numerical library, and fits take their inputs from one
+place whatever form they come in."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from conftest import ROOT
+
+HPT = ROOT / "sample_data" / "hpt"
+
+
+def _instruments():
+    from torlab.instruments import REGISTRY
+
+    return list(REGISTRY.values())
+
+
+@pytest.mark.parametrize("inst", _instruments(), ids=lambda i: i.name)
+def test_every_instrument_declares_itself(inst):
+    from torlab.instruments.plugin import CHECKS
+    from torlab.units import KINDS, RANGES
+
+    m = inst.impl()
+    assert m.NAME == inst.name and m.TITLE and m.FILES
+    assert inst.extensions and all(e.startswith(".") for e in inst.extensions)
+    for fn in ("detect", "read", "reduce", "figures", "collect", "display"):
+        assert callable(getattr(m, fn)), fn
+    for name, o in inst.options.items():
+        assert o.kind in KINDS or o.kind in ("number", "text", "flag", "choice", "path",
+                                             "paths", "object"), name
+        assert not o.check or o.check in CHECKS, name
+        assert not o.quantity or o.quantity in RANGES, name
+        assert (o.kind == "choice") == bool(o.choices), name
+        assert o.help.endswith((".", ")")), name
+        if o.unit:  # the default shown in its unit converts back to the default
+            from torlab.units import to_si
+
+            assert to_si(o.shown_default(), o.kind) == pytest.approx(o.default), name
+    for alias, preset in inst.aliases.items():
+        assert alias not in [i.name for i in _instruments()]
+        assert set(preset) <= set(inst.options)
+
+
+def test_command_and_section_names_are_unique():
+    names = [i.command.name for i in _instruments() if i.command is not None]
+    assert len(names) == len(set(names))
+    assert {"hpt", "mtm", "optical", "visc"} <= set(names)
+
+
+def test_the_registry_loads_no_numerical_library():
+    """``torlab --help`` reads every declaration: the modules import their libraries inside
+    their functions."""
+    code = ("import sys, torlab.instruments as i; [x.options for x in i.REGISTRY.values()]; "
+            "print(sorted(m for m in ('numpy', 'pandas', 'scipy', 'matplotlib', 'pint', "
+            "'pydantic') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, cwd=ROOT)
+    assert out.stdout.strip() == "[]"
+
+
+def test_folders_are_searched_for_every_instruments_endings():
+    from torlab.instruments import data_suffixes
+
+    assert set(data_suffixes()) >= {".txt", ".csv", ".tsv", ".dat", ".log"}
+
+
+# ------------------------------------------------------------------ fit inputs, one place
+def test_hpt_curves_are_the_same_from_a_log_its_reduction_and_its_csv(tmp_path):
+    """A raw log, its Reduction, its HptResult and the reduced CSV written by 'torlab hpt
+    reduce' give the same curve (the CSV at its 10 significant digits)."""
+    from torlab import reduce_file
+    from torlab.fit.layer import hpt_curves
+
+    log = HPT / "hpt_OFM1_4uL_25C.txt"
+    red = reduce_file(log)
+    red.tables["reduced"].to_csv(tmp_path / "r.csv", index=False, float_format="%.10g")
+    from_log, from_red, from_res, from_csv = hpt_curves(
+        [log, red, red.detail, tmp_path / "r.csv"])
+    for c in (from_red, from_res):
+        np.testing.assert_array_equal(c.tau, from_log.tau)
+        np.testing.assert_array_equal(c.u_raw, from_log.u_raw)
+        assert c.sigma == from_log.sigma
+    np.testing.assert_allclose(from_csv.tau, from_log.tau, rtol=1e-9)
+    np.testing.assert_allclose(from_csv.u_raw, from_log.u_raw, rtol=1e-9, atol=1e-15)
+    assert from_csv.meta["source"] == "r.csv"
+
+
+def test_hpt_curves_subtract_the_compliance_once(tmp_path):
+    """A raw log is reduced with the compliance (the curve recovers it from the reduced
+    columns); a reduced curve gets it as the model's rig term: both models see the same
+    rig displacement."""
+    from torlab import reduce_file
+    from torlab.fit.layer import hpt_curves
+
+    log = HPT / "hpt_OFM1_4uL_25C.txt"
+    comp = "0.012 um/MPa"
+    raw, = hpt_curves(log, compliance=comp)
+    plain = reduce_file(log, compliance=None).tables["reduced"]
+    reduced, = hpt_curves(plain, compliance=comp)
+    tau = np.linspace(0.0, 2e8, 5)
+    np.testing.assert_allclose(raw.compliance(tau) - raw.compliance(np.zeros(1))[0],
+                               0.012e-12 * tau, rtol=1e-6, atol=1e-12)
+    np.testing.assert_allclose(reduced.compliance(tau), 0.012e-12 * tau, rtol=1e-12)
+    assert raw.meta["compliance"] == reduced.meta["compliance"] == "linear 0.012 um/MPa"
+
+
+def test_hpt_curves_refuse_a_table_that_is_not_a_curve(tmp_path):
+    from torlab.errors import TorlabInputError
+    from torlab.fit.layer import hpt_curves
+
+    f = tmp_path / "other.csv"
+    pd.DataFrame({"a": [1, 2], "b": [3, 4]}).to_csv(f, index=False)
+    with pytest.raises(TorlabInputError, match="reduced HPT curve"):
+        hpt_curves([f])
