@@ -25,7 +25,10 @@ from torlab.model.fastsim import (
     boundary_traction_draws,
 )
 from torlab.model.layer import LayerParams
-from torlab.model.predict import fastsim_grid, fastsim_problem, predict_traction
+from torlab.model.mixed import mixed_traction_curve
+from torlab.model.predict import predict_traction
+from torlab.model.prediction import fastsim_grid, fastsim_problem
+from torlab.model.traction import traction_curve
 from torlab.scene import load_scene, scene_from_dict
 from torlab.uncertainty import ParameterDistribution, propagate
 
@@ -167,9 +170,9 @@ def _lubricated(**over) -> dict:
 
 def _mixed_model(d: dict) -> _MixedTractionModel:
     sc = scene_from_dict(d)
-    table = predict_traction(sc, XI, band=False).table
+    table = traction_curve(sc, XI).table
     outs = tuple(k for k in ("mu", "film_thickness_m", "max_temperature_C") if k in table)
-    return _MixedTractionModel("traction", sc, XI, None, outs)
+    return _MixedTractionModel(mixed_traction_curve, sc, XI, (), outs)
 
 
 def test_mixed_draws_equal_the_whole_prediction_one_by_one():
@@ -227,7 +230,7 @@ def test_sampled_band_equals_the_row_by_row_band(thermal):
 def test_traction_band_of_a_lubricated_scene_equals_the_row_by_row_band():
     d = _lubricated()
     sc = scene_from_dict(d)
-    table = predict_traction(sc, XI, band=False).table
+    table = traction_curve(sc, XI).table
     names = ["mu_c1", "mu_c2", "L_mue", "L_mup"]
     d["fit"] = {"kind": "test", "covariance": {
         "names": names, "values": [d["boundary"][n] for n in names],
@@ -237,7 +240,7 @@ def test_traction_band_of_a_lubricated_scene_equals_the_row_by_row_band():
 
     su = scene_uncertainty(sc)
     a = traction_band(sc, XI, table, su, method="sampling", n_samples=45)
-    model = _MixedTractionModel("traction", sc, XI, None, ("mu", "film_thickness_m"))
+    model = _MixedTractionModel(mixed_traction_curve, sc, XI, (), ("mu", "film_thickness_m"))
     b = propagate(_RowByRow(model), su.dist, method="sampling", n_samples=45,
                   f0={k: table[k].to_numpy() for k in ("mu", "film_thickness_m")})
     for k in ("mu", "film_thickness_m"):
@@ -276,7 +279,7 @@ def test_sampled_thermal_band_edges_unchanged_40_draws():
 
     sc = _wfm_wet()
     xi = np.linspace(0.0, 0.05, 51)
-    t = predict_traction(sc, xi, band=False).table
+    t = traction_curve(sc, xi).table
     b = traction_band(sc, xi, t, scene_uncertainty(sc), method="sampling", n_samples=40, seed=3)
     got = {"mu_low95": b.low("mu"), "mu_high95": b.high("mu"),
            "max_temperature_low95_C": b.low("max_temperature_C"),

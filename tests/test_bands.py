@@ -13,8 +13,9 @@ from scipy.stats import norm
 from tests.conftest import ROOT, error_lines
 from torlab.fit.film import fit_film_thickness
 from torlab.fit.traction import fit_layer_traction, traction_model
-from torlab.model.mixed import predict_stribeck
-from torlab.model.predict import classify_trend, predict_traction
+from torlab.model.mixed import stribeck_curve
+from torlab.model.predict import predict_stribeck, predict_traction
+from torlab.model.prediction import classify_trend
 from torlab.scene import load_scene, scene_from_dict
 from torlab.uncertainty import ParameterDistribution, propagate
 from torlab.yamlio import dump_yaml
@@ -110,8 +111,8 @@ def test_stribeck_film_band_from_a_film_fit_holds_the_true_film(tmp_path):
     h = hc_piezo(v, sc.contact.load, c.E_star, c.rx, sc.lubricant.eta0, 18e-9,
                  c.patch.b / c.patch.a)
     speeds = np.geomspace(0.01, 3.0, 25)
-    true = predict_stribeck(sc.model_copy(update={"lubricant": sc.lubricant.model_copy(
-        update={"alpha": 18e-9})}), speeds, 0.05, band=False).table
+    true = stribeck_curve(sc.model_copy(update={"lubricant": sc.lubricant.model_copy(
+        update={"alpha": 18e-9})}), speeds, 0.05).table
     inside = []
     for seed in range(6):
         res = fit_film_thickness(v, h * np.exp(0.04 * np.random.default_rng(seed).standard_normal(

@@ -121,7 +121,7 @@ def test_traction_figure_has_band_units_limits_and_measured_error_bars():
 
 
 def test_stribeck_figure_bands_and_units():
-    from torlab.model.mixed import predict_stribeck
+    from torlab.model.predict import predict_stribeck
     from torlab.reports.predict import stribeck_figure
     from torlab.reports.render import plot
     from torlab.scene import load_scene

@@ -180,13 +180,13 @@ VISC = ROOT / "sample_data" / "visc"
 def test_cli_fit_traction_dry_feeds_predict(cli, tmp_path):
     # the dry optical log is generated from the model with a known layer (truth.yaml): the
     # fitted layer, fed to predict, must reproduce the true plateau and the slope near zero
-    from torlab.model.predict import predict_traction
+    from torlab.model.traction import traction_curve
 
     scene = ROOT / "protocols" / "scenes" / "optical_paper_a_dry.yaml"
     layer = load_yaml(OPT / "truth.yaml").data["layer"]
     sc = load_scene(scene)
-    true_mu = predict_traction(sc.model_copy(update={"boundary": sc.boundary.model_copy(
-        update=layer)}), np.array([0.002, 0.1]), band=False).table["mu"].to_numpy()
+    true_mu = traction_curve(sc.model_copy(update={"boundary": sc.boundary.model_copy(
+        update=layer)}), np.array([0.002, 0.1])).table["mu"].to_numpy()
     out = tmp_path / "fit"
     r = cli("fit", "traction", scene, OPT / "dry_traction_rough.csv", "-o", out)
     assert r.exit_code == 0, r.output

@@ -116,7 +116,8 @@ def test_stribeck_with_temperature_equals_one_fastsim_call_per_speed():
     per-speed calls it replaces, on a scene where the speeds need 0-4 loop iterations
     (v = 0: boundary regime, no heating)."""
     from torlab.model.loadshare import solve_load_sharing
-    from torlab.model.mixed import _boundary, mixed_contact, predict_stribeck
+    from torlab.model.mixed import _boundary, mixed_contact
+    from torlab.model.predict import predict_stribeck
 
     sc = _hot_mixed_scene()
     v = np.r_[0.0, np.geomspace(0.01, 10.0, 12)]
@@ -266,7 +267,8 @@ def test_regression_guard_temperature_loop():
 def test_regression_guard_full_mixed_scene():
     """Boundary + EHL + asperities + temperature: a Stribeck curve (old: one FASTSIM
     call per speed) and a traction curve."""
-    from torlab.model.mixed import predict_stribeck, predict_traction_mixed
+    from torlab.model.mixed import mixed_traction_curve
+    from torlab.model.predict import predict_stribeck
 
     sc = full_mixed_scene()
     t = predict_stribeck(sc, np.geomspace(0.01, 2.0, 8), 0.05).table
@@ -278,7 +280,7 @@ def test_regression_guard_full_mixed_scene():
         t["max_temperature_C"], [22.761394041301145, 23.044353296381004, 23.379784453212018,
                                  23.716828940243463, 23.93656275938537, 23.848436922138724,
                                  23.30481529101513, 22.512097793957643], rtol=1e-9)
-    mu = predict_traction_mixed(sc, [0.001, 0.005, 0.02, 0.05]).table["mu"]
+    mu = mixed_traction_curve(sc, [0.001, 0.005, 0.02, 0.05]).table["mu"]
     np.testing.assert_allclose(mu, [0.006381073716888548, 0.024615909009184977,
                                     0.039138438683792916, 0.04514403543225885],
                                rtol=0, atol=1e-9)

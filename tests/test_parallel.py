@@ -265,7 +265,7 @@ def test_creep_table_chunks_bit_for_bit(executors):
 
 def test_band_draws_bit_for_bit(executors):
     from torlab.model.bands import _DryTractionModel
-    from torlab.model.predict import fastsim_grid, fastsim_problem
+    from torlab.model.prediction import fastsim_grid, fastsim_problem
     from torlab.scene import load_scene
     from torlab.uncertainty import MANY_BLOCK, SAMPLE_ROUND, ParameterDistribution, propagate
 
@@ -290,7 +290,7 @@ def test_band_draws_bit_for_bit(executors):
 
 def _band_problem():
     from torlab.model.bands import _DryTractionModel
-    from torlab.model.predict import fastsim_grid, fastsim_problem
+    from torlab.model.prediction import fastsim_grid, fastsim_problem
     from torlab.scene import load_scene
     from torlab.uncertainty import ParameterDistribution
 

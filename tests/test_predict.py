@@ -13,8 +13,9 @@ import pytest
 
 from tests.conftest import ROOT, error_lines, sha
 from torlab.errors import NumericalError, TorlabError
-from torlab.model.mixed import predict_stribeck, predict_traction_mixed
-from torlab.model.predict import classify_trend, predict_traction
+from torlab.model.mixed import mixed_traction_curve
+from torlab.model.predict import predict_stribeck, predict_traction
+from torlab.model.prediction import classify_trend
 from torlab.scene import load_scene, scene_from_dict
 
 SCENES = ROOT / "protocols" / "scenes"
@@ -182,7 +183,7 @@ def test_bad_creepage_option(cli, tmp_path):
 def test_full_film_skips_fastsim_and_says_so():
     sc = scene_from_dict(lubricated(kinematics={"speed": "5 m/s"},
                                     lubricant={"eta0": "0.5 Pa*s"}))
-    p = predict_traction_mixed(sc, [0.001, 0.01])
+    p = mixed_traction_curve(sc, [0.001, 0.01])
     assert "mu_boundary" not in p.table and (p.table["load_share_asperity"] == 0).all()
     assert any("boundary friction: not modelled" in m for m in p.modelled)
     np.testing.assert_allclose(p.table["mu"], p.table["mu_ehl"])
@@ -246,7 +247,7 @@ def test_smoother_surface_lowers_the_asperity_share():
 
 def test_mixed_is_the_load_weighted_mean():
     sc = scene_from_dict(lubricated())
-    p = predict_traction_mixed(sc, [-0.01, 0.0, 0.004, 0.03])
+    p = mixed_traction_curve(sc, [-0.01, 0.0, 0.004, 0.03])
     t = p.table
     s = t["load_share_asperity"]
     np.testing.assert_allclose(t["mu"], s * t["mu_boundary"] + (1 - s) * t["mu_ehl"], rtol=1e-12)
@@ -256,9 +257,9 @@ def test_mixed_is_the_load_weighted_mean():
 def test_thermal_mixed_scene_reports_temperature():
     sc = scene_from_dict(lubricated(thermal={"conductivity": 50},
                                     boundary={"mu_c1_T": -1e-3, "mu_c2_T": -1e-3}))
-    p = predict_traction_mixed(sc, [0.001, 0.02])
+    p = mixed_traction_curve(sc, [0.001, 0.02])
     assert "max_temperature_C" in p.table and (p.table["max_temperature_C"] > 20).all()
-    cold = predict_traction_mixed(scene_from_dict(lubricated()), [0.001, 0.02])
+    cold = mixed_traction_curve(scene_from_dict(lubricated()), [0.001, 0.02])
     assert np.all(p.table["mu"] <= cold.table["mu"] + 1e-12)
 
 
@@ -267,7 +268,7 @@ def test_newtonian_film_with_barus_gets_a_plausibility_note():
                                                "alpha": "25 1/GPa"},
                                     contact={"load": "200 N"}, kinematics={"speed": "2 m/s"}))
     try:
-        p = predict_traction_mixed(sc, [0.0, 0.05])
+        p = mixed_traction_curve(sc, [0.0, 0.05])
     except NumericalError as e:  # overflow is a named error
         assert "limiting" in str(e)
     else:
@@ -303,7 +304,7 @@ def test_hard_case_sweep(visc, shear):
             warnings.simplefilter("error")
             try:
                 p = predict_stribeck(sc, SPEEDS, 0.05)
-                t = predict_traction_mixed(sc, [-0.05, 0.0, 1e-4, 0.05])
+                t = mixed_traction_curve(sc, [-0.05, 0.0, 1e-4, 0.05])
             except TorlabError:
                 outcomes["named error"] += 1
                 continue

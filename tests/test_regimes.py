@@ -9,7 +9,8 @@ import pytest
 
 from tests.conftest import ROOT
 from torlab.fit.film import fit_film_thickness
-from torlab.model.mixed import predict_stribeck
+from torlab.model.mixed import stribeck_curve
+from torlab.model.predict import predict_stribeck
 from torlab.model.regimes import transition_evidence, transition_speeds
 from torlab.reports.stribeck import StribeckCurve, stribeck_section
 from torlab.scene import load_scene, scene_from_dict
@@ -32,7 +33,7 @@ def test_transition_is_where_the_load_sharing_solver_changes_its_label(name):
     just below it the solver says mixed, just above full film."""
     sc = load_scene(SCENES / f"{name}.yaml")
     v = transition_speeds(sc)["mixed_to_full_film"]
-    t = predict_stribeck(sc, [v * (1 - 1e-5), v * (1 + 1e-5)], 0.02, band=False).table
+    t = stribeck_curve(sc, [v * (1 - 1e-5), v * (1 + 1e-5)], 0.02).table
     assert list(t["regime"]) == ["mixed", "full_film"]
 
 
@@ -46,7 +47,7 @@ def test_boundary_transition_on_a_contact_whose_asperities_can_carry_the_load():
     v = transition_speeds(sc)
     vb, vf = v["boundary_to_mixed"], v["mixed_to_full_film"]
     assert vb is not None and 0 < vb < vf
-    t = predict_stribeck(sc, [vb * (1 - 1e-5), vb * (1 + 1e-5)], 0.02, band=False).table
+    t = stribeck_curve(sc, [vb * (1 - 1e-5), vb * (1 + 1e-5)], 0.02).table
     assert list(t["regime"]) == ["boundary", "mixed"]
 
 

@@ -351,7 +351,7 @@ def test_generator_friction_table_matches_the_boundary_model(layer):
     import torlab.synth.retention as R
     from torlab.model.contact import build_contact
     from torlab.model.fastsim import boundary_traction
-    from torlab.model.predict import fastsim_grid, fastsim_problem
+    from torlab.model.prediction import fastsim_grid, fastsim_problem
 
     R._LAYERS[id(layer)] = layer
     spline, _mu_dry, _x_dry = R._fine_mu(id(layer), 18.0, 1.0, 0.02)

@@ -135,15 +135,15 @@ def test_m8_elastic_asperities_underestimate_at_low_speed(shipped_run):
     """Chapter 6 (Paper A): the elastic asperity model heavily underestimates the coefficient at
     low speed and gets more accurate at higher speed (against the plastic one, which the
     synthetic Stribeck points follow)."""
-    from torlab.model.mixed import predict_stribeck
+    from torlab.model.mixed import stribeck_curve
     from torlab.scene import load_scene
 
     out, _ = shipped_run("paper_a")
     sc = load_scene(SCENES / "optical_paper_a_smooth.yaml", out / "fits" / "traction_dry.yaml")
     el = sc.model_copy(update={"roughness": sc.roughness.model_copy(update={"model": "elastic"})})
     v = np.array([0.1, 0.3, 1.0, 2.0])
-    ratio = (predict_stribeck(el, v, 0.05, band=False).table["mu"].to_numpy()
-             / predict_stribeck(sc, v, 0.05, band=False).table["mu"].to_numpy())
+    ratio = (stribeck_curve(el, v, 0.05).table["mu"].to_numpy()
+             / stribeck_curve(sc, v, 0.05).table["mu"].to_numpy())
     assert ratio[0] < 0.5                      # heavily underestimates at low speed
     assert np.all(np.diff(ratio) > 0)          # and less so as the speed rises
     assert ratio[-1] < 0.5                     # but not accurate at 2 m/s: the part not reproduced

@@ -204,7 +204,7 @@ def test_film_ratio_by_hand():
 
 # ------------------------------------------------------------------ trends of measured curves
 def test_measured_trend_without_scatter_is_not_called():
-    from torlab.model.predict import classify_trend
+    from torlab.model.prediction import classify_trend
 
     x = np.array([0.0, 0.005, 0.01, 0.02, 0.05, 0.075, 0.1])
     y = np.array([0.0, 0.2, 0.25, 0.26, 0.26, 0.262, 0.261])

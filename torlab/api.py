@@ -400,7 +400,7 @@ def predict_stribeck(scene: Any, speed: Any, creepage: Any, *, params: Any = Non
     ``speed``: ``"10 mm/s:2 m/s:50"`` or numbers (m/s); ``creepage``: ``"2 %"`` or a
     fraction; ``params`` as in :func:`predict_traction`.
     """
-    from torlab.model.mixed import predict_stribeck as _predict
+    from torlab.model.predict import predict_stribeck as _predict
     from torlab.units import to_si
 
     return _predict(_scene(scene, params), _grid(speed, "velocity", "speed"),

@@ -88,7 +88,9 @@ def _draw_cases() -> list[tuple[str, object, object, dict, str]]:
     from pathlib import Path
 
     from torlab.model.bands import _DryTractionModel, _MixedTractionModel, scene_uncertainty
-    from torlab.model.predict import fastsim_grid, fastsim_problem, predict_traction
+    from torlab.model.mixed import mixed_traction_curve
+    from torlab.model.prediction import fastsim_grid, fastsim_problem
+    from torlab.model.traction import traction_curve
     from torlab.scene import load_scene, scene_from_dict
 
     scenes = Path(__file__).resolve().parents[2] / "protocols" / "scenes"
@@ -104,9 +106,9 @@ def _draw_cases() -> list[tuple[str, object, object, dict, str]]:
                                                 "matrix": (corr * np.outer(sd, sd)).tolist()}}
     sc = scene_from_dict(d)
     xi = np.linspace(0.0, 0.1, 41)
-    t = predict_traction(sc, xi, band=False).table
+    t = traction_curve(sc, xi).table
     outs = ("mu", "film_thickness_m")
-    cases.append(("mixed", _MixedTractionModel("traction", sc, xi, None, outs),
+    cases.append(("mixed", _MixedTractionModel(mixed_traction_curve, sc, xi, (), outs),
                   scene_uncertainty(sc).dist, {k: t[k].to_numpy() for k in outs},
                   "400 draws of a 41-point mixed traction curve (Paper A rough ball, water)"))
     # Tab. 5.4 with the flash temperature and temperature coefficients
@@ -119,7 +121,7 @@ def _draw_cases() -> list[tuple[str, object, object, dict, str]]:
                                                 "matrix": cov.tolist()}}
     sc = scene_from_dict(d)
     xi = np.linspace(0.0, 0.05, 51)
-    t = predict_traction(sc, xi, band=False).table
+    t = traction_curve(sc, xi).table
     outs = ("mu", "max_temperature_C")
     cases.append(("thermal", _DryTractionModel(fastsim_problem(sc), fastsim_grid(sc), xi, outs),
                   scene_uncertainty(sc).dist, {k: t[k].to_numpy() for k in outs},
@@ -227,18 +229,19 @@ def run(quick: bool = False) -> list[BenchRow]:
     the sampled band's draws row by row and many at a time."""
     from torlab.model.bands import scene_uncertainty, traction_band
     from torlab.model.predict import predict_traction
+    from torlab.model.traction import traction_curve
 
     sc = _scene_with_fit()
     xi = np.linspace(0.0, 0.05, 101)
     su = scene_uncertainty(sc)
-    plain_table = predict_traction(sc, xi, band=False).table
+    plain_table = traction_curve(sc, xi).table
     n_ref = 150 if quick else 1500
     ra, rb = (traction_band(sc, xi, plain_table, su, method="sampling", n_samples=n_ref, seed=s)
               for s in (12345, 54321))
     ref = {k: (0.5 * (ra.low(k) + rb.low(k)), 0.5 * (ra.high(k) + rb.high(k))) for k in ra.center}
     noise = 0.5 * _edge_error(ra, {k: (rb.low(k), rb.high(k)) for k in rb.center})
     repeat = 3 if quick else 7
-    t_plain = median_time(lambda: predict_traction(sc, xi, band=False), repeat=repeat)
+    t_plain = median_time(lambda: traction_curve(sc, xi), repeat=repeat)
     t_band = median_time(lambda: predict_traction(sc, xi), repeat=repeat)
     pred = predict_traction(sc, xi)
     unit = "101-point traction curve (wheel-rail Tab. 5.4, HPT-fitted layer)"

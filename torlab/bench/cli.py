@@ -129,7 +129,7 @@ pd.DataFrame(rows).to_csv(OUT + '/summary.csv', index=False)
              ["predict", "stribeck", rough, "-o", "{out}"], f"""
 import json, numpy as np
 from torlab.scene import load_scene
-from torlab.model.mixed import predict_stribeck
+from torlab.model.predict import predict_stribeck
 p = predict_stribeck(load_scene({rough!r}), np.geomspace(0.01, 2.0, 50), 0.05)
 p.table.to_csv(OUT + '/stribeck.csv', index=False)
 json.dump(p.summary, open(OUT + '/summary.json', 'w'), default=str)

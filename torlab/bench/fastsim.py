@@ -112,7 +112,7 @@ def scene_problem(a_over_b: float | None = None, layer: bool = True,
     boundary
         Overrides of the ``boundary:`` section.
     """
-    from torlab.model.predict import fastsim_problem
+    from torlab.model.prediction import fastsim_problem
     from torlab.scene import scene_from_dict
 
     d = {k: (dict(v) if isinstance(v, dict) else v) for k, v in TAB54_SCENE.items()}

@@ -55,7 +55,7 @@ def baseline_pass_by_pass(scene, layer, k1: float, m0: float, n_passes: int,
 
     from torlab.model.contact import build_contact
     from torlab.model.fastsim import boundary_traction
-    from torlab.model.predict import fastsim_grid, fastsim_problem
+    from torlab.model.prediction import fastsim_grid, fastsim_problem
 
     contact = build_contact(scene)
     prob = fastsim_problem(scene, contact)

@@ -8,7 +8,7 @@ boundary + EHL + asperities + temperature, every part modelled):
 * ``traction 101 points``: :func:`torlab.model.predict.predict_traction` on
   creepages 0 ... 0.05 (the targets: <= 20 ms for the boundary curve,
   <= 150 ms for the full mixed scene);
-* ``stribeck 50 speeds``: :func:`torlab.model.mixed.predict_stribeck` on
+* ``stribeck 50 speeds``: :func:`torlab.model.predict.predict_stribeck` on
   0.01 ... 2 m/s at 5 % creepage (lubricated scenes);
 * the load-sharing cost per point of the Stribeck curve (``extra``);
 * the *softening scene* (the Tab. 5.4 contact with a softening layer, mu_c1 0.45 ->
@@ -85,7 +85,7 @@ def _stribeck_per_speed(scene, v: np.ndarray, default, t_default: float,
     """Baseline: a Stribeck curve with temperature computed with one FASTSIM call (and
     tau-T loop) per speed, as before the loop was vectorised across speeds.
 
-    The same work as :func:`~torlab.model.mixed.predict_stribeck` (contact, load
+    The same work as :func:`~torlab.model.mixed.stribeck_curve` (contact, load
     sharing, film traction, boundary part) without building its table, so the ratio
     slightly favours the baseline.
     """
@@ -123,8 +123,7 @@ def _stribeck_per_speed(scene, v: np.ndarray, default, t_default: float,
 
 def run(quick: bool = False) -> list[BenchRow]:
     """Time and error of the example scenes' traction and Stribeck curves."""
-    from torlab.model.mixed import predict_stribeck
-    from torlab.model.predict import predict_traction
+    from torlab.model.predict import predict_stribeck, predict_traction
 
     rows: list[BenchRow] = []
     xi = np.linspace(0.0, 0.05, 101)
@@ -141,7 +140,7 @@ def run(quick: bool = False) -> list[BenchRow]:
                                            if m.startswith("contact temperature")), "")}
         if sc.lubricant is None:
             from torlab.model.fastsim import boundary_traction
-            from torlab.model.predict import fastsim_grid, fastsim_problem
+            from torlab.model.prediction import fastsim_grid, fastsim_problem
 
             prob, grid = fastsim_problem(sc), fastsim_grid(sc)
             bl = boundary_traction(prob, xi, grid)

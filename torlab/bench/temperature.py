@@ -36,7 +36,7 @@ MU_T = -0.002
 def thermal_problem(mu_T: float = MU_T) -> FastsimProblem:
     """The Tab. 5.4 scene with ``thermal:`` and ``mu_c1_T = mu_c2_T = mu_T`` (1/K)."""
     from torlab.bench.fastsim import TAB54_SCENE
-    from torlab.model.predict import fastsim_problem
+    from torlab.model.prediction import fastsim_problem
     from torlab.scene import scene_from_dict
 
     d = {k: (dict(v) if isinstance(v, dict) else v) for k, v in TAB54_SCENE.items()}

@@ -369,7 +369,7 @@ def stribeck_cmd(
     with early_drawing(not no_plot, jobs, scheduler) as drawer:
         from torlab.cli._common import parse_values, session
         from torlab.errors import TorlabInputError
-        from torlab.model.mixed import predict_stribeck
+        from torlab.model.predict import predict_stribeck
         from torlab.outputs import OutputDir
         from torlab.scene import load_scene
 

@@ -22,6 +22,8 @@ from typing import Any
 
 import numpy as np
 
+from torlab.model.parameters import BOUNDARY_KEYS, LUBRICANT_KEYS
+
 __all__ = [
     "PARAM_UNITS",
     "FitResult",
@@ -56,9 +58,6 @@ PARAM_UNITS: dict[str, str] = {
     "kS": "-",
 }
 
-#: keys of the scene contract's ``boundary:`` and ``lubricant:`` sections
-BOUNDARY_KEYS = ("mu_c1", "mu_c2", "L_mue", "L_mup", "mu_c1_T", "mu_c2_T")
-LUBRICANT_KEYS = ("eta0", "alpha", "Z")
 
 
 def student_t(dof: float, confidence: float = 0.95) -> float:

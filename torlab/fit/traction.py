@@ -77,7 +77,8 @@ def traction_model(scene: Any) -> Any:
     """
     from torlab.model.contact import build_contact
     from torlab.model.fastsim import boundary_traction
-    from torlab.model.predict import fastsim_grid, fastsim_problem, predict_traction
+    from torlab.model.prediction import fastsim_grid, fastsim_problem
+    from torlab.model.traction import traction_curve
 
     if scene.boundary is None:
         raise TorlabInputError("the scene needs a boundary: section (its values are the fit's "
@@ -96,8 +97,7 @@ def traction_model(scene: Any) -> Any:
 
     def g(params: dict[str, float], xi: np.ndarray) -> np.ndarray:
         b = scene.boundary.model_copy(update={k: float(v) for k, v in params.items()})
-        return predict_traction(scene.model_copy(update={"boundary": b}), xi,
-                                band=False).table["mu"].to_numpy()
+        return traction_curve(scene.model_copy(update={"boundary": b}), xi).table["mu"].to_numpy()
 
     g.contact = build_contact(scene)  # type: ignore[attr-defined]
     return g

@@ -3,10 +3,11 @@
 A parameter file written by ``torlab fit`` carries the covariance of its
 estimates (``fit: covariance:``, validated by :class:`torlab.scene.FitCovariance`).
 When the scene has one, :func:`torlab.model.predict.predict_traction` and
-:func:`torlab.model.mixed.predict_stribeck` propagate it through the same model
-(:func:`torlab.uncertainty.propagate`: linearised where that is accurate,
-sampled where it is not) and add the 95 % band of ``mu`` and, where the scene
-models them, of the film thickness and the contact temperature:
+:func:`torlab.model.predict.predict_stribeck` propagate it through the same model
+(:func:`torlab.uncertainty.propagate`, which receives the model as a callable of the
+parameters: linearised where that is accurate, sampled where it is not) and add the
+95 % band of ``mu`` and, where the scene models them, of the film thickness and the
+contact temperature:
 
 =================================  =============================================
 column                             band of
@@ -20,8 +21,8 @@ column                             band of
 
 Which parameters are uncertain
 ------------------------------
-Only the scene's own keys (``boundary:``: ``mu_c1 ... mu_c2_T``;
-``lubricant:``: ``eta0``, ``alpha``, ``Z``) whose value in the scene is the
+Only the scene's own keys (:mod:`torlab.model.parameters`: ``boundary:``:
+``mu_c1 ... mu_c2_T``; ``lubricant:``: ``eta0``, ``alpha``, ``Z``) whose value in the scene is the
 value the covariance belongs to; a value that a later file (or the user)
 changed is taken as exact and the summary says so.  Parameters that cannot
 change the prediction are left out (temperature coefficients without a
@@ -49,20 +50,23 @@ draws give one by one, to round-off; a draw that fails is left out as before.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
+from torlab.model.parameters import (
+    BOUNDARY_KEYS,
+    LUBRICANT_KEYS,
+    POSITIVE,
+    TEMPERATURE_KEYS,
+    with_params,
+)
 from torlab.uncertainty import ParameterDistribution, Propagation, propagate
 
 __all__ = ["BAND_COLUMNS", "SceneUncertainty", "add_band_columns", "band_summary",
            "scene_uncertainty", "stribeck_band", "traction_band"]
-
-BOUNDARY_KEYS = ("mu_c1", "mu_c2", "L_mue", "L_mup", "mu_c1_T", "mu_c2_T")
-LUBRICANT_KEYS = ("eta0", "alpha", "Z")
-#: parameters that must stay positive: propagated as ln p
-POSITIVE = frozenset({"mu_c1", "mu_c2", "L_mue", "L_mup", "eta0", "alpha", "Z"})
 #: output -> (low column, high column) of the CSV
 BAND_COLUMNS = {"mu": ("mu_low95", "mu_high95"),
                 "film_thickness_m": ("film_thickness_low95_m", "film_thickness_high95_m"),
@@ -89,7 +93,7 @@ def _used_keys(scene: Any) -> dict[str, str]:
     keys: dict[str, str] = {}
     if scene.boundary is not None:
         for k in BOUNDARY_KEYS:
-            if k in ("mu_c1_T", "mu_c2_T") and scene.thermal is None:
+            if k in TEMPERATURE_KEYS and scene.thermal is None:
                 continue
             keys[k] = "boundary"
     lub = scene.lubricant
@@ -153,18 +157,6 @@ def scene_uncertainty(scene: Any) -> SceneUncertainty:
     return SceneUncertainty(ParameterDistribution.combine(parts[::-1]), notes, [], True)
 
 
-def _with_params(scene: Any, params: dict[str, float]) -> Any:
-    """The scene with ``boundary:`` / ``lubricant:`` values replaced (no re-validation)."""
-    b = {k: float(v) for k, v in params.items() if k in BOUNDARY_KEYS}
-    lub = {k: float(v) for k, v in params.items() if k in LUBRICANT_KEYS}
-    upd: dict[str, Any] = {}
-    if b:
-        upd["boundary"] = scene.boundary.model_copy(update=b)
-    if lub:
-        upd["lubricant"] = scene.lubricant.model_copy(update=lub)
-    return scene.model_copy(update=upd)
-
-
 def _outputs(table: Any, names: tuple[str, ...]) -> dict[str, np.ndarray]:
     return {k: table[k].to_numpy(dtype=float) for k in names if k in table}
 
@@ -174,7 +166,7 @@ def traction_band(scene: Any, creepage: np.ndarray, table: Any, su: SceneUncerta
     """Band of a traction curve (``table`` is the curve at the estimate).
 
     A dry scene evaluates FASTSIM directly with the layer replaced; a
-    lubricated one the whole mixed model (``predict_traction(..., band=False)``).
+    lubricated one the whole mixed model (:func:`torlab.model.mixed.mixed_traction_curve`).
     ``options`` go to :func:`torlab.uncertainty.propagate` (``method``,
     ``n_samples``, ``defer`` ...: with ``defer=True`` a sampled band comes back as
     the :class:`~torlab.uncertainty.PendingSampling` of its draws).
@@ -187,17 +179,21 @@ def traction_band(scene: Any, creepage: np.ndarray, table: Any, su: SceneUncerta
     if scene.lubricant is None:
         model: Any = _DryTractionModel(fastsim_problem(scene), fastsim_grid(scene), xi, outs)
     else:
-        model = _MixedTractionModel("traction", scene, xi, None, outs)
+        from torlab.model.mixed import mixed_traction_curve
+
+        model = _MixedTractionModel(mixed_traction_curve, scene, xi, (), outs)
     return propagate(model, su.dist, f0=f0, seed=seed, **options)
 
 
 def stribeck_band(scene: Any, speed: np.ndarray, creepage: float, table: Any,
                   su: SceneUncertainty, *, seed: int = 0) -> Propagation:
     """Band of a Stribeck curve (``table`` is the curve at the estimate)."""
+    from torlab.model.mixed import stribeck_curve
+
     outs = tuple(k for k in BAND_COLUMNS if k in table)
     f0 = _outputs(table, outs)
-    return propagate(_SceneModel("stribeck", scene, np.asarray(speed, dtype=float), creepage,
-                                 outs), su.dist, f0=f0, seed=seed)
+    return propagate(_SceneModel(stribeck_curve, scene, np.asarray(speed, dtype=float),
+                                 (creepage,), outs), su.dist, f0=f0, seed=seed)
 
 
 # the models of the bands: picklable objects (their draws may be evaluated on worker
@@ -241,32 +237,27 @@ class _DryTractionModel:
 
 @dataclass
 class _SceneModel:
-    """The whole prediction (``traction``: at creepages ``x``; ``stribeck``: at speeds ``x``
-    and one creepage) of the scene with the parameters replaced."""
+    """A curve of the scene with the parameters replaced: ``curve(scene, x, *args)`` (a
+    module-level physics function: :func:`torlab.model.mixed.mixed_traction_curve` at
+    creepages ``x``, :func:`torlab.model.mixed.stribeck_curve` at speeds ``x`` and one
+    creepage), its ``outs`` columns."""
 
-    kind: str
+    curve: Callable[..., Any]
     scene: Any
     x: np.ndarray
-    creepage: float | None
+    args: tuple[Any, ...]
     outs: tuple[str, ...]
 
     def __call__(self, p: dict[str, float]) -> dict[str, np.ndarray]:
-        if self.kind == "traction":
-            from torlab.model.predict import predict_traction
-
-            t = predict_traction(_with_params(self.scene, p), self.x, band=False).table
-        else:
-            from torlab.model.mixed import predict_stribeck
-
-            t = predict_stribeck(_with_params(self.scene, p), self.x, self.creepage,
-                                 band=False).table
-        return _outputs(t, self.outs)
+        return _outputs(self.curve(with_params(self.scene, p), self.x, *self.args).table,
+                        self.outs)
 
 
 @dataclass
 class _MixedTractionModel(_SceneModel):
-    """The traction curve of a lubricated scene (:class:`_SceneModel` ``traction``), which
-    also evaluates many draws in one call (:meth:`evaluate_many`)."""
+    """The traction curve of a lubricated scene (:class:`_SceneModel` of
+    :func:`~torlab.model.mixed.mixed_traction_curve`), which also evaluates many draws in
+    one call (:meth:`evaluate_many`)."""
 
     def evaluate_many(self, p: dict[str, np.ndarray]) -> tuple[dict[str, np.ndarray], list[Any]]:
         """The draws of ``p`` (``{name: (m,) array}``): those with the same lubricant
@@ -288,7 +279,7 @@ class _MixedTractionModel(_SceneModel):
         errors: list[Any] = [None] * m
         for g in range(first.size):
             idx = np.flatnonzero(inv == g)
-            scene = self.scene if not lub_keys else _with_params(
+            scene = self.scene if not lub_keys else with_params(
                 self.scene, {k: float(lub[first[g], j]) for j, k in enumerate(lub_keys)})
             try:
                 res, errs = traction_draws(scene, self.x, {k: v[idx] for k, v in layer_p.items()})

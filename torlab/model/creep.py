@@ -333,7 +333,7 @@ def creep_problem(scene: Any, contact: Any = None) -> CreepProblem:
 
     from torlab.model.contact import build_contact
     from torlab.model.kalker import C22, C23, L2, L3, ExtremeContactWarning
-    from torlab.model.predict import fastsim_problem
+    from torlab.model.prediction import fastsim_problem
 
     if scene.boundary is None:
         raise TorlabInputError("creep forces need a boundary: section (mu_c1, mu_c2, L_mue, L_mup)",
@@ -386,7 +386,7 @@ def predict_creep(scene: Any, creepage: Any, lateral: float = 0.0, spin: float =
         (``max_temperature_C`` with ``thermal:``).
     """
     from torlab.model.contact import build_contact
-    from torlab.model.predict import TractionPrediction, classify_trend
+    from torlab.model.prediction import TractionPrediction, classify_trend
 
     xi = np.atleast_1d(np.asarray(creepage, dtype=float))
     contact = build_contact(scene)

@@ -40,8 +40,8 @@ import numpy as np
 
 from torlab.errors import TorlabInputError
 
-__all__ = ["MixedContact", "StribeckPrediction", "mixed_contact", "predict_stribeck",
-           "predict_traction_mixed", "traction_draws"]
+__all__ = ["MixedContact", "StribeckPrediction", "mixed_contact", "mixed_traction_curve",
+           "stribeck_curve", "traction_draws"]
 
 #: Asperity (or film) load share below which that part is not modelled.
 SHARE_TOL = 1e-9
@@ -88,7 +88,7 @@ class StribeckPrediction:
         Key numbers for ``summary.json``.
     band
         The :class:`~torlab.uncertainty.Propagation` of the scene's fit
-        covariance (None without one).
+        covariance (None without one; set by :func:`torlab.model.predict.predict_stribeck`).
     """
 
     table: Any
@@ -241,8 +241,8 @@ def _at_scene_speed(scene: Any) -> tuple[MixedContact, Any, float, Any, float, f
     return mc, p, v, ls, share, float(ls.film_thickness)
 
 
-def predict_traction_mixed(scene: Any, creepage: Any, *, trend_tolerance: float = 0.01,
-                           as_frame: bool = True):
+def mixed_traction_curve(scene: Any, creepage: Any, *, trend_tolerance: float = 0.01,
+                         as_frame: bool = True):
     """Traction curve of a lubricated scene at the scene's speed (Eq. 5.47).
 
     Parameters
@@ -252,7 +252,7 @@ def predict_traction_mixed(scene: Any, creepage: Any, *, trend_tolerance: float 
     creepage
         Creepages (fractions), any sign.
     trend_tolerance
-        See :func:`torlab.model.predict.classify_trend`.
+        See :func:`torlab.model.prediction.classify_trend`.
 
     Returns
     -------
@@ -310,12 +310,12 @@ def predict_traction_mixed(scene: Any, creepage: Any, *, trend_tolerance: float 
 
 def traction_draws(scene: Any, creepage: Any, layers: dict[str, np.ndarray]
                    ) -> tuple[dict[str, np.ndarray], list[Any]]:
-    """The traction curve of :func:`predict_traction_mixed` for many boundary layers at once.
+    """The traction curve of :func:`mixed_traction_curve` for many boundary layers at once.
 
     The film, the load sharing and ``mu_EHL`` do not depend on the layer: they are
     computed once; FASTSIM takes every layer in one call
     (:func:`torlab.model.fastsim.boundary_traction_draws`).  Each draw gets what
-    :func:`predict_traction_mixed` gives with its layer (to round-off).
+    :func:`mixed_traction_curve` gives with its layer (to round-off).
 
     Parameters
     ----------
@@ -359,8 +359,7 @@ def traction_draws(scene: Any, creepage: Any, layers: dict[str, np.ndarray]
     out["film_thickness_m"] = np.full((m, xi.size), h)
     return out, errors
 
-def predict_stribeck(scene: Any, speed: Any, creepage: float, *, band: bool = True,
-                     seed: int = 0) -> StribeckPrediction:
+def stribeck_curve(scene: Any, speed: Any, creepage: float) -> StribeckPrediction:
     """Stribeck curve: ``mu`` against rolling speed at one creepage (Eq. 5.47).
 
     The load sharing is solved for all speeds at once (vectorised bracketed root);
@@ -377,18 +376,12 @@ def predict_stribeck(scene: Any, speed: Any, creepage: float, *, band: bool = Tr
         Rolling speeds (m/s), >= 0.
     creepage
         Creepage (fraction, SRR/100), any sign.
-    band
-        Propagate the scene's fit covariance into 95 % bands of ``mu``, the film
-        thickness and the temperature (:mod:`torlab.model.bands`; columns
-        ``mu_low95`` ...; ``band`` in the summary), and into 95 % intervals of the
-        regime transition speeds (rough surfaces; ``transitions`` in the summary,
-        :func:`torlab.model.regimes.transition_evidence`).
-    seed
-        Seed of the band's parameter draws (when it samples).
 
     Returns
     -------
     StribeckPrediction
+        Without a band (:func:`torlab.model.predict.predict_stribeck` adds the band and
+        the regime transitions with their intervals).
     """
     import pandas as pd
 
@@ -459,35 +452,5 @@ def predict_stribeck(scene: Any, speed: Any, creepage: float, *, band: bool = Tr
     if scene.boundary is not None:
         summary["boundary"] = scene.boundary.model_dump()
     summary["lubricant"] = scene.lubricant.model_dump()
-    pred = StribeckPrediction(table=table, contact=mc.contact, creepage=xi, modelled=modelled,
+    return StribeckPrediction(table=table, contact=mc.contact, creepage=xi, modelled=modelled,
                               summary=summary)
-    if band:
-        from torlab.errors import NumericalError
-        from torlab.model.bands import (
-            add_band_columns,
-            band_summary,
-            scene_uncertainty,
-            stribeck_band,
-        )
-
-        su = scene_uncertainty(scene)
-        if su.dist is not None:
-            try:
-                pred.band = stribeck_band(scene, v, xi, table, su, seed=seed)
-            except NumericalError as e:  # the uncertainty reaches where the model fails
-                su.notes.insert(0, f"no band: {e}")
-        if pred.band is not None:
-            add_band_columns(table, pred.band)
-            modelled.append(f"uncertainty: 95 % band from the fit's covariance "
-                            f"({pred.band.method} propagation of {', '.join(pred.band.names)})")
-        summary["band"] = band_summary(pred.band, su)
-        if mc.asperity is not None:  # regime transitions with their intervals
-            from torlab.model.regimes import transition_evidence
-
-            pos = v[v > 0]
-            try:
-                summary["transitions"] = transition_evidence(
-                    scene, (float(pos.min()), float(pos.max())) if pos.size else None, seed=seed)
-            except NumericalError as e:
-                summary["transitions"] = {"error": str(e)}
-    return pred

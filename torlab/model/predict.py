@@ -1,66 +1,58 @@
-"""Predictions from a scene: traction curves (and Stribeck curves, :mod:`torlab.model.mixed`).
+"""Predictions with their errors: the one place that adds bands, regime transitions and the
+model's own error to a curve.
 
-:func:`predict_traction` models only what the scene needs and says what it
-modelled:
+The physics gives a curve at the scene's values (:func:`torlab.model.traction.traction_curve`,
+:func:`torlab.model.mixed.stribeck_curve`); a prediction here adds what is known of its
+error, each stated in its summary:
 
-* a dry scene (no ``lubricant:``): Hertz + FASTSIM with the third-body layer,
-  plus the contact temperature when the scene has ``thermal:``;
-* a lubricated scene: see :mod:`torlab.model.mixed` (film, asperity load
-  sharing, FASTSIM only where the asperities carry load).
-
-The traction-curve trend after saturation (thesis H4.1) is classified by
-:func:`classify_trend`.  A scene that carries a fit's covariance (``fit:
-covariance:`` from ``torlab fit``) gets a 95 % band and a trend with the
-probability of each class (:mod:`torlab.model.bands`, :mod:`torlab.uncertainty`).
+* the **band**: a scene that carries a fit's covariance (``fit: covariance:`` from
+  ``torlab fit``) gets the 95 % band of ``mu`` (and of the film thickness and the
+  contact temperature where they are modelled), propagated through the same model
+  (:mod:`torlab.model.bands`, :mod:`torlab.uncertainty`); the traction trend after
+  saturation gets the probability of each class;
+* the **regime transitions** of a rough lubricated scene's Stribeck curve, with their
+  95 % intervals (:func:`torlab.model.regimes.transition_evidence`);
+* the **theory error**: the error of the model itself against an exact solution
+  (:func:`theory_error`; no model states one yet, and then nothing is added).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
-from torlab.model.contact import build_contact
-from torlab.model.fastsim import boundary_traction
-
-# the pieces traction predictions share live in torlab.model.prediction (torlab.model.mixed
-# uses them too, without importing this module); re-exported here under their old names
 from torlab.model.prediction import (
-    TREND_CLASSES,
     TREND_PROBABILITY,
     TREND_TOLERANCE,
     TractionPrediction,
-    _summary,
-    _temperature_note,
     classify_trend,
-    fastsim_grid,
-    fastsim_problem,
 )
+from torlab.model.traction import traction_curve
 
-__all__ = [
-    "TREND_CLASSES",
-    "TREND_PROBABILITY",
-    "TREND_TOLERANCE",
-    "TractionPrediction",
-    "classify_trend",
-    "fastsim_problem",
-    "predict_traction",
-    "predict_traction_deferred",
-]
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from torlab.model.mixed import StribeckPrediction
+    from torlab.scene import Scene
+
+__all__ = ["NO_COVARIANCE", "predict_stribeck", "predict_traction", "predict_traction_deferred",
+           "theory_error"]
 
 
-def predict_traction(scene: Any, creepage: Any, *, trend_tolerance: float = TREND_TOLERANCE,
+def predict_traction(scene: Scene, creepage: ArrayLike, *,
+                     trend_tolerance: float = TREND_TOLERANCE,
                      trend_threshold: float = TREND_PROBABILITY, band: bool = True,
                      seed: int = 0, as_frame: bool = True) -> TractionPrediction:
-    """Predict ``mu`` against creepage for a scene.
+    """Predict ``mu`` against creepage for a scene, with its band.
+
+    The curve is :func:`torlab.model.traction.traction_curve`'s; this adds its error.
 
     Parameters
     ----------
     scene
         A validated :class:`~torlab.scene.Scene`.
     creepage
-        Creepages (fractions; SRR as a fraction), any sign.
+        Creepages [-] (fractions; SRR as a fraction), any sign.
     trend_tolerance
         Relative change after saturation below which the trend is neutral
         (:data:`TREND_TOLERANCE`).
@@ -84,15 +76,10 @@ def predict_traction(scene: Any, creepage: Any, *, trend_tolerance: float = TREN
     -------
     TractionPrediction
     """
-    if scene.lubricant is not None:
-        from torlab.model.mixed import predict_traction_mixed
-
-        pred = predict_traction_mixed(scene, creepage, trend_tolerance=trend_tolerance,
-                                      as_frame=as_frame)
-    else:
-        pred = _predict_traction_dry(scene, creepage, trend_tolerance, as_frame)
+    pred = traction_curve(scene, creepage, trend_tolerance=trend_tolerance, as_frame=as_frame)
     if band:
         _attach_band(scene, pred, trend_tolerance, trend_threshold, seed)
+    _attach_theory_error(scene, pred)
     return pred
 
 
@@ -183,7 +170,7 @@ class _PendingBand:
         return self.pred
 
 
-def predict_traction_deferred(scene: Any, creepage: Any, *,
+def predict_traction_deferred(scene: Scene, creepage: ArrayLike, *,
                               trend_tolerance: float = TREND_TOLERANCE,
                               trend_threshold: float = TREND_PROBABILITY, seed: int = 0) -> Any:
     """:func:`predict_traction` (with its band) as a task whose draws others may evaluate.
@@ -195,8 +182,9 @@ def predict_traction_deferred(scene: Any, creepage: Any, *,
     every worker).  The finished prediction is the one :func:`predict_traction` gives,
     bit for bit (the same draws, blocks and arithmetic).
     """
-    pred = predict_traction(scene, creepage, trend_tolerance=trend_tolerance, band=False)
+    pred = traction_curve(scene, creepage, trend_tolerance=trend_tolerance)
     pending = _attach_band(scene, pred, trend_tolerance, trend_threshold, seed, defer=True)
+    _attach_theory_error(scene, pred)
     if pending is None:
         return pred
     from torlab.parallel import Deferred
@@ -210,33 +198,91 @@ NO_COVARIANCE = ("no band: the scene carries no fit covariance (its parameters a
                  "exact); predict with the params.yaml of a torlab fit to get one")
 
 
-def _predict_traction_dry(scene: Any, creepage: Any, trend_tolerance: float,
-                          as_frame: bool = True) -> TractionPrediction:
-    xi = np.atleast_1d(np.asarray(creepage, dtype=float))
-    if scene.boundary is None:
-        from torlab.errors import TorlabInputError
+def predict_stribeck(scene: Scene, speed: ArrayLike, creepage: float, *, band: bool = True,
+                     seed: int = 0) -> StribeckPrediction:
+    """Stribeck curve of a lubricated scene (thesis Eq. 5.47) with its band and its regime
+    transitions.
 
-        raise TorlabInputError("a dry scene (no lubricant:) needs a boundary: section "
-                               "(mu_c1, mu_c2, L_mue, L_mup)", key="boundary")
-    contact = build_contact(scene)
-    prob = fastsim_problem(scene, contact)
-    res = boundary_traction(prob, xi, fastsim_grid(scene))
-    table: Any = {"creepage": xi, "mu": res.mu, "mu_boundary": res.mu,
-                  "adhesion_fraction": res.adhesion_fraction}
-    if res.max_temperature_C is not None:
-        table["max_temperature_C"] = res.max_temperature_C
-    if as_frame:
-        import pandas as pd
+    The curve is :func:`torlab.model.mixed.stribeck_curve`'s; this adds its error.
 
-        table = pd.DataFrame(table)
-    modelled = [f"Hertz contact ({contact.patch.method})",
-                "boundary friction: FASTSIM with the third-body layer (elastic + Voce)",
-                "EHL film: not modelled (dry scene, no lubricant:)",
-                "asperity load sharing: not modelled (dry scene)"]
-    modelled.append(_temperature_note(res.temperature_loop, scene))
-    trend = classify_trend(xi, res.mu, tolerance=trend_tolerance)
-    summary = _summary(scene, contact, modelled, trend, table)
-    if res.temperature_iterations is not None:
-        summary["temperature_iterations_max"] = int(np.max(res.temperature_iterations))
-    return TractionPrediction(table=table, contact=contact, modelled=modelled, trend=trend,
-                              summary=summary)
+    Parameters
+    ----------
+    scene
+        A validated scene with ``lubricant:``.
+    speed
+        Rolling speeds [m/s], >= 0.
+    creepage
+        Creepage [-] (fraction, SRR/100), any sign.
+    band
+        Propagate the scene's fit covariance into 95 % bands of ``mu``, the film
+        thickness and the temperature (:mod:`torlab.model.bands`; columns
+        ``mu_low95`` ...; ``band`` in the summary), and into 95 % intervals of the
+        regime transition speeds (rough surfaces; ``transitions`` in the summary,
+        :func:`torlab.model.regimes.transition_evidence`).
+    seed
+        Seed of the band's parameter draws (when it samples).
+
+    Returns
+    -------
+    StribeckPrediction
+    """
+    import numpy as np
+
+    from torlab.model.mixed import stribeck_curve
+
+    pred = stribeck_curve(scene, speed, creepage)
+    if band:
+        _attach_stribeck_band(scene, pred, np.asarray(pred.table["speed_m_s"], dtype=float),
+                              seed)
+    _attach_theory_error(scene, pred)
+    return pred
+
+
+def _attach_stribeck_band(scene: Scene, pred: StribeckPrediction, v: Any, seed: int) -> None:
+    """The band of a Stribeck curve, its summary and the regime transitions with their
+    intervals (rough surfaces)."""
+    from torlab.errors import NumericalError
+    from torlab.model.bands import add_band_columns, band_summary, scene_uncertainty, stribeck_band
+
+    table, summary, xi = pred.table, pred.summary, pred.creepage
+    su = scene_uncertainty(scene)
+    if su.dist is not None:
+        try:
+            pred.band = stribeck_band(scene, v, xi, table, su, seed=seed)
+        except NumericalError as e:  # the uncertainty reaches where the model fails
+            su.notes.insert(0, f"no band: {e}")
+    if pred.band is not None:
+        add_band_columns(table, pred.band)
+        pred.modelled.append(f"uncertainty: 95 % band from the fit's covariance "
+                             f"({pred.band.method} propagation of {', '.join(pred.band.names)})")
+    summary["band"] = band_summary(pred.band, su)
+    if scene.roughness is not None:  # regime transitions with their intervals
+        from torlab.model.regimes import transition_evidence
+
+        pos = v[v > 0]
+        try:
+            summary["transitions"] = transition_evidence(
+                scene, (float(pos.min()), float(pos.max())) if pos.size else None, seed=seed)
+        except NumericalError as e:
+            summary["transitions"] = {"error": str(e)}
+
+
+# ------------------------------------------------------------------------------ theory error
+def theory_error(scene: Scene, pred: TractionPrediction | StribeckPrediction
+                 ) -> dict[str, Any] | None:
+    """The error of the model itself for this prediction, where a model states one.
+
+    The band is the error of the parameters; this is the error of the theory at exact
+    parameters (a simplified theory against an exact solution of the same contact, say
+    FASTSIM against Kalker's exact theory).  It is the hook where a model module that
+    can state such an error for a scene returns it: ``{"method": ..., "value": ...,
+    "notes": [...]}``, added to the summary as ``theory_error``.  No model states one
+    yet: None, and the summary is unchanged.
+    """
+    return None
+
+
+def _attach_theory_error(scene: Scene, pred: TractionPrediction | StribeckPrediction) -> None:
+    err = theory_error(scene, pred)
+    if err is not None:
+        pred.summary["theory_error"] = err

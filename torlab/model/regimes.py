@@ -123,9 +123,9 @@ class _TransitionModel:
     keys: tuple[str, ...]
 
     def __call__(self, p: dict[str, float]) -> dict[str, np.ndarray]:
-        from torlab.model.bands import _with_params
+        from torlab.model.parameters import with_params
 
-        v = transition_speeds(_with_params(self.scene, p))
+        v = transition_speeds(with_params(self.scene, p))
         return {k: np.asarray(math.log(v[k]) if v.get(k) else math.nan) for k in self.keys}
 
 
@@ -154,7 +154,8 @@ def transition_evidence(scene: Any, speed_range: tuple[float, float] | None = No
         or ``not resolved`` (module docstring).
     """
     from torlab.errors import NumericalError
-    from torlab.model.bands import LUBRICANT_KEYS, scene_uncertainty
+    from torlab.model.bands import scene_uncertainty
+    from torlab.model.parameters import LUBRICANT_KEYS
     from torlab.uncertainty import propagate
 
     v0 = transition_speeds(scene)

@@ -225,7 +225,7 @@ def mu_of_layers(scene: Any, layers: list[Any], creepage: Any) -> np.ndarray:
     """
     from torlab.model.contact import build_contact
     from torlab.model.fastsim import boundary_traction
-    from torlab.model.predict import fastsim_grid, fastsim_problem
+    from torlab.model.prediction import fastsim_grid, fastsim_problem
 
     Tc = (layers[0].mu_c1_T, layers[0].mu_c2_T) if layers else (0.0, 0.0)
     sc, _ = boundary_scene(scene, Tc)

@@ -18,7 +18,7 @@ costs a few dozen boundary-model evaluations, not one per pass.
 ramps over a given time and the product is removed meanwhile (thesis H4.1: the
 positive traction trends of the literature are made by removal), beside the
 steady curve at the applied amount, and classifies both trends with
-:func:`torlab.model.predict.classify_trend`.
+:func:`torlab.model.prediction.classify_trend`.
 
 Uncertainty (:func:`removal_draws`, :func:`propagate_draws`): parameter draws of
 the removal law (normal in the fit's log parameters, with their correlations)
@@ -481,7 +481,7 @@ class SweepPrediction:
         draws also ``mu_sweep_low95``, ``mu_sweep_high95``, ``mu_steady_low95``,
         ``mu_steady_high95`` (quantiles of the draws).
     trend_sweep, trend_steady
-        :func:`~torlab.model.predict.classify_trend` of both curves.
+        :func:`~torlab.model.prediction.classify_trend` of both curves.
     verdict
         One sentence: does removal turn a neutral steady curve positive?
     probability_positive
@@ -532,7 +532,7 @@ def simulate_sweep(scene: Any, layer: Any, removal: Any, amount: Any, *,
     (``solve_ivp``, RK45, step control on all parameter draws at once) on a
     table of ``mu(m, xi)`` (bilinear in ``ln m`` and the creepage).  The steady
     curve is the coefficient at the applied amount.  Both trends are
-    classified by :func:`torlab.model.predict.classify_trend`.
+    classified by :func:`torlab.model.prediction.classify_trend`.
 
     With parameter draws (``n_draws > 0``) each curve's class and the verdict
     are called only when their probability over the draws reaches
@@ -551,8 +551,7 @@ def simulate_sweep(scene: Any, layer: Any, removal: Any, amount: Any, *,
     from scipy.integrate import solve_ivp
 
     from torlab.model.contact import build_contact
-    from torlab.model.predict import classify_trend
-    from torlab.model.prediction import TREND_PROBABILITY
+    from torlab.model.prediction import TREND_PROBABILITY, classify_trend
 
     thr = TREND_PROBABILITY if trend_probability is None else float(trend_probability)
 

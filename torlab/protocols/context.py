@@ -300,7 +300,7 @@ def _predict_task(job: tuple[str, dict[str, Any], dict[str, Any]]) -> Any:
             pred.then = _CacheReady(pred.then)
             return pred
     else:
-        from torlab.model.mixed import predict_stribeck
+        from torlab.model.predict import predict_stribeck
 
         pred = predict_stribeck(sc, kw["speed"], kw["creepage"])
     return _cache_ready(pred)

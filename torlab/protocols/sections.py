@@ -5,7 +5,7 @@ and returns a :class:`torlab.reports.html.Section` built by the report modules
 (:mod:`torlab.reports.amount`, :mod:`~torlab.reports.timetest`,
 :mod:`~torlab.reports.traction`, :mod:`~torlab.reports.stribeck`); model
 curves come from :func:`torlab.model.predict.predict_traction` and
-:func:`torlab.model.mixed.predict_stribeck` through the run's cache.
+:func:`torlab.model.predict.predict_stribeck` through the run's cache.
 """
 
 from __future__ import annotations
@@ -196,7 +196,7 @@ def _measured_curves(ctx: RunContext, ci: int, c: Any) -> list[Any]:
     """The measured traction curves of one ``reports.traction.curves`` entry."""
     import pandas as pd
 
-    from torlab.model.predict import classify_trend
+    from torlab.model.prediction import classify_trend
     from torlab.reports.traction import TractionCurve
 
     cfg = ctx.p.reports.traction

@@ -1,6 +1,6 @@
 """Stribeck and film-thickness reports: μ against speed and Λ, regimes, asperity load share.
 
-Modelled curves come from :func:`torlab.model.mixed.predict_stribeck` (film
+Modelled curves come from :func:`torlab.model.predict.predict_stribeck` (film
 thickness Eq. 5.31/5.32, Greenwood-Williamson asperities, load sharing, mixed
 friction Eq. 5.47); measured points are the optical tribometer's Stribeck
 points (or MTM Stribeck steps).  A measured point is placed on the Λ axis at the

@@ -4,7 +4,7 @@ Predicted curves come from :func:`torlab.model.predict.predict_traction` on the
 protocol's scenes with the fitted parameter sets applied; measured curves are the
 optical tribometer's folded traction points (|SRR|, one curve per rolling speed)
 or MTM traction steps.  Every curve's trend after saturation is classified by
-:func:`torlab.model.predict.classify_trend` (negative / neutral / positive /
+:func:`torlab.model.prediction.classify_trend` (negative / neutral / positive /
 not saturated; thesis H4.1, Fig. 2.2).
 """
 
@@ -34,7 +34,7 @@ class TractionCurve:
     table
         DataFrame with ``creepage`` and ``mu`` (and the model's other columns).
     trend
-        :func:`~torlab.model.predict.classify_trend` of the curve.
+        :func:`~torlab.model.prediction.classify_trend` of the curve.
     source
         Scene and parameter sets, or the measured file.
     speed_m_s

@@ -183,7 +183,7 @@ def model_truth(test: OpticalTest, scene: Any, *, speeds: Any = None,
                 creepages: Any = None) -> tuple[MuFn, HFn | None, str]:
     """The truth of a Tab. 5.2 test from torlab's own model on ``scene`` (Paper A sample data).
 
-    The coefficient is the model's (:func:`torlab.model.mixed.predict_stribeck`
+    The coefficient is the model's (:func:`torlab.model.mixed.stribeck_curve`
     for a lubricated scene: film, asperity load sharing and FASTSIM, Eq. 5.47;
     FASTSIM alone for a dry one), tabulated on a grid of rolling speed (log) and
     creepage and interpolated bilinearly (odd in creepage), so the rig's servo
@@ -208,8 +208,8 @@ def model_truth(test: OpticalTest, scene: Any, *, speeds: Any = None,
     -------
     mu_fn, h_fn, description
     """
-    from torlab.model.mixed import predict_stribeck
-    from torlab.model.predict import predict_traction
+    from torlab.model.mixed import stribeck_curve
+    from torlab.model.traction import traction_curve
 
     u = np.array([c.rolling_speed_m_s for c in test.conditions], dtype=float)
     smax = max(0.01, float(np.max(np.abs([c.srr for c in test.conditions]))))
@@ -221,7 +221,7 @@ def model_truth(test: OpticalTest, scene: Any, *, speeds: Any = None,
     else:
         xs = np.asarray(creepages, float)
     if scene.lubricant is None:
-        mu_s = np.abs(predict_traction(scene, xs, band=False).table["mu"].to_numpy(dtype=float))
+        mu_s = np.abs(traction_curve(scene, xs).table["mu"].to_numpy(dtype=float))
 
         def mu_dry(U: np.ndarray, srr: np.ndarray) -> np.ndarray:
             srr = np.asarray(srr, dtype=float)
@@ -233,9 +233,9 @@ def model_truth(test: OpticalTest, scene: Any, *, speeds: Any = None,
         if speeds is None else np.asarray(speeds, float)
     grid = np.empty((us.size, xs.size))
     for j, x in enumerate(xs):
-        grid[:, j] = np.abs(predict_stribeck(scene, us, float(x), band=False)
+        grid[:, j] = np.abs(stribeck_curve(scene, us, float(x))
                             .table["mu"].to_numpy(dtype=float))
-    film = predict_stribeck(scene, us, 0.0, band=False).table["film_thickness_m"].to_numpy(float)
+    film = stribeck_curve(scene, us, 0.0).table["film_thickness_m"].to_numpy(float)
     lu, lh = np.log(us), np.log(np.maximum(film, 1e-15))
 
     def mu_wet(U: np.ndarray, srr: np.ndarray) -> np.ndarray:

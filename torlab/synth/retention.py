@@ -170,7 +170,7 @@ def _fine_mu(layer_key: int, load_N: float, speed_m_s: float, srr: float) -> tup
 
     from torlab.model.contact import build_contact
     from torlab.model.fastsim import boundary_traction
-    from torlab.model.predict import fastsim_grid, fastsim_problem
+    from torlab.model.prediction import fastsim_grid, fastsim_problem
 
     layer = _LAYERS[layer_key]
     sc = mtm_scene(load_N, speed_m_s)

@@ -1,0 +1,131 @@
+"""Traction curves of a scene: the physics, without its uncertainty.
+
+:func:`traction_curve` models only what the scene needs and says what it modelled
+(``modelled``):
+
+* a dry scene (no ``lubricant:``): Hertz + FASTSIM with the third-body layer
+  (:func:`dry_traction_curve`), plus the contact temperature when the scene has
+  ``thermal:``;
+* a lubricated scene: :func:`torlab.model.mixed.mixed_traction_curve` (film, asperity
+  load sharing, FASTSIM only where the asperities carry load).
+
+The trend after saturation (thesis H4.1) is classified on the curve alone
+(:func:`~torlab.model.prediction.classify_trend`).  The prediction with its band, the
+trend's probabilities and what else is known of its error is
+:func:`torlab.model.predict.predict_traction`, which calls this.
+
+References
+----------
+.. [1] Kalker, J. J. (1982). A fast algorithm for the simplified theory of rolling
+   contact. Vehicle System Dynamics 11(1), 1-13. https://doi.org/10.1080/00423118208968684
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from torlab.model.contact import build_contact
+from torlab.model.fastsim import boundary_traction
+from torlab.model.prediction import (
+    TREND_TOLERANCE,
+    TractionPrediction,
+    _summary,
+    _temperature_note,
+    classify_trend,
+    fastsim_grid,
+    fastsim_problem,
+)
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from torlab.scene import Scene
+
+__all__ = ["dry_traction_curve", "traction_curve"]
+
+
+def traction_curve(scene: Scene, creepage: ArrayLike, *,
+                   trend_tolerance: float = TREND_TOLERANCE,
+                   as_frame: bool = True) -> TractionPrediction:
+    """Predicted ``mu`` against creepage for a scene, without a band.
+
+    Parameters
+    ----------
+    scene
+        A validated :class:`~torlab.scene.Scene`.
+    creepage
+        Creepages [-] (fractions; SRR as a fraction), any sign.
+    trend_tolerance
+        Relative change after saturation below which the trend is neutral
+        (:data:`~torlab.model.prediction.TREND_TOLERANCE`).
+    as_frame
+        ``table`` as a pandas DataFrame (default); False: a dict of numpy columns
+        (no pandas import).
+
+    Returns
+    -------
+    TractionPrediction
+        ``band`` is None; the summary has no ``band`` entry.
+    """
+    if scene.lubricant is not None:
+        from torlab.model.mixed import mixed_traction_curve
+
+        return mixed_traction_curve(scene, creepage, trend_tolerance=trend_tolerance,
+                                    as_frame=as_frame)
+    return dry_traction_curve(scene, creepage, trend_tolerance=trend_tolerance,
+                              as_frame=as_frame)
+
+
+def dry_traction_curve(scene: Scene, creepage: ArrayLike, *,
+                       trend_tolerance: float = TREND_TOLERANCE,
+                       as_frame: bool = True) -> TractionPrediction:
+    """Traction curve of a dry scene: Hertz contact and FASTSIM with the third-body layer
+    (thesis 5.2.2, Eqs. 5.26-5.29), with the flash temperature under ``thermal:``.
+
+    Parameters
+    ----------
+    scene
+        A validated scene without ``lubricant:`` (with ``boundary:``).
+    creepage
+        Creepages [-] (fractions), any sign.
+    trend_tolerance
+        See :func:`~torlab.model.prediction.classify_trend`.
+    as_frame
+        ``table`` as a pandas DataFrame; False: a dict of numpy columns.
+
+    Returns
+    -------
+    TractionPrediction
+        ``creepage`` [-], ``mu`` [-], ``mu_boundary`` [-], ``adhesion_fraction`` [-]
+        (and ``max_temperature_C`` [°C] with ``thermal:``); no band.
+    """
+    xi = np.atleast_1d(np.asarray(creepage, dtype=float))
+    if scene.boundary is None:
+        from torlab.errors import TorlabInputError
+
+        raise TorlabInputError("a dry scene (no lubricant:) needs a boundary: section "
+                               "(mu_c1, mu_c2, L_mue, L_mup)", key="boundary")
+    contact = build_contact(scene)
+    prob = fastsim_problem(scene, contact)
+    res = boundary_traction(prob, xi, fastsim_grid(scene))
+    table: Any = {"creepage": xi, "mu": res.mu, "mu_boundary": res.mu,
+                  "adhesion_fraction": res.adhesion_fraction}
+    if res.max_temperature_C is not None:
+        table["max_temperature_C"] = res.max_temperature_C
+    if as_frame:
+        import pandas as pd
+
+        table = pd.DataFrame(table)
+    modelled = [f"Hertz contact ({contact.patch.method})",
+                "boundary friction: FASTSIM with the third-body layer (elastic + Voce)",
+                "EHL film: not modelled (dry scene, no lubricant:)",
+                "asperity load sharing: not modelled (dry scene)"]
+    modelled.append(_temperature_note(res.temperature_loop, scene))
+    trend = classify_trend(xi, res.mu, tolerance=trend_tolerance)
+    summary = _summary(scene, contact, modelled, trend, table)
+    if res.temperature_iterations is not None:
+        summary["temperature_iterations_max"] = int(np.max(res.temperature_iterations))
+    return TractionPrediction(table=table, contact=contact, modelled=modelled, trend=trend,
+                              summary=summary)
