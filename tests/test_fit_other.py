@@ -167,9 +167,10 @@ def test_cli_failed_fit_writes_nothing(cli, tmp_path):
 def test_cli_fit_film_ehd2(cli, tmp_path):
     r = cli("fit", "film", REAL_PCS / "demo_3.txt", "--min-speed", "50 mm/s", "-o", tmp_path / "f")
     assert r.exit_code == 0, r.output
-    # one fit per film step, named by the step's temperature (README: 40.2 °C and 100.7 °C)
+    # one fit per film step, named by the step's temperature (README: 40.2 °C and 100.7 °C),
+    # and the temperature scaling of the two
     assert sorted(p.parent.name for p in (tmp_path / "f").glob("*/params.yaml")) == \
-        ["100.7C", "40.2C"]
+        ["100.7C", "40.2C", "temperature"]
 
 
 OPT = ROOT / "sample_data" / "optical"

@@ -383,6 +383,9 @@ def film_cmd(
                                                   "'50 mm/s'.")] = None,
     joint: Annotated[bool, typer.Option("--joint", help="One fit to all curves together "
                                         "(repeats at one temperature).")] = False,
+    reference_speed: Annotated[str | None, typer.Option(
+        help="Speed at which curves at different temperatures are compared (default: the "
+        "geometric centre of the speed range they share), e.g. '300 mm/s'.")] = None,
     force: ForceOpt = False,
     xlsx: XlsxOpt = False,
     formats: FormatsOpt = None,
@@ -390,7 +393,9 @@ def film_cmd(
     """Speed exponent of the film (Hamrock-Dowson predicts 0.67, Eq. 5.32) and, with a scene,
     the effective pressure-viscosity coefficient alpha.  Every film curve gets its own fit
     (a sub-folder each, named by file and, for EHD2 film steps, by temperature, and
-    fit_summary.csv); --joint fits all curves together."""
+    fit_summary.csv); --joint fits all curves together.  Curves at two or more temperatures
+    also give the film's temperature scaling at one speed (temperature/: d ln h/dT, the
+    speed exponents compared)."""
     import numpy as np
 
     from torlab.fit.film import fit_film_thickness
@@ -404,26 +409,91 @@ def film_cmd(
     vmin = None if min_speed is None else check_range(
         "speed", to_si(min_speed, "velocity", where="--min-speed"), where="--min-speed")
     sc = load_scene(scenes[0]) if scenes else None
-    groups = [(f, label, v, h) for f in files
-              for label, v, h in (loaded[f] if f in loaded else film_data(f))]
+    vref = None if reference_speed is None else check_range(
+        "speed", to_si(reference_speed, "velocity", where="--reference-speed"),
+        where="--reference-speed")
+    groups = [(f, label, v, h, temp) for f in files
+              for label, v, h, temp in (loaded[f] if f in loaded else film_data(f))]
     if joint:
         groups = [(files[0], "", np.concatenate([g[2] for g in groups]),
-                   np.concatenate([g[3] for g in groups]))]
+                   np.concatenate([g[3] for g in groups]), None)]
     names: list[str] = []
     fits = []
-    for f, label, v, h in groups:
+    temps = []
+    for f, label, v, h, temp in groups:
         r = fit_film_thickness(v, h, scene=sc, min_speed=vmin)
         r.meta["source"] = ", ".join(x.name for x in files) if joint else \
             f"{f.name}{'' if not label else f' {label}'}"
+        if temp is not None:
+            r.meta["temperature_C"] = float(temp)
         tag = label.replace(" °C", "C").replace(" ", "_")
         fits.append((_stem(tag if len(files) == 1 and tag else
                            f"{f.stem}_{tag}" if tag else f.stem, names), r))
+        temps.append(temp)
+    scaling, why_not = _film_scaling(fits, temps, vref)
     dest = OutputDir(out, force=force, inputs=[*files, *scenes], command=command_line())
     with dest:
-        what = write_fits(dest, fits, "Film thickness", xlsx=xlsx, formats=formats)
+        what = write_fits(dest, fits, "Film thickness", xlsx=xlsx and scaling is None,
+                          formats=formats)
+        if scaling is not None:
+            write_fit(dest, scaling, "temperature", formats=formats,
+                      title="Film thickness at one rolling speed against temperature: "
+                            f"{files[0].name if len(files) == 1 else f'{len(files)} files'}")
+            what += ", temperature/ (the temperature scaling)"
+            if xlsx:
+                what = _film_xlsx(dest, fits, scaling, what)
     for _, r in fits:
         print_fit(r, f"Film fit: {r.meta['source']}")
+    if scaling is not None:
+        _print_film_scaling(scaling)
+    elif why_not:
+        console().print(f"[yellow]note:[/yellow] {why_not}")
     console().print(f"wrote {what} to {out}")
+
+
+def _film_scaling(fits: list[tuple[str, Any]], temps: list[float | None],
+                  vref: float | None) -> tuple[Any, str]:
+    """The temperature scaling of film curves at two or more temperatures (None and why
+    not otherwise: one curve, a curve without a temperature, temperatures within 2 K)."""
+    from torlab.fit.film import fit_film_temperature
+
+    if len(fits) < 2:
+        return None, ""
+    if any(t is None for t in temps):
+        return None, "no temperature scaling: not every film curve states its temperature"
+    if min(abs(a - b) for i, a in enumerate(temps) for b in temps[i + 1:]) < 2.0:
+        return None, ("no temperature scaling: two curves are within 2 K of each other "
+                      "(repeats at one temperature: fit them with --joint)")
+    r = fit_film_temperature([f for _, f in fits], temps, reference_speed=vref)
+    r.meta["source"] = ", ".join(f.meta.get("source", n) for n, f in fits)
+    return r, ""
+
+
+def _film_xlsx(dest: Any, fits: list[tuple[str, Any]], scaling: Any, what: str) -> str:
+    """``tables.xlsx`` of the film fits and their temperature scaling."""
+    sheets: dict[str, Any] = {}
+    for name, r in fits:
+        sheets.update({f"{name}_fit_table": r.table(), f"{name}_fit_data": r.data})
+    sheets.update({"temperature_fit_table": scaling.table(),
+                   "temperature_fit_data": scaling.data})
+    dest.write_xlsx("tables.xlsx", sheets)
+    return what + ", tables.xlsx"
+
+
+def _print_film_scaling(r: Any) -> None:
+    """The temperature scaling's parameters and the speed exponents compared."""
+    m = r.meta
+    print_fit(r, f"Film temperature scaling at {m['reference_speed_m_s']:.3g} m/s")
+    e = m["speed_exponents"]
+    c = console()
+    c.print(f"speed exponents {', '.join(f'{v:.3f}' for v in e['values'])}: one common "
+            f"exponent {'rejected' if e['p_one_exponent'] < 0.05 else 'not rejected'} "
+            f"(chi-squared {e['chi2_one_exponent']:.3g} on {e['dof']} dof, p = "
+            f"{e['p_one_exponent']:.2g}); Hamrock-Dowson's 0.67 outside the 95 % interval at "
+            f"{', '.join(e['hamrock_dowson_outside_interval_at']) or 'no temperature'}")
+    ratio = ", ".join(f"{t} degC {v:.3g}" for t, v in m["viscosity_ratio_if_alpha_constant"]
+                      .items())
+    c.print(f"resolvable: {m['resolvable']}; eta0(T)/eta0(T_ref) if alpha is constant: {ratio}")
 
 
 @app.command("visc")

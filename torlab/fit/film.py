@@ -11,6 +11,16 @@
   average: ``ln h_i - ln hc(v_i; alpha_1) = 0.53 ln(alpha / alpha_1)`` for any
   reference ``alpha_1``, so ``ln alpha`` is a mean with a Student-t interval.
 
+Temperature scaling (:func:`fit_film_temperature`): from one such fit per
+temperature, the film at a reference speed inside every curve's range,
+``ln h(v_ref; T) = ln h(v_ref; T_ref) + b (T - T_ref)``, by weighted least squares
+with each fit's own variance of ``ln h(v_ref)``.  In Hamrock-Dowson's formula the
+film depends on the lubricant only through ``eta0^0.67 alpha^0.53`` (``U`` and
+``G``); at one contact, load and speed ``b = 0.67 d ln eta0/dT + 0.53 d ln alpha/dT``
+is what the data resolve, without the contact's geometry or materials, and without
+the ambient viscosity.  The speed exponents of the temperatures are compared in the
+same result (a chi-squared test of one common exponent).
+
 Intervals are Student-t with ``n - 2`` (exponent) and ``n - 1`` (alpha) degrees
 of freedom from the scatter about the fitted line; the prefactor and ``alpha``
 are positive and get log-scale intervals.  A scatter proportional to ``h`` is
@@ -34,7 +44,7 @@ from torlab.fit._noise import linear_least_squares
 from torlab.fit.result import FitResult, student_t
 from torlab.threads import small_problem
 
-__all__ = ["HD_SPEED_EXPONENT", "fit_film_thickness"]
+__all__ = ["HD_SPEED_EXPONENT", "fit_film_temperature", "fit_film_thickness"]
 
 #: Hamrock-Dowson exponents of U and G (Eq. 5.32)
 HD_SPEED_EXPONENT = 0.67
@@ -195,3 +205,147 @@ def _effective_alpha(scene: Any, v: np.ndarray, h: np.ndarray, weights: np.ndarr
     ln_alpha = math.log(_ALPHA_REF) + mean / HD_G_EXPONENT
     se_ln = math.sqrt(s2 * float(np.sum(w))) / n / HD_G_EXPONENT
     return math.exp(ln_alpha), se_ln, n - 1, d
+
+
+@small_problem  # one BLAS thread: small matrices (torlab.threads)
+def fit_film_temperature(fits: Any, temperatures_C: Any, *,
+                         reference_speed: float | None = None) -> FitResult:
+    """Temperature scaling of the film from one film fit per temperature.
+
+    Parameters
+    ----------
+    fits
+        :class:`FitResult` of :func:`fit_film_thickness`, one per temperature (at
+        least two, at temperatures at least 2 K apart).
+    temperatures_C
+        Their temperatures (degC).
+    reference_speed
+        Speed (m/s) at which the films are compared; default the geometric centre of
+        the speed range every fit covers.
+
+    Returns
+    -------
+    FitResult
+        ``kind="film_temperature"``: ``film_at_reference`` (m, the film at the
+        reference speed and the lowest temperature) and
+        ``film_temperature_coefficient`` (1/K, ``d ln h / dT`` at the reference
+        speed; Hamrock-Dowson: ``0.67 d ln eta0/dT + 0.53 d ln alpha/dT``).  Intervals
+        from the fits' own variances (normal quantiles), widened by the Birge
+        ratio ``sqrt(chi2 / (k - 2))`` with Student-t on ``k - 2`` degrees of freedom
+        when the films scatter more about the line than their variances say.
+        ``meta["speed_exponents"]`` compares the exponents: their weighted mean,
+        chi-squared against one common exponent, its p-value, and Hamrock-Dowson's
+        0.67 against each interval.  ``meta["viscosity_ratio_if_alpha_constant"]``
+        is ``eta0(T) / eta0(T_ref) = exp(b (T - T_ref) / 0.67)`` at each temperature,
+        which holds only where alpha does not change with temperature.
+
+    Raises
+    ------
+    TorlabInputError
+        Fewer than two fits, temperatures closer than 2 K, no common speed range
+        (give ``reference_speed``), a fit without a covariance.
+    """
+    import pandas as pd
+
+    from torlab._stats import chi2_sf
+
+    fits = list(fits)
+    T = np.asarray(temperatures_C, dtype=float).ravel()
+    if len(fits) < 2 or T.size != len(fits):
+        raise TorlabInputError("temperature scaling: needs one film fit per temperature, at "
+                               "least two")
+    if not np.all(np.isfinite(T)) or np.min(np.diff(np.sort(T))) < 2.0:
+        raise TorlabInputError("temperature scaling: the curves' temperatures must differ by "
+                               f"at least 2 K (got {', '.join(f'{t:.1f}' for t in T)} degC)")
+    lo = max(float(f.meta["speed_range_m_s"][0]) for f in fits)
+    hi = min(float(f.meta["speed_range_m_s"][1]) for f in fits)
+    if reference_speed is None:
+        if not lo < hi:
+            raise TorlabInputError("temperature scaling: the curves share no speed range; give "
+                                   "the reference speed", key="reference_speed")
+        v_ref = math.sqrt(lo * hi)
+    else:
+        v_ref = float(reference_speed)
+        if not (math.isfinite(v_ref) and v_ref > 0):
+            raise TorlabInputError(f"must be a positive speed, got {reference_speed!r}",
+                                   key="reference_speed")
+    x = math.log(v_ref)
+    y, var, n_exp, n_se, n_ci = [], [], [], [], []
+    for f in fits:
+        cov = np.asarray(f.covariance, dtype=float)
+        C, n = f.params["film_prefactor"], f.params["speed_exponent"]
+        # (exponent, C) -> (exponent, ln C): the prefactor's row and column over C
+        J = np.diag([1.0, 1.0 / C])
+        c2 = J @ cov[:2, :2] @ J
+        g = np.array([x, 1.0])
+        y.append(math.log(C) + n * x)
+        var.append(float(g @ c2 @ g))
+        n_exp.append(n)
+        n_se.append(f.stderr["speed_exponent"])
+        n_ci.append(f.ci95["speed_exponent"])
+    y, var = np.array(y), np.array(var)
+    if not np.all(np.isfinite(var) & (var > 0)):
+        raise TorlabInputError("temperature scaling: every film fit needs a finite covariance")
+    k = T.size
+    T_ref = float(np.min(T))
+    X = np.column_stack((np.ones(k), T - T_ref))
+    W = 1.0 / var
+    A = X.T @ (X * W[:, None])
+    cov = np.linalg.inv(A)
+    coef = cov @ (X.T @ (W * y))
+    r = y - X @ coef
+    chi2 = float(np.sum(W * r**2))
+    birge = math.sqrt(chi2 / (k - 2)) if k > 2 else float("nan")
+    scaled = k > 2 and birge > 1.0
+    if scaled:
+        cov = cov * birge**2
+    dof = k - 2 if scaled else 10**6
+    # exponents: one common exponent?
+    w = 1.0 / np.square(n_se)
+    n_bar = float(np.sum(w * n_exp) / np.sum(w))
+    chi2_n = float(np.sum(w * (np.asarray(n_exp) - n_bar) ** 2))
+    p_n = float(chi2_sf(chi2_n, k - 1))
+    h_ref = np.exp(y)
+    h_mod = np.exp(X @ coef)
+    data = pd.DataFrame({"temperature_C": T, "film_thickness_measured_m": h_ref,
+                         "film_thickness_model_m": h_mod, "film_thickness_se_ln": np.sqrt(var),
+                         "residual_m": h_ref - h_mod, "residual_ln": r,
+                         "speed_exponent": n_exp, "speed_exponent_stderr": n_se})
+    b = float(coef[1])
+    names = ("film_at_reference", "film_temperature_coefficient")
+    values = np.array([math.exp(coef[0]), b])
+    jac = np.diag([values[0], 1.0])
+    warnings = []
+    if scaled:
+        warnings.append(f"the films at {v_ref:.3g} m/s scatter {birge:.2g} times more about an "
+                        "exponential in temperature than the fits' own errors: intervals widened "
+                        f"by that factor, Student-t on {k - 2} degree(s) of freedom")
+    if p_n < 0.05:
+        warnings.append(f"the speed exponents differ between the temperatures (chi-squared "
+                        f"{chi2_n:.3g} on {k - 1} dof, p = {p_n:.2g}): the film's temperature "
+                        "scaling depends on the reference speed")
+    outside = [f"{t:.1f} degC" for t, ci in zip(T, n_ci, strict=True)
+               if not (ci[0] <= HD_SPEED_EXPONENT <= ci[1])]
+    meta = {
+        "method": ("weighted least squares of ln h(v_ref) on T, weights the film fits' own "
+                   "variances at v_ref" + (" (widened by the Birge ratio)" if scaled else "")),
+        "reference_speed_m_s": v_ref, "reference_temperature_C": T_ref,
+        "common_speed_range_m_s": [lo, hi] if lo < hi else None,
+        "chi2": chi2, "birge_ratio": birge if k > 2 else None,
+        "speed_exponents": {
+            "values": [float(v) for v in n_exp], "stderr": [float(v) for v in n_se],
+            "weighted_mean": n_bar, "chi2_one_exponent": chi2_n, "dof": k - 1,
+            "p_one_exponent": p_n, "hamrock_dowson": HD_SPEED_EXPONENT,
+            "hamrock_dowson_outside_interval_at": outside},
+        "viscosity_ratio_if_alpha_constant": {
+            f"{t:.1f}": math.exp(b * (t - T_ref) / HD_SPEED_EXPONENT) for t in T},
+        "resolvable": ("b = 0.67 d ln eta0/dT + 0.53 d ln alpha/dT (Hamrock-Dowson); eta0 and "
+                       "alpha apart, and their values, need the lubricant's viscosity"),
+    }
+    return FitResult.from_covariance(
+        "film_temperature", names, values, jac @ cov @ jac, dof=int(min(dof, 10**6)),
+        param_dof=[dof, dof], log_scale=("film_at_reference",),
+        residual_norm=float(np.sqrt(np.mean((h_ref - h_mod) ** 2))), n_points=int(k),
+        warnings=warnings, data=data, meta=meta, residual_unit="m", n_evaluations=1,
+        x_column="temperature_C", y_column="film_thickness_measured_m")
+

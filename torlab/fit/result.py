@@ -47,6 +47,8 @@ PARAM_UNITS: dict[str, str] = {
     "Z": "-",
     "speed_exponent": "-",
     "film_prefactor": "m",
+    "film_at_reference": "m",
+    "film_temperature_coefficient": "1/K",
     "rig_compliance": "m/Pa",
     "mu_c1_Tref": "-",
     "mu_c2_Tref": "-",

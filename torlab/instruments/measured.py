@@ -147,15 +147,18 @@ def traction_data(path: Path) -> tuple[Any, Any, str]:
     return numbers(df, xc, path), numbers(df, yc, path), ""
 
 
-def film_data(path: Path) -> list[tuple[str, Any, Any]]:
-    """``(label, speed, film thickness)`` of every film curve: an instrument file (EHD2 film
-    steps labelled by temperature, an optical log) or a CSV with speed_m_s (or
-    rolling_speed_m_s) and film_thickness_m."""
+def film_data(path: Path) -> list[tuple[str, Any, Any, float | None]]:
+    """``(label, speed, film thickness, temperature or None)`` of every film curve: an
+    instrument file (EHD2 film steps labelled by temperature, an optical log) or a CSV with
+    speed_m_s (or rolling_speed_m_s) and film_thickness_m (and optionally temperature_C or
+    lube_temperature_C, its mean the curve's temperature)."""
     if detected(path):
         from torlab.instruments import reduce_file
 
         curves = reduce_file(path).film_curves()
-        return [(c.label if len(curves) > 1 else "", c.x, c.y) for c in curves]
+        return [(c.label if len(curves) > 1 else "", c.x, c.y, c.temperature_C) for c in curves]
     df, (vc, hc) = read_csv(path, (("speed_m_s", "rolling_speed_m_s"), ("film_thickness_m",)),
                              "film thickness")
-    return [("", numbers(df, vc, path), numbers(df, hc, path))]
+    tc = next((c for c in ("temperature_C", "lube_temperature_C") if c in df), None)
+    temp = None if tc is None else float(numbers(df, tc, path).mean())
+    return [("", numbers(df, vc, path), numbers(df, hc, path), temp)]

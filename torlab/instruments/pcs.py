@@ -206,13 +206,15 @@ def stribeck_curves(red: Reduction) -> list[Curve]:
 
 
 def film_curves(red: Reduction) -> list[Curve]:
-    """One film-thickness curve per film step, labelled by its temperature."""
+    """One film-thickness curve per film step, labelled by its temperature (rows of a
+    fringe-order misassignment left out: :func:`torlab.reduce.mtm.film_order_outliers`)."""
     d = red.detail.curves.get("film")
     if d is None or "film_thickness_m" not in d:
         return []
     out = []
+    good = ~d["interference_order_outlier"] if "interference_order_outlier" in d else True
     for st in dict.fromkeys(d["step"].tolist()):
-        sub = d[(d["step"] == st) & d["film_thickness_m"].notna()]
+        sub = d[(d["step"] == st) & d["film_thickness_m"].notna() & good]
         if len(sub):
             out.append(Curve(str(sub["label"].iloc[0]), sub["rolling_speed_m_s"].to_numpy(dtype=float),
                              sub["film_thickness_m"].to_numpy(dtype=float),

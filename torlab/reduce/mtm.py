@@ -531,6 +531,11 @@ def reduce_pcs(df: Any, meta: PcsMetadata, *, time_tests: bool = True,
         for c in logged:
             cur[c] = sub[c].to_numpy()
         cur["line"] = sub["line"].to_numpy()
+        if kind == "film":
+            bad = film_order_outliers(sub)
+            if bad.any():
+                cur["interference_order_outlier"] = bad
+                notes.append(_order_note(st.number, label, sub, bad))
         parts.setdefault(kind, []).append(pd.DataFrame(cur))
         xcols.setdefault(kind, []).append(x)
         rows.append(_step_row(meta, st, kind, label, x, sub, m))
@@ -571,6 +576,9 @@ def reduce_pcs(df: Any, meta: PcsMetadata, *, time_tests: bool = True,
         if not x or not y:
             notes.append(f"{kind} steps: no {'x' if not x else 'y'} column, no curve")
             continue
+        if "interference_order_outlier" in cdf:
+            cdf["interference_order_outlier"] = cdf["interference_order_outlier"].astype(
+                "boolean").fillna(False).astype(bool)
         keep = cdf[x].notna() & cdf[y].notna()
         if not keep.all():
             lost = ~keep.to_numpy()
@@ -585,6 +593,66 @@ def reduce_pcs(df: Any, meta: PcsMetadata, *, time_tests: bool = True,
     steps = steps[[c for c in steps.columns if steps[c].dtype == object or steps[c].notna().any()]]
     return PcsReduction(meta=meta, curves=curves, steps=steps, time_tests=tts, mu_source=src,
                         curve_x=curve_x, curve_y=curve_y, notes=notes)
+
+
+#: a film reading more than this factor off a reading of the step's usual interference
+#: order, on the wrong side of it for its speed, is a fringe-order misassignment
+ORDER_JUMP = 2.0
+
+
+def film_order_outliers(sub: Any) -> np.ndarray:
+    """Rows of an EHD2 film step whose film is a fringe-order misassignment.
+
+    The EHD2 finds the film from the wavelength of an interference peak and its order;
+    the order changes legitimately as the film grows (a thicker film at a higher
+    order), but a misassigned order shifts the film by a whole fringe (about 200 nm at
+    order 3-4).  A row is flagged when its order is not the step's most common one *and*
+    its film breaks the film's rise with speed by more than :data:`ORDER_JUMP` against a
+    row of the common order: more than twice the film at a faster speed, or less than
+    half the film at a slower one.  A row at another order that continues the curve (the
+    thick films of ``demo_3.txt``) is not flagged.
+
+    Returns
+    -------
+    numpy.ndarray
+        Boolean mask over the rows of ``sub`` (all False without the columns).
+    """
+    n = len(sub)
+    if "interference_order" not in sub or "film_thickness_m" not in sub \
+            or "rolling_speed_m_s" not in sub:
+        return np.zeros(n, dtype=bool)
+    order = sub["interference_order"].to_numpy(dtype=float)
+    h = sub["film_thickness_m"].to_numpy(dtype=float)
+    v = sub["rolling_speed_m_s"].to_numpy(dtype=float)
+    ok = np.isfinite(order) & np.isfinite(h) & np.isfinite(v) & (h > 0)
+    if ok.sum() < 3:
+        return np.zeros(n, dtype=bool)
+    vals, counts = np.unique(order[ok], return_counts=True)
+    common = vals[np.argmax(counts)]
+    ref = ok & (order == common)
+    out = np.zeros(n, dtype=bool)
+    for i in np.nonzero(ok & (order != common))[0]:
+        faster = ref & (v > v[i])
+        slower = ref & (v < v[i])
+        out[i] = bool((faster.any() and h[i] > ORDER_JUMP * np.min(h[faster]))
+                      or (slower.any() and h[i] < np.max(h[slower]) / ORDER_JUMP))
+    return out
+
+
+def _order_note(step: int, label: str, sub: Any, bad: np.ndarray) -> str:
+    """The note on a film step's fringe-order misassignments."""
+    order = sub["interference_order"].to_numpy(dtype=float)
+    vals, counts = np.unique(order[np.isfinite(order)], return_counts=True)
+    common = vals[np.argmax(counts)]
+    h = sub["film_thickness_m"].to_numpy(dtype=float)[bad] * 1e9
+    v = sub["rolling_speed_m_s"].to_numpy(dtype=float)[bad] * 1e3
+    orders = ", ".join(f"{o:g}" for o in sorted(set(order[bad])))
+    return (f"film step {step} ({label}): {int(bad.sum())} row(s) ({_lines(sub, bad)}; "
+            f"{v.min():.0f}-{v.max():.0f} mm/s, {h.min():.1f}-{h.max():.1f} nm) at interference "
+            f"order {orders} where the step's others are at {common:g}, breaking the film's rise "
+            f"with speed by more than a factor {ORDER_JUMP:g}: a fringe-order misassignment, "
+            "left out of the film curves and fits (kept in the table: "
+            "interference_order_outlier)")
 
 
 #: a film step whose rows all slide less than this (|SRR|, fraction) is at pure rolling

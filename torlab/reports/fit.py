@@ -18,6 +18,9 @@ _LAYOUT: dict[str, tuple[str, str, float, str, str, str, float, str, bool]] = {
                     "limits μc1, μc2 (–)", 1.0, "residual_mu_c2", False),
     "film": ("speed_m_s", "rolling speed v (m/s)", 1.0, "film_thickness_measured_m",
              "film_thickness_model_m", "central film thickness h (nm)", 1e9, "residual_m", True),
+    "film_temperature": ("temperature_C", "temperature T (°C)", 1.0, "film_thickness_measured_m",
+                         "film_thickness_model_m", "film thickness h(v_ref) (nm)", 1e9,
+                         "residual_m", False),
     "viscosity": ("pressure_Pa", "pressure p (MPa)", 1e-6, "viscosity_measured_Pa_s",
                   "viscosity_model_Pa_s", "viscosity η (mPa·s)", 1e3, "residual_ln_eta", False),
     "polach": ("creepage", "creepage ξ (%)", 100.0, "mu_torlab", "mu_polach",
@@ -25,6 +28,7 @@ _LAYOUT: dict[str, tuple[str, str, float, str, str, str, float, str, bool]] = {
 }
 _RES_LABEL = {"layer_hpt": ("residual (MPa)", 1e-6), "layer_traction": ("residual μ (–)", 1.0),
               "temperature": ("residual μ (–)", 1.0), "film": ("residual (nm)", 1e9),
+              "film_temperature": ("residual (nm)", 1e9),
               "viscosity": ("residual ln η (–)", 1.0), "polach": ("Polach − torlab (–)", 1.0)}
 #: legend names of the data and the model where they are not a measurement and a model
 _LEGEND = {"polach": ("torlab", "Polach"), "temperature": ("μc2 measured", "μc2 model")}
@@ -35,6 +39,7 @@ KIND_TITLES = {"layer_hpt": "Third-body layer from HPT tests",
                "layer_traction": "Third-body layer from a traction curve",
                "temperature": "Temperature coefficients of the layer",
                "film": "Film thickness against rolling speed",
+               "film_temperature": "Film thickness at one rolling speed against temperature",
                "viscosity": "Viscosity against pressure",
                "polach": "Polach's law against torlab's creep forces",
                "amount_crossing": "Friction against applied amount",
@@ -77,7 +82,9 @@ def fit_figure(result: Any, title: str | None = None,
         ms, alpha = (2.0, 0.55) if dense else (4.5, 1.0)
         ax.plot(x, sub[ym].to_numpy() * yf, "o", ms=ms, mew=0, alpha=alpha, color=c,
                 label=f"{data_name}{lab}")
-        if model_curve is None or g is not None:
+        if result.kind == "film_temperature":
+            pass  # the fitted exponential on a dense grid (_film_temperature_marks)
+        elif model_curve is None or g is not None:
             ax.plot(x[order], sub[ymod].to_numpy()[order] * yf, "-", lw=1.3,
                     color="0.1" if not many else c, label=f"{model_name}{lab}")
         else:
@@ -99,6 +106,8 @@ def fit_figure(result: Any, title: str | None = None,
         ax.plot(x[order], d["film_thickness_hamrock_dowson_m"].to_numpy()[order] * yf, ":",
                 color="0.3",
                 label=f"Hamrock–Dowson, α = {result.params['alpha'] * 1e9:.3g} 1/GPa")
+    if result.kind == "film_temperature":
+        _film_temperature_marks(ax, result, yf, col[groups[0][0]])
     if loglog:
         ax.set_xscale("log")
         ax.set_yscale("log")
@@ -108,12 +117,38 @@ def fit_figure(result: Any, title: str | None = None,
     axr.set_ylabel(_res_label(result)[0])
     axr.set_xlabel(xl)
     legend(ax)
-    txt = ", ".join(f"{n} = {_fmt(n, result.params[n])}" for n in result.names[:4])
+    txt = ", ".join(f"{_SYMBOLS.get(n, n)} = {_fmt(n, result.params[n])}"
+                    for n in result.names[:4])
     src = _short_source(result.meta.get("source", ""))
     head = title or (KIND_TITLES.get(result.kind, f"{result.kind.replace('_', ' ')} fit")
                      + (f": {src}" if src else ""))
     ax.set_title(f"{head}\n{txt}" if txt and not title else head, fontsize=9)
     return fig
+
+
+#: symbols of parameters in figure titles, where the name is not one
+_SYMBOLS = {"film_at_reference": "h(v_ref)", "film_temperature_coefficient": "b = d ln h/dT"}
+
+
+def _film_temperature_marks(ax: Any, result: Any, yf: float, colour: Any) -> None:
+    """The film temperature scaling's 95 % error bars (each fit's own, in ln h) and the
+    fitted exponential on a dense temperature grid, with the reference speed."""
+    d = result.data
+    T = d["temperature_C"].to_numpy()
+    h = d["film_thickness_measured_m"].to_numpy() * yf
+    se = d["film_thickness_se_ln"].to_numpy()
+    ax.errorbar(T, h, yerr=[h * (1 - np.exp(-1.96 * se)), h * (np.exp(1.96 * se) - 1)],
+                fmt="none", ecolor=colour, elinewidth=1.2, capsize=4, zorder=3,
+                label="95 % interval of each fit")
+    Tg = np.linspace(T.min(), T.max(), 60)
+    h0 = result.params["film_at_reference"] * yf
+    b = result.params["film_temperature_coefficient"]
+    ax.plot(Tg, h0 * np.exp(b * (Tg - result.meta["reference_temperature_C"])), "-", lw=1.3,
+            color="0.1", zorder=1, label="model h(v_ref) exp(b (T − T_ref))")
+    lo, hi = result.ci95["film_temperature_coefficient"]
+    ax.text(0.98, 0.95, f"v_ref = {result.meta['reference_speed_m_s']:.3g} m/s\n"
+            f"b = {b:.3g} 1/K (95 %: {lo:.3g} to {hi:.3g})",
+            transform=ax.transAxes, ha="right", va="top", fontsize=8)
 
 
 def _short_source(src: Any, width: int = 60) -> str:
@@ -158,8 +193,10 @@ def _fmt(name: str, v: float) -> str:
         return f"{v * 1e6:.3g} µm"
     if name == "alpha":
         return f"{v * 1e9:.3g} 1/GPa"
-    if name == "film_prefactor":
+    if name in ("film_prefactor", "film_at_reference"):
         return f"{v * 1e9:.3g} nm"
+    if name == "film_temperature_coefficient":
+        return f"{v:.3g} 1/K"
     if name == "eta0":
         return f"{v * 1e3:.3g} mPa·s"
     return f"{v:.4g}"

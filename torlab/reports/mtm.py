@@ -63,8 +63,13 @@ def curve_figure(red: Any, kind: str) -> Any:
     lw = 1.2 if n <= 20 else 0.4
     step_arr = d["step"].to_numpy()
     labels = d["label"].to_numpy() if "label" in d else None
+    outlier = d["interference_order_outlier"].to_numpy(dtype=bool) \
+        if "interference_order_outlier" in d else np.zeros(len(d), dtype=bool)
+    if outlier.any():
+        ax.plot(d.loc[outlier, xcol].to_numpy() * xs, d.loc[outlier, ycol].to_numpy() * ys, "x",
+                ms=5, color="0.35", label="fringe-order misassignment (left out)")
     for i, st in enumerate(steps):
-        sel = step_arr == st
+        sel = (step_arr == st) & ~outlier
         x = d.loc[sel, xcol].to_numpy() * xs
         color = PALETTE[i] if n <= 10 else cmap(i / max(1, n - 1))
         label = (str(labels[sel][0]) if labels is not None else f"step {st}") if n <= 12 else None
@@ -82,7 +87,7 @@ def curve_figure(red: Any, kind: str) -> Any:
         ax.set_xscale("log")
     if ycol == "film_thickness_m" and np.nanmin(d[ycol]) > 0:
         ax.set_yscale("log")
-    if n <= 12:
+    if n <= 12 or outlier.any():
         legend(ax)
     else:
         sm = matplotlib.cm.ScalarMappable(cmap=cmap, norm=matplotlib.colors.Normalize(
