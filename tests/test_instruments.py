@@ -118,3 +118,141 @@ def test_hpt_curves_refuse_a_table_that_is_not_a_curve(tmp_path):
     pd.DataFrame({"a": [1, 2], "b": [3, 4]}).to_csv(f, index=False)
     with pytest.raises(TorlabInputError, match="reduced HPT curve"):
         hpt_curves([f])
+
+
+# ------------------------------------------------------------------ made from the declarations
+@pytest.mark.parametrize("inst", [i for i in _instruments() if i.command is not None],
+                         ids=lambda i: i.name)
+def test_each_instrument_command_offers_its_options_once_declared(cli, inst):
+    """``torlab <name> reduce --help`` shows every option the module declares for the command
+    line, with the module's help and the default in its unit."""
+    import re
+
+    r = cli(inst.command.name, "reduce", "--help")
+    assert r.exit_code == 0, r.output
+    text = re.sub(r"[│\s]+", " ", r.output)
+    for name, o in inst.options.items():
+        flag = o.cli_flag(name)
+        if flag is None:
+            assert f"--{name.replace('_', '-')} " not in text
+            continue
+        assert f"{flag} " in text, flag
+        assert " ".join(o.help.split()[:6]) in text, flag
+        if o.unit:
+            assert f"[default: {o.shown_default()}]" in text, flag
+
+
+def test_the_reduce_commands_call_the_public_api_only():
+    """The modules behind ``torlab reduce`` and the instruments' commands reach the library
+    through :mod:`torlab.api` (and read the registry's declarations)."""
+    import ast
+
+    allowed = ("torlab.api", "torlab.cli", "torlab.errors", "torlab.instruments")
+    for mod in ("reduce", "instruments", "_reduce"):
+        tree = ast.parse((ROOT / "torlab" / "cli" / f"{mod}.py").read_text(encoding="utf-8"))
+        used = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
+        used |= {a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
+        mine = {u for u in used if u and u.startswith("torlab")}
+        assert all(any(u == a or u.startswith(a + ".") for a in allowed) for u in mine), \
+            (mod, mine)
+        # of the registry, declarations only: no reduction or reader is called from here
+        calls = {n.attr if isinstance(n, ast.Attribute) else getattr(n, "id", "")
+                 for c in ast.walk(tree) if isinstance(c, ast.Call) for n in [c.func]}
+        assert not calls & {"reduce_file", "reduce_batch", "reduce_files", "expand_inputs",
+                            "write_reductions", "read_file"}, mod
+
+
+TOY = '''
+from pathlib import Path
+from torlab.instruments.plugin import Command, Option
+from torlab.instruments.reduction import Reduction
+
+NAME = "toy"
+TITLE = "toy rig"
+FILES = "toy logs"
+EXTENSIONS = (".csv",)
+OPTIONS = {
+    "scale": Option("length", 1e-3, "A length the x column is multiplied by.",
+                    check="positive", unit="mm"),
+    "label": Option("text", None, "A label of the run."),
+}
+COMMAND = Command("toy", "Toy rig.", "Reduce toy logs.", "Toy logs.", what="toy log")
+
+
+def detect(head):
+    return "toy log" if head.startswith("# toy") else ""
+
+
+def read(path, **_):
+    import pandas as pd
+    return pd.read_csv(path, comment="#"), {"source": str(path)}
+
+
+def reduce(path, **opts):
+    df, meta = read(path)
+    df = df.assign(x_m=df["x"] * opts["scale"])
+    return Reduction(NAME, str(path), {"scaled": df}, {"n": len(df), "label": opts["label"]},
+                     meta=meta)
+
+
+def figures(red):
+    return {}
+
+
+def collect(reds, options):
+    import pandas as pd
+    return {"summary": pd.DataFrame([r.key_numbers for r in reds])}, {}, {}
+
+
+def display(reds):
+    return [("toy", [r.key_numbers for r in reds], {})]
+'''
+
+
+@pytest.fixture
+def toy(tmp_path, monkeypatch):
+    """A made-up instrument: one module and one registry entry."""
+    from torlab import instruments
+
+    (tmp_path / "toy_instrument.py").write_text(TOY)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    inst = instruments.Instrument("toy_instrument")
+    monkeypatch.setitem(instruments.REGISTRY, "toy", inst)
+    (tmp_path / "run1.csv").write_text("# toy log\nx\n1\n2\n")
+    return inst
+
+
+def test_a_new_instrument_gets_its_command(toy, tmp_path):
+    import typer
+    from typer.testing import CliRunner
+
+    from torlab.cli.instruments import register
+
+    app = typer.Typer()
+    register(app)
+    r = CliRunner().invoke(app, ["toy", "reduce", "--help"])
+    assert r.exit_code == 0 and "A length the x column" in r.output and "1 mm" in r.output
+    r = CliRunner().invoke(app, ["toy", "reduce", str(tmp_path / "run1.csv"), "--scale", "2 mm",
+                                 "--label", "first", "-o", str(tmp_path / "o"), "--no-plot"])
+    assert r.exit_code == 0, r.output
+    out = pd.read_csv(tmp_path / "o" / "run1_scaled.csv")
+    assert out["x_m"].tolist() == pytest.approx([0.002, 0.004])
+    assert pd.read_csv(tmp_path / "o" / "summary.csv")["label"].tolist() == ["first"]
+    r = CliRunner().invoke(app, ["toy", "reduce", str(tmp_path), "-o", str(tmp_path / "p")])
+    assert r.exit_code == 0, r.output  # the folder gives the toy logs
+
+
+def test_a_new_instrument_gets_its_protocol_section(toy, tmp_path):
+    from pydantic import ValidationError
+
+    from torlab.protocols.schema import section_model
+
+    model = section_model(toy)
+    sec = model.model_validate({"files": "run1.csv", "scale": "3 mm"},
+                               context={"base": tmp_path})
+    assert sec.options() == {"scale": pytest.approx(3e-3), "label": None}
+    assert sec.input_files() == []
+    with pytest.raises(ValidationError, match="scal"):
+        model.model_validate({"files": "run1.csv", "scal": 1}, context={"base": tmp_path})
+    with pytest.raises(ValidationError, match="greater than 0"):
+        model.model_validate({"files": "run1.csv", "scale": "-1 mm"}, context={"base": tmp_path})

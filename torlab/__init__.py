@@ -30,6 +30,7 @@ _LAZY = {
     "read": "torlab.api",
     "reduce_file": "torlab.api",
     "reduce_files": "torlab.api",
+    "reduce_to_folder": "torlab.api",
     "fit_hpt": "torlab.api",
     "fit_traction": "torlab.api",
     "fit_temperature": "torlab.api",

@@ -8,6 +8,7 @@ returns DataFrames and result objects:
 :func:`read`              a raw file -> ``(DataFrame, metadata)``, instrument detected
 :func:`reduce_file`       one file -> :class:`~torlab.instruments.reduction.Reduction`
 :func:`reduce_files`      files, folders, patterns -> list of Reductions
+:func:`reduce_to_folder`  files, folders, patterns -> tables, figures, summaries in a folder
 :func:`fit_hpt`           HPT curves -> the layer's :class:`~torlab.fit.result.FitResult`
 :func:`fit_traction`      a measured traction curve and a scene -> layer FitResult
 :func:`fit_temperature`   HPT runs at several temperatures -> temperature coefficients
@@ -64,6 +65,7 @@ __all__ = [
     "read",
     "reduce_file",
     "reduce_files",
+    "reduce_to_folder",
     "run_protocol",
 ]
 
@@ -132,6 +134,51 @@ def reduce_files(paths: PathLike | Sequence[PathLike], instrument: str | None = 
     items = [paths] if isinstance(paths, (str, os.PathLike)) else list(paths)
     files, _ = expand_inputs(items, "input", is_instrument(instrument))
     return _reduce(files, instrument, **options)
+
+
+def reduce_to_folder(paths: PathLike | Sequence[PathLike], out: PathLike,
+                     instrument: str | None = None, *, force: bool = False, xlsx: bool = False,
+                     figures: bool = True, formats: Any = None, every_file: bool = False,
+                     what: str = "input", command: str | None = None, **options: Any) -> Any:
+    """Reduce files, folders and patterns and write the results into the folder ``out``, as
+    ``torlab reduce`` and ``torlab <instrument> reduce`` do.
+
+    Parameters
+    ----------
+    paths
+        Files, folders (their files of the instrument) and patterns (``"exports/*.txt"``).
+    out
+        Output folder: ``<file>_<table>.csv``, figures, per instrument ``summary.csv``.
+    instrument
+        Registry name or alias; default: each file's detected.
+    force
+        Replace torlab's earlier results in ``out``.
+    xlsx
+        Also write ``tables.xlsx`` (every table as a sheet).
+    figures, formats
+        Draw the figures, in these formats (``"png,svg"``; default PNG).
+    every_file
+        A folder gives every data file, not only those detected as ``instrument`` (an HPT
+        column map makes another rig's CSV readable).
+    what
+        One input in messages (``"HPT log"``).
+    command
+        The command line recorded in the folder's manifest.
+    **options
+        The instrument's options, unit strings allowed (as :func:`reduce_file`).
+
+    Returns
+    -------
+    ReducedFolder
+        ``reductions``, ``notes`` (what folders left out), ``written`` (file names) and
+        ``tables()`` (each instrument's console tables).
+    """
+    from torlab.instruments.output import reduce_to_folder as _reduce
+
+    items = [paths] if isinstance(paths, (str, os.PathLike)) else list(paths)
+    return _reduce(items, out, instrument, force=force, xlsx=xlsx, figures=figures,
+                   formats=formats, every_file=every_file, what=what, command=command,
+                   **options)
 
 
 # ------------------------------------------------------------------ fits

@@ -1,8 +1,10 @@
 """torlab's command-line interface: a thin typer layer over the library.
 
-Every command lives in a submodule (``torlab.cli.hpt`` ...) that imports only
+Every command lives in a submodule (``torlab.cli.fit`` ...) that imports only
 typer at import time; numerical and plotting libraries are imported inside the
-command functions, so ``torlab --help`` starts fast.
+command functions, so ``torlab --help`` starts fast.  The instruments' command groups
+(``torlab hpt reduce`` ...) are made from the instrument registry
+(:mod:`torlab.cli.instruments`).
 
 Error policy (see :mod:`torlab.errors`): a user error prints one line
 ``error: <file>:<line>: <key>: <message>`` on stderr and exits with code 2; so
@@ -173,8 +175,7 @@ def _root(
 
 
 #: command modules, each with ``register(app)``
-_COMMAND_MODULES = ("reduce", "hpt", "synth", "predict", "fit", "run", "bench", "mtm", "optical",
-                    "visc")
+_COMMAND_MODULES = ("reduce", "instruments", "synth", "predict", "fit", "run", "bench")
 
 
 def _register() -> None:

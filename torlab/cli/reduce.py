@@ -19,6 +19,19 @@ from torlab.cli._common import (
 )
 
 
+def _as_help() -> str:
+    """``--as``: the registry's instruments and their other names."""
+    from torlab.instruments import REGISTRY
+
+    names = [i.name + (f" (or {', '.join(i.aliases)})" if i.aliases else "")
+             for i in REGISTRY.values()]
+    return (f"Read every file as this instrument: {', '.join(names)} (default: detected from "
+            "each file's first lines).")
+
+
+_AS_HELP = _as_help()
+
+
 def register(root: typer.Typer) -> None:
     """Add the ``reduce`` command to the root app."""
     root.command("reduce")(reduce_cmd)
@@ -30,8 +43,7 @@ def reduce_cmd(
         "'exports/*.txt' (expanded by torlab, also where the shell does not).")],
     out: OutOpt,
     as_: Annotated[str | None, typer.Option(
-        "--as", help="Read every file as this instrument: pcs (or mtm, etm, ehd2), hpt, optical, "
-        "visc (default: detected from each file's first lines).")] = None,
+        "--as", help=_AS_HELP)] = None,
     option: Annotated[list[str] | None, typer.Option(
         "--option", "-O", help="An option of the instrument's reduction as NAME=VALUE, e.g. "
         "'window=20 um' (repeatable; 'torlab reduce --list' names them).")] = None,
@@ -52,10 +64,10 @@ def reduce_cmd(
     """Reduce files of any instrument; the instrument is detected from each file and said.
 
     Each file (folders and patterns expanded) is read as the instrument its first lines
-    show (or --as), reduced as its own command would ('torlab hpt reduce', 'mtm reduce',
-    'optical reduce', 'visc reduce') and written to OUT: '<name>_<table>.csv', figures, and
-    per instrument 'summary.csv' (prefixed with the instrument when several are mixed);
-    with --xlsx every table in 'tables.xlsx'.
+    show (or --as), reduced as its own command would ('torlab hpt reduce', 'torlab mtm
+    reduce' ...) and written to OUT: '<name>_<table>.csv', figures, and per instrument
+    'summary.csv' (prefixed with the instrument when several are mixed); with --xlsx every
+    table in 'tables.xlsx'.
     """
     from torlab.cli._reduce import reduce_command
     from torlab.errors import TorlabInputError
@@ -69,9 +81,8 @@ def reduce_cmd(
     if after_application:
         opts["after_application"] = True
     reduce_command(inputs, out, instrument=as_, force=force, xlsx=xlsx, options=opts,
-                   what="instrument", flags=False,
-                   formats=formats, jobs=jobs, scheduler=scheduler, quiet=quiet,
-                   no_plot=no_plot)
+                   what="instrument", formats=formats, jobs=jobs, scheduler=scheduler,
+                   quiet=quiet, no_plot=no_plot)
 
 
 def _list() -> None:
@@ -83,6 +94,6 @@ def _list() -> None:
         alias = f" (also: {', '.join(inst.aliases)})" if inst.aliases else ""
         c.print(f"[bold]{inst.name}[/bold]{alias}: {inst.title} — {inst.files}")
         for k, o in inst.options.items():
-            d = "" if o.default is None else f" \\[default {o.default}]"
+            d = "" if o.default is None else f" \\[default {o.shown_default()}]"
             c.print(f"    {k}: {o.help}{d}")
     raise typer.Exit(0)

@@ -48,13 +48,12 @@ __all__ = [
 #: every instrument torlab reads, in detection order: a file is read by the first whose
 #: ``detect`` accepts its first lines
 INSTRUMENTS: tuple[str, ...] = (
-    # PCS exports first: the optical tribometer also reads EHD2 exports (with --as optical),
-    # and a PCS first line ('MTM311 Test Data File', 'Step 1 started at') is the PCS's own
-    "torlab.instruments.pcs",
-    # torlab's own logs: each begins with its '# torlab-<kind>' signature, so their order
-    # among themselves does not matter
+    # formats with a first line of their own ('# torlab-hpt', 'MTM311 Test Data File' or
+    # 'Step 1 started at', '# torlab-optical', '# torlab-visc'): no file is two of them, so
+    # their order is the order of the commands, the protocol's data sections and the results
     "torlab.instruments.hpt",
-    "torlab.instruments.optical",
+    "torlab.instruments.pcs",
+    "torlab.instruments.optical",  # also reads PCS EHD2 exports, but only with --as optical
     "torlab.instruments.visc",
 )
 

@@ -119,3 +119,55 @@ def display(reds: list[Reduction]) -> list[tuple[str, list[dict], dict]]:
         })
     return [("HPT reduction", rows, {"σ (MPa)": ".1f", "u max (µm)": ".1f", "± sd": ".4f",
                                      fcol: ".4f"})]
+
+
+# ------------------------------------------------------------------ protocol section data.hpt
+def check_section(values: dict[str, Any], resolve: Any) -> dict[str, Any]:
+    """``compliance``: a constant (``"0.012 um/MPa"``) or a curve file (relative to the
+    protocol) -> ``{"compliance": ("value", m/Pa) or ("file", path), "inputs": [file]}``."""
+    from torlab.errors import TorlabInputError
+    from torlab.units import to_si
+
+    c = values.get("compliance")
+    if c is None:
+        return {}
+    try:
+        v = to_si(c, "compliance")
+    except TorlabInputError:
+        pass
+    else:
+        if v < 0:
+            raise ValueError("the rig compliance must not be negative")
+        return {"compliance": ("value", v)}
+    try:
+        path = resolve(c)[0]
+    except ValueError as e:
+        raise ValueError(f"compliance: neither a compliance like '0.012 um/MPa' nor a "
+                         f"file ({e})") from None
+    return {"compliance": ("file", path), "inputs": [path]}
+
+
+def section_options(section: Any, ctx: Any) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The options and cache key; a compliance curve named as written in the protocol."""
+    spec = section.derived.get("compliance")
+    comp: Any = None if spec is None else spec[1]
+    key = None if spec is None else list(spec)
+    if spec is not None and spec[0] == "file":
+        from torlab.reduce.hpt import RigCompliance
+
+        # named as written in the protocol (relative to its folder): the reduced tables
+        # and the fits carry that name, not a path of this machine
+        comp = RigCompliance.from_file(spec[1], name=section.compliance)
+        key = ["file", ctx.sha(spec[1]), section.compliance]
+    return ({"window": section.window, "source": section.source, "compliance": comp},
+            {"window": section.window, "source": section.source, "compliance": key})
+
+
+def write_section(dest: Any, labelled: list[tuple[str, Reduction]]) -> dict[str, Any]:
+    """``data/hpt_summary.csv`` (one row per run); the summary's f over the window."""
+    import pandas as pd
+
+    rows = [r.detail.summary() for _, r in labelled]
+    dest.write_csv("data/hpt_summary.csv", pd.DataFrame(rows),
+                   allow_missing=("applied_amount", "temperature_C"))
+    return {"files": len(rows), "f_window": {r["file"]: r["f_window"] for r in rows}}

@@ -215,3 +215,21 @@ def _temp(d: Any) -> float | None:
         if c in d and d[c].notna().any():
             return float(d[c].mean())
     return None
+
+
+# ------------------------------------------------------------------ protocol section data.optical
+def write_section(dest: Any, labelled: list[tuple[str, Reduction]]) -> dict[str, Any]:
+    """``data/optical/<file>_points.csv`` and ``data/optical_summary.csv``."""
+    import pandas as pd
+
+    from torlab.reduce.optical import SUMMARY_OPTIONAL
+
+    rows = []
+    for _, red in labelled:
+        dest.write_csv(f"data/optical/{red.stem}_points.csv", red.tables["points"],
+                       allow_missing=red.optional["points"])
+        rows.append(red.detail.summary())
+    dest.write_csv("data/optical_summary.csv", pd.DataFrame(rows),
+                   allow_missing=SUMMARY_OPTIONAL)
+    return {r["file"]: {"test": r["test"], "n_conditions": r["n_conditions"],
+                        "symmetric": r["symmetric"]} for r in rows}

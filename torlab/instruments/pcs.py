@@ -227,3 +227,29 @@ def _temp(d: Any) -> float | None:
         if c in d and d[c].notna().any():
             return float(d[c].mean())
     return None
+
+
+# ------------------------------------------------------------------ protocol section data.mtm
+def section_options(section: Any, ctx: Any) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The section's options; the time tests after application when the protocol reports
+    them."""
+    opts = {**section.options(),
+            "after_application": True if ctx.p.reports.time_test is not None else None}
+    return opts, opts
+
+
+def write_section(dest: Any, labelled: list[tuple[str, Reduction]]) -> dict[str, Any]:
+    """``data/mtm/<file>_<kind>.csv`` per step kind and ``data/mtm_steps.csv`` (labelled)."""
+    import pandas as pd
+
+    steps = []
+    for label, red in labelled:
+        steps.append(red.detail.steps.assign(label=label))
+        for kind, cdf in red.detail.curves.items():
+            dest.write_csv(f"data/mtm/{red.stem}_{kind}.csv", cdf,
+                           allow_missing=red.optional.get(kind, ()))
+    sdf = pd.concat(steps, ignore_index=True)
+    dest.write_csv("data/mtm_steps.csv", sdf, allow_missing=tuple(
+        c for c in sdf.columns if c not in ("step", "n_rows", "first_line", "last_line")))
+    return {"files": len(labelled),
+            "timed_steps": sum(len(r.detail.time_tests) for _, r in labelled)}

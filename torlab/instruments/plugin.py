@@ -55,6 +55,10 @@ CHECKS: dict[str, tuple[Any, str]] = {
 }
 
 
+#: option kinds that are not quantities
+_NOT_QUANTITIES = frozenset({"number", "text", "flag", "choice", "path", "paths", "object"})
+
+
 @dataclass(frozen=True)
 class Option:
     """One option of a reduction, declared once for the library, the commands and protocols.
@@ -116,6 +120,11 @@ class Option:
         if self.key is None:
             return None
         return self.key or name
+
+    @property
+    def is_quantity(self) -> bool:
+        """A :data:`torlab.units.KINDS` quantity (a value may carry a unit)."""
+        return self.kind not in _NOT_QUANTITIES
 
     def shown_default(self) -> Any:
         """The default as a user writes it: a quantity in its :attr:`unit` (``"20 um"``)."""

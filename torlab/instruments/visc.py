@@ -240,3 +240,35 @@ def display(reds: list[Reduction]) -> list[tuple[str, list[dict], dict]]:
         cal = reds[0].detail.calibration
         out.append((f"calibration constant K = {cal.K:.6g} m^3/s^2 ({cal.source})", [], {}))
     return out
+
+
+# ------------------------------------------------------------------ protocol section data.visc
+def check_section(values: dict[str, Any], resolve: Any) -> dict[str, Any]:
+    """Reference logs or a calibration constant, not both; the constant is readable."""
+    if values.get("reference") and values.get("calibration_constant") is not None:
+        raise ValueError("give either reference or calibration_constant, not both")
+    if values.get("calibration_constant") is not None:
+        from torlab.parsers.viscometer import parse_calibration_constant
+
+        try:
+            parse_calibration_constant(values["calibration_constant"])
+        except TorlabInputError as e:
+            raise ValueError(f"calibration_constant: {e.message}") from None
+    return {}
+
+
+def section_options(section: Any, ctx: Any) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The calibration and the steady-part options; no fit here (``fits.lubricants`` fits
+    with the section's ``eta0``, ``fit_eta0`` and ``confidence``)."""
+    refs = [p for e in section.reference for p in e.resolved]
+    opts = {"calibration_constant": section.calibration_constant, "reference": refs or None,
+            "tol": section.tol, "density_model": section.density_model, "law": ""}
+    return opts, {**opts, "reference": [ctx.sha(p) for p in refs]}
+
+
+def write_section(dest: Any, labelled: list[tuple[str, Reduction]]) -> dict[str, Any]:
+    """``data/visc/<file>_steps.csv``; the summary's calibration constant and falls."""
+    for _, red in labelled:
+        dest.write_csv(f"data/visc/{red.stem}_steps.csv", red.tables["steps"])
+    return {r.label: {"calibration_constant_m3_s2": r.detail.calibration.K,
+                      "n_falls": len(r.detail.falls)} for _, r in labelled}

@@ -70,16 +70,15 @@ class LoadedProtocol:
             if p is not None and p not in files:
                 files.append(p)
 
-        for sec in ("hpt", "mtm", "optical", "visc"):
+        from torlab.protocols.schema import DATA_SECTIONS
+
+        for sec in DATA_SECTIONS:
             for p in self.data_files(sec):
                 add(p)
-        d = self.protocol.data
-        if d.hpt is not None and d.hpt.compliance_spec and d.hpt.compliance_spec[0] == "file":
-            add(d.hpt.compliance_spec[1])
-        if d.visc is not None:
-            for e in d.visc.reference:
-                for p in e.resolved:
-                    add(p)
+        for sec in DATA_SECTIONS:  # reference logs, the rig compliance curve
+            d = getattr(self.protocol.data, sec)
+            for p in [] if d is None else d.input_files():
+                add(p)
         for scene_files in self.scenes:
             for p in scene_files:
                 add(p)

@@ -18,7 +18,7 @@ from __future__ import annotations
 import glob
 import os
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, ClassVar, Literal
 
 from pydantic import (
     AfterValidator,
@@ -34,18 +34,18 @@ from pydantic import (
 from torlab.errors import TorlabInputError
 
 __all__ = [
+    "DATA_SECTIONS",
     "PROTOCOL_VERSION",
     "AmountReport",
     "CurveSpec",
     "Data",
+    "DataSection",
     "FileEntry",
     "FilmReport",
     "Fits",
-    "HptData",
     "HptLayerFit",
     "LubricantFit",
-    "MtmData",
-    "OpticalData",
+    "OptionGroup",
     "Product",
     "Protocol",
     "Reports",
@@ -56,7 +56,6 @@ __all__ = [
     "TimeTestReport",
     "TractionLayerFit",
     "TractionReport",
-    "ViscData",
 ]
 
 #: the protocol version this torlab reads
@@ -294,110 +293,152 @@ class Product(_Model):
 
 
 # --------------------------------------------------------------------------- data
-class HptData(_Model):
-    """``data.hpt``: high-pressure torsion logs (:func:`torlab.reduce.hpt.reduce_hpt`)."""
+#: pydantic constraints of each option check (:data:`torlab.instruments.plugin.CHECKS`)
+_CHECK_FIELDS: dict[str, dict[str, float]] = {
+    "positive": {"gt": 0}, "nonneg": {"ge": 0}, "fraction": {"gt": 0, "le": 1},
+    "open_fraction": {"gt": 0, "lt": 1}, "coefficient": {"ge": 0, "lt": 10},
+}
+
+
+class OptionGroup(_Model):
+    """A mapping of a data section that holds some of its options (``data.mtm.time_test``)."""
+
+    def options(self) -> dict[str, Any]:
+        """The options set (None left out), by option name."""
+        names = type(self).option_names
+        return {names[k]: v for k, v in self.model_dump().items() if v is not None}
+
+    #: protocol key -> option name
+    option_names: ClassVar[dict[str, str]] = {}
+
+
+class DataSection(_Model):
+    """A ``data.<name>`` section: ``files`` and the instrument's options that a protocol sets.
+
+    Made from the instrument's declaration (:func:`section_model`); its own checks
+    across keys are its module's ``check_section(values, resolve) -> derived``
+    (``resolve(pattern)``: the files a path names, relative to the protocol).
+    """
 
     files: Annotated[list[File], BeforeValidator(_listify)] = Field(min_length=1)
-    compliance: str | None = None
-    window: Annotated[float, _q("length", "displacement_window")] = Field(default=20e-6, gt=0)
-    source: Literal["auto", "motor", "encoder"] = "auto"
-    _compliance: tuple[str, Any] | None = PrivateAttr(default=None)
+    _derived: dict[str, Any] = PrivateAttr(default_factory=dict)
+    #: registry name of the instrument
+    instrument_name: ClassVar[str] = ""
+    #: protocol key -> option name (keys of the section itself)
+    option_names: ClassVar[dict[str, str]] = {}
 
     @model_validator(mode="after")
-    def _comp(self, info: ValidationInfo) -> HptData:
-        c = self.compliance
-        if c is None:
-            return self
-        from torlab.units import to_si
+    def _instrument_checks(self, info: ValidationInfo) -> DataSection:
+        from torlab.instruments import get_instrument
 
-        try:
-            self._compliance = ("value", to_si(c, "compliance"))
-            if self._compliance[1] < 0:
-                raise ValueError("the rig compliance must not be negative")
-            return self
-        except TorlabInputError:
-            pass
-        try:
-            self._compliance = ("file", resolve_paths(c, _base(info))[0])
-        except ValueError as e:
-            raise ValueError(f"compliance: neither a compliance like '0.012 um/MPa' nor a "
-                             f"file ({e})") from None
+        hook = getattr(get_instrument(type(self).instrument_name).impl(), "check_section", None)
+        if hook is not None:
+            base = _base(info)
+            self._derived = dict(hook(self.model_dump(), lambda pat: resolve_paths(pat, base))
+                                 or {})
         return self
 
     @property
-    def compliance_spec(self) -> tuple[str, Any] | None:
-        """``("file", Path)``, ``("value", m/Pa)`` or None."""
-        return self._compliance
-
-
-class TimeTestOptions(_Model):
-    """``data.mtm.time_test``: options of :func:`torlab.reduce.mtm.time_test_metrics`."""
-
-    threshold: Fraction = Field(default=0.15, ge=0, lt=10)
-    recovery_fraction: Fraction = Field(default=0.9, gt=0, le=1)
-    recovery_level: Fraction | None = None
-    smooth: Time = Field(default=10.0, ge=0)
-    min_drop: Fraction = Field(default=0.05, ge=0)
-    min_rise: Fraction = Field(default=0.03, ge=0)
-    tail: Time = Field(default=120.0, gt=0)
-    duration: Time | None = Field(default=None, gt=0)
-    application_time: Time | None = Field(default=None, ge=0)
+    def derived(self) -> dict[str, Any]:
+        """What the instrument's ``check_section`` derived (the HPT ``compliance``)."""
+        return dict(self._derived)
 
     def options(self) -> dict[str, Any]:
-        """Keyword arguments for :func:`~torlab.reduce.mtm.time_test_metrics`."""
-        return {k: v for k, v in self.model_dump().items() if v is not None}
+        """The reduction's options this section sets, by option name: a path list as the
+        files it names, a group's options (None left out) merged in."""
+        out: dict[str, Any] = {}
+        for key, name in type(self).option_names.items():
+            v = getattr(self, key)
+            if isinstance(v, list):
+                v = [p for e in v for p in e.resolved] or None
+            out[name] = v
+        for key in type(self).model_fields:
+            v = getattr(self, key)
+            if isinstance(v, OptionGroup):
+                out.update(v.options())
+        return out
+
+    def input_files(self) -> list[Path]:
+        """Files the section reads besides its data files (reference logs, the compliance
+        curve): its path options' files and those ``check_section`` derived."""
+        out: list[Path] = []
+        for key in type(self).option_names:
+            v = getattr(self, key)
+            if isinstance(v, list):
+                out += [p for e in v for p in e.resolved]
+        return out + list(self._derived.get("inputs", []))
 
 
-class MtmData(_Model):
-    """``data.mtm``: PCS Instruments MTM/ETM/EHD2 exports (:func:`torlab.reduce.mtm.reduce_pcs`)."""
+def _option_field(o: Any) -> tuple[Any, Any]:
+    """The pydantic field of one option (:class:`torlab.instruments.plugin.Option`)."""
+    from torlab.units import KINDS
 
-    files: Annotated[list[File], BeforeValidator(_listify)] = Field(min_length=1)
-    instrument: Literal["MTM", "ETM", "EHD2"] | None = None
-    time_test: TimeTestOptions = TimeTestOptions()
-
-
-class OpticalData(_Model):
-    """``data.optical``: optical tribometer logs or EHD2 exports (:mod:`torlab.reduce.optical`)."""
-
-    files: Annotated[list[File], BeforeValidator(_listify)] = Field(min_length=1)
-    window: Time = Field(default=4.0, gt=0)
-    symmetry_tolerance: Fraction = Field(default=0.10, ge=0)
-    symmetry_abs: Fraction = Field(default=0.005, ge=0)
-
-
-class ViscData(_Model):
-    """``data.visc``: falling-body viscometer logs (:mod:`torlab.reduce.viscometer`)."""
-
-    files: Annotated[list[File], BeforeValidator(_listify)] = Field(min_length=1)
-    reference: Annotated[list[File], BeforeValidator(_listify)] = []
-    calibration_constant: str | None = None
-    tol: Fraction = Field(default=0.02, gt=0, lt=1)
-    density_model: Literal["constant", "dowson-higginson"] | None = None
-    eta0: Viscosity | None = Field(default=None, gt=0)
-    fit_eta0: bool = False
-    confidence: Fraction = Field(default=0.95, gt=0, lt=1)
-
-    @model_validator(mode="after")
-    def _cal(self) -> ViscData:
-        if self.reference and self.calibration_constant is not None:
-            raise ValueError("give either reference or calibration_constant, not both")
-        if self.calibration_constant is not None:
-            from torlab.parsers.viscometer import parse_calibration_constant
-
-            try:
-                parse_calibration_constant(self.calibration_constant)
-            except TorlabInputError as e:
-                raise ValueError(f"calibration_constant: {e.message}") from None
-        return self
+    kw = dict(_CHECK_FIELDS.get(o.check, {}))
+    if o.kind in KINDS:
+        t: Any = Annotated[float, _q(o.kind, o.quantity or None)]
+    elif o.kind == "number":
+        t = Annotated[float, _q("dimensionless", o.quantity or None)]
+    elif o.kind == "choice":
+        t = Literal[o.choices]
+    elif o.kind == "flag":
+        return bool, Field(default=bool(o.default), **kw)
+    elif o.kind in ("path", "paths"):
+        return Annotated[list[File], BeforeValidator(_listify)], Field(default=[], **kw)
+    else:  # text, object: written as text
+        t = str
+    return (t if o.default is not None else t | None), Field(default=o.default, **kw)
 
 
-class Data(_Model):
-    """``data:``: the raw files, one section per instrument."""
+def section_model(inst: Any) -> type[DataSection]:
+    """The ``data.<name>`` section of an instrument, made from its options (those with a
+    protocol key; an option's ``group`` is a mapping of the section)."""
+    from pydantic import create_model
 
-    hpt: HptData | None = None
-    mtm: MtmData | None = None
-    optical: OpticalData | None = None
-    visc: ViscData | None = None
+    name = inst.command.name
+    fields: dict[str, Any] = {}
+    keys: dict[str, str] = {}
+    groups: dict[str, dict[str, Any]] = {}
+    group_keys: dict[str, dict[str, str]] = {}
+    for opt_name, o in inst.options.items():
+        key = o.protocol_key(opt_name)
+        if key is None:
+            continue
+        if o.group:
+            groups.setdefault(o.group, {})[key] = _option_field(o)
+            group_keys.setdefault(o.group, {})[key] = opt_name
+        else:
+            fields[key] = _option_field(o)
+            keys[key] = opt_name
+    for g, gfields in groups.items():
+        model = create_model(f"{name.title()}{g.title().replace('_', '')}", __base__=OptionGroup,
+                             __doc__=f"``data.{name}.{g}``: options of the {inst.title}.",
+                             **gfields)
+        model.option_names = group_keys[g]
+        fields[g] = (model, model())
+    model = create_model(f"{name.title()}Data", __base__=DataSection,
+                         __doc__=f"``data.{name}``: {inst.title} files ({inst.files}).",
+                         **fields)
+    model.instrument_name = inst.name
+    model.option_names = keys
+    return model
+
+
+def _data_model() -> type[_Model]:
+    """``data:``: one section per instrument of the registry that has a command."""
+    from pydantic import create_model
+
+    from torlab.instruments import REGISTRY
+
+    sections = {i.command.name: section_model(i) for i in REGISTRY.values()
+                if i.command is not None}
+    return create_model("Data", __base__=_Model,
+                        __doc__="``data:``: the raw files, one section per instrument.",
+                        **{k: (m | None, None) for k, m in sections.items()})
+
+
+Data = _data_model()
+#: the data sections, in registry order
+DATA_SECTIONS: tuple[str, ...] = tuple(Data.model_fields)
 
 
 # --------------------------------------------------------------------------- fits
@@ -774,8 +815,8 @@ class Protocol(_Model):
     @model_validator(mode="after")
     def _anything(self) -> Protocol:
         d = self.data
-        if all(getattr(d, k) is None for k in ("hpt", "mtm", "optical", "visc")) and not (
+        if all(getattr(d, k) is None for k in DATA_SECTIONS) and not (
                 self.reports.traction or self.reports.stribeck or self.reports.film):
-            raise ValueError("nothing to do: give data (hpt, mtm, optical, visc) or a model-only "
-                             "report (traction, stribeck, film)")
+            raise ValueError(f"nothing to do: give data ({', '.join(DATA_SECTIONS)}) or a "
+                             "model-only report (traction, stribeck, film)")
         return self
