@@ -214,9 +214,10 @@ def toy(tmp_path, monkeypatch):
     """A made-up instrument: one module and one registry entry."""
     from torlab import instruments
 
-    (tmp_path / "toy_instrument.py").write_text(TOY)
+    (tmp_path / "toy_with_command.py").write_text(TOY)
     monkeypatch.syspath_prepend(str(tmp_path))
-    inst = instruments.Instrument("toy_instrument")
+    monkeypatch.delitem(sys.modules, "toy_with_command", raising=False)
+    inst = instruments.Instrument("toy_with_command")
     monkeypatch.setitem(instruments.REGISTRY, "toy", inst)
     (tmp_path / "run1.csv").write_text("# toy log\nx\n1\n2\n")
     return inst
