@@ -1,0 +1,23 @@
+"""Kalker's exact theory of steady rolling contact (CONTACT's discretisation), in torlab.
+
+Modules: :mod:`.influence` (the half-space's influence coefficients and their FFT
+products), :mod:`.grid` (the grid, Hertz's pressure), :mod:`.normal` (the
+normal problem), :mod:`.local` (the friction and layer law of one element),
+:mod:`.solver` (steady rolling and shifts on the grid), :mod:`.rolling` (creep
+forces of a Hertzian contact with their discretisation error).
+``docs/model/exact.md`` explains the theory, the solver and its accuracy.
+"""
+
+from torlab.model.exact.local import LinearYield, VoceYield
+from torlab.model.exact.rolling import (
+                                        ExactContact,
+                                        ExactGrid,
+                                        ExactLayer,
+                                        ExactResult,
+                                        exact_creep_forces,
+                                        normalised_creepages,
+                                        solve_point,
+)
+
+__all__ = ["ExactContact", "ExactGrid", "ExactLayer", "ExactResult", "LinearYield", "VoceYield",
+           "exact_creep_forces", "normalised_creepages", "solve_point"]
