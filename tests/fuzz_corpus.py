@@ -169,8 +169,9 @@ def retention_sources() -> tuple[dict[str, bytes], bytes]:
     """The retention commands' inputs: the HPT layer parameter files of a product's amount
     series (``torlab fit hpt`` output of the synthetic truth layer, name -> YAML) and a
     removal parameter file fitted to the shipped time tests with that layer."""
-    from torlab.fit.removal import fit_removal, read_time_test
+    from torlab.fit.removal import fit_removal
     from torlab.model.amount import AmountLayer
+    from torlab.reduce.time_test import read_time_test
     from torlab.synth.retention import law_layer_fits, mtm_scene
     from torlab.yamlio import dump_yaml
 

@@ -300,7 +300,7 @@ def test_crossing_probabilities_against_monte_carlo():
     a Monte Carlo over the parameters with the crossing solved for each draw."""
     from scipy.special import expit
 
-    from torlab.reports.amount import crossing_probabilities
+    from torlab.fit.crossing import crossing_probabilities
 
     p = {"f_low": 0.05, "f_high": 0.30, "k": 3.0, "c": float(np.log(8.0))}
     C = np.diag([0.005, 0.005, 0.3, 0.1]) ** 2

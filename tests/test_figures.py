@@ -156,10 +156,10 @@ def test_prediction_figures_accept_plain_columns():
 # ------------------------------------------------------------------------------ reports
 @pytest.fixture(scope="module")
 def amount_inputs():
+    from torlab.fit.crossing import amount_series, fit_crossings
     from torlab.parsers.hpt import read_hpt
     from torlab.protocols.schema import AmountReport
     from torlab.reduce.hpt import reduce_hpt
-    from torlab.reports.amount import amount_series, fit_crossings
 
     files = sorted(HPT.glob("hpt_OFM[12]_*uL_25C.txt")) + sorted(HPT.glob("hpt_SFM_*mg_25C.txt"))
     res = [reduce_hpt(*read_hpt(f)) for f in files]

@@ -75,7 +75,7 @@ def test_hpt_curves_are_the_same_from_a_log_its_reduction_and_its_csv(tmp_path):
     """A raw log, its Reduction, its HptResult and the reduced CSV written by 'torlab hpt
     reduce' give the same curve (the CSV at its 10 significant digits)."""
     from torlab import reduce_file
-    from torlab.fit.layer import hpt_curves
+    from torlab.instruments.measured import hpt_curves
 
     log = HPT / "hpt_OFM1_4uL_25C.txt"
     red = reduce_file(log)
@@ -96,7 +96,7 @@ def test_hpt_curves_subtract_the_compliance_once(tmp_path):
     columns); a reduced curve gets it as the model's rig term: both models see the same
     rig displacement."""
     from torlab import reduce_file
-    from torlab.fit.layer import hpt_curves
+    from torlab.instruments.measured import hpt_curves
 
     log = HPT / "hpt_OFM1_4uL_25C.txt"
     comp = "0.012 um/MPa"
@@ -112,7 +112,7 @@ def test_hpt_curves_subtract_the_compliance_once(tmp_path):
 
 def test_hpt_curves_refuse_a_table_that_is_not_a_curve(tmp_path):
     from torlab.errors import TorlabInputError
-    from torlab.fit.layer import hpt_curves
+    from torlab.instruments.measured import hpt_curves
 
     f = tmp_path / "other.csv"
     pd.DataFrame({"a": [1, 2], "b": [3, 4]}).to_csv(f, index=False)

@@ -16,8 +16,10 @@ import pandas as pd
 import pytest
 
 from torlab.errors import TorlabInputError
-from torlab.fit.removal import fit_removal, read_time_test, removal_figure, time_test
+from torlab.fit.removal import fit_removal
 from torlab.model.removal import RemovalLaw
+from torlab.reduce.time_test import read_time_test, time_test
+from torlab.reports.retention import removal_figure
 from torlab.synth.retention import (
     TRACK_RADIUS,
     RetentionTestSpec,

@@ -91,7 +91,7 @@ def test_fit_removal_recovers_the_stated_law(fitted):
 
 
 def test_fit_removal_params_carry_the_layer_and_the_law(fitted):
-    from torlab.fit.removal import load_retention
+    from torlab.fit.retention_params import load_retention
     from torlab.model.amount import HPT_AREA, MG_M2
 
     out, _ = fitted
@@ -137,7 +137,7 @@ def test_python_api_matches_the_commands(fitted, tmp_path):
     """torlab.fit_removal with the layer as an object, and predict_retention from the result in
     memory or from its parameter file, give the command's numbers."""
     import torlab
-    from torlab.fit.removal import load_retention
+    from torlab.fit.retention_params import load_retention
 
     out, _ = fitted
     rp = load_retention(out / "params.yaml")
@@ -228,7 +228,7 @@ def test_predict_retention_on_the_mtm_disc_matches_the_generator(fitted, cli, tm
 def test_sweep_steady_curve_is_the_traction_model_at_the_applied_amount(fitted, cli, tmp_path):
     """The steady column is torlab's ordinary traction prediction with the layer of the applied
     amount (here a tested amount, 4 uL on the HPT annulus), and no removal leaves it unchanged."""
-    from torlab.fit.removal import load_retention
+    from torlab.fit.retention_params import load_retention
     from torlab.model.predict import predict_traction
     from torlab.scene import load_scene
 
@@ -418,7 +418,7 @@ def test_removal_file_readable_copies_must_agree_with_the_fit(fitted, tmp_path, 
     """The numbers are read from fit_space; a units, parameters or ci95 entry edited by hand
     (which would otherwise be ignored) is an error naming its key."""
     from torlab.errors import TorlabInputError
-    from torlab.fit.removal import load_retention
+    from torlab.fit.retention_params import load_retention
 
     out, _ = fitted
     d = yaml.safe_load((out / "params.yaml").read_text())

@@ -364,8 +364,8 @@ def test_generator_friction_table_matches_the_boundary_model(layer):
 
 
 def test_sample_campaign_writes_files_and_truth(tmp_path):
-    from torlab.fit.removal import read_time_test
     from torlab.outputs import OutputDir
+    from torlab.reduce.time_test import read_time_test
     from torlab.synth.retention import write_retention_sample_data
     from torlab.yamlio import load_yaml
 

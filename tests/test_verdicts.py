@@ -162,7 +162,7 @@ def test_time_test_intervals_and_verdicts():
 def test_mass_homogeneity_by_hand():
     from scipy.stats import chi2, t
 
-    from torlab.reports.amount import mass_homogeneity
+    from torlab.fit.crossing import mass_homogeneity
 
     tq = float(t.ppf(0.975, 8))
     rows = []

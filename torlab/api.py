@@ -191,7 +191,7 @@ def fit_hpt(curves: Any, *, compliance: Any = None, sigma: Any = None) -> Any:
     curves
         One or a list of: HPT logs or reduced CSVs (paths), :class:`Reduction` objects
         of HPT logs, :class:`~torlab.reduce.hpt.HptResult` or reduced DataFrames
-        (:func:`torlab.fit.layer.hpt_curves`).
+        (:func:`torlab.instruments.measured.hpt_curves`).
     compliance
         Rig compliance: a curve file, ``"0.012 um/MPa"``, m/Pa, or a
         :class:`~torlab.reduce.hpt.RigCompliance` (default: the one the
@@ -203,7 +203,8 @@ def fit_hpt(curves: Any, *, compliance: Any = None, sigma: Any = None) -> Any:
     -------
     FitResult
     """
-    from torlab.fit.layer import fit_layer_hpt, hpt_curves
+    from torlab.fit.layer import fit_layer_hpt
+    from torlab.instruments.measured import hpt_curves
     from torlab.units import to_si
 
     s = None if sigma is None else to_si(sigma, "pressure", where="sigma")
@@ -217,9 +218,9 @@ def fit_temperature(curves: Any, temperatures: Any = None, *,
 
     ``temperatures`` (one per run, ``"50 degC"`` or degC) default to the logs' headers.
     """
-    from torlab.fit.layer import hpt_curves
     from torlab.fit.result import FitResult
     from torlab.fit.temperature import fit_temperature_coefficients
+    from torlab.instruments.measured import hpt_curves
     from torlab.reduce.hpt import RigCompliance
 
     comp = RigCompliance.from_spec(compliance)
@@ -487,7 +488,7 @@ def fit_removal(tests: Any, layer: Any, *, scene: Any = None, density: Any = Non
     ----------
     tests
         Time tests: PCS exports (their timed step), ``*_timed.csv`` of
-        ``torlab mtm reduce``, or :class:`~torlab.fit.removal.TimeTest` objects.
+        ``torlab mtm reduce``, or :class:`~torlab.reduce.time_test.TimeTest` objects.
     layer
         The product's amount dependency: an :class:`~torlab.model.amount.AmountLayer`,
         or HPT logs / HPT layer parameter files / FitResults, one per applied
@@ -504,7 +505,9 @@ def fit_removal(tests: Any, layer: Any, *, scene: Any = None, density: Any = Non
         step's ``Applied amount``), the disc track radius, the application
         moment (default detected as the largest drop), the PCS step.
     compliance, repeatability, dry_amount, temperature
-        For the layer from HPT inputs (:func:`torlab.fit.amount.amount_layer`).
+        For the layer from HPT inputs (the compliance subtracted from raw logs,
+        :func:`torlab.instruments.measured.layer_inputs`; the others
+        :func:`torlab.fit.amount.amount_layer`).
     laws, law, transfer, skip, duration
         As :func:`torlab.fit.removal.fit_removal` (``skip``/``duration`` as times,
         ``transfer`` a fraction or ``"fit"``).
@@ -520,9 +523,11 @@ def fit_removal(tests: Any, layer: Any, *, scene: Any = None, density: Any = Non
         ``to_params(path)`` writes the parameter file ``predict_retention`` reads.
     """
     from torlab.fit.amount import amount_layer
-    from torlab.fit.removal import TimeTest, check_options, default_tribometer_scene, read_time_test
+    from torlab.fit.removal import check_options, default_tribometer_scene
     from torlab.fit.removal import fit_removal as _fit
+    from torlab.instruments.measured import layer_inputs
     from torlab.model.amount import AmountLayer
+    from torlab.reduce.time_test import TimeTest, read_time_test
 
     # the options first: a misspelt word or unit is named before the layer's HPT fits run
     sk = _word_or_si(skip, "auto", "time", "skip")
@@ -537,7 +542,7 @@ def fit_removal(tests: Any, layer: Any, *, scene: Any = None, density: Any = Non
     else:
         items = layer if isinstance(layer, (list, tuple)) else [layer]
         lay, series, _, _ = amount_layer(
-            items, compliance=compliance, density=dens, dry_amount=dry_amount,
+            layer_inputs(items, compliance=compliance), density=dens, dry_amount=dry_amount,
             repeatability=repeatability, above=above,
             temperature=_si(temperature, "temperature", "temperature"))
         if dens is None:  # the density the HPT runs state, for the time tests' volumes
@@ -558,7 +563,7 @@ def fit_removal(tests: Any, layer: Any, *, scene: Any = None, density: Any = Non
 
 def _retention_inputs(scene: Any, params: Any) -> tuple[Any, Any]:
     """The scene (overlays applied) and the one set of retention parameters among ``params``."""
-    from torlab.fit.removal import (
+    from torlab.fit.retention_params import (
         RemovalFit,
         RetentionParams,
         is_retention_file,

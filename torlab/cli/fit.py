@@ -182,7 +182,8 @@ def hpt_cmd(
     One fit per curve (a sub-folder per curve and fit_summary.csv when there are several)
     or, with --joint, one fit to all curves.
     """
-    from torlab.fit.layer import fit_layer_hpt, fit_layers_hpt, hpt_curves
+    from torlab.fit.layer import fit_layer_hpt, fit_layers_hpt
+    from torlab.instruments.measured import hpt_curves
     from torlab.outputs import OutputDir
 
     files = require_files(inputs, "HPT", keep=is_hpt_input)
@@ -329,8 +330,9 @@ def temperature_cmd(
     """Temperature coefficients mu_c1_T, mu_c2_T (thesis Eqs. 5.26-5.27) from one layer fit
     per run: ln mu_ci against T; each coefficient kept or fixed to 0 (--selection).  The
     runs together give one fit; each run's layer fit is in runs/<name>/."""
-    from torlab.fit.layer import fit_layers_hpt, hpt_curves
+    from torlab.fit.layer import fit_layers_hpt
     from torlab.fit.temperature import fit_temperature_coefficients
+    from torlab.instruments.measured import hpt_curves
     from torlab.outputs import OutputDir
     from torlab.units import check_range, to_si
 
@@ -657,8 +659,7 @@ def removal_cmd(
     law_selection.csv, amount_layer.csv/.png and summary.json.
     """
     from torlab.api import fit_removal
-    from torlab.fit.amount import is_layer_input
-    from torlab.fit.removal import is_time_test_input
+    from torlab.instruments.measured import is_layer_input, is_time_test_input
     from torlab.outputs import OutputDir
 
     files = require_files(tests, "time-test", keep=is_time_test_input)
@@ -714,7 +715,7 @@ def _write_removal(dest: Any, res: Any, *, xlsx: bool, formats: Any) -> None:
     """The removal fit's files, its law selection and its amount layer (table, figure)."""
     import pandas as pd
 
-    from torlab.fit.removal import retention_from_dict
+    from torlab.fit.retention_params import retention_from_dict
     from torlab.reports.render import parse_formats, plot, write_figures
     from torlab.reports.retention import layer_figure
 

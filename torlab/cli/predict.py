@@ -217,7 +217,7 @@ def _no_retention_file(files: Sequence[Path]) -> None:
     if not params:  # a scene alone: nothing to check, nothing to import
         return
     from torlab.errors import TorlabInputError
-    from torlab.fit.removal import is_retention_file
+    from torlab.fit.retention_params import is_retention_file
 
     for f in params:
         if is_retention_file(f):

@@ -5,9 +5,9 @@ amounts (thesis 5.3.3).  :func:`amount_layer` turns what a user has of such a
 campaign into the :class:`~torlab.model.amount.AmountLayer` the retention
 model needs:
 
-* raw HPT logs (``torlab-hpt``): each reduced and fitted alone
-  (:func:`torlab.fit.layer.fit_layer_hpt`, Eqs. 5.24-5.29); the log header's
-  ``applied_amount`` and ``product_density`` become the fit's provenance;
+* HPT curves (a raw log reduced by :func:`torlab.instruments.measured.layer_inputs`):
+  each fitted alone (:func:`torlab.fit.layer.fit_layer_hpt`, Eqs. 5.24-5.29); the log
+  header's ``applied_amount`` and ``product_density`` become the fit's provenance;
 * parameter files of earlier HPT layer fits (``torlab fit hpt`` output,
   ``params.yaml``): the ``boundary:`` values with the standard errors of the
   ``fit:`` section (and its ``covariance:`` where written, else uncorrelated,
@@ -31,22 +31,9 @@ import numpy as np
 from torlab.errors import TorlabInputError
 from torlab.model.amount import LAYER_NAMES, AmountLayer
 
-__all__ = ["amount_layer", "is_layer_input", "layer_fit_from_params"]
+__all__ = ["amount_layer", "layer_fit_from_params"]
 
 YAML_SUFFIXES = (".yaml", ".yml")
-
-
-def is_layer_input(path: Path) -> bool:
-    """An HPT log or a parameter file (what a folder or pattern given as the amount series
-    contributes)."""
-    from torlab.instruments.measured import detected
-
-    if path.suffix.lower() in YAML_SUFFIXES:
-        return True
-    try:
-        return detected(path) == "hpt"
-    except TorlabInputError:
-        return False
 
 
 def layer_fit_from_params(path: str | os.PathLike[str]) -> Any:
@@ -131,28 +118,24 @@ def layer_fit_from_params(path: str | os.PathLike[str]) -> Any:
                                      data=None, meta=meta, residual_unit="Pa")
 
 
-def _fit_of(item: Any, compliance: Any) -> Any:
-    """A layer FitResult of one input (log, parameter file or FitResult)."""
+def _fit_of(item: Any) -> Any:
+    """A layer FitResult of one input (parameter file, FitResult or HPT curve)."""
     from torlab.fit.result import FitResult
 
     if isinstance(item, FitResult):
         return item
-    p = Path(item)
-    if p.suffix.lower() in YAML_SUFFIXES:
-        return layer_fit_from_params(p)
+    if isinstance(item, (str, os.PathLike)):
+        return layer_fit_from_params(Path(item))
     from torlab.fit.layer import fit_layer_hpt
-    from torlab.instruments import reduce_file
-    from torlab.reduce.hpt import RigCompliance
 
-    comp = RigCompliance.from_spec(compliance)
-    return fit_layer_hpt([reduce_file(p, "hpt", compliance=comp).detail])
+    return fit_layer_hpt([item])
 
 
 def _has_amount(fit: Any) -> bool:
     return (fit.meta or {}).get("applied_amount") is not None
 
 
-def amount_layer(inputs: Sequence[Any], *, compliance: Any = None, density: float | None = None,
+def amount_layer(inputs: Sequence[Any], *, density: float | None = None,
                  dry_amount: Any = None, repeatability: float = 0.0, above: str = "error",
                  temperature: float | None = None, temperature_tolerance: float = 5.0
                  ) -> tuple[AmountLayer, list[Any], Any, list[str]]:
@@ -161,11 +144,10 @@ def amount_layer(inputs: Sequence[Any], *, compliance: Any = None, density: floa
     Parameters
     ----------
     inputs
-        HPT logs, HPT layer parameter files (``params.yaml``) or FitResults:
-        one per applied amount of one product, and one run without an applied
-        amount (the dry reference).
-    compliance
-        Rig compliance for raw logs (curve file or ``"0.012 um/MPa"``).
+        HPT curves (:func:`torlab.instruments.measured.layer_inputs` makes them of raw
+        logs), HPT layer parameter files (``params.yaml``) or FitResults: one per
+        applied amount of one product, and one run without an applied amount (the dry
+        reference).
     density
         Product density (kg/m^3) for amounts applied as volumes; default the
         runs' ``product_density``.
@@ -185,7 +167,7 @@ def amount_layer(inputs: Sequence[Any], *, compliance: Any = None, density: floa
         No dry run or several, fewer than two amounts, runs of different
         products, an amount without unit, a volume without density.
     """
-    fits = [_fit_of(it, compliance) for it in inputs]
+    fits = [_fit_of(it) for it in inputs]
     notes = [n for f in fits for n in (f.meta or {}).get("notes", [])
              if isinstance(n, str)]
     if temperature is not None:

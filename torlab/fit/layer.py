@@ -50,7 +50,7 @@ from torlab.fit.result import FitResult
 from torlab.threads import small_problem
 
 __all__ = ["LAYER_NAMES", "HptCurve", "fit_layer_hpt", "fit_layers_hpt", "hpt_curve",
-           "hpt_curves", "tau_of_raw_displacement"]
+           "tau_of_raw_displacement"]
 
 LAYER_NAMES = ("mu_c1", "mu_c2", "L_mue", "L_mup")
 #: internal parameter scaling: mu as is, lengths in um
@@ -221,63 +221,6 @@ def hpt_curve(curve: Any, *, sigma: float | None = None, compliance: Any = None,
                                path=where)
     meta["normal_stress_Pa"] = sigma
     return HptCurve(u_raw=u_raw, tau=tau, sigma=sigma, compliance=comp, meta=meta)
-
-
-def hpt_curves(items: Any, *, compliance: Any = None, sigma: float | None = None,
-               where: str = "compliance") -> list[HptCurve]:
-    """The curves of a layer fit from whatever holds them: the one place HPT fit inputs are
-    prepared (``torlab fit hpt`` and ``temperature``, :func:`torlab.fit_hpt`,
-    :func:`torlab.fit_temperature`, a protocol's ``fits.hpt_layers``).
-
-    Parameters
-    ----------
-    items
-        One or a list of: raw HPT logs (reduced here through the instrument registry,
-        ``compliance`` subtracted), reduced CSVs (``torlab hpt reduce`` output:
-        ``shear_stress_Pa``, ``displacement_raw_m`` ...), :class:`Reduction` objects of
-        HPT logs, :class:`~torlab.reduce.hpt.HptResult`, reduced DataFrames or
-        :class:`HptCurve` (kept as they are).
-    compliance
-        Rig compliance (what :meth:`~torlab.reduce.hpt.RigCompliance.from_spec` takes):
-        subtracted from a raw log by its reduction; used as the model's ``u_rig(tau)``
-        of an already reduced curve.  Default: the one the reduction subtracted.
-    sigma
-        Normal stress [Pa]; default: each curve's mean.
-    where
-        The option name in messages (``"--compliance"``).
-
-    Returns
-    -------
-    list of HptCurve
-        In the order given.
-    """
-    import os
-
-    from torlab.instruments.reduction import Reduction
-    from torlab.reduce.hpt import RigCompliance
-
-    comp = RigCompliance.from_spec(compliance, where=where)
-    out = []
-    for it in items if isinstance(items, (list, tuple)) else [items]:
-        if isinstance(it, (str, os.PathLike)):
-            from torlab.instruments.measured import detected, read_csv
-
-            path = Path(it)
-            if detected(path) == "hpt":
-                from torlab.instruments import reduce_file
-
-                # the reduction subtracted the compliance: the curve recovers it from its columns
-                out.append(hpt_curve(reduce_file(path, "hpt", compliance=comp).detail,
-                                     sigma=sigma))
-                continue
-            df, _ = read_csv(path, (("shear_stress_Pa",), ("displacement_raw_m",
-                                                           "displacement_m")),
-                             "a reduced HPT curve")
-            out.append(hpt_curve(df, sigma=sigma, compliance=comp, name=path.name))
-        else:
-            out.append(hpt_curve(it.detail if isinstance(it, Reduction) else it, sigma=sigma,
-                                 compliance=comp))
-    return out
 
 
 # ---------------------------------------------------------------------------------------------

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from torlab.model.parameters import BOUNDARY_KEYS, LUBRICANT_KEYS
+from torlab.model.removal import LAW_UNITS
 
 __all__ = [
     "PARAM_UNITS",
@@ -58,6 +59,8 @@ PARAM_UNITS: dict[str, str] = {
     "B": "s/m",
     "kA": "-",
     "kS": "-",
+    # the removal laws (torlab.model.removal): k0, k1, spread, transfer
+    **LAW_UNITS,
 }
 
 
@@ -380,11 +383,13 @@ class FitResult:
         return self.report()
 
     def plot(self, *, title: str | None = None, model_curve: tuple[Any, Any] | None = None) -> Any:
-        """Data against the fitted model and the residuals (a matplotlib figure,
-        :func:`torlab.reports.fit.fit_figure`)."""
-        from torlab.reports.fit import fit_figure
+        """The result's figure (a matplotlib figure): data against the fitted model and the
+        residuals, or what its kind draws (:func:`torlab.reports.fit.result_figure`)."""
+        # upward on purpose: a result draws itself in a notebook (``fit.plot()``, as lmfit's
+        # results do); what it draws is the report layer's, imported only when asked
+        from torlab.reports.fit import result_figure
 
-        return fit_figure(self, title=title, model_curve=model_curve)
+        return result_figure(self, title=title, model_curve=model_curve)
 
     def table(self) -> Any:
         """DataFrame ``parameter, value, stderr, ci95_low, ci95_high, unit`` (+ fixed rows).

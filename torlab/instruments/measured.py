@@ -15,7 +15,11 @@ from torlab.errors import TorlabInputError
 __all__ = [
     "detected",
     "film_data",
+    "hpt_curves",
     "is_hpt_input",
+    "is_layer_input",
+    "is_time_test_input",
+    "layer_inputs",
     "loads",
     "numbers",
     "read_csv",
@@ -162,3 +166,109 @@ def film_data(path: Path) -> list[tuple[str, Any, Any, float | None]]:
     tc = next((c for c in ("temperature_C", "lube_temperature_C") if c in df), None)
     temp = None if tc is None else float(numbers(df, tc, path).mean())
     return [("", numbers(df, vc, path), numbers(df, hc, path), temp)]
+
+
+def is_time_test_input(path: Path) -> bool:
+    """A PCS export or a ``*_timed.csv`` (what a folder or pattern of time tests contributes
+    to a removal fit, :func:`torlab.reduce.time_test.read_time_test`)."""
+    try:
+        if detected(path) == "pcs":
+            return True
+    except TorlabInputError:
+        return False
+    from torlab.files import open_regular
+
+    with open_regular(path) as fh:
+        return b"step_time_s" in fh.read(2000).split(b"\n", 1)[0]
+
+
+#: suffixes of parameter files (an HPT layer fit's ``params.yaml``)
+YAML_SUFFIXES = (".yaml", ".yml")
+
+
+def is_layer_input(path: Path) -> bool:
+    """An HPT log or a parameter file (what a folder or pattern given as the amount series
+    of a removal fit contributes)."""
+    if path.suffix.lower() in YAML_SUFFIXES:
+        return True
+    try:
+        return detected(path) == "hpt"
+    except TorlabInputError:
+        return False
+
+
+def layer_inputs(items: Any, *, compliance: Any = None) -> list[Any]:
+    """The inputs of :func:`torlab.fit.amount.amount_layer` from what a user gives: a raw
+    HPT log (any file but a parameter file) becomes its curve, reduced through the registry
+    as an HPT log with the rig ``compliance`` subtracted; parameter files (``params.yaml``
+    of ``torlab fit hpt``), fit results and curves stay as they are."""
+    import os
+
+    out = []
+    for it in items:
+        if isinstance(it, (str, os.PathLike)) and Path(it).suffix.lower() not in YAML_SUFFIXES:
+            from torlab.fit.layer import hpt_curve
+            from torlab.instruments import reduce_file
+            from torlab.reduce.hpt import RigCompliance
+
+            comp = RigCompliance.from_spec(compliance)
+            out.append(hpt_curve(reduce_file(Path(it), "hpt", compliance=comp).detail))
+        else:
+            out.append(it)
+    return out
+
+
+def hpt_curves(items: Any, *, compliance: Any = None, sigma: float | None = None,
+               where: str = "compliance") -> list[Any]:
+    """The curves of a layer fit from whatever holds them: the one place HPT fit inputs are
+    prepared (``torlab fit hpt`` and ``temperature``, :func:`torlab.fit_hpt`,
+    :func:`torlab.fit_temperature`, a protocol's ``fits.hpt_layers``).
+
+    Parameters
+    ----------
+    items
+        One or a list of: raw HPT logs (reduced here through the instrument registry,
+        ``compliance`` subtracted), reduced CSVs (``torlab hpt reduce`` output:
+        ``shear_stress_Pa``, ``displacement_raw_m`` ...), :class:`Reduction` objects of
+        HPT logs, :class:`~torlab.reduce.hpt.HptResult`, reduced DataFrames or
+        :class:`~torlab.fit.layer.HptCurve` (kept as they are).
+    compliance
+        Rig compliance (what :meth:`~torlab.reduce.hpt.RigCompliance.from_spec` takes):
+        subtracted from a raw log by its reduction; used as the model's ``u_rig(tau)``
+        of an already reduced curve.  Default: the one the reduction subtracted.
+    sigma
+        Normal stress [Pa]; default: each curve's mean.
+    where
+        The option name in messages (``"--compliance"``).
+
+    Returns
+    -------
+    list of torlab.fit.layer.HptCurve
+        In the order given (:func:`torlab.fit.layer.hpt_curve` of each).
+    """
+    import os
+
+    from torlab.fit.layer import hpt_curve
+    from torlab.instruments.reduction import Reduction
+    from torlab.reduce.hpt import RigCompliance
+
+    comp = RigCompliance.from_spec(compliance, where=where)
+    out = []
+    for it in items if isinstance(items, (list, tuple)) else [items]:
+        if isinstance(it, (str, os.PathLike)):
+            path = Path(it)
+            if detected(path) == "hpt":
+                from torlab.instruments import reduce_file
+
+                # the reduction subtracted the compliance: the curve recovers it from its columns
+                out.append(hpt_curve(reduce_file(path, "hpt", compliance=comp).detail,
+                                     sigma=sigma))
+                continue
+            df, _ = read_csv(path, (("shear_stress_Pa",), ("displacement_raw_m",
+                                                           "displacement_m")),
+                             "a reduced HPT curve")
+            out.append(hpt_curve(df, sigma=sigma, compliance=comp, name=path.name))
+        else:
+            out.append(hpt_curve(it.detail if isinstance(it, Reduction) else it, sigma=sigma,
+                                 compliance=comp))
+    return out

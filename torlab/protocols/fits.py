@@ -124,7 +124,8 @@ def fit_hpt_layers(ctx: RunContext) -> None:
 def _fit_task(job: tuple[str, Any]) -> Any:
     """One product's HPT layer fit (``("layer", details)``) or temperature coefficients
     (``("temperature", (details, temperatures_K, selection))``): an executor task."""
-    from torlab.fit.layer import fit_layer_hpt, hpt_curves
+    from torlab.fit.layer import fit_layer_hpt
+    from torlab.instruments.measured import hpt_curves
 
     what, arg = job
     if what == "layer":

@@ -51,7 +51,8 @@ def build_sections(ctx: RunContext, ready: Any = None) -> list[Any]:
 
 def amount(ctx: RunContext) -> Any:
     """Friction against applied amount per product, with the threshold crossings (Paper C)."""
-    from torlab.reports.amount import amount_section, amount_series
+    from torlab.fit.crossing import amount_series
+    from torlab.reports.amount import amount_section
 
     cfg = ctx.p.reports.amount
     series = amount_series([r.detail for r in ctx.reductions.get("hpt", [])], ctx.p.products,
@@ -68,7 +69,7 @@ def amount(ctx: RunContext) -> Any:
     fits = stats = None
     if series is not None and len(series):
         from torlab.codec import digest_value
-        from torlab.reports.amount import amount_statistics, fit_crossings
+        from torlab.fit.crossing import amount_statistics, fit_crossings
 
         opts = {"threshold": cfg.threshold, "band": tuple(cfg.band), "curve": cfg.curve,
                 "confidence": cfg.confidence, "probability": cfg.probability}
@@ -407,9 +408,10 @@ def _amount_series_fits(ctx: RunContext, cfg: Any) -> tuple[list[Any], Any, list
 def retention(ctx: RunContext) -> Any:
     """Removal fit from the time tests and the HPT amount series, retention prediction and
     (optionally) a slip sweep on the prediction scene (docs/model/retention.md)."""
-    from torlab.fit.removal import default_tribometer_scene, fit_removal, read_time_test
+    from torlab.fit.removal import default_tribometer_scene, fit_removal
     from torlab.model.amount import AmountLayer
     from torlab.model.retention import predict_retention, simulate_sweep
+    from torlab.reduce.time_test import read_time_test
     from torlab.reports.retention import retention_section
     from torlab.scene import scene_from_dict
 

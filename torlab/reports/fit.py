@@ -163,9 +163,16 @@ def _short_source(src: Any, width: int = 60) -> str:
 
 def result_figure(result: Any, title: str | None = None,
                   model_curve: tuple[Any, Any] | None = None) -> Any:
-    """The result's own figure, :meth:`~torlab.fit.result.FitResult.plot` (a result class
-    may draw its own; :class:`~torlab.reports.render.Plot` function)."""
-    return result.plot(title=title, model_curve=model_curve)
+    """The figure of a fit result by its kind (:class:`~torlab.reports.render.Plot`
+    function; also :meth:`~torlab.fit.result.FitResult.plot`): a removal fit's
+    measured and modelled coefficient and remaining amount
+    (:func:`torlab.reports.retention.removal_figure`), any other fit's data against the
+    model and the residuals (:func:`fit_figure`)."""
+    if result.kind == "removal":
+        from torlab.reports.retention import removal_figure
+
+        return removal_figure(result, title=title)
+    return fit_figure(result, title=title, model_curve=model_curve)
 
 
 def _layout(result: Any) -> tuple[str, str, float, str, str, str, float, str, bool]:

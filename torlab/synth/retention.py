@@ -315,7 +315,7 @@ def retention_time_test(spec: RetentionTestSpec, layer: AmountLayer, law: Remova
     takes: writer, parser, reader); otherwise built from the channels directly
     (the same numbers without the 4-decimal text of the other columns; fast).
     """
-    from torlab.fit.removal import read_time_test, time_test
+    from torlab.reduce.time_test import read_time_test, time_test
 
     ch = simulate_retention_test(spec, layer, law)
     if not via_file:
