@@ -49,6 +49,15 @@ class YieldLaw(Protocol):
     def reaching(self, tau: np.ndarray, c1: np.ndarray, c2: np.ndarray) -> np.ndarray:
         """The plastic deformation at which the yield stress reaches ``tau`` (inf: never)."""
 
+    def plastic_step(self, mag: np.ndarray, kappa0: np.ndarray, r: np.ndarray, c1: np.ndarray,
+                     c2: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Optional: the yielding element's step in one scalar solve.
+
+        ``tau = tau_c(kappa0 + dk)`` with ``mag = tau + r dk`` (``mag`` the trial
+        traction ``|z|`` above the yield stress, ``r`` the element's stiffness).
+        Returns ``(tau, dk, dtau/dkappa)``.
+        """
+
 
 @dataclass(frozen=True)
 class LinearYield:
@@ -63,6 +72,14 @@ class LinearYield:
         tau = c1 + self.k_tau * kappa
         pos = tau > 0
         return np.where(pos, tau, 0.0), np.where(pos, self.k_tau, 0.0)
+
+    def plastic_step(self, mag, kappa0, r, c1, c2):
+        k = self.k_tau
+        dk = (mag - c1 - k * kappa0) / (r + k)
+        tau = c1 + k * (kappa0 + dk)
+        pos = tau > 0
+        dk = np.where(pos, dk, mag / r)
+        return np.where(pos, tau, 0.0), dk, np.where(pos, k, 0.0)
 
     def reaching(self, tau, c1, c2):
         if self.k_tau == 0:
@@ -160,9 +177,21 @@ def project(z: np.ndarray, r: np.ndarray, g: np.ndarray, law: YieldLaw | None = 
     db = np.zeros(n)
     plastic = np.zeros(n, bool)
     slip = ~stick
+    fast = (law is not None and hasattr(law, "plastic_step")
+            and bool(np.all(np.isinf(g[slip]))))
     if slip.any():
         if law is None:
             lam = np.where(slip, (zn - b0) / r, 0.0)
+        elif fast:
+            i = np.nonzero(slip)[0]
+            tau, dk, dt = law.plastic_step(zn[i], kappa0[i], r[i],
+                                           None if c1 is None else c1[i],
+                                           None if c2 is None else c2[i])
+            lam[i] = dk
+            b = b.copy()
+            b[i] = tau
+            db[i] = dt
+            plastic = slip.copy()
         else:
             i = np.nonzero(slip)[0]
             zs, rs, gs, ks = zn[i], r[i], g[i], kappa0[i]
@@ -187,16 +216,19 @@ def project(z: np.ndarray, r: np.ndarray, g: np.ndarray, law: YieldLaw | None = 
                 if np.all(hi - lo <= 1e-15 * scale):
                     break
             lam[i] = lm
-        bb, dbb, pl = _bound(lam, g, law, kappa0, c1, c2)
-        b = np.where(slip, bb, b)
-        db = np.where(slip, dbb, 0.0)
-        plastic = slip & pl
+        if not fast:
+            bb, dbb, pl = _bound(lam, g, law, kappa0, c1, c2)
+            b = np.where(slip, bb, b)
+            db = np.where(slip, dbb, 0.0)
+            plastic = slip & pl
     p = np.where(stick[:, None], z, b[:, None] * zhat)
     fac = np.where(slip, b / np.where(zn > 0, zn, 1.0), 1.0)
     radial = np.where(slip, db / (db + r), 1.0)
     state = np.where(stick, ADHESION, np.where(plastic, PLASTIC, SLIP))
     plam = np.zeros(n)
-    if law is not None and slip.any():
+    if fast:
+        plam = np.where(slip, lam, 0.0)
+    elif law is not None and slip.any():
         plam = _plastic_part(lam, plastic, g, law, kappa0, c1, c2)
     return Projection(p=p, lam=lam, state=state, plastic_lam=plam, zhat=zhat, fac=fac,
                       radial=radial)
