@@ -69,7 +69,9 @@ COMMAND = Command(
     that mark an application, or of all with --after-application.
 
     Writes per input '<name>_steps.csv', '<name>_<kind>.csv' and '<name>_<kind>.png' for each
-    step kind present, '<name>_time_test.png', '<name>_metadata.json'; 'summary.csv' (one row
+    step kind present, '<name>_time_test.png', '<name>_metadata.json'; with ten traction steps
+    or more '<name>_traction_map.csv' and the map and evolution figures
+    ('<name>_traction_map.png', '<name>_traction_evolution.png'); 'summary.csv' (one row
     per data step) and 'time_tests.csv'.
     """,
     "PCS text exports (MTM311/ETM/EHD261 'Test Data File'); folders and patterns such as "
@@ -99,6 +101,8 @@ def reduce(path: Path, **opts: Any) -> Reduction:
     tt = {k: opts[k] for k in _TIME_TEST if opts.get(k) is not None}
     red = reduce_pcs(df, meta, after_application=opts.get("after_application"), **tt)
     tables = {"steps": red.steps, **red.curves}
+    if red.traction_map is not None:
+        tables["traction_map"] = red.traction_map
     ids = {"step", "line", "n_rows", "first_line", "last_line"}
     optional = {k: tuple(c for c in v.columns if c not in ids) for k, v in tables.items()}
     key = {"pcs_instrument": meta.instrument, "instrument_model": meta.instrument_model,
@@ -116,6 +120,11 @@ def figures(red: Reduction) -> dict[str, Any]:
 
     d = red.detail
     figs = {kind: plot(curve_figure, d, kind) for kind in d.curves}
+    if d.traction_map is not None:
+        from torlab.reports.mtm import traction_evolution_figure, traction_map_figure
+
+        figs["traction_map"] = plot(traction_map_figure, d)
+        figs["traction_evolution"] = plot(traction_evolution_figure, d)
     if d.time_tests:
         figs["time_test"] = plot(time_test_figure, d, d.time_tests)
     return figs
@@ -175,12 +184,15 @@ def _mean(df: Any, col: str) -> float:
 
 # ------------------------------------------------------------------ measured curves
 def traction_curves(red: Reduction) -> list[Curve]:
-    """One curve per traction step: |SRR| and |mu| (folded), with the step's mean speed."""
+    """One curve per traction step: |SRR| and |mu| (folded), with the step's mean speed
+    (readings at a glitch of the speed control left out: :func:`torlab.reduce.mtm.speed_glitches`)."""
     import numpy as np
 
     d = red.detail.curves.get("traction")
     if d is None:
         return []
+    if "speed_outlier" in d:
+        d = d[~d["speed_outlier"]]
     out = []
     for st in dict.fromkeys(d["step"].tolist()):
         sub = d[d["step"] == st].sort_values("srr")

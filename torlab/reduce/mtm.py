@@ -390,6 +390,13 @@ class PcsReduction:
         header: PCS writes each step's plot x column first).
     notes
         What the reduction decided (unknown kinds, timed steps not analysed ...).
+    traction_map
+        With :data:`MAP_MIN_STEPS` traction steps or more (a long series of sweeps):
+        :func:`traction_map`, the median coefficient per step and SRR bin, with the
+        time of each step; else None.
+    other_steps
+        ``step, step_type, time_h`` of the steps without a curve (mapper images,
+        heating ...), for marking them on the time axis of a long series; or None.
     """
 
     meta: PcsMetadata
@@ -400,6 +407,8 @@ class PcsReduction:
     curve_x: dict[str, str] = field(default_factory=dict)
     curve_y: dict[str, str] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    traction_map: Any = None
+    other_steps: Any = None
 
     @property
     def label(self) -> str:
@@ -502,6 +511,7 @@ def reduce_pcs(df: Any, meta: PcsMetadata, *, time_tests: bool = True,
     rows, tts, notes = [], [], []
     plain_timed = []
     rolling_offsets: list[tuple[int, float, float, float]] = []
+    glitches: list[tuple[int, Any, np.ndarray]] = []
     for st in meta.steps:
         if not st.has_data:
             continue
@@ -536,6 +546,11 @@ def reduce_pcs(df: Any, meta: PcsMetadata, *, time_tests: bool = True,
             if bad.any():
                 cur["interference_order_outlier"] = bad
                 notes.append(_order_note(st.number, label, sub, bad))
+        if kind == "traction":
+            bad = speed_glitches(sub)
+            if bad.any():
+                cur["speed_outlier"] = bad
+                glitches.append((st.number, sub, bad))
         parts.setdefault(kind, []).append(pd.DataFrame(cur))
         xcols.setdefault(kind, []).append(x)
         rows.append(_step_row(meta, st, kind, label, x, sub, m))
@@ -548,6 +563,8 @@ def reduce_pcs(df: Any, meta: PcsMetadata, *, time_tests: bool = True,
         tt = _time_test(meta, st, sub["step_time_s"].to_numpy(dtype=float), m, time_test_options)
         if tt is not None:
             tts.append(tt)
+    if glitches:
+        notes.append(_glitch_note(glitches))
     if rolling_offsets:
         lo = min(o[1] for o in rolling_offsets)
         hi = max(o[2] for o in rolling_offsets)
@@ -576,9 +593,9 @@ def reduce_pcs(df: Any, meta: PcsMetadata, *, time_tests: bool = True,
         if not x or not y:
             notes.append(f"{kind} steps: no {'x' if not x else 'y'} column, no curve")
             continue
-        if "interference_order_outlier" in cdf:
-            cdf["interference_order_outlier"] = cdf["interference_order_outlier"].astype(
-                "boolean").fillna(False).astype(bool)
+        for flag in ("interference_order_outlier", "speed_outlier"):
+            if flag in cdf:
+                cdf[flag] = cdf[flag].astype("boolean").fillna(False).astype(bool)
         keep = cdf[x].notna() & cdf[y].notna()
         if not keep.all():
             lost = ~keep.to_numpy()
@@ -591,8 +608,123 @@ def reduce_pcs(df: Any, meta: PcsMetadata, *, time_tests: bool = True,
     steps = pd.DataFrame(rows)
     # summary columns never filled in this file are dropped
     steps = steps[[c for c in steps.columns if steps[c].dtype == object or steps[c].notna().any()]]
+    tmap = others = None
+    tr = curves.get("traction")
+    if tr is not None and tr["step"].nunique() >= MAP_MIN_STEPS and "srr" in tr \
+            and "traction_coefficient" in tr:
+        times = step_times(meta)
+        tmap = traction_map(tr, times)
+        others = pd.DataFrame([{"step": st.number, "step_type": step_kind(st),
+                                "time_h": times.get(st.number, float("nan"))}
+                               for st in meta.steps if step_kind(st) not in curves])
     return PcsReduction(meta=meta, curves=curves, steps=steps, time_tests=tts, mu_source=src,
-                        curve_x=curve_x, curve_y=curve_y, notes=notes)
+                        traction_map=tmap, other_steps=others, curve_x=curve_x, curve_y=curve_y, notes=notes)
+
+
+#: a traction step's reading whose rolling speed is off the step's median by more than this
+#: fraction is a speed-control glitch (the steps run at one speed)
+SPEED_GLITCH = 0.1
+#: from this many traction steps on, the reduction adds the traction map (a long series)
+MAP_MIN_STEPS = 10
+
+
+def speed_glitches(sub: Any) -> np.ndarray:
+    """Readings of a traction step whose rolling speed is off the step's median by more than
+    :data:`SPEED_GLITCH` (a traction step holds one speed; such a reading has its SRR from
+    the glitch, e.g. -27.8 % in a 0-20 % sweep).  Boolean mask (all False without speeds)."""
+    if "rolling_speed_m_s" not in sub:
+        return np.zeros(len(sub), dtype=bool)
+    v = sub["rolling_speed_m_s"].to_numpy(dtype=float)
+    ok = np.isfinite(v)
+    if ok.sum() < 3:
+        return np.zeros(len(sub), dtype=bool)
+    med = float(np.median(v[ok]))
+    return ok & (np.abs(v - med) > SPEED_GLITCH * abs(med)) if med != 0 else np.zeros(len(sub),
+                                                                                      dtype=bool)
+
+
+def _glitch_note(glitches: list[tuple[int, Any, np.ndarray]]) -> str:
+    """The note on traction readings at a glitch of the speed control."""
+    parts = []
+    for st, sub, bad in glitches:
+        v = sub["rolling_speed_m_s"].to_numpy(dtype=float)
+        srr = sub["srr"].to_numpy(dtype=float) if "srr" in sub else np.full(len(sub), np.nan)
+        for i in np.nonzero(bad)[0]:
+            parts.append(f"step {st} line {int(sub['line'].to_numpy()[i])} ({1e3 * v[i]:.4g} mm/s "
+                         f"against {1e3 * float(np.median(v)):.4g}, SRR {100 * srr[i]:.3g} %)")
+    shown = "; ".join(parts[:5]) + (f"; and {len(parts) - 5} more" if len(parts) > 5 else "")
+    return (f"traction steps: {len(parts)} reading(s) at a glitch of the speed control, rolling "
+            f"speed more than {100 * SPEED_GLITCH:g} % off the step's median: {shown}; left out "
+            "of the traction curves, map and fits (kept in the table: speed_outlier)")
+
+
+def step_times(meta: PcsMetadata) -> dict[int, float]:
+    """Hours from the first data step's start to each step's start (steps with a date)."""
+    starts = {st.number: st.started_at for st in meta.steps if st.started_at is not None}
+    data = [starts[st.number] for st in meta.steps if st.has_data and st.number in starts]
+    if not data:
+        return {}
+    t0 = min(data)
+    return {k: (t - t0).total_seconds() / 3600.0 for k, t in starts.items()}
+
+
+def _nice_width(span: float) -> float:
+    """A bin width from 1, 2, 2.5, 5 x 10^k near ``span`` / 12."""
+    raw = max(span / 12.0, 1e-6)
+    k = math.floor(math.log10(raw))
+    for m in (1.0, 2.0, 2.5, 5.0, 10.0):
+        if m * 10**k >= raw:
+            return m * 10**k
+    return 10.0 ** (k + 1)
+
+
+def traction_map(d: Any, times: dict[int, float] | None = None) -> Any:
+    """The median coefficient of each traction step in bins of SRR: a long table.
+
+    A long series of sweeps (the ETM's 500) is too many curves to draw one by one; binned,
+    it is a map (step x SRR, the coefficient as colour) and, row by row, the coefficient
+    at one SRR against the step or the time.  The bins are 1, 2, 2.5 or 5 x 10^k wide,
+    about 12 over the range holding 99.8 % of the readings (a sweep of about 40 readings
+    then puts three or four in each); a bin's value is the median of the step's readings
+    in it (both branches of a down-and-up sweep), so one stray reading does not move it.
+    Readings flagged as speed glitches are left out, and so are bins that fewer than half
+    of the steps read (the ends of the sweeps).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``step``, ``time_h`` (hours from the first data step's start; NaN without
+        dates), ``srr_low``, ``srr_high``, ``srr`` (the bin's centre; fractions as
+        PCS SRR), ``traction_coefficient`` (median), ``n_points``.
+    """
+    import pandas as pd
+
+    keep = ~d["speed_outlier"].to_numpy(dtype=bool) if "speed_outlier" in d else \
+        np.ones(len(d), dtype=bool)
+    srr = d["srr"].to_numpy(dtype=float)[keep]
+    mu = d["traction_coefficient"].to_numpy(dtype=float)[keep]
+    step = d["step"].to_numpy()[keep]
+    ok = np.isfinite(srr) & np.isfinite(mu)
+    srr, mu, step = srr[ok], mu[ok], step[ok]
+    lo, hi = np.quantile(srr, [0.001, 0.999])
+    w = _nice_width(float(hi - lo) if hi > lo else 0.01)
+    edges = np.arange(math.floor(lo / w) * w, (math.floor(hi / w) + 1) * w + w / 2, w)
+    idx = np.digitize(srr, edges) - 1
+    inside = (idx >= 0) & (idx < edges.size - 1)
+    t = pd.DataFrame({"step": step[inside], "bin": idx[inside], "mu": mu[inside]})
+    # a bin read in fewer than half of the steps (the sweep's ends) is left out
+    cover = t.groupby("bin")["step"].nunique()
+    t = t[t["bin"].isin(cover.index[cover >= 0.5 * np.unique(step).size])]
+    g = t.groupby(["step", "bin"], sort=True)["mu"]
+    out = pd.concat([g.median().rename("traction_coefficient"), g.size().rename("n_points")],
+                    axis=1).reset_index()
+    times = times or {}
+    out.insert(1, "time_h", out["step"].map(lambda s: times.get(int(s), float("nan"))))
+    b = out.pop("bin").to_numpy()
+    out.insert(2, "srr_low", edges[b])
+    out.insert(3, "srr_high", edges[b + 1])
+    out.insert(4, "srr", 0.5 * (edges[b] + edges[b + 1]))
+    return out
 
 
 #: a film reading more than this factor off a reading of the step's usual interference

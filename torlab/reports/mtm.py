@@ -6,9 +6,18 @@ from typing import Any
 
 import numpy as np
 
-from torlab.reports.plotting import PALETTE, decimate, legend, pixel_columns, subplots
+from torlab.reports.plotting import (
+    PALETTE,
+    band,
+    colours,
+    decimate,
+    legend,
+    pixel_columns,
+    subplots,
+)
 
-__all__ = ["axis_label", "curve_figure", "time_test_figure"]
+__all__ = ["axis_label", "curve_figure", "time_test_figure", "traction_evolution_figure",
+           "traction_map_figure"]
 
 #: axis label and scale of the usual columns
 _AXES = {
@@ -43,10 +52,17 @@ def curve_figure(red: Any, kind: str) -> Any:
     film thickness (nm), and a coefficient where the steps have one, against rolling speed
     (log axes).
     Steps are labelled (film steps by temperature) and coloured in file order;
-    more than ten are drawn thin in viridis with a colour bar.
+    more than ten are drawn thin in viridis with a colour bar.  More than
+    :data:`_MANY` traction steps (a long series of sweeps) are drawn as the median
+    and the 5-95 % range of the steps per SRR bin, with five of the steps
+    (:func:`_many_sweeps_figure`).  Readings the reduction left out (fringe-order
+    misassignments, speed glitches) are crosses.
     """
     import matplotlib
 
+    if kind == "traction" and getattr(red, "traction_map", None) is not None \
+            and red.curves[kind]["step"].nunique() > _MANY:
+        return _many_sweeps_figure(red)
     d = red.curves[kind]
     xcol, ycol = red.curve_x[kind], red.curve_y[kind]
     xl, xs = axis_label(xcol)
@@ -63,11 +79,14 @@ def curve_figure(red: Any, kind: str) -> Any:
     lw = 1.2 if n <= 20 else 0.4
     step_arr = d["step"].to_numpy()
     labels = d["label"].to_numpy() if "label" in d else None
-    outlier = d["interference_order_outlier"].to_numpy(dtype=bool) \
-        if "interference_order_outlier" in d else np.zeros(len(d), dtype=bool)
-    if outlier.any():
-        ax.plot(d.loc[outlier, xcol].to_numpy() * xs, d.loc[outlier, ycol].to_numpy() * ys, "x",
-                ms=5, color="0.35", label="fringe-order misassignment (left out)")
+    outlier = np.zeros(len(d), dtype=bool)
+    for flag, what in (("interference_order_outlier", "fringe-order misassignment"),
+                       ("speed_outlier", "speed glitch")):
+        if flag in d and d[flag].any():
+            bad = d[flag].to_numpy(dtype=bool)
+            ax.plot(d.loc[bad, xcol].to_numpy() * xs, d.loc[bad, ycol].to_numpy() * ys, "x",
+                    ms=5, color="0.35", label=f"{what} (left out)")
+            outlier |= bad
     for i, st in enumerate(steps):
         sel = (step_arr == st) & ~outlier
         x = d.loc[sel, xcol].to_numpy() * xs
@@ -136,3 +155,142 @@ def time_test_figure(red: Any, results: list[Any]) -> Any:
     legend(ax)
     fig.suptitle(f"Time test after application (thesis Fig. 5.9): {red.label}")
     return fig
+
+
+#: more traction steps than this are drawn as a band with a few steps (and mapped)
+_MANY = 20
+
+
+def _selected_steps(steps: list[Any], k: int = 5) -> list[Any]:
+    """``k`` steps evenly spread over the series (first and last included)."""
+    if len(steps) <= k:
+        return list(steps)
+    idx = np.unique(np.round(np.linspace(0, len(steps) - 1, k)).astype(int))
+    return [steps[i] for i in idx]
+
+
+def _step_time_label(tm: Any, st: Any) -> str:
+    t = tm.loc[tm["step"] == st, "time_h"]
+    return f"step {st}" + (f" (t = {float(t.iloc[0]):.1f} h)" if len(t) and np.isfinite(
+        float(t.iloc[0])) else "")
+
+
+def _many_sweeps_figure(red: Any) -> Any:
+    """A long series of traction sweeps: median and 5-95 % range over the steps per SRR bin
+    (the traction map's bins), and five of the steps drawn whole."""
+    import matplotlib
+
+    d = red.curves["traction"]
+    if "speed_outlier" in d:
+        d = d[~d["speed_outlier"]]
+    tm = red.traction_map
+    fig, ax = subplots(figsize=(7.5, 4.8))
+    q = tm.groupby("srr")["traction_coefficient"].quantile([0.05, 0.5, 0.95]).unstack()
+    x = q.index.to_numpy() * 100.0
+    band(ax, x, q[0.05], q[0.95], color="0.55", label="5–95 % of the steps (per SRR bin)")
+    ax.plot(x, q[0.5], "-", lw=2.0, color="0.15", label="median of the steps")
+    steps = list(dict.fromkeys(d["step"].tolist()))
+    cmap = matplotlib.colormaps["viridis"]
+    chosen = _selected_steps(steps)
+    for i, st in enumerate(chosen):
+        sub = d[d["step"] == st]
+        ax.plot(sub["srr"].to_numpy() * 100.0, sub["traction_coefficient"].to_numpy(), "-",
+                marker="o", ms=2.5, lw=0.9, color=cmap(i / max(1, len(chosen) - 1)),
+                label=_step_time_label(tm, st))
+    ax.set_xlabel("slide-to-roll ratio SRR (%)")
+    ax.set_ylabel("traction coefficient μ (–)")
+    legend(ax)
+    fig.suptitle(f"Traction steps ({len(steps)}): {red.label}")
+    return fig
+
+
+def traction_map_figure(red: Any) -> Any:
+    """The traction map of a long series of sweeps: the median coefficient of each step
+    in each SRR bin (colour) over the step number and SRR; the steps without a curve
+    (mapper images ...) are marked as thin lines."""
+
+    tm = red.traction_map
+    steps = np.sort(tm["step"].unique())
+    bins = np.sort(tm["srr_low"].unique())
+    w = float(tm["srr_high"].iloc[0] - tm["srr_low"].iloc[0])
+    grid = np.full((bins.size, steps.size), np.nan)
+    i = np.searchsorted(bins, tm["srr_low"].to_numpy())
+    j = np.searchsorted(steps, tm["step"].to_numpy())
+    grid[i, j] = tm["traction_coefficient"].to_numpy()
+    # cells between the steps (a step number without a sweep) stay empty, drawn by edges
+    xe = np.concatenate((steps - 0.5, [steps[-1] + 0.5]))
+    ye = np.concatenate((bins, [bins[-1] + w])) * 100.0
+    fig, ax = subplots(figsize=(7.5, 4.8))
+    finite = grid[np.isfinite(grid)]
+    lo, hi = np.quantile(finite, [0.01, 0.99]) if finite.size else (0.0, 1.0)
+    mesh = ax.pcolormesh(xe, ye, np.ma.masked_invalid(grid), cmap="viridis", vmin=lo, vmax=hi,
+                         shading="flat", rasterized=True)
+    fig.colorbar(mesh, ax=ax, label="traction coefficient μ (–)", extend="both")
+    other = getattr(red, "other_steps", None)
+    xl = "step number (–)"
+    if other is not None and len(other):
+        marks = other[(other["step"] > steps[0]) & (other["step"] < steps[-1])]
+        if len(marks):
+            # a triangle above the map at each step without a sweep (no data to map)
+            ax.plot(marks["step"], np.ones(len(marks)), "v", ms=4, color="0.3", clip_on=False,
+                    transform=ax.get_xaxis_transform())
+            kinds = ", ".join(dict.fromkeys(marks["step_type"]))
+            xl += f";  ▼ above: {kinds} steps (no sweep)"
+    ax.set_xlabel(xl)
+    ax.set_ylabel("slide-to-roll ratio SRR (%)")
+    ax.set_xlim(xe[0], xe[-1])
+    fig.suptitle(f"Traction map ({steps.size} steps, median μ per SRR bin): {red.label}")
+    return fig
+
+
+def _levels(tm: Any) -> list[float]:
+    """Four SRR bins of the map, at about 10, 25, 50 and 90 % of its largest |SRR| on the
+    side with more readings (the centres, fractions)."""
+    c = np.sort(tm["srr"].unique())
+    pos = c[c > 0]
+    neg = c[c < 0]
+    side = pos if pos.size >= neg.size else neg
+    if side.size == 0:
+        return []
+    top = float(np.max(np.abs(side)))
+    out = []
+    for f in (0.1, 0.25, 0.5, 0.9):
+        k = int(np.argmin(np.abs(np.abs(side) - f * top)))
+        if side[k] not in out:
+            out.append(float(side[k]))
+    return out
+
+
+def traction_evolution_figure(red: Any) -> Any:
+    """The coefficient of a long series of sweeps against time (or the step number): the
+    median of each step at four SRR bins, with the steps without a curve (mapper images
+    ...) marked."""
+    tm = red.traction_map
+    timed = tm["time_h"].notna().all()
+    xcol, xl = ("time_h", "time since the first data step t (h)") if timed else \
+        ("step", "step number (–)")
+    fig, ax = subplots(figsize=(8.0, 4.8))
+    col = colours(_levels(tm))
+    for lev, c in col.items():
+        sub = tm[np.isclose(tm["srr"], lev)].sort_values(xcol)
+        ax.plot(sub[xcol], sub["traction_coefficient"], "o", ms=2.2, mew=0, color=c,
+                alpha=0.55)
+        roll = sub["traction_coefficient"].rolling(9, center=True, min_periods=3).median()
+        half = 50.0 * float(tm["srr_high"].iloc[0] - tm["srr_low"].iloc[0])
+        ax.plot(sub[xcol], roll, "-", lw=1.4, color=c,
+                label=f"SRR {100 * lev - half:.3g}–{100 * lev + half:.3g} %")
+    other = getattr(red, "other_steps", None)
+    if other is not None and len(other):
+        col_x = other[xcol] if timed else other["step"]
+        lo, hi = float(tm[xcol].min()), float(tm[xcol].max())
+        shown = [(x, k) for x, k in zip(col_x, other["step_type"], strict=True)
+                 if np.isfinite(x) and lo < x < hi]
+        for n, (x, kind) in enumerate(shown):
+            ax.axvline(x, color="0.6", lw=0.6, ls=":", label=f"{kind} step" if n == 0 else None)
+    ax.set_xlabel(xl)
+    ax.set_ylabel("traction coefficient μ (–)")
+    legend(ax, title="median of each step at")
+    fig.suptitle(f"Traction against {'time' if timed else 'step'} "
+                 f"({tm['step'].nunique()} steps; lines: running median of 9): {red.label}")
+    return fig
+
