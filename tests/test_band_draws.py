@@ -24,7 +24,7 @@ from torlab.model.fastsim import (
     boundary_traction,
     boundary_traction_draws,
 )
-from torlab.model.layer import LayerParams
+from torlab.model.layers import LayerParams
 from torlab.model.mixed import mixed_traction_curve
 from torlab.model.predict import predict_traction
 from torlab.model.prediction import fastsim_grid, fastsim_problem

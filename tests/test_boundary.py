@@ -26,7 +26,7 @@ from torlab.model.fastsim import (
 )
 from torlab.model.hertz import E_star, hertz_approximate, hertz_exact
 from torlab.model.kalker import C11, ExtremeContactWarning, combined_G_nu
-from torlab.model.layer import LayerParams
+from torlab.model.layers import LayerParams
 
 G_STEEL, NU = combined_G_nu(210e9, 0.28, 210e9, 0.28)
 

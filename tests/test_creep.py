@@ -43,7 +43,7 @@ from torlab.model.kalker import (
     combined_G_nu,
     creepage_coefficients,
 )
-from torlab.model.layer import LayerParams
+from torlab.model.layers import LayerParams
 
 G_STEEL, NU = combined_G_nu(210e9, 0.28, 210e9, 0.28)
 WR_LAYER = LayerParams(0.30, 0.45, 10e-6, 20e-6)

@@ -11,7 +11,7 @@ from torlab.errors import TorlabInputError
 from torlab.model.creep import CreepProblem, creep_forces
 from torlab.model.fastsim import ThermalParams
 from torlab.model.kalker import L1, L2, L3, combined_G_nu, creepage_coefficients
-from torlab.model.layer import LayerParams
+from torlab.model.layers import LayerParams
 
 xr = pytest.importorskip("xarray")
 

@@ -11,7 +11,7 @@ from conftest import ROOT
 from torlab.errors import FitError, TorlabInputError
 from torlab.fit.layer import fit_layer_hpt, fit_layers_hpt, tau_of_raw_displacement
 from torlab.fit.result import FitResult
-from torlab.model.layer import LayerParams, hpt_tau
+from torlab.model.layers import LayerParams, hpt_tau
 from torlab.parsers.hpt import read_hpt
 from torlab.reduce.hpt import RigCompliance, reduce_hpt
 from torlab.synth.hpt import HptRig, HptRunSpec, rig_compliance_u, simulate_hpt, write_hpt_log

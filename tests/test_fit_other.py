@@ -17,7 +17,7 @@ from torlab.fit.temperature import fit_temperature_coefficients
 from torlab.fit.viscosity import fit_viscosity
 from torlab.model.contact import build_contact
 from torlab.model.ehl import hc_piezo
-from torlab.model.layer import LayerParams
+from torlab.model.layers import LayerParams
 from torlab.parsers.hpt import read_hpt
 from torlab.reduce.hpt import RigCompliance, reduce_hpt
 from torlab.scene import load_scene

@@ -13,7 +13,7 @@ from torlab.fit.polach import fit_polach, fit_polach_data, polach_data
 from torlab.model.creep import CreepProblem, creep_forces
 from torlab.model.fastsim import ThermalParams
 from torlab.model.kalker import L1, L2, L3, combined_G_nu, creepage_coefficients
-from torlab.model.layer import LayerParams
+from torlab.model.layers import LayerParams
 from torlab.model.polach import PolachParams, polach_contact, polach_forces
 
 G, NU = combined_G_nu(210e9, 0.28, 210e9, 0.28)

@@ -16,7 +16,7 @@ import pytest
 from torlab.errors import TorlabInputError
 from torlab.fit.result import FitResult
 from torlab.model.amount import HPT_AREA, MG_M2, AmountLayer, areal_density, parse_amount
-from torlab.model.layer import LayerParams
+from torlab.model.layers import LayerParams
 from torlab.model.removal import (
     RemovalLaw,
     amount_from_energy,

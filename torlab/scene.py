@@ -22,9 +22,19 @@ import copy
 import math
 import os
 from collections.abc import Sequence
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, Union
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, model_validator
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Discriminator,
+    Field,
+    Tag,
+    ValidationError,
+    model_serializer,
+    model_validator,
+)
 
 from torlab.errors import TorlabInputError, ValidationErrors
 
@@ -40,6 +50,7 @@ __all__ = [
     "Roughness",
     "Scene",
     "Thermal",
+    "boundary_of",
     "load_scene",
     "scene_from_dict",
 ]
@@ -185,14 +196,93 @@ class Thermal(_Section):
 
 
 class Boundary(_Section):
-    """``boundary:``: the third-body layer (thesis Eqs. 5.26-5.29; :mod:`torlab.model.layer`)."""
+    """``boundary:``: the third-body layer (``docs/model/layers.md``).
 
-    mu_c1: Dimensionless = Field(ge=0, le=5)
-    mu_c2: Dimensionless = Field(ge=0, le=5)
-    L_mue: Length = Field(default=0.0, ge=0)
-    L_mup: Length = Field(default=0.0, ge=0)
-    mu_c1_T: InvTemperature = 0.0
-    mu_c2_T: InvTemperature = 0.0
+    ``law`` names the layer law (:mod:`torlab.model.layers`; default: Voce, thesis
+    Eqs. 5.24-5.29); the other keys are that law's parameters, generated from the
+    registry (one subclass per law, chosen by ``law``).
+    """
+
+    law: str = "voce"
+
+    def __new__(cls, *args: Any, **data: Any) -> Any:
+        # Boundary(mu_c1=..., ...) builds the section of its law (``law=``, default Voce)
+        if cls is Boundary:
+            law = data.get("law", _DEFAULT_LAW)
+            if law not in BOUNDARY_MODELS:
+                raise ValueError(f"{law!r} is not a layer law ({', '.join(BOUNDARY_MODELS)})")
+            return BOUNDARY_MODELS[law](**data)
+        return super().__new__(cls)
+
+    def __init__(self, **data: Any) -> None:
+        if self.__dict__:  # built (and validated) by __new__ already
+            return
+        super().__init__(**data)
+
+    @property
+    def layer(self) -> Any:
+        """The values as :class:`~torlab.model.layers.LayerParams` (SI)."""
+        from torlab.model.layers import LayerParams
+
+        return LayerParams(law=self.law, **{n: getattr(self, n) for n in self._names()})
+
+    @classmethod
+    def _names(cls) -> tuple[str, ...]:
+        return tuple(n for n in cls.model_fields if n != "law")
+
+    @model_serializer(mode="wrap")
+    def _dump(self, handler: Any) -> Any:
+        # the default law is not written: a Voce boundary dumps as it always has
+        d = handler(self)
+        if isinstance(d, dict) and d.get("law") == _DEFAULT_LAW:
+            d.pop("law")
+        return d
+
+
+def _boundary_models() -> tuple[str, dict[str, type[Boundary]]]:
+    """One :class:`Boundary` subclass per layer law (its parameters as fields)."""
+    from pydantic import create_model
+
+    from torlab.model.layers import DEFAULT_LAW, LAWS
+
+    models: dict[str, type[Boundary]] = {}
+    for name, law in LAWS.items():
+        fields: dict[str, Any] = {}
+        for prm in law.params:
+            tp = Annotated[float, _q(prm.kind)]
+            fields[prm.name] = (tp, Field(default=... if prm.default is None else prm.default,
+                                          ge=prm.ge, le=prm.le, description=prm.meaning))
+        fields["law"] = (Literal[name], name)  # type: ignore[valid-type]
+        models[name] = create_model(f"Boundary_{name}", __base__=Boundary,
+                                    __doc__=f"``boundary:`` with the {name} layer law "
+                                            f"({law.title}).", **fields)
+    return DEFAULT_LAW, models
+
+
+_DEFAULT_LAW, BOUNDARY_MODELS = _boundary_models()
+# importable by name (scenes are pickled for worker processes)
+globals().update({m.__name__: m for m in BOUNDARY_MODELS.values()})
+
+
+def _law_of(v: Any) -> str:
+    if isinstance(v, dict):
+        law = v.get("law", _DEFAULT_LAW)
+        return law if isinstance(law, str) else repr(law)
+    return getattr(v, "law", _DEFAULT_LAW)
+
+
+def boundary_of(layer: Any) -> Boundary:
+    """The ``boundary:`` section of a :class:`~torlab.model.layers.LayerParams` (scalars;
+    the inverse of :attr:`Boundary.layer`)."""
+    return BOUNDARY_MODELS[layer.law.name](**{k: float(v) for k, v in layer.values.items()})
+
+
+if len(BOUNDARY_MODELS) == 1:
+    BoundaryField = next(iter(BOUNDARY_MODELS.values()))
+else:
+    BoundaryField = Annotated[Union[tuple(Annotated[m, Tag(n)]  # noqa: UP007
+                                          for n, m in BOUNDARY_MODELS.items())],
+                              Discriminator(_law_of)]
 
 
 class Lubricant(_Section):
@@ -392,7 +482,7 @@ class Scene(_Section):
     materials: Materials
     kinematics: Kinematics = Kinematics()
     thermal: Thermal | None = None
-    boundary: Boundary | None = None
+    boundary: BoundaryField | None = None  # type: ignore[valid-type]
     lubricant: Lubricant | None = None
     roughness: Roughness | None = None
     grid: Grid = Grid()
@@ -450,6 +540,9 @@ def scene_from_dict(data: Any, *, origin: dict[tuple, tuple[str | None, int | No
             loc = tuple(x for x in err["loc"] if not (isinstance(x, str) and x.startswith("function-")))
             # pydantic appends the literal/union branch name; drop non-key parts
             loc = tuple(x for x in loc if x not in ("float", "int", "str", "dict[str,any]"))
+            if loc[:1] == ("boundary",) and len(loc) > 1 and loc[1] in BOUNDARY_MODELS:
+                err = {**err, "law": loc[1]}
+                loc = loc[:1] + loc[2:]  # the layer law's tag is not a key
             file, line = _origin_of(loc, origin, path)
             key = ".".join(str(x) for x in loc) or None
             raw = _lookup(data, loc)
@@ -462,8 +555,15 @@ def scene_from_dict(data: Any, *, origin: dict[tuple, tuple[str | None, int | No
     return scene
 
 
-#: scene key -> plausible-range quantity of torlab.units.RANGES (docs/scenes.md)
-SCENE_RANGES: dict[tuple[str, str], str] = {
+def _layer_params() -> dict[str, Any]:
+    from torlab.model.layers import all_params
+
+    return all_params()
+
+
+#: scene key -> plausible-range quantity of torlab.units.RANGES (docs/scenes.md), or the
+#: :class:`~torlab.units.Range` a layer law declares for its own parameter
+SCENE_RANGES: dict[tuple[str, str], Any] = {
     ("contact", "load"): "load",
     **{("contact", k): "radius" for k in ("r1x", "r1y", "r2x", "r2y")},
     ("contact", "a"): "semi_axis", ("contact", "b"): "semi_axis",
@@ -472,9 +572,8 @@ SCENE_RANGES: dict[tuple[str, str], str] = {
     ("thermal", "conductivity"): "conductivity", ("thermal", "density"): "density",
     ("thermal", "heat_capacity"): "heat_capacity",
     ("thermal", "tolerance"): "temperature_difference",
-    ("boundary", "L_mue"): "layer_length", ("boundary", "L_mup"): "layer_length",
-    ("boundary", "mu_c1_T"): "temperature_coefficient",
-    ("boundary", "mu_c2_T"): "temperature_coefficient",
+    # the layer laws' parameters with a plausible range (torlab.model.layers), in order
+    **{("boundary", n): prm.range for n, prm in _layer_params().items() if prm.range},
     ("lubricant", "eta0"): "viscosity", ("lubricant", "alpha"): "pressure_viscosity",
     ("lubricant", "tau0"): "stress",
     ("roughness", "sigma"): "roughness", ("roughness", "beta"): "asperity_radius",
@@ -490,7 +589,7 @@ def _check_ranges(scene: Scene, origin: dict, path: str | None) -> None:
     problems = []
     for (section, key), quantity in SCENE_RANGES.items():
         sec = getattr(scene, section)
-        v = None if sec is None else getattr(sec, key)
+        v = None if sec is None else getattr(sec, key, None)  # None: not this layer law's
         if v is None:
             continue
         file, line = _origin_of((section, key), origin, path)
@@ -529,6 +628,14 @@ def _origin_of(loc: tuple, origin: dict, path: str | None) -> tuple[str | None, 
 def _message(err: dict) -> str:
     t = err.get("type", "")
     msg = err.get("msg", "")
+    if t == "union_tag_invalid":
+        from torlab._suggest import did_you_mean
+
+        tag = (err.get("ctx") or {}).get("tag", "")
+        return (f"{tag} is not a layer law: use {', '.join(BOUNDARY_MODELS)}"
+                f"{did_you_mean(tag.strip(chr(39)), BOUNDARY_MODELS)}")
+    if t == "extra_forbidden" and "law" in err:
+        return _boundary_key_message(err)
     if t == "extra_forbidden":
         from torlab._suggest import key_suggestion
 
@@ -545,6 +652,37 @@ def _message(err: dict) -> str:
     if msg.startswith("Value error, "):
         return msg[len("Value error, "):]
     return msg
+
+
+def _boundary_key_message(err: dict) -> str:
+    """An unknown ``boundary:`` key: a parameter of another layer law, or a typo."""
+    from torlab._suggest import did_you_mean
+    from torlab.model.layers import LAWS
+
+    law = err["law"]
+    key = str(err.get("loc", ("",))[-1])
+    owners = [n for n, lw in LAWS.items() if key in lw.names]
+    if owners:
+        return (f"not a parameter of the {law} layer law ({', '.join(LAWS[law].names)}); "
+                f"{key} belongs to {' and '.join(owners)} (set law: {owners[0]})")
+    return "unknown key" + did_you_mean(key, [*LAWS[law].names, "law"])
+
+
+def _switch_law(merged: dict, over: dict, origin: dict) -> None:
+    """A later file that sets another layer law replaces the layer: the earlier files'
+    ``boundary:`` keys that the new law does not have are dropped before the merge."""
+    from torlab.model.layers import LAWS
+
+    new, old = over.get("boundary"), merged.get("boundary")
+    if not (isinstance(new, dict) and isinstance(old, dict) and "law" in new):
+        return
+    law = new["law"]
+    if law == old.get("law", _DEFAULT_LAW) or law not in LAWS:
+        return
+    keep = set(LAWS[law].names)
+    for k in [k for k in old if k not in keep]:
+        del old[k]
+        origin.pop(("boundary", k), None)
 
 
 def load_scene(*paths: str | os.PathLike[str] | Sequence[str]) -> Scene:
@@ -590,6 +728,7 @@ def load_scene(*paths: str | os.PathLike[str] | Sequence[str]) -> Scene:
         if isinstance(fit, dict) and fit.get("covariance") is not None:
             c = copy.deepcopy(fit["covariance"])  # merging later files changes it in place
             covariances.extend(c if isinstance(c, list) else [c])
+        _switch_law(merged, doc.data, origin)
         _merge(merged, doc.data, origin, file_origin)
     if len(covariances) > 1:
         merged["fit"]["covariance"] = covariances

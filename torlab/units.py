@@ -414,9 +414,10 @@ RANGES: dict[str, Range] = {
 }
 
 
-def check_range(quantity: str, value: float, *, where: str = "", path: Any = None,
+def check_range(quantity: str | Range, value: float, *, where: str = "", path: Any = None,
                 line: int | None = None, allow_inf: bool = False) -> float:
-    """Check ``value`` (SI) against :data:`RANGES` ``[quantity]``; return it unchanged.
+    """Check ``value`` (SI) against :data:`RANGES` ``[quantity]`` (or a :class:`Range`
+    given directly, as a layer law declares for its own parameters); return it unchanged.
 
     Raises
     ------
@@ -432,7 +433,7 @@ def check_range(quantity: str, value: float, *, where: str = "", path: Any = Non
 
     from torlab.errors import TorlabWarning
 
-    r = RANGES[quantity]
+    r = quantity if isinstance(quantity, Range) else RANGES[quantity]
     loc = {"path": path, "line": line, "key": where or None}
     if allow_inf and math.isinf(value) and value > 0:
         return value

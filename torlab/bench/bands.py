@@ -41,7 +41,7 @@ def _scene_with_fit() -> object:
     from pathlib import Path
 
     from torlab.fit.layer import fit_layer_hpt
-    from torlab.model.layer import LayerParams
+    from torlab.model.layers import LayerParams
     from torlab.parsers.hpt import read_hpt
     from torlab.reduce.hpt import RigCompliance, reduce_hpt
     from torlab.scene import load_scene, scene_from_dict

@@ -105,7 +105,7 @@ def paired_ratio(a: Callable[[], Any], b: Callable[[], Any], *, rounds: int = 9,
 
 def _errors(prob: CreepProblem, cases: tuple, fn: Callable[[tuple], tuple]) -> np.ndarray:
     """Largest normalised error per component (Fx, Fy, Mz) over ``cases``."""
-    scale = prob.layer.mu_c2 * prob.load * np.array([1.0, 1.0, math.sqrt(prob.a * prob.b)])
+    scale = float(prob.layer.law.reference_mu(prob.layer)) * prob.load * np.array([1.0, 1.0, math.sqrt(prob.a * prob.b)])
     err = np.zeros(3)
     for c in cases:
         got = np.array(fn(c), dtype=float).ravel()

@@ -151,7 +151,8 @@ def naive_fastsim(prob: FastsimProblem, creepage: Any, n: int, m: int, *,
         u_i   = u_{i-1} + xi dx                              (Eq. 5.25)
         tau_i = tau_{i-1} + xi dx / L_i     while elastic     (Eqs. 5.22-5.23)
         tau_i = tau_c1 + (tau_c2 - tau_c1)(1 - exp(-max(u_i - tau_c1 L_i, 0)/L_mup))
-                                             once tau has reached tau_c1 (Eq. 5.24)
+                                             once tau has reached tau_c1 (Eq. 5.24;
+                                             another layer law: its own branch)
 
     and ``mu = sum tau dA / sum p dA`` (Eq. 5.30) with the cell areas
     ``dx dy``.  Without temperature.  The recurrence of the elastic part is a
@@ -202,8 +203,6 @@ def naive_fastsim(prob: FastsimProblem, creepage: Any, n: int, m: int, *,
         E = E - 0.5 * inc
         U = X
     t1 = lay.mu_c1 * p
-    t2 = lay.mu_c2 * p
-    t1L = t1 * L
     dA = dx[:, None] * wy[:, None]
     out = np.empty(xi.shape)
     per = max(1, chunk // p.size)
@@ -211,11 +210,7 @@ def naive_fastsim(prob: FastsimProblem, creepage: Any, n: int, m: int, *,
         z = xi[k:k + per, None, None]
         tau_el = z * E
         yielded = np.logical_or.accumulate(tau_el >= t1, axis=2)
-        d = z * U - t1L
-        if lay.L_mup > 0:
-            plastic = t2 - (t2 - t1) * np.exp(-np.maximum(d, 0.0) / lay.L_mup)
-        else:
-            plastic = np.where(d > 0, t2, t1)
+        plastic = lay.law.strip_plastic(lay, p, z * U, p * L, 0.0)  # the layer law's branch
         tau = np.where(yielded, plastic, tau_el)
         out[k:k + per] = np.einsum("xsm,sm->x", tau, dA)
     return np.sign(xi_in) * out / np.sum(p * dA)

@@ -101,7 +101,7 @@ def run(quick: bool = False) -> list[BenchRow]:
     """
     from torlab.fit.layer import fit_layer_hpt
     from torlab.fit.traction import fit_layer_traction, traction_model
-    from torlab.model.layer import LayerParams
+    from torlab.model.layers import LayerParams
     from torlab.parsers.hpt import read_hpt
     from torlab.reduce.hpt import RigCompliance, reduce_hpt
     from torlab.scene import load_scene

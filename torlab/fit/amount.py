@@ -29,7 +29,8 @@ from typing import Any
 import numpy as np
 
 from torlab.errors import TorlabInputError
-from torlab.model.amount import LAYER_NAMES, AmountLayer
+from torlab.model.amount import AmountLayer
+from torlab.model.layers import get_law
 
 __all__ = ["amount_layer", "layer_fit_from_params"]
 
@@ -42,7 +43,8 @@ def layer_fit_from_params(path: str | os.PathLike[str]) -> Any:
     Returns
     -------
     FitResult
-        ``kind="layer_hpt"``: the four layer parameters, their covariance (the
+        ``kind="layer_hpt"``: the layer law's parameters (the file's ``boundary: law:``,
+        default Voce), their covariance (the
         file's ``fit: covariance:`` block where present, else the standard
         errors uncorrelated) and the provenance (source, applied amount and
         unit, product density, temperature).
@@ -69,9 +71,16 @@ def layer_fit_from_params(path: str | os.PathLike[str]) -> Any:
                                "(layer_hpt)", path=p, line=doc.lines.line(("fit", "kind")),
                                key="fit.kind")
     b = d["boundary"]
+    try:
+        law = get_law(b.get("law"))
+    except (KeyError, TypeError):
+        raise TorlabInputError(f"{b.get('law')!r} is not a layer law", path=p,
+                               line=doc.lines.line(("boundary", "law")),
+                               key="boundary.law") from None
+    names_l = law.fit_names
     pars = fit.get("parameters") if isinstance(fit.get("parameters"), dict) else {}
     vals, se = [], []
-    for nm in LAYER_NAMES:
+    for nm in names_l:
         try:
             v = float(b[nm])
             s = pars.get(nm, {}).get("stderr") if isinstance(pars.get(nm), dict) else None
@@ -89,7 +98,8 @@ def layer_fit_from_params(path: str | os.PathLike[str]) -> Any:
         vals.append(v)
         se.append(s)
     cov = np.diag(np.square(se))
-    note = "correlations not in the file: the four parameters taken as uncorrelated"
+    count = {2: "two", 3: "three", 4: "four"}.get(len(names_l), str(len(names_l)))
+    note = f"correlations not in the file: the {count} parameters taken as uncorrelated"
     block = fit.get("covariance")
     if isinstance(block, dict) and isinstance(block.get("names"), list):
         names = [str(n) for n in block["names"]]
@@ -98,7 +108,7 @@ def layer_fit_from_params(path: str | os.PathLike[str]) -> Any:
         except (TypeError, ValueError):
             mat = np.zeros(0)
         if mat.shape == (len(names), len(names)) and np.all(np.isfinite(mat)):
-            idx = [names.index(n) if n in names else -1 for n in LAYER_NAMES]
+            idx = [names.index(n) if n in names else -1 for n in names_l]
             for i, a in enumerate(idx):
                 for j, c in enumerate(idx):
                     if a >= 0 and c >= 0:
@@ -110,8 +120,10 @@ def layer_fit_from_params(path: str | os.PathLike[str]) -> Any:
     meta["parameter_file"] = Path(p).name
     if note:
         meta["notes"] = [f"{Path(p).name}: {note}"]
+    if law is not get_law():
+        meta["law"] = law.name
     dof = fit.get("dof", 50)
-    return FitResult.from_covariance("layer_hpt", LAYER_NAMES, np.array(vals), cov,
+    return FitResult.from_covariance("layer_hpt", names_l, np.array(vals), cov,
                                      dof=int(dof) if isinstance(dof, int) else 50,
                                      residual_norm=float(fit.get("residual_rms") or 0.0),
                                      n_points=int(fit.get("n_points") or 0), warnings=[],

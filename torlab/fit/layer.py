@@ -1,10 +1,12 @@
-"""Third-body layer parameters from HPT curves: ``mu_c1, mu_c2, L_mue, L_mup``.
+"""Third-body layer parameters from HPT curves (Voce: ``mu_c1, mu_c2, L_mue, L_mup``).
 
-The model is the layer law of :mod:`torlab.model.layer` at the run's normal
-stress ``sigma`` (thesis Eqs. 5.24, 5.26-5.29, as
-``docs/model/thesis-reading.md`` reads them): elastic ``tau = u sigma / L_mue`` up to
-``tau_c1 = mu_c1 sigma``, then Voce towards ``tau_c2 = mu_c2 sigma`` with the
-length ``L_mup``.  The rig's own compliance ``u_rig(tau)`` is part of the
+The model is a layer law of :mod:`torlab.model.layers` at the run's normal stress
+``sigma``: elastic ``tau = u sigma / L_mue`` up to ``tau_c1 = mu_c1 sigma``, then the
+law's plastic branch -- by default Voce's, towards ``tau_c2 = mu_c2 sigma`` with the
+length ``L_mup`` (thesis Eqs. 5.24, 5.26-5.29, as ``docs/model/thesis-reading.md``
+reads them); ``law="linear"`` or ``"perfect"`` fit CONTACT's laws, and
+``law="auto"`` fits every law and keeps the one with the smallest AICc
+(:func:`fit_layer_hpt`).  The rig's own compliance ``u_rig(tau)`` is part of the
 model, as in the measurement: the angle measures
 ``u_raw = u_layer + u_rig(tau)``, so the model is evaluated on a fine grid of
 the layer displacement, mapped to ``u_raw`` and interpolated at the measured
@@ -24,7 +26,7 @@ noise model estimated from the residuals (relative white + AR(1), see
 correlated (the layer's strength fluctuates over seconds).
 
 Fitted on the loading branch (up to the maximum displacement).  Several curves
-of one product are fitted jointly (``joint=True``): the four parameters are
+of one product are fitted jointly (``joint=True``): the law's parameters are
 shared, each curve keeps its own normal stress and compliance.
 """
 
@@ -47,16 +49,23 @@ from torlab.fit._noise import (
     sandwich_covariance,
 )
 from torlab.fit.result import FitResult
+from torlab.model.layers import LAWS, LayerLaw, LayerParams, get_law
 from torlab.threads import small_problem
 
-__all__ = ["LAYER_NAMES", "HptCurve", "fit_layer_hpt", "fit_layers_hpt", "hpt_curve",
-           "tau_of_raw_displacement"]
+__all__ = ["AUTO", "LAYER_NAMES", "HptCurve", "fit_layer_hpt", "fit_layers_hpt", "hpt_curve",
+           "law_choice", "select_law", "tau_of_raw_displacement"]
 
-LAYER_NAMES = ("mu_c1", "mu_c2", "L_mue", "L_mup")
-#: internal parameter scaling: mu as is, lengths in um
-_SCALE = np.array([1.0, 1.0, 1e-6, 1e-6])
-_LOWER = np.array([1e-4, 1e-4, 1e-3, 1e-3])  # mu, mu, um, um
-_UPPER = np.array([5.0, 5.0, 1e3, 1e4])
+#: the parameters of the default (Voce) law
+LAYER_NAMES = get_law().fit_names
+
+
+def _space(law: LayerLaw) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The law's internal scaling and bounds (:class:`~torlab.model.layers.Param` ``scale``,
+    ``fit``): mu as is, lengths in um."""
+    ps = [law.param(n) for n in law.fit_names]
+    return (np.array([p.scale for p in ps]), np.array([p.fit[0] for p in ps]),
+            np.array([p.fit[1] for p in ps]))
+
 #: fewest loading-branch points for a fit with uncertainties
 MIN_POINTS = 12
 
@@ -88,26 +97,30 @@ class HptCurve:
 
 def tau_of_raw_displacement(u_raw: np.ndarray, sigma: float, x: Sequence[float],
                             compliance: Callable[[np.ndarray], np.ndarray] | None = None, *,
-                            n_elastic: int = 48, n_plastic: int = 320) -> np.ndarray:
+                            n_elastic: int = 48, n_plastic: int = 320,
+                            law: str | LayerLaw | None = None) -> np.ndarray:
     """Layer-law shear stress (Pa) at the *measured* displacement ``u_raw`` (m).
 
-    ``x = (mu_c1, mu_c2, L_mue, L_mup)`` in SI.  The law (:func:`torlab.model.layer.hpt_tau`,
+    ``x`` are the law's ``fit_names`` values in SI (Voce: ``mu_c1, mu_c2, L_mue,
+    L_mup``).  The law (:meth:`~torlab.model.layers.base.LayerLaw.hpt_tau`; Voce:
     Eqs. 5.24, 5.26-5.29) is tabulated on the layer displacement -- uniform in
-    ``tau`` on the elastic branch, geometric in ``u - u_y`` with the Voce length
-    on the plastic one -- and ``u_raw = u_layer + u_rig(tau)`` is inverted by
-    monotone interpolation (piecewise-linear error below 1e-4 of ``tau_c2 - tau_c1``).
+    ``tau`` on the elastic branch, geometric in ``u - u_y`` on the plastic one (graded
+    with the law's own length, Voce's ``L_mup``) -- and ``u_raw = u_layer + u_rig(tau)``
+    is inverted by monotone interpolation (piecewise-linear error below 1e-4 of
+    ``tau_c2 - tau_c1``).
     """
-    mu1, mu2, lme, lmp = (float(v) for v in x)
+    law = get_law(law)
+    lay = LayerParams(law=law, **{n: float(v) for n, v in zip(law.fit_names, x, strict=True)})
     u_raw = np.asarray(u_raw, dtype=float)
-    t1, t2 = mu1 * sigma, mu2 * sigma
-    le = lme / sigma
+    t1 = lay.mu_c1 * sigma
+    le = lay.L_mue / sigma
     tau_el = np.linspace(0.0, t1, n_elastic)
     ul_el = tau_el * le
     uy = t1 * le
     span = max(float(np.max(u_raw)) - uy, 0.0) * 1.05 + 1e-9
-    lp = max(lmp, 1e-12)
+    lp = law.hpt_length(lay) or span
     s = np.geomspace(min(1e-4 * lp, 0.5 * span), max(span, 2e-4 * lp), n_plastic)
-    tau_pl = t1 + (t2 - t1) * -np.expm1(-s / lp)
+    tau_pl = law.hpt_plastic(s, sigma, lay)
     ul = np.concatenate((ul_el, uy + s))
     tau = np.concatenate((tau_el, tau_pl))
     ur = ul + (np.asarray(compliance(tau), dtype=float) - float(compliance(np.zeros(1))[0])
@@ -226,8 +239,10 @@ def hpt_curve(curve: Any, *, sigma: float | None = None, compliance: Any = None,
 # ---------------------------------------------------------------------------------------------
 # the fit
 # ---------------------------------------------------------------------------------------------
-def _initial_guess(c: HptCurve) -> np.ndarray:
-    """Data-driven start: plateau -> mu_c2, initial slope -> L_mue, knee -> mu_c1, L_mup."""
+def _initial_guess(c: HptCurve, law: LayerLaw) -> np.ndarray:
+    """Data-driven start: initial slope -> L_mue, knee -> mu_c1; the law's own parameters
+    from the curve after the knee (:meth:`~torlab.model.layers.base.LayerLaw.hpt_start`;
+    Voce: the final stress -> mu_c2, the 63 % point -> L_mup)."""
     u = c.u_raw
     tau = c.tau
     ul = u - (c.compliance(tau) - c.compliance(np.zeros(1))[0] if c.compliance is not None else 0.0)
@@ -250,20 +265,55 @@ def _initial_guess(c: HptCurve) -> np.ndarray:
     t1 = float(tau[max(k1 - 1, 0)])
     t1 = max(t1, 0.2 * t2)
     uy = t1 / slope
-    target = t1 + 0.63 * (t2 - t1)
-    after = np.flatnonzero((ul > uy) & ((tau - target) * np.sign(t2 - t1) >= 0))
-    lmp = float(ul[after[0]] - uy) if after.size and abs(t2 - t1) > 0.02 * t2 else 10e-6
-    x = np.array([t1 / c.sigma, t2 / c.sigma, lme, max(lmp, 0.2e-6)]) / _SCALE
-    return np.clip(x, _LOWER * 1.01, _UPPER * 0.99)
+    start = {"mu_c1": t1 / c.sigma, "L_mue": lme,
+             **law.hpt_start(t1, t2, uy, ul, tau, c.sigma)}
+    scale, lower, upper = _space(law)
+    x = np.array([start[n] for n in law.fit_names]) / scale
+    return np.clip(x, np.where(lower > 0, lower * 1.01, lower * 0.99),
+                   np.where(upper > 0, upper * 0.99, upper * 1.01))
+
+
+#: what ``law=`` takes besides a law's name: every law, the smallest AICc kept
+AUTO = "auto"
+
+
+def law_choice(law: Any) -> list[LayerLaw]:
+    """The laws a ``law=`` argument asks for: a name, ``"auto"`` (every law), or a list.
+
+    Raises
+    ------
+    TorlabInputError
+        An unknown law (with a suggestion).
+    """
+    from torlab._suggest import did_you_mean
+
+    if law is None:
+        return [get_law()]
+    names = ([x.strip() for x in law.split(",") if x.strip()] if isinstance(law, str)
+             else [getattr(x, "name", x) for x in law])
+    out: list[LayerLaw] = []
+    for nm in names:
+        if nm == AUTO:
+            out.extend(LAWS.values())
+            continue
+        if nm not in LAWS:
+            raise TorlabInputError(f"{nm!r} is not a layer law: use {', '.join(LAWS)} or "
+                                   f"{AUTO}{did_you_mean(nm, [*LAWS, AUTO])}", key="law")
+        out.append(LAWS[nm])
+    out = list(dict.fromkeys(out))
+    if not out:
+        raise TorlabInputError("no layer law given", key="law")
+    return out
 
 
 @small_problem  # one BLAS thread: small matrices (torlab.threads)
 def fit_layer_hpt(curves: Any, *, sigma: float | None = None, compliance: Any = None,
-                  joint: bool = True) -> FitResult:
-    """Fit ``mu_c1, mu_c2, L_mue, L_mup`` to HPT curves (thesis Eqs. 5.24, 5.26-5.29).
+                  joint: bool = True, law: Any = None) -> FitResult:
+    """Fit a layer law's parameters to HPT curves (Voce: ``mu_c1, mu_c2, L_mue, L_mup``,
+    thesis Eqs. 5.24, 5.26-5.29).
 
     One curve gives its fit; several curves (repeats of one product and
-    amount) are fitted jointly: the four parameters shared, each curve with
+    amount) are fitted jointly: the parameters shared, each curve with
     its own normal stress and compliance.  One fit per curve is
     :func:`fit_layers_hpt`.
 
@@ -281,6 +331,11 @@ def fit_layer_hpt(curves: Any, *, sigma: float | None = None, compliance: Any = 
     joint
         Must be true (kept for callers that say so); one fit per curve is
         :func:`fit_layers_hpt`.
+    law
+        The layer law (:mod:`torlab.model.layers`): ``"voce"`` (default), ``"linear"``,
+        ``"perfect"``, or ``"auto"`` (or a list of laws): each is fitted and the one
+        with the smallest AICc is returned, the comparison in ``meta["law_selection"]``
+        (:func:`select_law`).
 
     Returns
     -------
@@ -289,46 +344,113 @@ def fit_layer_hpt(curves: Any, *, sigma: float | None = None, compliance: Any = 
     Raises
     ------
     TorlabInputError
-        Bad or insufficient data (too few points, constant signal ...).
+        Bad or insufficient data (too few points, constant signal ...), an unknown law.
     FitError
         The optimiser does not converge, or the curve never leaves the elastic
-        branch (``mu_c1``, ``mu_c2``, ``L_mup`` undetermined).
+        branch (the plastic parameters undetermined); with several laws, when
+        every law fails.
     """
     if not joint:
         raise TypeError("fit_layer_hpt fits the curves together; use fit_layers_hpt for one fit "
                         "per curve")
+    laws = law_choice(law)
     items = list(curves) if isinstance(curves, (list, tuple)) else [curves]
     if not items:
         raise TorlabInputError("no HPT curve given")
-    return _fit([hpt_curve(c, sigma=sigma, compliance=compliance) for c in items])
+    cs = [hpt_curve(c, sigma=sigma, compliance=compliance) for c in items]
+    if len(laws) == 1:
+        return _fit(cs, laws[0])
+    return select_law(cs, laws)
 
 
-def fit_layers_hpt(curves: Any, *, sigma: float | None = None, compliance: Any = None
-                   ) -> list[FitResult]:
+def fit_layers_hpt(curves: Any, *, sigma: float | None = None, compliance: Any = None,
+                   law: Any = None) -> list[FitResult]:
     """One :func:`fit_layer_hpt` per curve (e.g. one run per temperature), in order."""
     items = list(curves) if isinstance(curves, (list, tuple)) else [curves]
     if not items:
         raise TorlabInputError("no HPT curve given")
-    return [fit_layer_hpt(c, sigma=sigma, compliance=compliance) for c in items]
+    return [fit_layer_hpt(c, sigma=sigma, compliance=compliance, law=law) for c in items]
 
 
-def _fit(cs: list[HptCurve]) -> FitResult:
+def select_law(cs: list[HptCurve], laws: Sequence[LayerLaw]) -> FitResult:
+    """Fit every law of ``laws`` to the curves and keep the one with the smallest AICc.
+
+    As ``torlab fit removal`` chooses its removal law: ``AICc = n_eff ln(RSS/n) + 2k +
+    2k(k+1)/(n_eff - k - 1)`` with ``RSS`` the residual sum of squares of each law's
+    fit, ``k`` its number of parameters, ``n`` the points and ``n_eff`` the effective
+    number of independent points of the best-fitting law's residuals (the HPT noise is
+    correlated along the record, :mod:`torlab.fit._noise`); Akaike weights
+    ``exp(-dAICc/2)`` normalised.  A law whose fit fails is listed with why and left out.
+    The result is the chosen law's :class:`FitResult` with ``meta["law"]``,
+    ``meta["law_selection"]`` (one row per law) and ``meta["criterion"]``.
+    """
+    fits: list[tuple[LayerLaw, FitResult | None, str]] = []
+    for lw in laws:
+        try:
+            fits.append((lw, _fit(cs, lw), ""))
+        except FitError as e:
+            fits.append((lw, None, str(e)))
+    ok = [(lw, r) for lw, r, _ in fits if r is not None]
+    if not ok:
+        raise FitError("no layer law fits these curves: " + "; ".join(
+            f"{lw.name}: {why}" for lw, _, why in fits))
+    rss = {lw.name: float(np.sum((r.data["residual_Pa"].to_numpy()) ** 2)) for lw, r in ok}
+    best = min(ok, key=lambda t: rss[t[0].name])[1]
+    n = int(best.n_points)
+    neff = float(best.meta.get("effective_points", n))
+    # residuals at round-off (a law that reproduces the data exactly) are no evidence
+    # beyond round-off: RSS is floored at n (1e-12 of the stress scale)^2
+    scale = max(float(np.max(np.abs(best.data["shear_stress_measured_Pa"]))), 1e-300)
+    floor = n * (1e-12 * scale) ** 2
+    rows: list[dict[str, Any]] = []
+    for lw, r, why in fits:
+        k = len(lw.fit_names)
+        if r is None:
+            rows.append({"law": lw.name, "parameters": k, "rss": None, "aicc": None,
+                         "delta_aicc": None, "weight": 0.0, "note": why})
+            continue
+        corr = 2.0 * k * (k + 1) / max(neff - k - 1, 1.0)
+        aicc = neff * math.log(max(rss[lw.name], floor) / n) + 2 * k + corr
+        rows.append({"law": lw.name, "parameters": k, "rss": rss[lw.name], "aicc": aicc,
+                     "note": "; ".join(r.warnings)})
+    a_min = min(r["aicc"] for r in rows if r["aicc"] is not None)
+    wsum = sum(math.exp(-0.5 * (r["aicc"] - a_min)) for r in rows if r["aicc"] is not None)
+    for r in rows:
+        if r["aicc"] is not None:
+            r["delta_aicc"] = r["aicc"] - a_min
+            r["weight"] = math.exp(-0.5 * r["delta_aicc"]) / wsum
+    chosen = min((r for r in rows if r["aicc"] is not None), key=lambda r: r["aicc"])["law"]
+    res = next(r for lw, r in ok if lw.name == chosen)
+    res.meta["law"] = chosen
+    res.meta["law_selection"] = rows
+    res.meta["criterion"] = ("AICc on the effective number of independent points "
+                             f"({neff:.1f} of {n}); RSS floored at round-off")
+    return res
+
+
+def _fit(cs: list[HptCurve], law: LayerLaw | None = None) -> FitResult:
     import pandas as pd
     from scipy.optimize import least_squares
 
+    law = get_law(law)
+    names = law.fit_names
+    SCALE, LOWER, UPPER = _space(law)
     where = ", ".join(str(c.meta.get("source") or "curve") for c in cs)
     scale_tau = max(float(np.max(np.abs(c.tau))) for c in cs)
 
     def model(x: np.ndarray, c: HptCurve) -> np.ndarray:
-        return tau_of_raw_displacement(c.u_raw, c.sigma, x * _SCALE, c.compliance)
+        return tau_of_raw_displacement(c.u_raw, c.sigma, x * SCALE, c.compliance, law=law)
 
     def resid(x: np.ndarray) -> np.ndarray:
         return np.concatenate([(model(x, c) - c.tau) / scale_tau for c in cs])
 
-    x0s = [_initial_guess(c) for c in cs]
-    x0 = np.exp(np.mean(np.log(np.array(x0s)), axis=0))
+    x0s = np.array([_initial_guess(c, law) for c in cs])
+    pos = np.array([law.param(n).positive for n in names])
+    # the geometric mean of the curves' starts (the arithmetic one for a signed parameter)
+    x0 = np.where(pos, np.exp(np.mean(np.log(np.where(pos, x0s, 1.0)), axis=0)),
+                  np.mean(x0s, axis=0))
     try:
-        sol = least_squares(resid, x0, bounds=(_LOWER, _UPPER), x_scale="jac", method="trf",
+        sol = least_squares(resid, x0, bounds=(LOWER, UPPER), x_scale="jac", method="trf",
                             xtol=1e-10, ftol=1e-10, max_nfev=400)
     except (ValueError, np.linalg.LinAlgError) as e:
         raise FitError(f"HPT layer fit failed for {where}: {e}") from None
@@ -336,21 +458,26 @@ def _fit(cs: list[HptCurve]) -> FitResult:
         raise FitError(f"HPT layer fit did not converge for {where} ({sol.message}, "
                        f"{sol.nfev} evaluations)")
     x = sol.x
-    p = x * _SCALE
+    p = x * SCALE
+    pv = dict(zip(names, p, strict=True))
     # --- the data must leave the elastic branch -----------------------------------------
     n_plastic = 0
     for c in cs:
-        t1 = p[0] * c.sigma
-        u_yield = t1 * p[2] / c.sigma + (float(c.compliance(np.array([t1]))[0] - c.compliance(
+        t1 = pv["mu_c1"] * c.sigma
+        u_yield = t1 * pv["L_mue"] / c.sigma + (float(c.compliance(np.array([t1]))[0] - c.compliance(
             np.zeros(1))[0]) if c.compliance is not None else 0.0)
         n_plastic += int(np.sum(c.u_raw > u_yield * (1 + 1e-9)))
     max_ratio = max(float(np.max(c.tau)) / c.sigma for c in cs)
-    if n_plastic < 3 or p[0] >= max_ratio * 1.02:
+    if n_plastic < 3 or pv["mu_c1"] >= max_ratio * 1.02:
+        plastic = [n for n in names if n != "L_mue"]
+        listed = ", ".join(plastic[:-1]) + f" and {plastic[-1]}" if len(plastic) > 1 \
+            else plastic[0]
+        verb = "are" if len(plastic) > 1 else "is"
         raise FitError(f"{where}: all points lie on the elastic branch (the curve never yields up to "
-                       f"f = {max_ratio:.3g}), so mu_c1, mu_c2 and L_mup are not determined; run the "
+                       f"f = {max_ratio:.3g}), so {listed} {verb} not determined; run the "
                        "test to a larger displacement")
     # --- uncertainties ------------------------------------------------------------------
-    J = sol.jac * scale_tau / _SCALE[None, :]   # d tau / d p (SI) per row
+    J = sol.jac * scale_tau / SCALE[None, :]   # d tau / d p (SI) per row
     rows, blocks, off = [], [], 0
     data_frames = []
     noise_models: list[NoiseModel] = []
@@ -374,7 +501,7 @@ def _fit(cs: list[HptCurve]) -> FitResult:
     cov = sandwich_covariance(J, blocks)
     neff = effective_points(blocks)
     n = off
-    k = len(LAYER_NAMES)
+    k = len(names)
     dof = max(math.floor(neff) - k, 2)
     pdof = np.maximum(parameter_dof(J, blocks), 2.0)
     all_r = np.concatenate(rows)
@@ -386,46 +513,35 @@ def _fit(cs: list[HptCurve]) -> FitResult:
         "curves": [str(c.meta.get("source", "")) for c in cs],
         "normal_stress_Pa": float(np.mean([c.sigma for c in cs])),
         "effective_points": float(neff),
-        "interval_dof": {nm_: round(float(d), 1) for nm_, d in zip(LAYER_NAMES, pdof, strict=True)},
+        "interval_dof": {nm_: round(float(d), 1) for nm_, d in zip(names, pdof, strict=True)},
         **{k2: first.get(k2) for k2 in ("product", "condition", "applied_amount",
                                         "applied_amount_unit", "product_density",
                                         "temperature_C", "compliance")
            if k2 in first},
         "source": where,
     }
+    if law is not get_law():
+        meta["law"] = law.name  # the default law is not written (outputs as they always were)
     if len(cs) == 1:
         meta.update(noise_models[0].as_dict())
     result = FitResult.from_covariance(
-        "layer_hpt", LAYER_NAMES, p, cov, dof=dof, param_dof=pdof, log_scale=LAYER_NAMES,
+        "layer_hpt", names, p, cov, dof=dof, param_dof=pdof,
+        log_scale=tuple(n_ for n_, ps in zip(names, pos, strict=True) if ps),
         residual_norm=float(np.sqrt(np.mean(all_r**2))), n_points=n, warnings=[],
         data=pd.concat(data_frames, ignore_index=True), meta=meta, residual_unit="Pa",
         n_evaluations=int(sol.nfev), x_column="displacement_m",
         y_column="shear_stress_measured_Pa")
-    result.warnings.extend(_layer_warnings(result, cs))
+    result.warnings.extend(_layer_warnings(result, cs, law))
     return result
 
 
-def _layer_warnings(res: FitResult, cs: list[HptCurve]) -> list[str]:
+def _layer_warnings(res: FitResult, cs: list[HptCurve], law: LayerLaw | None = None) -> list[str]:
     """What the curve(s) do not determine."""
-    w: list[str] = []
+    law = get_law(law)
     p, se = res.params, res.stderr
-    cov12 = res.correlation[0, 1] * se["mu_c1"] * se["mu_c2"] if res.determined("mu_c1") and \
-        res.determined("mu_c2") else math.inf
-    d = p["mu_c2"] - p["mu_c1"]
-    var_d = se["mu_c1"] ** 2 + se["mu_c2"] ** 2 - 2 * cov12 if math.isfinite(cov12) else math.inf
-    sd_d = math.sqrt(max(var_d, 0.0))
-    step_resolved = abs(d) > 3.0 * sd_d and abs(d) > 0.02 * max(p["mu_c1"], p["mu_c2"])
-    if not step_resolved:
-        w.append(f"L_mup not determined: the curve never yields to a new level after the elastic "
-                 f"limit (mu_c2 - mu_c1 = {d:.3g} +- {sd_d:.2g}), so the Voce length has no effect")
-    else:
-        u_after = min(float(np.max(c.u_raw)) - p["mu_c1"] * p["L_mue"] for c in cs)
-        if u_after < 3.0 * p["L_mup"]:
-            w.append(f"mu_c2 poorly determined: the curve ends {u_after / max(p['L_mup'], 1e-12):.2g} "
-                     "L_mup after the elastic limit, before it saturates; run to a larger "
-                     "displacement")
-    for n in LAYER_NAMES:
-        if n == "L_mup" and not step_resolved:
+    w, skip = law.fit_warnings(res, [float(np.max(c.u_raw)) for c in cs])
+    for n in law.fit_names:
+        if n in skip:
             continue
         if not res.determined(n):
             w.append(f"{n} not determined by these data")

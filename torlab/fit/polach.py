@@ -160,8 +160,8 @@ def fit_polach(problem: CreepProblem, creepage: Any, speed: Any, *, lateral: Any
     df = polach_data(problem, creepage, speed, lateral=lateral, spin=spin, grid=grid)
     res = fit_polach_data(df, polach_contact(problem), source=source, ordered=ordered)
     lay = problem.layer
-    if len(np.unique(df["speed_m_s"])) > 1 and (problem.thermal is None
-                                                 or (lay.mu_c1_T == 0 and lay.mu_c2_T == 0)):
+    if len(np.unique(df["speed_m_s"])) > 1 and (
+            problem.thermal is None or not any(lay.law.temperature_coefficients(lay))):
         res.warnings.append(
             "torlab's forces do not depend on speed here (no thermal: section or zero "
             "temperature coefficients) while Polach's depend on the slip velocity s V: the fit "
@@ -297,7 +297,7 @@ class _PolachRefit:
     ordered: bool
 
     def __call__(self, p: dict[str, float]) -> dict[str, np.ndarray]:
-        layer = replace(self.problem.layer, **{k: float(v) for k, v in p.items()})
+        layer = self.problem.layer.replace(**{k: float(v) for k, v in p.items()})
         res = fit_polach(replace(self.problem, layer=layer), self.creepage, self.speed,
                          lateral=self.lateral, spin=self.spin, grid=self.grid,
                          ordered=self.ordered)

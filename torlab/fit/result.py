@@ -4,8 +4,8 @@ Every fit in torlab returns a :class:`FitResult` (one type for every fit:
 parameters, standard errors, 95 % intervals, covariance-based correlations,
 warnings, the data against the model; :meth:`FitResult.report`,
 :meth:`FitResult.plot`, :meth:`FitResult.to_params`).  Parameters are in SI units; ``names`` are the scene contract's keys
-where one exists (``mu_c1``, ``mu_c2``, ``L_mue``, ``L_mup``, ``mu_c1_T``,
-``mu_c2_T``, ``eta0``, ``alpha``, ``Z``), so :meth:`FitResult.to_scene_dict`
+where one exists (the layer laws' parameters of :mod:`torlab.model.layers`, ``eta0``,
+``alpha``, ``Z``), so :meth:`FitResult.to_scene_dict`
 is a valid parameter file for ``torlab predict`` (the scene keys of ``docs/scenes.md``).
 
 Uncertainties come from the linearised least-squares covariance
@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from torlab.model.layers import DEFAULT_LAW, all_params
 from torlab.model.parameters import BOUNDARY_KEYS, LUBRICANT_KEYS
 from torlab.model.removal import LAW_UNITS
 
@@ -37,12 +38,7 @@ __all__ = [
 
 #: unit of each parameter name (SI) for tables and the scene file
 PARAM_UNITS: dict[str, str] = {
-    "mu_c1": "-",
-    "mu_c2": "-",
-    "L_mue": "m",
-    "L_mup": "m",
-    "mu_c1_T": "1/K",
-    "mu_c2_T": "1/K",
+    **{n: p.unit for n, p in all_params().items()},  # the layer laws' (torlab.model.layers)
     "eta0": "Pa*s",
     "alpha": "1/Pa",
     "Z": "-",
@@ -301,6 +297,9 @@ class FitResult:
         allv = {**self.fixed, **self.params}
         out: dict[str, Any] = {}
         b = {k: float(allv[k]) for k in BOUNDARY_KEYS if k in allv}
+        law = self.meta.get("law")
+        if b and isinstance(law, str) and law != DEFAULT_LAW and self.kind.startswith("layer"):
+            b = {"law": law, **b}  # the default law is not written (a scene's default)
         if b:
             out["boundary"] = b
         lub = {k: float(allv[k]) for k in LUBRICANT_KEYS if k in allv}

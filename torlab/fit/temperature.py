@@ -1,7 +1,10 @@
-"""Temperature coefficients ``mu_c1_T``, ``mu_c2_T`` from HPT runs at several temperatures.
+"""Temperature coefficients (Voce: ``mu_c1_T``, ``mu_c2_T``) from HPT runs at several
+temperatures.
 
 The layer limits follow ``tau_ci = mu_ci p exp(mu_ci_T (T - T_A))`` (thesis
-Eqs. 5.26-5.27).  A run at temperature ``T`` therefore shows the apparent
+Eqs. 5.26-5.27); which coefficients carry a temperature coefficient is the layer law's
+(:attr:`~torlab.model.layers.base.Param.temperature_of`: Voce's ``mu_c1`` and ``mu_c2``,
+the other laws' ``mu_c1``).  A run at temperature ``T`` therefore shows the apparent
 coefficient ``mu_ci(T) = mu_ci(T_ref) exp(mu_ci_T (T - T_ref))``; with one
 layer fit per run (:func:`torlab.fit.layer.fit_layer_hpt`),
 ``ln mu_ci(T)`` is a straight line in ``T`` whose slope is ``mu_ci_T``.
@@ -22,8 +25,8 @@ of ``1e-3`` 1/K.  Each coefficient is therefore tested against 0 (likelihood
 ratio of the line against a constant: the F-test, exact for this Gaussian
 linear model): resolved coefficients are kept; the others are fixed to 0 and
 the result says so (``selection="lr"``, the default), or kept with their whole
-uncertainty for the predictions to carry (``selection="none"``).  The two
-lines are fitted to the same runs, so their scatter is correlated; the
+uncertainty for the predictions to carry (``selection="none"``).  The lines
+are fitted to the same runs, so their scatter is correlated; the
 covariance written for the predictions includes that correlation.
 """
 
@@ -37,6 +40,7 @@ import numpy as np
 from torlab.errors import TorlabInputError
 from torlab.fit._noise import linear_least_squares
 from torlab.fit.result import FitResult, student_t
+from torlab.model.layers import get_law
 from torlab.threads import small_problem
 
 __all__ = ["SELECTION_LEVEL", "fit_temperature_coefficients"]
@@ -51,7 +55,8 @@ def fit_temperature_coefficients(fits_or_curves: Any, temperatures_K: Any = None
                                  reference_temperature_C: float = 25.0,
                                  selection: str = "lr",
                                  selection_level: float = SELECTION_LEVEL) -> FitResult:
-    """Fit ``mu_c1_T`` and ``mu_c2_T`` (1/K) from layer fits at several temperatures.
+    """Fit the layer law's temperature coefficients (Voce: ``mu_c1_T`` and ``mu_c2_T``, 1/K)
+    from layer fits at several temperatures.
 
     Parameters
     ----------
@@ -101,6 +106,13 @@ def fit_temperature_coefficients(fits_or_curves: Any, temperatures_K: Any = None
                                f"{selection!r}", key="selection")
     items = list(fits_or_curves)
     fits = [it if isinstance(it, FitResult) else fit_layer_hpt(it) for it in items]
+    laws = {f.meta.get("law") for f in fits}
+    if len(laws) > 1:
+        raise TorlabInputError(f"the runs were fitted with different layer laws "
+                               f"({', '.join(sorted(str(v or get_law().name) for v in laws))}): "
+                               "fit every run with one law")
+    law = get_law(laws.pop() if laws else None)
+    keys = [law.param(t).temperature_of for t in law.temperature_names]
     if temperatures_K is None:
         T = []
         for f in fits:
@@ -122,7 +134,7 @@ def fit_temperature_coefficients(fits_or_curves: Any, temperatures_K: Any = None
     n = x.size
     fitted: dict[str, Any] = {}
     cols: dict[str, Any] = {"temperature_C": T_C}
-    for key in ("mu_c1", "mu_c2"):
+    for key in keys:
         mu = np.array([f.params[key] for f in fits])
         if np.any(mu <= 0):
             raise TorlabInputError(f"{key} must be positive in every run for ln {key}(T)")
@@ -134,7 +146,7 @@ def fit_temperature_coefficients(fits_or_curves: Any, temperatures_K: Any = None
     selection_info: dict[str, Any] = {}
     warnings: list[str] = []
     keep: dict[str, bool] = {}
-    for key in ("mu_c1", "mu_c2"):
+    for key in keys:
         full = fitted[key][1]
         b, se_b = float(full.coef[1]), math.sqrt(full.cov[1, 1])
         tq = student_t(full.dof)
@@ -161,60 +173,60 @@ def fit_temperature_coefficients(fits_or_curves: Any, temperatures_K: Any = None
                 f"temperature effect over this range); {what}")
     # --- final estimates: each line with its slope, or its mean ------------------------
     lines: dict[str, Any] = {}
-    for key in ("mu_c1", "mu_c2"):
+    for key in keys:
         mu, full = fitted[key]
         lines[key] = full if keep[key] else linear_least_squares(
             X[:, :1], np.log(mu), lambda lnm: np.exp(-lnm))
-    names: list[str] = [f"{k}_T" for k in ("mu_c1", "mu_c2") if keep[k]] + \
-        ["mu_c1_Tref", "mu_c2_Tref"]
+    names: list[str] = [f"{k}_T" for k in keys if keep[k]] + [f"{k}_Tref" for k in keys]
     # joint covariance of (ln mu_ci(Tref), mu_ci_T) of both lines: the same runs give both
     # coefficients, so their scatter is correlated (seemingly unrelated regressions)
     pos: dict[str, int] = {}
     blocks = []
-    for key in ("mu_c1", "mu_c2"):
+    for key in keys:
         ln = lines[key]
         pos[f"{key}_lnref"] = sum(b.A.shape[0] for b in blocks)
         if keep[key]:
             pos[f"{key}_T"] = pos[f"{key}_lnref"] + 1
         blocks.append(ln)
-    e1 = lines["mu_c1"].residuals / np.sqrt(lines["mu_c1"].weights * lines["mu_c1"].s2)
-    e2 = lines["mu_c2"].residuals / np.sqrt(lines["mu_c2"].weights * lines["mu_c2"].s2)
-    den = math.sqrt(float(e1 @ e1) * float(e2 @ e2))
-    rho = float(e1 @ e2) / den if den > 0 else 0.0
-    sd1 = np.sqrt(lines["mu_c1"].weights * lines["mu_c1"].s2)
-    sd2 = np.sqrt(lines["mu_c2"].weights * lines["mu_c2"].s2)
+    e = {k: lines[k].residuals / np.sqrt(lines[k].weights * lines[k].s2) for k in keys}
+    sd = {k: np.sqrt(lines[k].weights * lines[k].s2) for k in keys}
     m = sum(b.A.shape[0] for b in blocks)
     big = np.zeros((m, m))
-    o1 = lines["mu_c1"].A.shape[0]
-    big[:o1, :o1] = lines["mu_c1"].cov
-    big[o1:, o1:] = lines["mu_c2"].cov
-    cross = lines["mu_c1"].A @ np.diag(rho * sd1 * sd2) @ lines["mu_c2"].A.T
-    big[:o1, o1:] = cross
-    big[o1:, :o1] = cross.T
-    order = [pos[f"{k}_T"] for k in ("mu_c1", "mu_c2") if keep[k]] + \
-        [pos["mu_c1_lnref"], pos["mu_c2_lnref"]]
-    values_t = np.concatenate([lines["mu_c1"].coef, lines["mu_c2"].coef])[order]
+    rhos: dict[str, float] = {}
+    for i, ki in enumerate(keys):
+        oi, ni = pos[f"{ki}_lnref"], lines[ki].A.shape[0]
+        big[oi:oi + ni, oi:oi + ni] = lines[ki].cov
+        for kj in keys[i + 1:]:
+            oj, nj = pos[f"{kj}_lnref"], lines[kj].A.shape[0]
+            den = math.sqrt(float(e[ki] @ e[ki]) * float(e[kj] @ e[kj]))
+            rho = float(e[ki] @ e[kj]) / den if den > 0 else 0.0
+            rhos[f"scatter_correlation_{ki}_{kj}"] = rho
+            cross = lines[ki].A @ np.diag(rho * sd[ki] * sd[kj]) @ lines[kj].A.T
+            big[oi:oi + ni, oj:oj + nj] = cross
+            big[oj:oj + nj, oi:oi + ni] = cross.T
+    order = [pos[f"{k}_T"] for k in keys if keep[k]] + [pos[f"{k}_lnref"] for k in keys]
+    values_t = np.concatenate([lines[k].coef for k in keys])[order]
     cov_t = big[np.ix_(order, order)]
     # natural units: mu_ci(Tref) = exp(ln mu_ci(Tref))
-    n_slopes = len(names) - 2
+    n_slopes = len(names) - len(keys)
     values = values_t.copy()
     values[n_slopes:] = np.exp(values_t[n_slopes:])
     jac = np.ones(len(names))
     jac[n_slopes:] = values[n_slopes:]
     cov = cov_t * np.outer(jac, jac)
-    dof = min(lines["mu_c1"].dof, lines["mu_c2"].dof)
+    dof = min(lines[k].dof for k in keys)
     rms = []
-    for key in ("mu_c1", "mu_c2"):
+    for key in keys:
         mu = fitted[key][0]
         Xk = X if keep[key] else X[:, :1]
         model = np.exp(Xk @ lines[key].coef)
         cols[f"{key}_model"] = model
         cols[f"residual_{key}"] = mu - model
         rms.append(np.sqrt(np.mean((mu - model) ** 2)))
-    fixed = {f"{k}_T": 0.0 for k in ("mu_c1", "mu_c2") if not keep[k]}
+    fixed = {f"{k}_T": 0.0 for k in keys if not keep[k]}
     noise = {k: (lines[k].variance.describe() if lines[k].variance is not None
                  else "constant in ln mu (run-to-run scatter proportional to mu)")
-             for k in ("mu_c1", "mu_c2")}
+             for k in keys}
     data = pd.DataFrame(cols)
     meta = {"method": "least squares of ln mu_ci on T (Eqs. 5.26-5.27), run scatter as the error; "
                       "each coefficient kept or fixed to 0 by a likelihood-ratio test",
@@ -225,11 +237,13 @@ def fit_temperature_coefficients(fits_or_curves: Any, temperatures_K: Any = None
             "selection": selection,
             "model_selection": selection_info,
             "noise_model": "; ".join(f"{k}: {v}" for k, v in noise.items()),
-            "scatter_correlation_mu_c1_mu_c2": rho}
+            **rhos}
+    if law is not get_law():
+        meta["law"] = law.name
     res = FitResult.from_covariance(
         "temperature", tuple(names), values, cov, dof=dof,
-        log_scale=("mu_c1_Tref", "mu_c2_Tref"),
+        log_scale=tuple(f"{k}_Tref" for k in keys),
         residual_norm=float(np.sqrt(np.mean(np.square(rms)))), n_points=int(n),
         warnings=warnings, data=data, meta=meta, fixed=fixed, residual_unit="-",
-        n_evaluations=0, x_column="temperature_C", y_column="mu_c2_measured")
+        n_evaluations=0, x_column="temperature_C", y_column=f"{keys[-1]}_measured")
     return res

@@ -3,8 +3,8 @@
 The model is the one ``torlab predict traction`` uses for the scene: Hertz +
 FASTSIM with the third-body layer (thesis 5.2.2, Eqs. 5.14-5.30,
 :mod:`torlab.model.fastsim`), or for a lubricated scene the mixed model of
-:func:`torlab.model.predict.predict_traction`.  The four layer parameters
-``mu_c1, mu_c2, L_mue, L_mup`` are fitted by bounded least squares
+:func:`torlab.model.predict.predict_traction`.  The parameters of the scene's layer
+law (Voce: ``mu_c1, mu_c2, L_mue, L_mup``) are fitted by bounded least squares
 (``scipy.optimize.least_squares``, trust-region reflective) from a
 data-driven start:
 
@@ -14,7 +14,8 @@ data-driven start:
   flexibility ``L1``, so ``L_mue ~ (K0/K - 1) L1 p_mean``;
 * ``mu_c1`` at 0.7 ``mu_c2`` (below the plateau when the curve rises to it; at
   the maximum when the curve overshoots and falls);
-* ``L_mup`` equal to ``L_mue`` in metres.
+* ``L_mup`` equal to ``L_mue`` in metres (another law's own parameters:
+  :meth:`~torlab.model.layers.base.LayerLaw.traction_start`).
 
 The Jacobian is by forward differences (one model evaluation per parameter
 per iteration; a 40-point dry curve costs about 5 ms per evaluation, so a
@@ -36,22 +37,27 @@ import numpy as np
 from torlab.errors import FitError, TorlabInputError
 from torlab.fit._noise import estimate_variance_function
 from torlab.fit.result import FitResult, _scaled_inverse, covariance_from_jacobian
+from torlab.model.layers import LayerLaw, all_params, get_law
 from torlab.threads import small_problem
 
 __all__ = ["fit_layer_traction", "layer_values", "traction_model"]
 
-NAMES = ("mu_c1", "mu_c2", "L_mue", "L_mup")
-_SCALE = {"mu_c1": 1.0, "mu_c2": 1.0, "L_mue": 1e-6, "L_mup": 1e-6}
-_BOUNDS = {"mu_c1": (1e-4, 3.0), "mu_c2": (1e-4, 3.0), "L_mue": (1e-4, 1e3), "L_mup": (1e-3, 1e4)}
+#: the parameters of the default (Voce) law; a scene with another law fits that law's
+NAMES = get_law().fit_names
 #: proportional share of the residual variance below which the noise counts as constant
 PHI_NEGLIGIBLE = 0.05
 #: weighted refits at most (feasible generalised least squares)
 MAX_REWEIGHT = 3
 
 
-#: quantity kind of each layer parameter
-LAYER_KINDS = {"mu_c1": "dimensionless", "mu_c2": "dimensionless", "L_mue": "length",
-               "L_mup": "length"}
+#: quantity kind of each layer parameter (of every law)
+LAYER_KINDS = {n: p.kind for n, p in all_params().items() if p.fit is not None}
+
+
+def _bounds(law: LayerLaw, n: str) -> tuple[float, float]:
+    """The traction fit's bounds of a parameter (units of its scale)."""
+    p = law.param(n)
+    return p.traction or p.fit
 
 
 def layer_values(values: dict[str, Any], where: str = "fix") -> dict[str, float]:
@@ -89,7 +95,7 @@ def traction_model(scene: Any) -> Any:
         grid = fastsim_grid(scene)
 
         def f(params: dict[str, float], xi: np.ndarray) -> np.ndarray:
-            layer = replace(prob.layer, **{k: float(v) for k, v in params.items()})
+            layer = prob.layer.replace(**{k: float(v) for k, v in params.items()})
             return boundary_traction(replace(prob, layer=layer), xi, grid).mu
 
         f.contact = contact  # type: ignore[attr-defined]
@@ -142,10 +148,11 @@ def _start(model: Any, scene: Any, xi: np.ndarray, y: np.ndarray) -> dict[str, f
         K = float(ya[0] / a[0])
     contact = model.contact
     xi0 = np.array([1e-6])
-    K0 = float(model({"mu_c1": 10.0, "mu_c2": 10.0, "L_mue": 0.0, "L_mup": 1e-6}, xi0)[0] / 1e-6)
+    law = scene.boundary.layer.law
+    K0 = float(model(law.elastic_probe(), xi0)[0] / 1e-6)
     p_mean = 2.0 / 3.0 * contact.patch.p0
     lme = max((K0 / max(K, 1e-9) - 1.0) * contact.L1 * p_mean, 0.05e-6)
-    return {"mu_c1": mu1, "mu_c2": mu2, "L_mue": lme, "L_mup": max(lme, 1e-6)}
+    return law.traction_start(mu1, mu2, lme)
 
 
 @small_problem  # one BLAS thread: small matrices (torlab.threads)
@@ -185,11 +192,13 @@ def fit_layer_traction(scene: Any, creepage: Any, mu: Any, *, fixed: dict[str, f
 
     xi, y = _check(creepage, mu)
     fixed = dict(fixed or {})
+    law = scene.boundary.layer.law if scene.boundary is not None else get_law()
+    names = law.fit_names
     for k in fixed:
-        if k not in NAMES:
+        if k not in names:
             raise TorlabInputError(f"cannot fix {k!r}: the traction fit's parameters are "
-                                   f"{', '.join(NAMES)}", key="fixed")
-    free = [n for n in NAMES if n not in fixed]
+                                   f"{', '.join(names)}", key="fixed")
+    free = [n for n in names if n not in fixed]
     if not free:
         raise TorlabInputError("every parameter is fixed: nothing to fit", key="fixed")
     if xi.size < len(free) + 2:
@@ -205,10 +214,11 @@ def fit_layer_traction(scene: Any, creepage: Any, mu: Any, *, fixed: dict[str, f
     start = _start(model, scene, xi, y)
     nfev[0] += 1
     start.update(x0 or {})
-    sc = np.array([_SCALE[n] for n in free])
-    lo = np.array([_BOUNDS[n][0] for n in free])
-    hi = np.array([_BOUNDS[n][1] for n in free])
-    xs = np.clip(np.array([start[n] for n in free]) / sc, lo * 1.001, hi * 0.999)
+    sc = np.array([law.param(n).scale for n in free])
+    lo = np.array([_bounds(law, n)[0] for n in free])
+    hi = np.array([_bounds(law, n)[1] for n in free])
+    xs = np.clip(np.array([start[n] for n in free]) / sc, np.where(lo > 0, lo * 1.001, lo * 0.999),
+                 np.where(hi > 0, hi * 0.999, hi * 1.001))
 
     def params(x: np.ndarray) -> dict[str, float]:
         return {**fixed, **{n: float(v) * s for n, v, s in zip(free, x, sc, strict=True)}}
@@ -254,7 +264,7 @@ def fit_layer_traction(scene: Any, creepage: Any, mu: Any, *, fixed: dict[str, f
     # model; any other is not determined (the optimiser ran off along a direction the data
     # do not constrain)
     active = dict(zip(free, sol.active_mask, strict=True))
-    at_zero = [n for n in free if n.startswith("L_") and active[n] < 0]
+    at_zero = [n for n in free if law.param(n).kind == "length" and active[n] < 0]
     at_bound = [n for n in free if active[n] != 0 and n not in at_zero]
     keep = [i for i, n in enumerate(free) if n not in at_zero]
     names_fit = [free[i] for i in keep]
@@ -283,7 +293,7 @@ def fit_layer_traction(scene: Any, creepage: Any, mu: Any, *, fixed: dict[str, f
     fixed = {**fixed, **{n: p[n] for n in at_zero}}
     res = FitResult.from_covariance(
         "layer_traction", tuple(names_fit), np.array([p[n] for n in names_fit]), cov, dof=dof,
-        log_scale=tuple(names_fit),
+        log_scale=tuple(n for n in names_fit if law.param(n).positive),
         residual_norm=float(np.sqrt(np.mean(r * r))), n_points=int(xi.size), warnings=[],
         data=data, meta=meta, fixed={k: float(v) for k, v in fixed.items()}, residual_unit="-",
         n_evaluations=int(nfev[0]), x_column="creepage", y_column="mu_measured")
@@ -296,6 +306,8 @@ def fit_layer_traction(scene: Any, creepage: Any, mu: Any, *, fixed: dict[str, f
                             f"({res.params[n]:.3g}); the curve does not constrain it (fix it with "
                             "a value from an HPT fit); predictions from this fit get no band "
                             "until it is fixed")
+    if law is not get_law():
+        res.meta["law"] = law.name
     res.warnings.extend(_warnings(res, xi, skip=set(at_bound)))
     if at_zero or at_bound:
         ms = res.meta.setdefault("model_selection", {})
@@ -360,17 +372,7 @@ def _warnings(res: FitResult, xi: np.ndarray, skip: set[str] | None = None) -> l
                          "relative_standard_error": se / abs(v), "ci95": [lo, hi]}
     if choice:
         res.meta.setdefault("model_selection", {}).update(choice)
-    if "mu_c1" in res.names and "mu_c2" in res.names:
-        d = res.params["mu_c1"] - res.params["mu_c2"]
-        i, j = res.names.index("mu_c1"), res.names.index("mu_c2")
-        c = res.correlation[i, j] if np.isfinite(res.correlation[i, j]) else 0.0
-        s1, s2 = res.stderr["mu_c1"], res.stderr["mu_c2"]
-        sd = math.sqrt(max(s1 * s1 + s2 * s2 - 2 * c * s1 * s2, 0.0))
-        if math.isfinite(sd) and d > 2 * sd:
-            w.append(f"softening layer fitted: mu_c1 = {res.params['mu_c1']:.3g} > mu_c2 = "
-                     f"{res.params['mu_c2']:.3g} (the layer's strength falls after its elastic "
-                     "limit). If the measured curve has no peak above its plateau, the model's "
-                     "transition is sharper than the data's: fix mu_c1 or L_mup from an HPT fit")
+    w.extend(get_law(res.meta.get("law")).traction_warnings(res))
     k = len(res.names)
     corr = res.correlation
     for i in range(k):

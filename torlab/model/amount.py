@@ -1,8 +1,8 @@
 """Amount of product as a model input: a third-body layer whose parameters depend on it.
 
 Paper C measures the layer on the HPT rig at several applied amounts (thesis
-5.3.3): one fit of ``mu_c1, mu_c2, L_mue, L_mup`` (Eqs. 5.24, 5.26-5.29) per
-amount, plus a dry run.  :class:`AmountLayer` turns that series into a layer
+5.3.3): one fit of the layer law's parameters (Voce: ``mu_c1, mu_c2, L_mue, L_mup``,
+Eqs. 5.24, 5.26-5.29; the law is :attr:`AmountLayer.law`) per amount, plus a dry run.  :class:`AmountLayer` turns that series into a layer
 ``p(m)`` of the remaining *areal density* ``m`` of product (kg/m^2 inside,
 mg/m^2 at the edges):
 
@@ -12,9 +12,9 @@ mg/m^2 at the edges):
 * each parameter is interpolated in ``x = ln m`` by a monotone piecewise cubic
   (Fritsch-Carlson / PCHIP, ``scipy.interpolate.PchipInterpolator``): where
   the fitted values rise or fall monotonically with the amount, so does the
-  layer, and no overshoot appears between the amounts.  The limits ``mu_c1``,
-  ``mu_c2`` are interpolated as they are, the lengths ``L_mue``, ``L_mup`` in
-  their logarithm (they stay positive);
+  layer, and no overshoot appears between the amounts.  The coefficients
+  (``mu_c1``, ``mu_c2`` ...) are interpolated as they are, the lengths (``L_mue``,
+  ``L_mup``) in their logarithm (they stay positive);
 * the dry fit is the limit ``m -> 0``.  On a log axis that limit sits at minus
   infinity, so the dry parameters are placed at an *anchor* ``m_dry`` below the
   smallest tested amount (default one decade below, ``dry_amount=``) and held
@@ -26,7 +26,7 @@ mg/m^2 at the edges):
   (``above="hold"``); it is never extrapolated silently.
 
 Uncertainty is carried by parameter draws: each amount's fit gives a normal
-distribution of its four parameters (its estimate and covariance from the
+distribution of its parameters (its estimate and covariance from the
 standard errors and correlations of its :class:`~torlab.fit.result.FitResult`);
 a draw takes one sample per amount (the fits are independent) and interpolates
 it like the estimate (:meth:`AmountLayer.draw_params`).
@@ -47,7 +47,7 @@ from typing import Any
 import numpy as np
 
 from torlab.errors import TorlabInputError
-from torlab.model.layer import LayerParams
+from torlab.model.layers import LayerLaw, LayerParams, get_law
 
 __all__ = [
     "HPT_AREA",
@@ -63,9 +63,8 @@ __all__ = [
 MG_M2 = 1e-6
 #: the HPT annulus of thesis 5.1.3 (r1 = 3 mm, r2 = 6 mm): S = pi (r2^2 - r1^2), m^2
 HPT_AREA = math.pi * (6e-3**2 - 3e-3**2)
-LAYER_NAMES = ("mu_c1", "mu_c2", "L_mue", "L_mup")
-#: parameters interpolated in their logarithm
-_LOG = np.array([False, False, True, True])
+#: the parameters of the default (Voce) law's amount series
+LAYER_NAMES = get_law().fit_names
 #: default anchor of the dry fit: this factor below the smallest tested amount
 DRY_ANCHOR_FACTOR = 10.0
 
@@ -174,26 +173,38 @@ def areal_density(amount: Any, *, area: float | None = None, density: float | No
     return transfer * val / area
 
 
-def _fit_cov(fit: Any) -> tuple[np.ndarray, np.ndarray, list[str]]:
+def _law_of_fit(fit: Any) -> LayerLaw:
+    """The layer law of a fit (its provenance's ``law``; default Voce)."""
+    try:
+        return get_law((getattr(fit, "meta", {}) or {}).get("law"))
+    except KeyError as e:
+        raise TorlabInputError(f"fit {_label(fit)}: {e.args[0]}") from None
+
+
+def _fit_cov(fit: Any, law: LayerLaw | None = None) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """Parameters and covariance of a layer FitResult; undetermined ones get variance 0."""
     notes: list[str] = []
+    law = law or _law_of_fit(fit)
+    names_l = law.fit_names
+    k = len(names_l)
     names = list(getattr(fit, "names", ()))
     allv = {**getattr(fit, "fixed", {}), **getattr(fit, "params", {})}
-    missing = [n for n in LAYER_NAMES if n not in allv]
+    missing = [n for n in names_l if n not in allv]
     if missing:
         raise TorlabInputError(f"fit {_label(fit)} lacks the layer parameter(s) "
-                               f"{', '.join(missing)} (give HPT layer fits: torlab.fit.layer)")
-    p = np.array([float(allv[n]) for n in LAYER_NAMES])
-    cov = np.zeros((4, 4))
-    se = np.array([float(fit.stderr.get(n, 0.0)) if n in names else 0.0 for n in LAYER_NAMES])
+                               f"{', '.join(missing)} of the {law.name} law (give HPT layer fits "
+                               "of one law: torlab.fit.layer)")
+    p = np.array([float(allv[n]) for n in names_l])
+    cov = np.zeros((k, k))
+    se = np.array([float(fit.stderr.get(n, 0.0)) if n in names else 0.0 for n in names_l])
     bad = ~np.isfinite(se)
     if bad.any():
-        notes.append(f"{_label(fit)}: {', '.join(n for n, b in zip(LAYER_NAMES, bad, strict=True) if b)}"
+        notes.append(f"{_label(fit)}: {', '.join(n for n, b in zip(names_l, bad, strict=True) if b)}"
                      " not determined by its fit; carried without uncertainty")
         se = np.where(bad, 0.0, se)
-    corr = np.eye(4)
+    corr = np.eye(k)
     if names:
-        idx = [names.index(n) if n in names else -1 for n in LAYER_NAMES]
+        idx = [names.index(n) if n in names else -1 for n in names_l]
         c = np.asarray(fit.correlation, dtype=float)
         for i, a in enumerate(idx):
             for j, b in enumerate(idx):
@@ -253,9 +264,10 @@ class AmountLayer:
     amounts
         Tested areal densities (kg/m^2), increasing, at least two.
     params
-        ``(n, 4)`` fitted ``mu_c1, mu_c2, L_mue, L_mup`` (SI) at :attr:`amounts`.
+        ``(n, k)`` fitted parameters of :attr:`law` (its ``fit_names``; Voce: ``mu_c1,
+        mu_c2, L_mue, L_mup``, SI) at :attr:`amounts`.
     covs
-        ``(n, 4, 4)`` their covariances.
+        ``(n, k, k)`` their covariances.
     dry_params, dry_cov
         The dry fit (the ``m -> 0`` limit) and its covariance.
     dry_amount
@@ -263,12 +275,14 @@ class AmountLayer:
     above
         ``"error"`` or ``"hold"`` above the largest tested amount.
     temperature_coefficients
-        ``(mu_c1_T, mu_c2_T)`` (1/K) given to every layer (the HPT amount
-        series is at one temperature; default 0).
+        The law's temperature coefficients (Voce: ``(mu_c1_T, mu_c2_T)``, 1/K) given to
+        every layer (the HPT amount series is at one temperature; default 0).
     sources
         Label of each amount's fit.
     notes
         What the construction assumed or dropped (undetermined parameters ...).
+    law
+        The layer law of every fit (:mod:`torlab.model.layers`; default Voce).
     """
 
     amounts: np.ndarray
@@ -278,11 +292,40 @@ class AmountLayer:
     dry_cov: np.ndarray
     dry_amount: float
     above: str = "error"
-    temperature_coefficients: tuple[float, float] = (0.0, 0.0)
+    temperature_coefficients: tuple[float, ...] = (0.0, 0.0)
     sources: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    law: LayerLaw = field(default_factory=get_law)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """The interpolated parameters (the law's ``fit_names``), in column order."""
+        return self.law.fit_names
+
+    @property
+    def _log(self) -> np.ndarray:
+        """Which parameters are interpolated in their logarithm: the lengths."""
+        return np.array([self.law.param(n).kind == "length" for n in self.names])
+
+    @property
+    def _positive(self) -> np.ndarray:
+        return np.array([self.law.param(n).positive for n in self.names])
+
+    def layer_of(self, p: Any) -> LayerParams:
+        """The :class:`~torlab.model.layers.LayerParams` of one row of parameters."""
+        return LayerParams(law=self.law, **{n: float(v) for n, v in zip(self.names, p,
+                                                                         strict=True)},
+                           **dict(zip(self.law.temperature_names,
+                                      (float(v) for v in self.temperature_coefficients),
+                                      strict=True)))
 
     def __post_init__(self) -> None:
+        self.law = get_law(self.law)
+        if len(self.temperature_coefficients) != len(self.law.temperature_names):
+            raise TorlabInputError(f"the {self.law.name} layer law has "
+                                   f"{len(self.law.temperature_names)} temperature coefficients "
+                                   f"({', '.join(self.law.temperature_names)}), got "
+                                   f"{len(self.temperature_coefficients)}")
         a = np.asarray(self.amounts, dtype=float)
         if a.ndim != 1 or a.size < 2:
             raise TorlabInputError(f"an amount series needs at least two different amounts, got "
@@ -316,7 +359,9 @@ class AmountLayer:
             raise TorlabInputError(f"above must be 'error' or 'hold', got {self.above!r}",
                                    key="above")
         allp = np.vstack([self.dry_params, self.params])
-        if not np.all(np.isfinite(allp)) or np.any(allp[:, 2:] <= 0) or np.any(allp[:, :2] < 0):
+        log, pos = self._log, self._positive
+        if not np.all(np.isfinite(allp)) or np.any(allp[:, log] <= 0) or \
+                np.any(allp[:, pos & ~log] < 0):
             raise TorlabInputError("layer parameters must be finite, mu >= 0 and lengths > 0")
         self._nodes_x = np.log(np.r_[self.dry_amount, a])
         self._interp = self._make(allp)
@@ -326,7 +371,7 @@ class AmountLayer:
     def from_fits(cls, fits: Sequence[Any], dry: Any, *, area: float = HPT_AREA,
                   density: float | None = None, amounts: Sequence[Any] | None = None,
                   dry_amount: Any = None, above: str = "error",
-                  temperature_coefficients: tuple[float, float] = (0.0, 0.0),
+                  temperature_coefficients: tuple[float, ...] | None = None,
                   temperature_tolerance: float = 5.0, repeatability: float = 0.0
                   ) -> AmountLayer:
         """The layer of a product from its per-amount HPT fits and the dry fit.
@@ -353,7 +398,8 @@ class AmountLayer:
         above
             ``"error"`` (default) or ``"hold"`` beyond the largest tested amount.
         temperature_coefficients
-            ``(mu_c1_T, mu_c2_T)`` for every layer (1/K).
+            The law's temperature coefficients for every layer (1/K; Voce:
+            ``(mu_c1_T, mu_c2_T)``); default zero.
         temperature_tolerance
             Largest spread (K) of the fits' test temperatures.
         repeatability
@@ -379,6 +425,12 @@ class AmountLayer:
         if amounts is not None and len(amounts) != len(fits):
             raise TorlabInputError(f"{len(amounts)} amounts given for {len(fits)} fits",
                                    key="amounts")
+        law = _law_of_fit(dry)
+        other = sorted({_law_of_fit(f).name for f in fits} - {law.name})
+        if other:
+            raise TorlabInputError(f"the amount series mixes layer laws ({law.name} for the dry "
+                                   f"fit, {', '.join(other)} for others): fit every amount with "
+                                   "one law")
         ms, ps, cs, notes, src = [], [], [], [], []
         temps = []
         for i, f in enumerate(fits):
@@ -387,7 +439,7 @@ class AmountLayer:
                                         where=f"amounts[{i}]"))
             else:
                 ms.append(_fit_amount(f, area=area, density=density))
-            p, c, nt = _fit_cov(f)
+            p, c, nt = _fit_cov(f, law)
             ps.append(p)
             cs.append(c)
             notes += nt
@@ -399,7 +451,7 @@ class AmountLayer:
             raise TorlabInputError(f"the amount series mixes test temperatures "
                                    f"({min(temps):g}-{max(temps):g} degC): give the fits of one "
                                    "temperature")
-        pd_, cd, nt = _fit_cov(dry)
+        pd_, cd, nt = _fit_cov(dry, law)
         notes += nt
         if not (math.isfinite(repeatability) and repeatability >= 0):
             raise TorlabInputError(f"repeatability must be a non-negative fraction, got "
@@ -420,17 +472,20 @@ class AmountLayer:
                          "returns to dry below the smallest amount)")
         else:
             anchor = areal_density(dry_amount, where="dry_amount")
+        tc = (tuple(temperature_coefficients) if temperature_coefficients is not None
+              else (0.0,) * len(law.temperature_names))
         return cls(amounts=m_arr, params=np.array(ps), covs=np.array(cs), dry_params=pd_,
                    dry_cov=cd, dry_amount=anchor, above=above,
-                   temperature_coefficients=tuple(temperature_coefficients), sources=src,
-                   notes=notes)
+                   temperature_coefficients=tc, sources=src, notes=notes, law=law)
 
     # -- interpolation ------------------------------------------------------------------------
     def _make(self, allp: np.ndarray) -> Any:
-        """PCHIP in ln m of node values ``allp`` (..., n_nodes, 4); lengths in their log."""
+        """PCHIP in ln m of node values ``allp`` (..., n_nodes, k); lengths in their log."""
         from scipy.interpolate import PchipInterpolator
 
-        y = np.where(_LOG, np.log(np.maximum(allp, 1e-300)), allp)
+        log = self._log
+        with np.errstate(divide="ignore", invalid="ignore"):
+            y = np.where(log, np.log(np.maximum(allp, 1e-300)), allp)
         return PchipInterpolator(self._nodes_x, np.moveaxis(y, -2, 0), axis=0, extrapolate=False)
 
     @property
@@ -464,25 +519,25 @@ class AmountLayer:
     def _eval(self, interp: Any, m: np.ndarray, dry: np.ndarray, top: np.ndarray) -> np.ndarray:
         m = np.asarray(m, dtype=float)
         x = np.log(np.clip(m, self.dry_amount, self.m_max))
-        y = interp(x)  # (..m.shape, [draws,] 4)
-        y = np.where(_LOG, np.exp(y), y)
+        y = interp(x)  # (..m.shape, [draws,] k)
+        y = np.where(self._log, np.exp(y), y)
         lo = (m <= self.dry_amount).reshape(m.shape + (1,) * (y.ndim - m.ndim))
         hi = (m >= self.m_max).reshape(lo.shape)
         return np.where(lo, dry, np.where(hi, top, y))
 
     def params_at(self, m: Any) -> np.ndarray:
-        """``mu_c1, mu_c2, L_mue, L_mup`` (SI) at areal densities ``m`` -> shape ``m.shape + (4,)``."""
+        """The law's parameters (:attr:`names`, SI) at areal densities ``m`` -> shape
+        ``m.shape + (k,)``."""
         self.check(m)
         return self._eval(self._interp, np.asarray(m, dtype=float), self.dry_params,
                           self.params[-1])
 
     def layer(self, m: float) -> LayerParams:
-        """The :class:`~torlab.model.layer.LayerParams` at one areal density ``m`` (kg/m^2)."""
-        p = self.params_at(float(m))
-        return LayerParams(*(float(v) for v in p), *self.temperature_coefficients)
+        """The :class:`~torlab.model.layers.LayerParams` at one areal density ``m`` (kg/m^2)."""
+        return self.layer_of(self.params_at(float(m)))
 
     def draw_nodes(self, n: int, rng: np.random.Generator) -> np.ndarray:
-        """``(n, n_nodes, 4)`` draws of the node parameters (dry first), each node independent.
+        """``(n, n_nodes, k)`` draws of the node parameters (dry first), each node independent.
 
         Each fit's draw is normal with its estimate and covariance; draws of a
         limit or a length that fall to or below zero are reflected to a tiny
@@ -490,24 +545,25 @@ class AmountLayer:
         """
         allp = np.vstack([self.dry_params, self.params])
         covs = np.concatenate([self.dry_cov[None], self.covs])
-        out = np.empty((n, allp.shape[0], 4))
+        k = allp.shape[1]
+        out = np.empty((n, allp.shape[0], k))
         for j in range(allp.shape[0]):
             c = covs[j]
             w, v = np.linalg.eigh(0.5 * (c + c.T))
             L = v * np.sqrt(np.clip(w, 0.0, None))
-            out[:, j, :] = allp[j] + rng.standard_normal((n, 4)) @ L.T
+            out[:, j, :] = allp[j] + rng.standard_normal((n, k)) @ L.T
         floor = 1e-6 * np.abs(allp)[None]
-        return np.where(out <= floor, np.maximum(floor, 1e-12), out)
+        return np.where((out <= floor) & self._positive, np.maximum(floor, 1e-12), out)
 
     def draw_params(self, m: Any, node_draws: np.ndarray) -> np.ndarray:
-        """Parameters at ``m`` of every draw of :meth:`draw_nodes` -> ``m.shape + (n, 4)``."""
+        """Parameters at ``m`` of every draw of :meth:`draw_nodes` -> ``m.shape + (n, k)``."""
         self.check(m)
-        interp = self._make(node_draws)  # y: (n_nodes, n, 4)
+        interp = self._make(node_draws)  # y: (n_nodes, n, k)
         m = np.asarray(m, dtype=float)
         return self._eval(interp, m, node_draws[:, 0, :], node_draws[:, -1, :])
 
     def table(self) -> Any:
-        """DataFrame of the nodes: ``amount_mg_m2``, the four parameters and their standard errors."""
+        """DataFrame of the nodes: ``amount_mg_m2``, the parameters and their standard errors."""
         import pandas as pd
 
         allp = np.vstack([self.dry_params, self.params])
@@ -516,7 +572,7 @@ class AmountLayer:
         for j, m in enumerate(self.nodes):
             r = {"node": "dry (anchor)" if j == 0 else "tested", "amount_mg_m2": m / MG_M2,
                  "source": "dry fit" if j == 0 else (self.sources[j - 1] if self.sources else "")}
-            for i, nm in enumerate(LAYER_NAMES):
+            for i, nm in enumerate(self.names):
                 r[nm] = allp[j, i]
                 r[f"{nm}_se"] = math.sqrt(max(covs[j, i, i], 0.0))
             rows.append(r)
@@ -525,9 +581,10 @@ class AmountLayer:
     def to_dict(self) -> dict[str, Any]:
         """The layer as plain data (the ``layer:`` of a retention parameter file).
 
-        Areal densities in mg/m^2, parameters in SI, each node's 4 x 4
-        covariance in the order of :data:`LAYER_NAMES`; :meth:`from_dict`
-        reads it back exactly (YAML keeps every float's digits).
+        Areal densities in mg/m^2, parameters in SI, each node's k x k
+        covariance in the order of ``parameters`` (the law's; ``law:`` is written
+        for a law other than the default); :meth:`from_dict` reads it back exactly
+        (YAML keeps every float's digits).
         """
         allp = np.vstack([self.dry_params, self.params])
         covs = np.concatenate([self.dry_cov[None], self.covs])
@@ -536,9 +593,11 @@ class AmountLayer:
             nodes.append({"amount_mg_m2": float(m) / MG_M2,
                           "source": "dry fit" if j == 0 else (self.sources[j - 1]
                                                               if self.sources else ""),
-                          **{nm: float(allp[j, i]) for i, nm in enumerate(LAYER_NAMES)},
+                          **{nm: float(allp[j, i]) for i, nm in enumerate(self.names)},
                           "covariance": [[float(v) for v in row] for row in covs[j]]})
-        return {"parameters": list(LAYER_NAMES), "dry_anchor": "first node", "above": self.above,
+        law = {} if self.law is get_law() else {"law": self.law.name}
+        return {**law, "parameters": list(self.names), "dry_anchor": "first node",
+                "above": self.above,
                 "temperature_coefficients": [float(v) for v in self.temperature_coefficients],
                 "nodes": nodes, "notes": list(self.notes)}
 
@@ -559,6 +618,12 @@ class AmountLayer:
         if not isinstance(d, dict) or not isinstance(d.get("nodes"), list):
             raise bad("expected a mapping with nodes: (the amount layer of 'torlab fit "
                       "removal')")
+        try:
+            law = get_law(d.get("law"))
+        except (KeyError, TypeError):
+            raise bad(f"{d.get('law')!r} is not a layer law", "law") from None
+        names = law.fit_names
+        k_ = len(names)
         nodes = d["nodes"]
         if not 3 <= len(nodes) <= 200:
             raise bad(f"needs the dry anchor and at least two tested amounts (3-200 nodes), got "
@@ -570,33 +635,36 @@ class AmountLayer:
                 raise bad("expected a mapping", k)
             try:
                 amts.append(float(n["amount_mg_m2"]) * MG_M2)
-                vals.append([float(n[nm]) for nm in LAYER_NAMES])
+                vals.append([float(n[nm]) for nm in names])
                 c = np.asarray(n["covariance"], dtype=float)
             except KeyError as e:
                 raise bad(f"missing {e.args[0]}", k) from None
             except (TypeError, ValueError):
-                raise bad("amount_mg_m2, the four parameters and covariance must be numbers",
+                raise bad(f"amount_mg_m2, the {k_} parameters and covariance must be numbers",
                           k) from None
-            if c.shape != (4, 4) or not np.all(np.isfinite(c)) or not np.allclose(c, c.T) or \
+            if c.shape != (k_, k_) or not np.all(np.isfinite(c)) or not np.allclose(c, c.T) or \
                     np.any(np.diag(c) < 0):
-                raise bad("covariance must be a finite symmetric 4 x 4 matrix with a "
+                raise bad(f"covariance must be a finite symmetric {k_} x {k_} matrix with a "
                           "non-negative diagonal", f"{k}.covariance")
             covs.append(c)
             src.append(str(n.get("source", "")))
-        tc = d.get("temperature_coefficients", [0.0, 0.0])
+        nt = len(law.temperature_names)
+        words = {1: "one number", 2: "two numbers"}.get(nt, f"{nt} numbers")
+        tc = d.get("temperature_coefficients", [0.0] * nt)
         try:
             tcs = tuple(float(v) for v in tc)
         except (TypeError, ValueError):
-            raise bad("expected two numbers", "temperature_coefficients") from None
-        if len(tcs) != 2 or not all(math.isfinite(v) for v in tcs):
-            raise bad("expected two finite numbers (1/K)", "temperature_coefficients")
+            raise bad(f"expected {words}", "temperature_coefficients") from None
+        if len(tcs) != nt or not all(math.isfinite(v) for v in tcs):
+            raise bad(f"expected {words.replace('number', 'finite number')} (1/K)",
+                      "temperature_coefficients")
         notes = d.get("notes", [])
         try:
             return cls(amounts=np.array(amts[1:]), params=np.array(vals[1:]),
                        covs=np.array(covs[1:]), dry_params=np.array(vals[0]), dry_cov=covs[0],
                        dry_amount=amts[0], above=str(d.get("above", "error")),
                        temperature_coefficients=tcs, sources=src[1:],
-                       notes=[str(v) for v in notes] if isinstance(notes, list) else [])
+                       notes=[str(v) for v in notes] if isinstance(notes, list) else [], law=law)
         except TorlabInputError as e:
             raise bad(e.message, e.key or "") from None
 
@@ -604,5 +672,6 @@ class AmountLayer:
         """Key numbers for ``summary.json``."""
         return {"amounts_mg_m2": [float(v) / MG_M2 for v in self.amounts],
                 "dry_anchor_mg_m2": self.dry_amount / MG_M2, "above": self.above,
-                "interpolation": "PCHIP in ln m (mu_c1, mu_c2 linear, L_mue, L_mup in log)",
+                "interpolation": (f"PCHIP in ln m ({', '.join(n for n, g in zip(self.names, self._log, strict=True) if not g)} linear, "
+                                  f"{', '.join(n for n, g in zip(self.names, self._log, strict=True) if g)} in log)"),
                 "notes": list(self.notes)}

@@ -21,8 +21,8 @@ column                             band of
 
 Which parameters are uncertain
 ------------------------------
-Only the scene's own keys (:mod:`torlab.model.parameters`: ``boundary:``:
-``mu_c1 ... mu_c2_T``; ``lubricant:``: ``eta0``, ``alpha``, ``Z``) whose value in the scene is the
+Only the scene's own keys (:mod:`torlab.model.parameters`: ``boundary:``: its layer
+law's parameters; ``lubricant:``: ``eta0``, ``alpha``, ``Z``) whose value in the scene is the
 value the covariance belongs to; a value that a later file (or the user)
 changed is taken as exact and the summary says so.  Parameters that cannot
 change the prediction are left out (temperature coefficients without a
@@ -60,7 +60,6 @@ from torlab.model.parameters import (
     BOUNDARY_KEYS,
     LUBRICANT_KEYS,
     POSITIVE,
-    TEMPERATURE_KEYS,
     with_params,
 )
 from torlab.uncertainty import ParameterDistribution, Propagation, propagate
@@ -92,8 +91,9 @@ def _used_keys(scene: Any) -> dict[str, str]:
     """Scene keys that can change a prediction -> their section."""
     keys: dict[str, str] = {}
     if scene.boundary is not None:
-        for k in BOUNDARY_KEYS:
-            if k in TEMPERATURE_KEYS and scene.thermal is None:
+        law = scene.boundary.layer.law
+        for k in law.names:
+            if k in law.temperature_names and scene.thermal is None:
                 continue
             keys[k] = "boundary"
     lub = scene.lubricant
@@ -213,7 +213,7 @@ class _DryTractionModel:
     def __call__(self, p: dict[str, float]) -> dict[str, np.ndarray]:
         from torlab.model.fastsim import boundary_traction
 
-        layer = replace(self.prob.layer, **{k: v for k, v in p.items() if k in BOUNDARY_KEYS})
+        layer = self.prob.layer.replace(**{k: v for k, v in p.items() if k in BOUNDARY_KEYS})
         res = boundary_traction(replace(self.prob, layer=layer), self.xi, self.grid)
         out = {"mu": res.mu}
         if "max_temperature_C" in self.outs:

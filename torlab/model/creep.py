@@ -132,7 +132,7 @@ from torlab.model.fastsim import (
     e_strip,
     flash_temperature_matrix,
 )
-from torlab.model.layer import LayerParams
+from torlab.model.layers import LayerParams
 
 __all__ = [
     "CreepGrid",
@@ -336,7 +336,7 @@ def creep_problem(scene: Any, contact: Any = None) -> CreepProblem:
     from torlab.model.prediction import fastsim_problem
 
     if scene.boundary is None:
-        raise TorlabInputError("creep forces need a boundary: section (mu_c1, mu_c2, L_mue, L_mup)",
+        raise TorlabInputError("creep forces need a boundary: section (the third-body layer)",
                                key="boundary")
     if scene.lubricant is not None:
         raise TorlabInputError("creep forces in lateral creepage and spin are modelled for dry "
@@ -633,24 +633,17 @@ class _Lanes:
 
     def limits(self, theta: np.ndarray, dT: np.ndarray | float, S: np.ndarray | None = None,
                st: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """``(tau_c1, g)``: the elastic limit and the Voce limit at angles ``theta``.
+        """``(tau_c1, g)``: the elastic limit and the layer law's limit at angles ``theta``.
 
         ``S`` is the accumulated rigid slip there (closed form when not given).
         """
         lay = self.prob.layer
         p = self.pressure(theta, st)
-        f1 = np.exp(lay.mu_c1_T * dT) if lay.mu_c1_T else 1.0
-        f2 = np.exp(lay.mu_c2_T * dT) if lay.mu_c2_T else 1.0
+        f1 = lay.law.f1(lay, dT)
         t1 = lay.mu_c1 * p * f1
-        t2 = lay.mu_c2 * p * f2
         LK = self.LK[(..., *(None,) * (np.ndim(theta) - 2))]
         S = self.slip_path(theta) if S is None else S
-        kap = S - lay.mu_c1 * f1 * (LK * p + lay.L_mue)
-        if lay.L_mup > 0:
-            decay = np.exp(-np.maximum(kap, 0.0) / lay.L_mup)
-        else:
-            decay = np.where(kap > 0, 0.0, 1.0)
-        return t1, t2 - (t2 - t1) * decay
+        return t1, lay.law.strip_plastic(lay, p, S, LK * p + lay.L_mue, dT)
 
     def kappa(self, theta: np.ndarray, dT: np.ndarray | float, st: np.ndarray | None = None,
               ct: np.ndarray | None = None) -> np.ndarray:
@@ -796,7 +789,7 @@ class _Solver:
         """First angle after the yield point where the Voce slip ``kappa`` turns positive."""
         ln, lay = self.ln, self.prob.layer
         nc, ns = th_y.shape
-        if lay.mu_c2 == lay.mu_c1 and lay.mu_c1_T == lay.mu_c2_T:
+        if not lay.law.hardens(lay):
             return th_y  # no hardening: the clamp does not change g
         dTy = 0.0 if dT_grid is None else _interp_uniform(th_y[..., None], dT_grid)[..., 0]
         k_y = ln.kappa(th_y, dTy)
@@ -835,8 +828,9 @@ class _Solver:
         g, ln, lay = self.grid, self.ln, self.prob.layer
         aj = ln.aj
         w_s = ln.rigid_slip(th_s)
-        ell = np.where(w_s > 0, lay.L_mup / np.where(w_s > 0, w_s, 1.0), 2.0 * aj) \
-            if lay.L_mup > 0 else np.zeros_like(th_s)
+        Lg = lay.law.grading_length(lay)
+        ell = np.where(w_s > 0, Lg / np.where(w_s > 0, w_s, 1.0), 2.0 * aj) \
+            if Lg > 0 else np.zeros_like(th_s)
         Xs = aj * (1.0 - np.cos(th_s))
         grades, uni01, cl01 = _edge_fractions(g.graded_panels, g.uniform_panels, g.clamp_panels)
         Xb = np.minimum(Xs[..., None] + ell[..., None] * grades, 2.0 * aj[..., None])
@@ -1351,7 +1345,7 @@ def _solve_points(prob: CreepProblem, grid: CreepGrid, xi: np.ndarray, eta: np.n
                 out["tmax"][rows] = tm
                 if loop == "iterated":
                     out["loop"] = loop
-                if prob.layer.mu_c1_T == 0 and prob.layer.mu_c2_T == 0:
+                if not any(prob.layer.law.temperature_coefficients(prob.layer)):
                     dT_grid = None
             sol = solver.solve(dT_grid)
             out["Fx"][rows], out["Fy"][rows], out["Mz"][rows] = sol.Fx, sol.Fy, sol.Mz
@@ -1384,7 +1378,7 @@ def _temperature(solver: _Solver, prob: CreepProblem, grid: CreepGrid
     coef = th.partition / math.sqrt(math.pi * th.conductivity * th.density * th.heat_capacity
                                     * prob.speed)
     scale = coef * np.sqrt(ln.aj)[..., None]
-    coupled = bool(lay.mu_c1_T or lay.mu_c2_T)
+    coupled = any(lay.law.temperature_coefficients(lay))
     thT = np.broadcast_to(thetaT, (nc, ns, nT))
     w_all = ln.rigid_slip(thT) * prob.speed
     tx_all, ty_all = ln.tau_el(thT, solver._T_ex)  # stick traction at the temperature nodes
@@ -1473,22 +1467,16 @@ def _reference_strip(prob: CreepProblem, xi: float, eta: float, phi: float, yb: 
     def kap(t, S):  # Voce slip before the clamp max(., 0); S rides along as a state
         return S - lay.mu_c1 * (LK * p_of(t) + lay.L_mue)
 
+    law = lay.law
+
     def glim(t, S):
         p = p_of(t)
-        t1, t2 = lay.mu_c1 * p, lay.mu_c2 * p
-        k = kap(t, S)
-        if lay.L_mup > 0:
-            return t2 - (t2 - t1) * math.exp(-max(k, 0.0) / lay.L_mup)
-        return t2 if k > 0 else t1
+        return float(law.strip_plastic(lay, p, S, LK * p + lay.L_mue, 0.0))
 
-    def dglim(t, S):  # dg/dt
+    def dglim(t, S):  # dg/dt = g_p dp/dt + g_u dS/dt + g_pL LK dp/dt
         p, dp = p_of(t), dp_of(t)
-        k = kap(t, S)
-        if lay.L_mup > 0:
-            e = math.exp(-max(k, 0.0) / lay.L_mup)
-            dk = (absw(t) - lay.mu_c1 * LK * dp) if k > 0 else 0.0
-            return lay.mu_c1 * dp + (lay.mu_c2 - lay.mu_c1) * (dp * (1 - e) + p * e * dk / lay.L_mup)
-        return (lay.mu_c2 if k > 0 else lay.mu_c1) * dp
+        g_p, g_u, g_pL = law.strip_partials(lay, p, S, LK * p + lay.L_mue)
+        return g_p * dp + g_u * absw(t) + g_pL * LK * dp
 
     end = math.pi
     X0 = 0.0
@@ -1496,7 +1484,8 @@ def _reference_strip(prob: CreepProblem, xi: float, eta: float, phi: float, yb: 
     state = np.zeros(6)
     mode = "stick"
     first = [True]
-    rt = dict(method="DOP853", rtol=rtol, atol=1e-14 * max(1.0, lay.mu_c2 * prob.p0 * ay))
+    rt = dict(method="DOP853", rtol=rtol,
+              atol=1e-14 * max(1.0, float(law.reference_mu(lay)) * prob.p0 * ay))
 
     def rhs_stick(t, s):
         Tx, Ty = Tel(t)
@@ -1582,7 +1571,7 @@ def creep_forces_reference(problem: CreepProblem, creepage: float, lateral: floa
     Independent of the fast scheme's closed forms, tables and march: per strip,
     ``solve_ivp`` (DOP853) integrates the stick traction ``d tau/dX`` from the
     rigid slip and the flexibilities, or in slip the direction
-    ``d psi/dX = (n . d tau_el/dX)/g`` with the magnitude ``g`` from the Voce law,
+    ``d psi/dX = (n . d tau_el/dX)/g`` with the magnitude ``g`` from the layer law,
     switching at located events (yield, unloading, re-yield) and at the clamp end;
     the forces ride along as integrals; ``quad_vec`` integrates across the strips.
     Slow (seconds to a minute).
@@ -1590,7 +1579,7 @@ def creep_forces_reference(problem: CreepProblem, creepage: float, lateral: floa
     from scipy.integrate import quad_vec
 
     prob = problem
-    if prob.thermal is not None and (prob.layer.mu_c1_T or prob.layer.mu_c2_T):
+    if prob.thermal is not None and any(prob.layer.law.temperature_coefficients(prob.layer)):
         raise ValueError("the reference covers the isothermal model only")
     xi, eta, phi = float(creepage), float(lateral), float(spin)
 
@@ -1660,12 +1649,8 @@ def naive_creep_forces(problem: CreepProblem, creepage: Any, lateral: Any = 0.0,
         S = np.where(inside, S + np.hypot(wx, wy) * dx, 0.0)
         d_el = ((xi / (L1 + le) - phi * y / (L3 + le))
                 + 1j * (eta / (L2 + le) + phi * x / (L3 + le))) * dx
-        t1, t2 = lay.mu_c1 * p, lay.mu_c2 * p
-        kap = S - lay.mu_c1 * (LK * p + lay.L_mue)
-        if lay.L_mup > 0:
-            g = t2 - (t2 - t1) * np.exp(-np.maximum(kap, 0.0) / lay.L_mup)
-        else:
-            g = np.where(kap > 0, t2, t1)
+        t1 = lay.mu_c1 * p
+        g = lay.law.strip_plastic(lay, p, S, LK * p + lay.L_mue, 0.0)
         cur = np.abs(tau)
         trial = np.where(inside, tau + d_el, 0.0)
         at = np.abs(trial)

@@ -16,9 +16,10 @@ for the Hertzian creep-force law"; CONTACT's ``usetab`` tables use it):
 In these units linear theory has slope 3 in ``xi*`` and ``eta*`` and 1 in ``phi*``,
 and full slip is 1.  ``G C11`` etc. are taken from the flexibilities
 (``G C11 = 8a/(3 L1)``, ``G C22 = 8a/(3 L2)``, ``G C23 = pi a sqrt(a/b)/(4 L3)``),
-which is Kalker's scaling wherever the flexibilities are his.  ``mu`` is the layer's
-saturation coefficient ``mu_c2`` (full slip of the isothermal model is ``mu_c2 N``);
-it is stored as ``mu_normalisation``.  Signs are torlab's (force along the creepage):
+which is Kalker's scaling wherever the flexibilities are his.  ``mu`` is the layer law's
+reference coefficient (:meth:`~torlab.model.layers.base.LayerLaw.reference_mu`: Voce's
+saturation coefficient ``mu_c2``, full slip of the isothermal model being ``mu_c2 N``;
+``mu_c1`` for the other laws); it is stored as ``mu_normalisation``.  Signs are torlab's (force along the creepage):
 Kalker's and CONTACT's tables carry the opposite sign.
 
 Each axis needs at least two points (a table is interpolated) and must increase
@@ -44,6 +45,7 @@ import numpy as np
 
 from torlab.errors import TorlabInputError
 from torlab.model.creep import CreepGrid, CreepProblem, canonical_creepages, creep_forces
+from torlab.model.layers import get_law
 
 __all__ = [
     "CreepTable",
@@ -107,13 +109,13 @@ class TableAxis:
 def kalker_scales(prob: CreepProblem) -> dict[str, float]:
     """Scales of Kalker's normalisation for a problem (see the module docstring).
 
-    Returns ``mu`` (= ``mu_c2``), ``N``, ``c``, and the factors turning ``xi``, ``eta``,
+    Returns ``mu`` (the layer law's reference coefficient: Voce's ``mu_c2``), ``N``, ``c``, and the factors turning ``xi``, ``eta``,
     ``phi`` into ``xi*``, ``eta*``, ``phi*`` (``nan`` for a creepage whose flexibility
     is unknown).
     """
     a, b = prob.a, prob.b
     c = math.sqrt(a * b)
-    mu = prob.layer.mu_c2
+    mu = float(prob.layer.law.reference_mu(prob.layer))
     N = prob.load
     GC11 = 8 * a / (3 * prob.L1)
     GC22 = 8 * a / (3 * prob.L2) if prob.L2 is not None else math.nan
@@ -308,16 +310,17 @@ def creep_table(problem: CreepProblem | Sequence[tuple[float, CreepProblem]], cr
         ds[name].attrs = {"units": "1", "long_name": f"Kalker-normalised {axis}: {desc}"}
     ds = ds.transpose(*dims)
     p0 = problems[0][1]
+    law = p0.layer.law
     attrs: dict[str, Any] = {
         "title": "creep-force table (torlab)",
         "model": ("FASTSIM with the third-body layer in longitudinal creepage, lateral "
-                  "creepage and spin (Kalker's three flexibilities, Voce limit; "
+                  f"creepage and spin (Kalker's three flexibilities, {law.limit_text}; "
                   "torlab.model.creep)"),
         "sign_convention": ("forces along positive creepage are positive; Kalker's and "
                             "CONTACT's forces have the opposite sign"),
         "normalisation": ("Kalker's book of tables: xi* = G c^2 C11 xi/(3 mu N), "
                           "eta* = G c^2 C22 eta/(3 mu N), phi* = G c^3 C23 phi/(mu N), "
-                          "F/(mu N), Mz/(mu N c), c = sqrt(a b), mu = mu_c2"),
+                          f"F/(mu N), Mz/(mu N c), c = sqrt(a b), mu = {law.reference_name}"),
         "mu_normalisation": float(sc["mu"][0]) if not amount_dim else json.dumps(
             [float(v) for v in sc["mu"]]),
         "a_m": p0.a, "b_m": p0.b, "load_N": p0.load, "p0_Pa": p0.p0,
@@ -325,7 +328,8 @@ def creep_table(problem: CreepProblem | Sequence[tuple[float, CreepProblem]], cr
         "L3_m_Pa": p0.L3 if p0.L3 is not None else math.nan,
         "restick": p0.restick, "traction_bound": p0.traction_bound,
         "grid": json.dumps(asdict(grid or CreepGrid())),
-        "layer": json.dumps(asdict(p0.layer)),
+        "layer": json.dumps(({} if p0.layer.law is get_law() else {"law": p0.layer.law.name})
+                            | {k: float(v) for k, v in p0.layer.values.items()}),
         "thermal": json.dumps(asdict(p0.thermal)) if p0.thermal is not None else "none",
         "speed_m_s": p0.speed, "ambient_temperature_C": p0.ambient_temperature,
         "notes": json.dumps(notes),
@@ -362,7 +366,8 @@ def scene_creep_table(scene: Any, creepage: Any, lateral: Any, spin: Any, *, spe
         A validated dry :class:`~torlab.scene.Scene`; ignored when ``amounts`` is given.
     creepage, lateral, spin
         Axis values: fractions and 1/m, or with ``normalised`` Kalker's ``xi*``, ``eta*``,
-        ``phi*`` (converted with the scene's contact and ``mu_c2``; with an amount axis,
+        ``phi*`` (converted with the scene's contact and the layer's reference coefficient,
+        Voce's ``mu_c2``; with an amount axis,
         with the first amount's).
     speed
         Optional speed axis (m/s).

@@ -90,7 +90,7 @@ from typing import Any
 import numpy as np
 
 from torlab.errors import ConvergenceError
-from torlab.model.layer import LayerParams
+from torlab.model.layers import LayerParams
 
 __all__ = [
     "BoundaryDraws",
@@ -407,13 +407,9 @@ def _interp_uniform(theta: np.ndarray, grid_T: np.ndarray) -> np.ndarray:
     return lo + f * (hi - lo)
 
 
-#: the fields of :class:`LayerParams`, in order
-_LAYER_FIELDS = ("mu_c1", "mu_c2", "L_mue", "L_mup", "mu_c1_T", "mu_c2_T")
-
-
 def _expand(lay: LayerParams) -> LayerParams:
     """A layer of ``(nx, 1)`` arrays as ``(nx, 1, 1)`` (against ``(nx, ns, k)`` angles)."""
-    return LayerParams(*(getattr(lay, f)[..., None] for f in _LAYER_FIELDS))
+    return lay.map(lambda v: v[..., None])
 
 
 def _group_e_nodes(r_group: np.ndarray, gid: np.ndarray, nT: int) -> np.ndarray:
@@ -453,15 +449,15 @@ class _Solver:
         else:
             self.gid, glay = groups
             # the layer of each point, (nx, 1)
-            self.lay = LayerParams(*(np.asarray(getattr(glay, f), dtype=float)[self.gid][:, None]
-                                     for f in _LAYER_FIELDS))
+            self.lay = glay.map(lambda v: np.asarray(v, dtype=float)[self.gid][:, None])
             lay = self.lay
             #: r of each group (ng, ns), for tables computed once per group
             self.r_group = np.asarray(glay.L_mue, dtype=float)[:, None] / (prob.L1 * self.Pj)
         self.r = lay.L_mue / (prob.L1 * self.Pj)  # (1, ns); (nx, ns) with groups
         # yield condition e(theta; r) = c sin(theta) * f1(T), c = mu_c1 L1 p0 / (xi a)
         self.c = lay.mu_c1 * prob.L1 * prob.p0 / (self.xi * prob.a)
-        self.Lp = lay.L_mup
+        #: the length the plastic panels are graded with (:meth:`LayerLaw.grading_length`)
+        self.Lp = lay.law.grading_length(lay)
         #: e(theta; r) on the temperature nodes (1, ns, nT), set by the temperature loop
         #: (with groups: (nx, ns, nT))
         self.e_nodes: np.ndarray | None = None
@@ -481,9 +477,9 @@ class _Solver:
         if self.groups is not None:
             sub.gid = self.gid[rows]
             sub.groups = (sub.gid, self.groups[1])
-            sub.lay = LayerParams(*(getattr(self.lay, f)[rows] for f in _LAYER_FIELDS))
+            sub.lay = self.lay.map(lambda v: v[rows])
             sub.r = self.r[rows]
-            sub.Lp = sub.lay.L_mup
+            sub.Lp = sub.lay.law.grading_length(sub.lay)
             if self.e_nodes is not None:
                 sub.e_nodes = self.e_nodes[rows]
         return sub
@@ -581,27 +577,9 @@ class _Solver:
         xi = self.xi[..., None]
         p = Pj * np.sin(theta)
         X = aj * (1.0 - np.cos(theta))
-        if self.groups is None:
-            f1 = np.exp(lay.mu_c1_T * dT) if lay.mu_c1_T else 1.0
-            f2 = np.exp(lay.mu_c2_T * dT) if lay.mu_c2_T else 1.0
-        else:  # exp(0 dT) = 1 exactly where a coefficient is zero: the same as above
-            f1 = np.exp(lay.mu_c1_T * dT) if np.any(lay.mu_c1_T) else 1.0
-            f2 = np.exp(lay.mu_c2_T * dT) if np.any(lay.mu_c2_T) else 1.0
-        t1 = lay.mu_c1 * p * f1
-        t2 = lay.mu_c2 * p * f2
-        d = xi * X - lay.mu_c1 * f1 * (prob.L1 * p + lay.L_mue)
-        if self.groups is not None and np.all(lay.L_mup > 0):
-            decay = np.exp(-np.maximum(d, 0.0) / lay.L_mup)
-        elif self.groups is not None:
-            Lp = lay.L_mup
-            with np.errstate(divide="ignore", invalid="ignore"):
-                decay = np.where(Lp > 0, np.exp(-np.maximum(d, 0.0) / np.where(Lp > 0, Lp, 1.0)),
-                                 np.where(d > 0, 0.0, 1.0))
-        elif self.Lp > 0:
-            decay = np.exp(-np.maximum(d, 0.0) / self.Lp)
-        else:
-            decay = np.where(d > 0, 0.0, 1.0)
-        plastic = t2 - (t2 - t1) * decay
+        # the layer law's plastic branch at the slip xi X, with p L = L1 p + L_mue
+        plastic = lay.law.strip_plastic(lay, p, xi * X, prob.L1 * p + lay.L_mue, dT,
+                                        self.groups is not None)
         if th_y is None:
             return plastic
         if e_theta is None:
@@ -1009,7 +987,8 @@ def boundary_traction(prob: FastsimProblem, creepage: Any, grid: FastsimGrid | N
             iters[nz] = it
             tmax[nz] = tm
             if loop == "single pass":
-                dT_grid = None if (prob.layer.mu_c1_T == 0 and prob.layer.mu_c2_T == 0) else dT_grid
+                lay = prob.layer
+                dT_grid = None if not any(lay.law.temperature_coefficients(lay)) else dT_grid
         th_y = solver.yield_angle(dT_grid)
         F, st = solver.force(th_y, dT_grid)
         mu[nz] = F / prob.load
@@ -1066,8 +1045,8 @@ def boundary_traction_draws(prob: FastsimProblem, layers: Any, creepage: Any,
     prob
         The contact; its layer gives the parameters ``layers`` does not.
     layers
-        ``{name: (m,) array}`` of :class:`~torlab.model.layer.LayerParams` fields
-        (``mu_c1`` ... ``mu_c2_T``), one entry per draw.
+        ``{name: (m,) array}`` of the layer law's parameters (those of
+        ``prob.layer.law``), one entry per draw.
     creepage
         Creepages (fractions, any sign), the same for every draw.
     grid
@@ -1084,13 +1063,15 @@ def boundary_traction_draws(prob: FastsimProblem, layers: Any, creepage: Any,
     xi_in = np.atleast_1d(np.asarray(creepage, dtype=float)).ravel()
     if not np.all(np.isfinite(xi_in)):
         raise ValueError("creepage must be finite")
-    unknown = set(layers) - set(_LAYER_FIELDS)
+    law = prob.layer.law
+    unknown = set(layers) - set(law.names)
     if unknown:
-        raise ValueError(f"not layer parameters: {sorted(unknown)}")
+        raise ValueError(f"not parameters of the {law.name} layer law: {sorted(unknown)}")
     vals = {f: np.asarray(layers.get(f, getattr(prob.layer, f)), dtype=float)
-            for f in _LAYER_FIELDS}
+            for f in law.names}
     m = int(np.broadcast_shapes(*(v.shape for v in vals.values()), (1,))[0])
-    glay = LayerParams(*(np.broadcast_to(vals[f], (m,)).astype(float) for f in _LAYER_FIELDS))
+    glay = LayerParams(law=law, **{f: np.broadcast_to(vals[f], (m,)).astype(float)
+                                   for f in law.names})
     n = xi_in.size
     sign = np.tile(np.sign(xi_in), m)
     mag = np.tile(np.abs(xi_in), m)  # draw-major points
@@ -1198,7 +1179,7 @@ def _temperature(solver: _Solver, prob: FastsimProblem, grid: FastsimGrid, xi: n
         coupled = True
     else:
         solver.e_nodes = e_strip(thetaT[None, None, :], solver.r[..., None])  # fixed: (1, ns, nT)
-        coupled = bool(lay.mu_c1_T or lay.mu_c2_T)
+        coupled = any(lay.law.temperature_coefficients(lay))
     varying = np.ptp(speed) > 0 if nx else False
 
     def where(i: int) -> str:
@@ -1235,7 +1216,7 @@ def _temperature(solver: _Solver, prob: FastsimProblem, grid: FastsimGrid, xi: n
         new = np.zeros_like(dT)
         new[rows] = G(dT[rows], rows)
         peak = np.max(np.abs(new).reshape(nx, -1), axis=1)
-        sens = np.maximum(np.abs(solver.lay.mu_c1_T[:, 0]), np.abs(solver.lay.mu_c2_T[:, 0]))
+        sens = solver.lay.law.temperature_sensitivity(solver.lay)[:, 0]
         single = peak * sens < 1e-6  # heating too small to change the limits: one pass
         return _temperature_groups(solver, th, G, new, single, peak, sens, its, moving, where)
     return converge_flash_temperature(G, dT, its, moving, th, lay, where,
@@ -1251,7 +1232,7 @@ def converge_flash_temperature(G: Any, dT: np.ndarray, its: np.ndarray, moving: 
     (:mod:`torlab.model.creep`).  ``G(dT[rows], rows)`` is the temperature rise the
     points ``rows`` produce at the temperature ``dT`` (the first index of ``dT``
     numbers the points).  One pass suffices where the heating cannot change the
-    limits (``|dT| max(|mu_c1_T|, |mu_c2_T|) < 1e-6``); elsewhere each point iterates
+    limits (``|dT|`` times the largest temperature coefficient ``< 1e-6``); elsewhere each point iterates
     with its own adaptive under-relaxation (halved whenever its residual does not
     fall by 10 %) and leaves the active set once ``max |G(dT) - dT| < tolerance``.
 
@@ -1272,7 +1253,7 @@ def converge_flash_temperature(G: Any, dT: np.ndarray, its: np.ndarray, moving: 
     new = np.zeros_like(dT)
     new[rows] = G(dT[rows], rows)
     peak = np.max(np.abs(new).reshape(n, -1), axis=1)
-    sens = max(abs(lay.mu_c1_T), abs(lay.mu_c2_T))
+    sens = lay.law.temperature_sensitivity(lay)
     single = peak * sens < 1e-6  # heating too small to change the limits: one pass
     if sens == 0.0 or single.all():
         return new, its, "single pass", ambient + np.max(new.reshape(n, -1), axis=1)
@@ -1281,7 +1262,7 @@ def converge_flash_temperature(G: Any, dT: np.ndarray, its: np.ndarray, moving: 
         raise ConvergenceError(
             f"contact temperature runs away at {where(bad)}: the first pass already "
             f"heats by {peak[bad]:.3g} K, and the temperature coefficients "
-            f"mu_c1_T = {lay.mu_c1_T:g}, mu_c2_T = {lay.mu_c2_T:g} 1/K would change the limits "
+            f"{lay.law.temperature_text(lay)} would change the limits "
             f"by a factor exp({_MAX_EXPONENT:g})", iterations=1)
     dT[single] = new[single]
     active = moving & ~single
@@ -1296,7 +1277,7 @@ def converge_flash_temperature(G: Any, dT: np.ndarray, its: np.ndarray, moving: 
             bad = int(rows[np.argmax(runaway.reshape(rows.size, -1).any(axis=1))])
             raise ConvergenceError(
                 f"contact temperature diverged at {where(bad)} (thermal runaway: the "
-                f"temperature coefficients mu_c1_T/mu_c2_T make frictional heating "
+                f"temperature coefficients {'/'.join(lay.law.temperature_names)} make frictional heating "
                 f"self-amplifying)", iterations=k)
     else:
         rows = np.flatnonzero(active)
@@ -1306,8 +1287,8 @@ def converge_flash_temperature(G: Any, dT: np.ndarray, its: np.ndarray, moving: 
         raise ConvergenceError(
             f"contact temperature did not converge at {where(bad)}: max |dT| = "
             f"{res[j]:.3g} K after {th.max_iterations} under-relaxed iterations (relaxation "
-            f"{omega[bad]:.3g}); the temperature coefficients mu_c1_T = {lay.mu_c1_T:g}, "
-            f"mu_c2_T = {lay.mu_c2_T:g} 1/K make the heating unstable at this slip",
+            f"{omega[bad]:.3g}); the temperature coefficients {lay.law.temperature_text(lay)} "
+            "make the heating unstable at this slip",
             iterations=th.max_iterations, residual=float(res[j]))
     return dT, its, "iterated", ambient + np.max(dT.reshape(n, -1), axis=1)
 
@@ -1413,14 +1394,14 @@ def boundary_traction_reference(prob: FastsimProblem, creepage: float, *, rtol: 
     Independent of the fast scheme's closed forms: per strip, ``E(X)`` and the
     elastic force come from an ODE integration in ``X`` (``solve_ivp``, DOP853,
     ``rtol`` 1e-12), the yield point from ``brentq`` on its dense output, the
-    plastic force from ``quad`` with the clamp and the Voce length as break
-    points, and the strips from ``quad`` over ``y``.  Slow (seconds); for tests
+    plastic force from ``quad`` with the clamp and the law's grading length
+    (Voce: ``L_mup``) as break points, and the strips from ``quad`` over ``y``.  Slow (seconds); for tests
     and the benchmark.
     """
     from scipy.integrate import quad, solve_ivp
     from scipy.optimize import brentq
 
-    if prob.thermal is not None and (prob.layer.mu_c1_T or prob.layer.mu_c2_T):
+    if prob.thermal is not None and any(prob.layer.law.temperature_coefficients(prob.layer)):
         raise ValueError("the reference covers the isothermal model only")
     xi = abs(float(creepage))
     if xi == 0:
@@ -1467,12 +1448,7 @@ def boundary_traction_reference(prob: FastsimProblem, creepage: float, *, rtol: 
         def tau_pl_theta(th):
             pp = Py * math.sin(th)
             X = ay * (1.0 - math.cos(th))
-            t1, t2 = lay.mu_c1 * pp, lay.mu_c2 * pp
-            d = xi * X - lay.mu_c1 * (L1 * pp + lay.L_mue)
-            if lay.L_mup > 0:
-                tau = t2 - (t2 - t1) * math.exp(-max(d, 0.0) / lay.L_mup)
-            else:
-                tau = t2 if d > 0 else t1
+            tau = float(lay.law.strip_plastic(lay, pp, xi * X, L1 * pp + lay.L_mue, 0.0))
             return tau * ay * math.sin(th)
 
         def dfun(th):
@@ -1483,9 +1459,10 @@ def boundary_traction_reference(prob: FastsimProblem, creepage: float, *, rtol: 
         dv = xi * ay * (1.0 - np.cos(tg)) - lay.mu_c1 * (L1 * Py * np.sin(tg) + lay.L_mue)
         for i in np.flatnonzero((dv[:-1] < 0) != (dv[1:] < 0)):
             pts.append(brentq(dfun, tg[i], tg[i + 1], xtol=1e-16, rtol=1e-15))
-        if lay.L_mup > 0:
+        grading = float(lay.law.grading_length(lay))
+        if grading > 0:
             Xb = ay * (1.0 - math.cos(pts[-1]))
-            ell = lay.L_mup / xi
+            ell = grading / xi
             for k in (0.25, 0.5, 1, 2, 4, 8, 16, 32, 64):
                 if Xb + ell * k < 2 * ay:
                     pts.append(math.acos(1.0 - (Xb + ell * k) / ay))

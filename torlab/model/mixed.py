@@ -132,7 +132,7 @@ def _need_boundary(mc: MixedContact, share: np.ndarray, where: str) -> None:
         k = int(np.argmax(share))
         raise TorlabInputError(
             f"the asperities carry {share.flat[k]:.3g} of the load {where}, but the scene has "
-            "no boundary: section (mu_c1, mu_c2, L_mue, L_mup) for their friction",
+            "no boundary: section (the third-body layer) for their friction",
             key="boundary")
 
 

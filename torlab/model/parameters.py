@@ -5,9 +5,10 @@ A fit writes its estimates into a scene's ``boundary:`` (the third-body layer) a
 a prediction band draws those same keys (:mod:`torlab.model.bands`,
 :mod:`torlab.model.regimes`).  The key lists live here, once:
 
-* :data:`BOUNDARY_KEYS`: the layer's parameters (thesis Eqs. 5.26-5.29: limits
-  ``mu_c1``, ``mu_c2`` [-], lengths ``L_mue``, ``L_mup`` [m], temperature coefficients
-  ``mu_c1_T``, ``mu_c2_T`` [1/K]);
+* :data:`BOUNDARY_KEYS`: the layer laws' parameters, from their registry
+  (:mod:`torlab.model.layers`; Voce, thesis Eqs. 5.26-5.29: limits ``mu_c1``, ``mu_c2``
+  [-], lengths ``L_mue``, ``L_mup`` [m], temperature coefficients ``mu_c1_T``,
+  ``mu_c2_T`` [1/K]);
 * :data:`LUBRICANT_KEYS`: the viscosity parameters (``eta0`` [Pa s], ``alpha`` [1/Pa],
   ``Z`` [-]; thesis Eqs. 5.38-5.39);
 * :data:`POSITIVE`: those that must stay positive (a band draws them on a log scale).
@@ -20,19 +21,21 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
+from torlab.model.layers import all_params
+
 if TYPE_CHECKING:
     from torlab.scene import Scene
 
 __all__ = ["BOUNDARY_KEYS", "LUBRICANT_KEYS", "POSITIVE", "TEMPERATURE_KEYS", "with_params"]
 
-#: keys of the scene's ``boundary:`` section (the layer law's parameters)
-BOUNDARY_KEYS = ("mu_c1", "mu_c2", "L_mue", "L_mup", "mu_c1_T", "mu_c2_T")
+#: keys of the scene's ``boundary:`` section (every layer law's parameters)
+BOUNDARY_KEYS = tuple(all_params())
 #: the layer's temperature coefficients (they change a prediction only with ``thermal:``)
-TEMPERATURE_KEYS = ("mu_c1_T", "mu_c2_T")
+TEMPERATURE_KEYS = tuple(n for n, p in all_params().items() if p.temperature_of is not None)
 #: keys of the scene's ``lubricant:`` section that a viscosity fit determines
 LUBRICANT_KEYS = ("eta0", "alpha", "Z")
 #: parameters that must stay positive: propagated as ``ln p``
-POSITIVE = frozenset({"mu_c1", "mu_c2", "L_mue", "L_mup", "eta0", "alpha", "Z"})
+POSITIVE = frozenset({n for n, p in all_params().items() if p.positive} | {"eta0", "alpha", "Z"})
 
 
 def with_params(scene: Scene, params: Mapping[str, float]) -> Scene:

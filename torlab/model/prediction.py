@@ -15,7 +15,6 @@ import numpy as np
 
 from torlab.model.contact import ContactModel, build_contact
 from torlab.model.fastsim import FastsimGrid, FastsimProblem, ThermalParams
-from torlab.model.layer import LayerParams
 
 __all__ = ["TREND_CLASSES", "TREND_PROBABILITY", "TREND_TOLERANCE", "TractionPrediction",
            "classify_trend", "fastsim_grid", "fastsim_problem"]
@@ -57,8 +56,7 @@ class TractionPrediction:
 def fastsim_problem(scene: Any, contact: ContactModel | None = None) -> FastsimProblem:
     """The :class:`FastsimProblem` of a scene's boundary part."""
     contact = contact or build_contact(scene)
-    b = scene.boundary
-    layer = LayerParams(b.mu_c1, b.mu_c2, b.L_mue, b.L_mup, b.mu_c1_T, b.mu_c2_T)
+    layer = scene.boundary.layer
     th = scene.thermal
     thermal = None if th is None else ThermalParams(
         th.conductivity, th.density, th.heat_capacity, th.partition, th.slip_velocity,
@@ -243,9 +241,9 @@ def _temperature_note(loop: str, scene: Any) -> str:
     if loop == "off":
         return "contact temperature: not modelled (no thermal: section)"
     if loop == "single pass":
-        b = scene.boundary
-        why = ("the temperature coefficients are zero" if b.mu_c1_T == 0 and b.mu_c2_T == 0
-               else "the heating changes the limits by less than 1e-6")
+        lay = scene.boundary.layer
+        why = ("the temperature coefficients are zero"
+               if not any(lay.law.temperature_coefficients(lay)) else "the heating changes the limits by less than 1e-6")
         return f"contact temperature: computed once, no tau-T loop ({why})"
     return "contact temperature: coupled to the limits, iterated to convergence"
 

@@ -210,9 +210,10 @@ def boundary_scene(scene: Any, temperature_coefficients: tuple[float, float] = (
     if scene.roughness is not None:
         upd["roughness"] = None
     if scene.boundary is None:
-        from torlab.scene import Boundary
+        from torlab.model.layers import LayerParams
+        from torlab.scene import boundary_of
 
-        upd["boundary"] = Boundary(mu_c1=0.3, mu_c2=0.3)  # replaced by the layer of each amount
+        upd["boundary"] = boundary_of(LayerParams(0.3, 0.3))  # replaced by each amount's layer
     return (scene.model_copy(update=upd) if upd else scene), notes
 
 
@@ -220,14 +221,14 @@ def mu_of_layers(scene: Any, layers: list[Any], creepage: Any) -> np.ndarray:
     """Boundary coefficient (FASTSIM with the layer, Eq. 5.30) of each layer -> ``(n_layers, n_xi)``.
 
     ``scene``'s contact, kinematics, thermal and grid; the layer replaced by each of
-    ``layers`` (:class:`~torlab.model.layer.LayerParams`).  A lubricant is ignored
+    ``layers`` (:class:`~torlab.model.layers.LayerParams`).  A lubricant is ignored
     (:func:`boundary_scene`).
     """
     from torlab.model.contact import build_contact
     from torlab.model.fastsim import boundary_traction
     from torlab.model.prediction import fastsim_grid, fastsim_problem
 
-    Tc = (layers[0].mu_c1_T, layers[0].mu_c2_T) if layers else (0.0, 0.0)
+    Tc = tuple(layers[0].law.temperature_coefficients(layers[0])) if layers else ()
     sc, _ = boundary_scene(scene, Tc)
     contact = build_contact(sc)
     prob = fastsim_problem(sc, contact)
@@ -253,9 +254,9 @@ class MuTable:
     mu
         ``(n_x, n_xi)`` coefficient.
     params
-        ``(n_x, 4)`` layer parameters at the nodes.
+        ``(n_x, k)`` layer parameters at the nodes (the layer law's ``fit_names``).
     grad
-        ``(n_x, n_xi, 4)`` derivatives of ``mu`` by the layer parameters
+        ``(n_x, n_xi, k)`` derivatives of ``mu`` by the layer parameters
         (forward differences at the layer's nodes, linear in ``ln m`` between), or None.
     m_max
         Largest amount of the table (kg/m^2).
@@ -301,7 +302,7 @@ class MuTable:
         """
         if self.grad is None:
             raise ValueError("table built without gradients")
-        pd = layer.draw_params(np.exp(self.x), node_draws)  # (n_x, n_draws, 4)
+        pd = layer.draw_params(np.exp(self.x), node_draws)  # (n_x, n_draws, k)
         dp = pd - self.params[:, None, :]
         return self.mu[:, :, None] + np.einsum("xcp,xdp->xcd", self.grad, dp)
 
@@ -317,7 +318,7 @@ def mu_table(scene: Any, layer: Any, creepage: Any, *, m_top: float | None = Non
     largest tested amount), and the amounts ``extra`` (e.g. the applied amount, so
     that the coefficient there is the boundary model's exactly).  One FASTSIM
     call per node (vectorised over the
-    creepages); with ``gradient`` four more per node of the layer (dry anchor and
+    creepages); with ``gradient`` one more per parameter and node of the layer (dry anchor and
     tested amounts), the derivatives interpolated linearly in ``ln m`` between them.
     """
     xi = np.atleast_1d(np.asarray(creepage, dtype=float))
@@ -336,12 +337,10 @@ def mu_table(scene: Any, layer: Any, creepage: Any, *, m_top: float | None = Non
     if ex.size:
         x = np.unique(np.concatenate([x, ex]))
         x = x[np.r_[True, np.diff(x) > 1e-9]]
-    from torlab.model.layer import LayerParams
-
     P = layer.params_at(np.exp(x))
     P[0] = layer.dry_params
-    Tc = layer.temperature_coefficients
-    layers = [LayerParams(*(float(v) for v in p), *Tc) for p in P]
+    k = P.shape[1]
+    layers = [layer.layer_of(p) for p in P]
     mu = mu_of_layers(scene, layers, xi)
     n_ev = len(layers)
     grad = None
@@ -355,19 +354,19 @@ def mu_table(scene: Any, layer: Any, creepage: Any, *, m_top: float | None = Non
         base = P[np.searchsorted(x, gx - 1e-12).clip(0, len(x) - 1)]
         mu_g = mu[np.searchsorted(x, gx - 1e-12).clip(0, len(x) - 1)]
         if not np.allclose(base, Pg, rtol=1e-9, atol=0.0):
-            mu_g = mu_of_layers(scene, [LayerParams(*(float(v) for v in p), *Tc) for p in Pg], xi)
+            mu_g = mu_of_layers(scene, [layer.layer_of(p) for p in Pg], xi)
             n_ev += len(Pg)
-        gg = np.zeros((len(gx), xi.size, 4))
-        for i in range(4):
+        gg = np.zeros((len(gx), xi.size, k))
+        for i in range(k):
             h = np.maximum(1e-3 * np.abs(Pg[:, i]), 1e-12)
             Pp = Pg.copy()
             Pp[:, i] += h
-            lp = [LayerParams(*(float(v) for v in p), *Tc) for p in Pp]
+            lp = [layer.layer_of(p) for p in Pp]
             gg[:, :, i] = (mu_of_layers(scene, lp, xi) - mu_g) / h[:, None]
             n_ev += len(lp)
-        grad = np.empty((len(x), xi.size, 4))
+        grad = np.empty((len(x), xi.size, k))
         for c in range(xi.size):
-            for i in range(4):
+            for i in range(k):
                 grad[:, c, i] = np.interp(x, gx, gg[:, c, i])
     return MuTable(x=x, creepage=xi, mu=mu, params=P, grad=grad, m_max=top, n_evaluations=n_ev)
 

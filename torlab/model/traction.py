@@ -106,7 +106,7 @@ def dry_traction_curve(scene: Scene, creepage: ArrayLike, *,
         from torlab.errors import TorlabInputError
 
         raise TorlabInputError("a dry scene (no lubricant:) needs a boundary: section "
-                               "(mu_c1, mu_c2, L_mue, L_mup)", key="boundary")
+                               "(the third-body layer)", key="boundary")
     contact = build_contact(scene)
     prob = fastsim_problem(scene, contact)
     res = boundary_traction(prob, xi, fastsim_grid(scene))

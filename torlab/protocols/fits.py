@@ -138,9 +138,11 @@ def _fit_task(job: tuple[str, Any]) -> Any:
 
 def _temperature(ctx: RunContext, label: str, tres: Any, scene_dict: dict[str, Any]) -> None:
     """Temperature coefficients of a product's layer, merged into its scene dict."""
+    from torlab.model.layers import get_law
+
     tb = tres.to_scene_dict().get("boundary", {})
     scene_dict.setdefault("boundary", {}).update(
-        {k: v for k, v in tb.items() if k in ("mu_c1_T", "mu_c2_T")})
+        {k: v for k, v in tb.items() if k in get_law(tres.meta.get("law")).temperature_names})
     # the coefficients' covariance (with the intercepts') travels with the layer's set
     add_covariance(scene_dict, tres)
     ctx.add_fit(f"hpt-T:{label}", tres, tres.to_scene_dict(), keep_set=False)

@@ -14,8 +14,9 @@ _LAYOUT: dict[str, tuple[str, str, float, str, str, str, float, str, bool]] = {
                   "shear_stress_model_Pa", "shear stress τ (MPa)", 1e-6, "residual_Pa", False),
     "layer_traction": ("creepage", "creepage ξ = SRR (%)", 100.0, "mu_measured", "mu_model",
                        "traction coefficient μ (–)", 1.0, "residual", False),
-    "temperature": ("temperature_C", "temperature T (°C)", 1.0, "mu_c2_measured", "mu_c2_model",
-                    "limits μc1, μc2 (–)", 1.0, "residual_mu_c2", False),
+    # temperature: the layer law's last limit with a temperature coefficient (Voce: mu_c2);
+    # the others are drawn beside it (:func:`_temperature_layout`)
+    "temperature": ("temperature_C", "temperature T (°C)", 1.0, "", "", "", 1.0, "", False),
     "film": ("speed_m_s", "rolling speed v (m/s)", 1.0, "film_thickness_measured_m",
              "film_thickness_model_m", "central film thickness h (nm)", 1e9, "residual_m", True),
     "film_temperature": ("temperature_C", "temperature T (°C)", 1.0, "film_thickness_measured_m",
@@ -31,7 +32,7 @@ _RES_LABEL = {"layer_hpt": ("residual (MPa)", 1e-6), "layer_traction": ("residua
               "film_temperature": ("residual (nm)", 1e9),
               "viscosity": ("residual ln η (–)", 1.0), "polach": ("Polach − torlab (–)", 1.0)}
 #: legend names of the data and the model where they are not a measurement and a model
-_LEGEND = {"polach": ("torlab", "Polach"), "temperature": ("μc2 measured", "μc2 model")}
+_LEGEND = {"polach": ("torlab", "Polach")}
 
 
 #: figure titles of the fit kinds, in words
@@ -78,6 +79,9 @@ def fit_figure(result: Any, title: str | None = None,
         lab = "" if g is None else f" {g}"
         c = col[g]
         data_name, model_name = _LEGEND.get(result.kind, ("measured", "model"))
+        if result.kind == "temperature":
+            sym = _symbol(ym.removesuffix("_measured"))
+            data_name, model_name = f"{sym} measured", f"{sym} model"
         dense = len(x) > 200
         ms, alpha = (2.0, 0.55) if dense else (4.5, 1.0)
         ax.plot(x, sub[ym].to_numpy() * yf, "o", ms=ms, mew=0, alpha=alpha, color=c,
@@ -95,11 +99,13 @@ def fit_figure(result: Any, title: str | None = None,
     if result.kind == "temperature":
         x = d[xc].to_numpy()
         order = np.argsort(x)
-        ax.plot(x, d["mu_c1_measured"], "s", ms=5, color=col[groups[0][0]], mfc="white",
-                label="μc1 measured")
-        ax.plot(x[order], d["mu_c1_model"].to_numpy()[order], "--", color="0.1",
-                label="μc1 model")
-        axr.plot(x, d["residual_mu_c1"], "s", ms=4.5, mfc="white", color=col[groups[0][0]])
+        for key in _temperature_keys(result)[:-1]:
+            sym = _symbol(key)
+            ax.plot(x, d[f"{key}_measured"], "s", ms=5, color=col[groups[0][0]], mfc="white",
+                    label=f"{sym} measured")
+            ax.plot(x[order], d[f"{key}_model"].to_numpy()[order], "--", color="0.1",
+                    label=f"{sym} model")
+            axr.plot(x, d[f"residual_{key}"], "s", ms=4.5, mfc="white", color=col[groups[0][0]])
     if result.kind == "film" and "film_thickness_hamrock_dowson_m" in d:
         x = d[xc].to_numpy()
         order = np.argsort(x)
@@ -178,6 +184,13 @@ def result_figure(result: Any, title: str | None = None,
 def _layout(result: Any) -> tuple[str, str, float, str, str, str, float, str, bool]:
     """The figure layout of a kind; any other fit draws its ``x_column`` against its
     ``y_column`` (``*_measured*`` -> ``*_model*``) and its first ``residual*`` column."""
+    if result.kind == "temperature":
+        keys = _temperature_keys(result)
+        lay = list(_LAYOUT["temperature"])
+        lay[3:6] = (f"{keys[-1]}_measured", f"{keys[-1]}_model",
+                    f"limit{'s' if len(keys) > 1 else ''} {', '.join(map(_symbol, keys))} (–)")
+        lay[7] = f"residual_{keys[-1]}"
+        return tuple(lay)  # type: ignore[return-value]
     if result.kind in _LAYOUT:
         return _LAYOUT[result.kind]
     from torlab.reports.mtm import axis_label
@@ -191,13 +204,32 @@ def _layout(result: Any) -> tuple[str, str, float, str, str, str, float, str, bo
     return xc, xl, xf, ym, ymod if ymod in d else ym, yl, yf, rc, False
 
 
+def _temperature_keys(result: Any) -> list[str]:
+    """The limits of a temperature fit (``mu_c1``, ``mu_c2`` for Voce), in the law's order."""
+    d = result.data
+    return [c.removesuffix("_measured") for c in d.columns if c.endswith("_measured")]
+
+
+def _symbol(name: str) -> str:
+    """A layer parameter's report symbol (``μc1``), else the name."""
+    from torlab.model.layers import all_params
+
+    p = all_params().get(name)
+    return p.symbol if p is not None else name
+
+
 def _res_label(result: Any) -> tuple[str, float]:
     return _RES_LABEL.get(result.kind, (f"residual ({result.residual_unit})", 1.0))
 
 
 def _fmt(name: str, v: float) -> str:
-    if name in ("L_mue", "L_mup"):
+    from torlab.model.layers import all_params
+
+    layer = all_params().get(name)
+    if layer is not None and layer.kind == "length":
         return f"{v * 1e6:.3g} µm"
+    if layer is not None and layer.unit == "1/m":
+        return f"{v:.4g} 1/m"
     if name == "alpha":
         return f"{v * 1e9:.3g} 1/GPa"
     if name in ("film_prefactor", "film_at_reference"):

@@ -34,7 +34,8 @@ def traction_figure(curves: Sequence[tuple[str, Any]], *, boundary: Any = None,
         ``creepage`` and ``mu`` and optionally ``mu_boundary`` and ``mu_ehl`` (drawn thin
         and dashed) and the 95 % band ``mu_low95``, ``mu_high95`` (shaded).
     boundary
-        The scene's ``boundary:`` (``mu_c1``, ``mu_c2``): drawn as the layer's limits.
+        The scene's ``boundary:``: its layer law's limits (Voce: ``mu_c1``, ``mu_c2``) are
+        drawn as levels.
     title
         Figure title.
     measured
@@ -64,8 +65,9 @@ def traction_figure(curves: Sequence[tuple[str, Any]], *, boundary: Any = None,
         points(ax, 100.0 * np.asarray(x, dtype=float), y, sd, color=col[label], label=label)
     if boundary is not None:
         xs = np.concatenate(xs_all) if xs_all else np.zeros(1)
-        for name, val, ls in (("μ_c1 (elastic limit)", boundary.mu_c1, "-."),
-                              ("μ_c2 (plastic limit)", boundary.mu_c2, "--")):
+        lay = boundary.layer
+        for (key, name), ls in zip(lay.law.limits(), ("-.", "--", ":"), strict=False):
+            val = getattr(lay, key)
             for sgn in (1, -1):
                 if sgn < 0 and not np.any(xs < 0):
                     continue

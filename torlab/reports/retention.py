@@ -66,7 +66,7 @@ def removal_figure(result: Any, title: str | None = None) -> Any:
 
 
 def layer_figure(layer: Any, title: str = "") -> Any:
-    """The layer limits μc1, μc2 of the amount series against the areal density.
+    """The layer limits (Voce: μc1, μc2) of the amount series against the areal density.
 
     Points with 95 % error bars (±1.96 standard errors of each fit, with the
     run-to-run scatter where given) at the tested amounts and the dry anchor;
@@ -76,19 +76,23 @@ def layer_figure(layer: Any, title: str = "") -> Any:
 
     nodes = layer.nodes
     allp = np.vstack([layer.dry_params, layer.params])
-    se = np.sqrt(np.clip(np.concatenate([layer.dry_cov[None], layer.covs])[:, [0, 1], [0, 1]],
+    limits = layer.law.limits()
+    idx = [layer.names.index(k) for k, _ in limits]
+    se = np.sqrt(np.clip(np.concatenate([layer.dry_cov[None], layer.covs])[:, idx, idx],
                          0.0, None))
     m = np.geomspace(nodes[0], nodes[-1], 200)
     p = layer.params_at(m)
     fig, ax = subplots()
-    for i, (name, mk) in enumerate((("μc1 (elastic limit)", "s"), ("μc2 (plastic limit)", "o"))):
+    for i, ((_, label), mk) in enumerate(zip(limits, ("s", "o", "^"), strict=False)):
+        name = label.replace("μ_c", "μc")
         col = PALETTE[i]
-        ax.plot(m / MG_M2, p[:, i], "-", color=col, lw=1.2)
-        ax.errorbar(nodes[1:] / MG_M2, allp[1:, i], yerr=1.96 * se[1:, i], fmt=mk, ms=4,
+        j = idx[i]
+        ax.plot(m / MG_M2, p[:, j], "-", color=col, lw=1.2)
+        ax.errorbar(nodes[1:] / MG_M2, allp[1:, j], yerr=1.96 * se[1:, i], fmt=mk, ms=4,
                     color=col, capsize=2, label=f"{name}, HPT fit ±95 %")
-        ax.errorbar(nodes[:1] / MG_M2, allp[:1, i], yerr=1.96 * se[:1, i], fmt=mk, ms=5,
+        ax.errorbar(nodes[:1] / MG_M2, allp[:1, j], yerr=1.96 * se[:1, i], fmt=mk, ms=5,
                     mfc="none", color=col, capsize=2,
-                    label="dry fit at the assumed anchor" if i == 1 else None)
+                    label="dry fit at the assumed anchor" if i == len(limits) - 1 else None)
     ax.axvspan(nodes[0] / MG_M2, layer.m_min / MG_M2, color="0.9", lw=0,
                label="below the smallest tested amount")
     ax.set_xscale("log")
@@ -335,7 +339,8 @@ def retention_section(product: str, fit: Any, layer: Any, pred: Any, sweep: Any 
                "ΔAICc": ("delta_aicc", ".1f"), "weight": ("weight", ".3f")}),
         Table("amount_layer", layer.table(), "Layer nodes: the dry anchor and the tested "
               "amounts", {"node": ("node", ""), "amount (mg/m²)": ("amount_mg_m2", ".4g"),
-                          "μc1": ("mu_c1", ".4f"), "μc2": ("mu_c2", ".4f"),
+                          **{label.split(" ")[0].replace("μ_c", "μc"): (k, ".4f")
+                             for k, label in layer.law.limits()},
                           "source": ("source", "")}),
         Table("crossings", pd.DataFrame(_crossing_rows(s)), "Passes to enter and to leave "
               "the band, with 95 % intervals",

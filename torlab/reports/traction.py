@@ -40,7 +40,7 @@ class TractionCurve:
     speed_m_s
         Rolling speed of the curve.
     boundary
-        The layer of a modelled curve (``mu_c1``, ``mu_c2`` ...), for the table.
+        The layer of a modelled curve (its ``boundary:`` values), for the table.
     modelled
         What the prediction modelled.
     group
@@ -87,10 +87,16 @@ def traction_section(curves: list[TractionCurve], cfg: Any) -> Section:
     """
     import pandas as pd
 
+    from torlab.model.layers import DEFAULT_LAW, get_law
     from torlab.reports.render import plot
 
     fig = plot(traction_report_figure, curves, cfg)
     threshold = getattr(cfg, "trend_probability", 0.9)
+    # the layer columns: the parameters of the laws of the modelled curves (in order)
+    laws = list(dict.fromkeys(get_law(c.boundary.get("law")) for c in curves if c.boundary)) \
+        or [get_law()]
+    several_laws = len(laws) > 1 or laws[0] is not get_law()
+    layer_params = {p.name: p for lw in laws for p in lw.params}
     rows, long = [], []
     for c in curves:
         t = c.trend
@@ -118,12 +124,9 @@ def traction_section(curves: list[TractionCurve], cfg: Any) -> Section:
                      "relative_change_high95": _nanf(t.get("relative_change_high95")),
                      "band_method": c.band.get("method", "") if c.kind == "model" else "",
                      "band_dominated_by": _dominant_text(c.band) if c.kind == "model" else "",
-                     "mu_c1": c.boundary.get("mu_c1", float("nan")),
-                     "mu_c2": c.boundary.get("mu_c2", float("nan")),
-                     "L_mue_m": c.boundary.get("L_mue", float("nan")),
-                     "L_mup_m": c.boundary.get("L_mup", float("nan")),
-                     "mu_c1_T_per_K": c.boundary.get("mu_c1_T", float("nan")),
-                     "mu_c2_T_per_K": c.boundary.get("mu_c2_T", float("nan"))})
+                     **({"law": c.boundary.get("law", DEFAULT_LAW)} if several_laws else {}),
+                     **{f"{n}{p.column}": c.boundary.get(n, float("nan"))
+                        for n, p in layer_params.items()}})
         d = c.table.copy()
         d.insert(0, "curve", c.label)
         d.insert(1, "kind", c.kind)

@@ -6,7 +6,8 @@ water-based friction modifier tested wet and dry (WFM), a solid stick crushed
 to powder (SFM) -- at several applied amounts, 750 MPa, 1 um/s, to 400 um; a
 dry reference; and runs at raised temperature to 200 um.
 
-Each run's layer follows the Voce law of :func:`torlab.model.layer.hpt_tau`
+Each run's layer follows a layer law of :mod:`torlab.model.layers` (the products of
+the sample data: Voce's, :meth:`~torlab.model.layers.base.LayerLaw.hpt_tau`)
 with parameters drawn around a product law (:data:`PRODUCTS`): the saturated
 coefficient ``mu_c2`` falls with the applied *mass* along a logistic curve, the
 same for every product type except the wet FM (thesis H3.1/H3.2 findings), and
@@ -24,12 +25,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
 
-from torlab.model.layer import LayerParams, hpt_tau
+from torlab.model.layers import LayerParams, get_law, hpt_tau
 from torlab.reduce.hpt import annulus_area, effective_radius
 
 __all__ = [
@@ -90,6 +91,11 @@ class ProductLaw:
 
     ``mu_c2(m) = f_low + (f_high - f_low) / (1 + (m / m50)^k)`` with the mass
     ``m`` in mg (volume x density for liquids); ``mu_c1 = c1_ratio * mu_c2``.
+
+    ``layer_law`` is the layer law of the runs (:mod:`torlab.model.layers`, default
+    Voce).  With another law ``mu_c1`` follows the amount as above, ``L_mue`` and
+    ``mu_c1_T`` as given, and the law's own parameters are ``layer_extra``
+    (e.g. ``{"k_mu": 400.0}``), the same at every amount.
     """
 
     name: str
@@ -106,12 +112,29 @@ class ProductLaw:
     mu_c1_T: float
     mu_c2_T: float
     condition: str = ""
+    layer_law: str = "voce"
+    layer_extra: dict[str, float] = field(default_factory=dict)
 
     def mu_c2(self, mass_mg: float) -> float:
         """Saturated coefficient at an applied mass (mg)."""
         if mass_mg <= 0:
             return self.f_high
         return self.f_low + (self.f_high - self.f_low) / (1.0 + (mass_mg / self.m50_mg) ** self.k)
+
+    def layer_values(self, mass_mg: float) -> dict[str, float]:
+        """The layer law's fitted parameters at an applied mass (mg), without run-to-run
+        scatter (the truth an amount series estimates)."""
+        m2 = self.mu_c2(mass_mg)
+        if get_law(self.layer_law) is get_law("voce"):
+            return {"mu_c1": self.c1_ratio * m2, "mu_c2": m2, "L_mue": self.L_mue,
+                    "L_mup": self.L_mup}
+        return {"mu_c1": self.c1_ratio * m2, "L_mue": self.L_mue, **self.layer_extra}
+
+    def temperature_values(self) -> dict[str, float]:
+        """The layer law's temperature coefficients (1/K)."""
+        law = get_law(self.layer_law)
+        return {n: v for n, v in (("mu_c1_T", self.mu_c1_T), ("mu_c2_T", self.mu_c2_T))
+                if n in law.temperature_names}
 
     def mass_mg(self, amount: float) -> float:
         """Applied mass (mg) of ``amount`` in :attr:`amount_unit`."""
@@ -231,11 +254,17 @@ def _run_spec(law: ProductLaw, key: str, amt: float | None, T: float, k: int, sc
     mass = 0.0 if amt is None else law.mass_mg(amt)
     m2 = law.mu_c2(mass) * (1 + scatter * rng.standard_normal())
     m1 = law.c1_ratio * m2 * (1 + 0.5 * scatter * rng.standard_normal())
-    p = LayerParams(mu_c1=round(m1, 5), mu_c2=round(m2, 5),
-                    L_mue=law.L_mue * (1 + 0.1 * rng.standard_normal()),
-                    L_mup=law.L_mup * (1 + 0.1 * rng.standard_normal()),
-                    mu_c1_T=law.mu_c1_T, mu_c2_T=law.mu_c2_T)
-    p = replace(p, L_mue=round(p.L_mue, 9), L_mup=round(p.L_mup, 9))
+    layer_law = get_law(law.layer_law)
+    if layer_law is get_law("voce"):
+        p = LayerParams(mu_c1=round(m1, 5), mu_c2=round(m2, 5),
+                        L_mue=law.L_mue * (1 + 0.1 * rng.standard_normal()),
+                        L_mup=law.L_mup * (1 + 0.1 * rng.standard_normal()),
+                        mu_c1_T=law.mu_c1_T, mu_c2_T=law.mu_c2_T)
+        p = p.replace(L_mue=round(p.L_mue, 9), L_mup=round(p.L_mup, 9))
+    else:
+        p = LayerParams(law=layer_law, mu_c1=round(m1, 5),
+                        L_mue=round(law.L_mue * (1 + 0.1 * rng.standard_normal()), 9),
+                        mu_c1_T=law.mu_c1_T, **law.layer_extra)
     label = law.name + (f"-{law.condition}" if law.condition else "")
     amt_s = "" if amt is None else f"_{amt:g}{law.amount_unit}"
     name = f"hpt_{label}{amt_s}_{T:g}C" + (f"_run{k}" if k > 1 else "")
@@ -409,7 +438,9 @@ def write_hpt_sample_data(out: Any, seed: int = 2022, specs: list[HptRunSpec] | 
             "normal_stress_Pa": spec.sigma,
             "displacement_max_m": spec.u_max,
             "friction_at_max_displacement": tau_end / spec.sigma,
-            "boundary": {k: float(v) for k, v in asdict(spec.params).items()},
+            "boundary": ({} if spec.params.law is get_law() else
+                         {"law": spec.params.law.name}) | {
+                k: float(v) for k, v in spec.params.values.items()},
             "seed": spec.seed,
         })
     out.write_text("rig_compliance.csv", compliance_curve_text(rig, seed + 1))

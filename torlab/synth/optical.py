@@ -267,9 +267,9 @@ def model_truth(test: OpticalTest, scene: Any, *, speeds: Any = None,
 
 
 def _layer_text(scene: Any) -> str:
-    b = scene.boundary
-    return (f"mu_c1 {b.mu_c1:g}, mu_c2 {b.mu_c2:g}, L_mue {b.L_mue * 1e6:g} um, "
-            f"L_mup {b.L_mup * 1e6:g} um")
+    lay = scene.boundary.layer
+    return ", ".join(f"{n} {v * 1e6:g} um" if lay.law.param(n).kind == "length" else f"{n} {v:g}"
+                     for n, v in lay.values.items() if n in lay.law.fit_names)
 
 
 def _quantise(x: np.ndarray, q: float) -> np.ndarray:

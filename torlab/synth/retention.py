@@ -39,6 +39,7 @@ from typing import Any
 import numpy as np
 
 from torlab.model.amount import HPT_AREA, MG_M2, AmountLayer
+from torlab.model.layers import get_law
 from torlab.model.removal import RemovalLaw
 
 __all__ = [
@@ -106,10 +107,12 @@ def law_layer_fits(product: str = "OFM1", amounts: tuple[float, ...] = (1, 2, 4,
     for the HPT fits of the amount series when a test needs a known layer.
     """
     from torlab.fit.result import FitResult
+    from torlab.model.layers import get_law
     from torlab.synth.hpt import PRODUCTS
 
     law = PRODUCTS[product]
-    names = ("mu_c1", "mu_c2", "L_mue", "L_mup")
+    layer_law = get_law(law.layer_law)
+    names = layer_law.fit_names
 
     def fr(p: list[float], amt: float | None) -> Any:
         p_arr = np.asarray(p, dtype=float)
@@ -120,16 +123,19 @@ def law_layer_fits(product: str = "OFM1", amounts: tuple[float, ...] = (1, 2, 4,
         if amt is not None:
             meta.update(applied_amount=float(amt), applied_amount_unit=law.amount_unit,
                         product_density=law.density_kg_m3)
+        if layer_law is not get_law():
+            meta["law"] = layer_law.name
         return FitResult.from_covariance("layer_hpt", names, p_arr, cov, dof=200,
                                          residual_norm=0.0, n_points=0, warnings=[], data=None,
                                          meta=meta, residual_unit="Pa")
 
     fits = []
     for a in amounts:
-        m2 = law.mu_c2(law.mass_mg(a))
-        fits.append(fr([law.c1_ratio * m2, m2, law.L_mue, law.L_mup], a))
+        v = law.layer_values(law.mass_mg(a))
+        fits.append(fr([v[n] for n in names], a))
     d = PRODUCTS["dry"]
-    return fits, fr([d.c1_ratio * d.f_high, d.f_high, d.L_mue, d.L_mup], None)
+    v = d.layer_values(0.0)
+    return fits, fr([v[n] for n in names], None)
 
 
 def true_layer(product: str = "OFM1", amounts: tuple[float, ...] = (1, 2, 4, 8, 16), *,
@@ -345,7 +351,7 @@ def hpt_amount_series(seed: int = 2016, product: str = "OFM1",
     these logs estimates the layer the time tests were simulated with; the
     simulated rig adds its compliance and noise (:func:`torlab.synth.hpt.simulate_hpt`).
     """
-    from torlab.model.layer import LayerParams
+    from torlab.model.layers import LayerParams
     from torlab.synth.hpt import PRODUCTS, HptRunSpec
 
     fits, dry = law_layer_fits(product, amounts)
@@ -354,9 +360,7 @@ def hpt_amount_series(seed: int = 2016, product: str = "OFM1",
     for law_key, amt, fit in [*((product, a, f) for a, f in zip(amounts, fits, strict=True)),
                               ("dry", None, dry)]:
         law = PRODUCTS[law_key]
-        p = fit.params
-        lp = LayerParams(mu_c1=p["mu_c1"], mu_c2=p["mu_c2"], L_mue=p["L_mue"], L_mup=p["L_mup"],
-                         mu_c1_T=law.mu_c1_T, mu_c2_T=law.mu_c2_T)
+        lp = LayerParams(law=law.layer_law, **fit.params, **law.temperature_values())
         name = f"hpt_{law.name}{'' if amt is None else f'_{amt:g}{law.amount_unit}'}_25C"
         specs.append(HptRunSpec(name=name, law=law_key, amount=amt, temperature_C=25.0,
                                 params=lp, seed=int(rng.integers(0, 2**31 - 1))))
@@ -400,7 +404,9 @@ def write_retention_sample_data(out: Any, seed: int = 2016, *,
                                             notes="retention sample: the truth layer's node"))
         names.append(fname)
         hpt_runs.append({"file": fname, "applied_amount": spec.amount,
-                         "boundary": {k: float(v) for k, v in asdict(spec.params).items()},
+                         "boundary": ({} if spec.params.law is get_law() else
+                                      {"law": spec.params.law.name})
+                         | {k: float(v) for k, v in spec.params.values.items()},
                          "seed": spec.seed})
     out.write_text("rig_compliance.csv", compliance_curve_text(HptRig(), seed + 1))
     tab = layer.table()
