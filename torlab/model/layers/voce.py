@@ -228,6 +228,52 @@ class Voce(LayerLaw):
                 return t1 + z
         raise ConvergenceError("Voce layer: the yield stress of an element did not converge")
 
+    def _plastic_slip(self, lay: LayerParams, p: Any, mag: np.ndarray, kappa: np.ndarray,
+                      k: np.ndarray, dT: Any) -> np.ndarray:
+        """One scalar equation per element in the traction after the step,
+        ``F(tau) = tau - t1 - D (1 - exp(-((tau - t1) L_e + kappa + (|tau_trial| - tau)/k)
+        / L_mup)) = 0``, bracketed between the yield stress before the step and the
+        trial (hardening) or the saturation (softening) and solved by safeguarded Newton."""
+        from torlab.errors import ConvergenceError
+
+        p = np.asarray(p, dtype=float)
+        tc = self.yield_stress(lay, p, kappa, dT)
+        act = mag > tc
+        shape = np.broadcast_shapes(np.shape(mag), np.shape(kappa), np.shape(tc), np.shape(k))
+        if not np.any(act) or lay.L_mup <= 0:
+            if lay.L_mup <= 0:  # a step to tau_c2: flow at tau_c2 once yielded
+                t2 = lay.mu_c2 * p * np.exp(lay.mu_c2_T * np.asarray(dT))
+                return np.where(act & (mag > t2), (mag - t2) / k, 0.0) + np.zeros(shape)
+            return np.zeros(shape)
+        t1 = lay.mu_c1 * p * np.exp(lay.mu_c1_T * np.asarray(dT))
+        t2 = lay.mu_c2 * p * np.exp(lay.mu_c2_T * np.asarray(dT))
+        D = t2 - t1
+        Le = lay.L_mue / np.where(p > 0, p, np.inf)
+        kap = np.broadcast_to(np.maximum(np.asarray(kappa, dtype=float), 0.0), shape)
+        mag_b, k_b = np.broadcast_to(mag, shape), np.broadcast_to(k, shape)
+
+        def F(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            e = np.exp(-((t - t1) * Le + kap + (mag_b - t) / k_b) / lay.L_mup)
+            return t - t1 - D * (1.0 - e), 1.0 - D * e * (Le - 1.0 / k_b) / lay.L_mup
+
+        hard = np.broadcast_to(D >= 0, shape)
+        lo = np.where(hard, tc, np.minimum(t2, mag_b))
+        hi = np.where(hard, mag_b, tc)
+        t = np.where(act, 0.5 * (lo + hi), mag_b)
+        for _ in range(100):
+            f, df = F(t)
+            lo = np.where(f < 0, t, lo)
+            hi = np.where(f < 0, hi, t)
+            new = t - f / np.where(df != 0, df, np.nan)
+            bad = ~np.isfinite(new) | (new < lo) | (new > hi)
+            new = np.where(act, np.where(bad, 0.5 * (lo + hi), new), mag_b)
+            step = np.abs(new - t)
+            t = new
+            if np.all(step <= 1e-14 * np.maximum(np.abs(t), 1e-300)):
+                return np.where(act, (mag_b - t) / k_b, 0.0)
+        raise ConvergenceError("Voce layer: the plastic slip of a contact element did not "
+                               "converge in 100 steps")
+
     def hardening_modulus(self, lay: LayerParams, p: Any, kappa: Any, dT: Any = 0.0
                           ) -> np.ndarray:
         p = np.asarray(p, dtype=float)
