@@ -93,7 +93,7 @@ def test_fastsim_example_fastsim_cases(case, bound):
     limit at first order, against torlab's (grid-free) FASTSIM with CONTACT's three
     flexibilities (printed in the output) and FASTSIM's re-stick rule."""
     from torlab.model.creep import CreepProblem, creep_forces
-    from torlab.model.layer import LayerParams
+    from torlab.model.layers import LayerParams
 
     tot = totals("examples/fastsim.ref_out")
     flx = second_row("examples/fastsim.ref_out", "FLX1")[0]

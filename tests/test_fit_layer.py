@@ -39,7 +39,7 @@ def _truth(file: str) -> dict:
 
 
 def test_model_without_compliance_is_the_layer_law():
-    """With no rig compliance the fit's model is torlab.model.layer.hpt_tau itself."""
+    """With no rig compliance the fit's model is torlab.model.layers.hpt_tau itself."""
     p = LayerParams(0.14, 0.22, 8e-6, 19e-6)
     u = np.linspace(0, 300e-6, 700)
     ref = hpt_tau(u, 750e6, p)

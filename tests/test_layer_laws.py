@@ -88,7 +88,7 @@ def test_a_scene_boundary_builds_its_laws_values():
     assert Boundary(mu_c1=0.3, mu_c2=0.45, L_mue=10e-6) == sc.boundary
     with pytest.raises(ValidationErrors, match="'hooke' is not"):
         scene_from_dict({**base, "boundary": {"law": "hooke", "mu_c1": 0.3}})
-    with pytest.raises(ValidationErrors, match="boundary.mu_c2: missing"):
+    with pytest.raises(ValidationErrors, match=r"boundary\.mu_c2: missing"):
         scene_from_dict({**base, "boundary": {"mu_c1": 0.3}})
 
 
