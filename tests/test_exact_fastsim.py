@@ -110,9 +110,9 @@ def _scene(**boundary):
 
 def test_scene_layer_follows_the_hpt_curve():
     """One element at constant pressure: the yield stress after a plastic deformation lies
-    on the layer's HPT curve at the total displacement (torlab.model.layer.hpt_tau)."""
+    on the layer's HPT curve at the total displacement (torlab.model.layers.hpt_tau)."""
     from torlab.model.exact.scene import voce_yield_stress
-    from torlab.model.layer import LayerParams, hpt_tau
+    from torlab.model.layers import LayerParams, hpt_tau
 
     lay = LayerParams(0.18, 0.25, 5e-6, 10e-6)
     p = 800e6

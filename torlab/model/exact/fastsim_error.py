@@ -138,7 +138,7 @@ def fastsim_values(case: ErrorCase) -> dict[str, float]:
     """``{quantity: value}`` of torlab's FASTSIM (three flexibilities, elliptical bound)."""
     from torlab.model.creep import CreepProblem, creep_forces
     from torlab.model.kalker import C11, C22, C23, L1, L2, L3
-    from torlab.model.layer import LayerParams
+    from torlab.model.layers import LayerParams
 
     contact = case_contact(case)
     a, b, G = contact.a, contact.b, contact.G

@@ -13,7 +13,7 @@ third-body layer of the ``boundary:`` section in series with the half-space:
   coefficients are not applied, and the output says so).  Voce's law is written for
   the layer's displacement past the elastic limit, ``s = (tau - tau_c1) L_e + kappa``
   (its elastic part beyond the limit plus its plastic part), so that one element
-  loaded at a constant pressure follows the HPT curve of :func:`torlab.model.layer.hpt_tau`:
+  loaded at a constant pressure follows the HPT curve of :func:`torlab.model.layers.hpt_tau`:
   ``tau = tau_c1 + (tau_c2 - tau_c1)(1 - exp(-s/L_mup))``, solved for ``tau`` at a given
   ``kappa`` (:class:`LawYield`, the one place the exact solver reads the layer law).
 
