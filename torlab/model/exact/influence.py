@@ -137,9 +137,17 @@ class Influence:
 
     def tangential(self, px: np.ndarray, py: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Tangential displacement differences ``(u_x, u_y)`` on ``(mx + extra, my)``."""
-        Px, Py = self._fwd(px), self._fwd(py)
+        u = self.tangential_stacked(np.stack([px, py]))
+        return u[0], u[1]
+
+    def tangential_stacked(self, p: np.ndarray) -> np.ndarray:
+        """``u`` of tractions stacked as ``(2, mx, my)`` (components first), same layout."""
+        from scipy import fft
+
+        P = fft.rfft2(p, s=(self.nx, self.ny))
         s = self._spec
-        return (self._back(s["xx"] * Px + s["xy"] * Py), self._back(s["xy"] * Px + s["yy"] * Py))
+        U = np.stack([s["xx"] * P[0] + s["xy"] * P[1], s["xy"] * P[0] + s["yy"] * P[1]])
+        return fft.irfft2(U, s=(self.nx, self.ny))[:, : self.mx + self.extra, : self.my]
 
     def normal(self, pn: np.ndarray) -> np.ndarray:
         """Normal displacement difference ``u_n`` on ``(mx + extra, my)``."""

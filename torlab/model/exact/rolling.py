@@ -154,7 +154,7 @@ class ExactGrid:
     coarse: int | None = None
     margin: int = 2
     normal: str = "discrete"
-    tol: float = 1e-7
+    tol: float = 1e-6
 
     @property
     def n_coarse(self) -> int:
