@@ -18,6 +18,7 @@ MODULES = [
     "torlab",
     "torlab.api",
     "torlab.instruments",
+    "torlab.instruments.plugin",
     "torlab.instruments.reduction",
     "torlab.instruments.output",
     "torlab.instruments.measured",

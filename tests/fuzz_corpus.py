@@ -28,6 +28,7 @@ ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data"
 SAMPLE = ROOT / "sample_data"
 REAL_PCS = ROOT.parent / "shared" / "real-data" / "pcs"
+REAL_TRIOS = ROOT.parent / "shared" / "real-data" / "rheometer" / "trios_demo.txt"
 SCENES = ROOT / "protocols" / "scenes"
 
 #: per-case time limit (s): a case running longer is a hang
@@ -108,8 +109,11 @@ def sources() -> dict[str, list[tuple[str, bytes]]]:
     visc = [("fall_column_crlf", (DATA / "visc" / "fall_column_crlf.txt").read_bytes()),
             ("visc_ester_head", _head(SAMPLE / "visc" / "visc_ester_25C.txt", 1500))]
     scene = [(p.name, p.read_bytes()) for p in sorted(SCENES.glob("*.yaml"))]
+    trios = [("hand.txt", (DATA / "trios" / "hand.txt").read_bytes())]
+    if REAL_TRIOS.is_file():  # the first step and the start of the second
+        trios.append(("real:trios_demo.txt", _head(REAL_TRIOS, 330)))
     return {"hpt": hpt, "pcs": pcs, "ehd2": ehd2, "optical": optical, "visc": visc,
-            "scene": scene, "protocol": [("small.yaml", PROTOCOL.encode())],
+            "trios": trios, "scene": scene, "protocol": [("small.yaml", PROTOCOL.encode())],
             "hpt_map": [("rig2.yaml", HPT_MAP.encode())]}
 
 
@@ -378,6 +382,7 @@ def build_corpus(seed: int = 20240613) -> list[Case]:
     for special in ("fifo", "device", "missing"):
         cases.append(Case("fit_removal", "-", special, special=special, extra=layer_files))
     cases += _more_commands(seed, src, removal)
+    cases += _trios_cases(seed, src)
     cases += reported_cases()
     return cases
 
@@ -517,6 +522,36 @@ def _more_commands(seed: int, src: dict, removal: bytes) -> list[Case]:
     return out
 
 
+def _trios_cases(seed: int, src: dict) -> list[Case]:
+    """TA Instruments TRIOS exports (their own generator, so the cases above stay as they
+    were): every text mutation, a units row short of a unit, a unit of another kind, an
+    unknown unit, a step without its units row or its viscosity, the special files."""
+    rng = random.Random(seed + 48)
+    out: list[Case] = []
+    for name, data in src["trios"]:
+        for mut, b in mutate_text(data, rng):
+            out.append(Case("trios", name, mut, b))
+    hand = dict(src["trios"])["hand.txt"]
+    units = "dyne/cm²\t1/s\tPa.s\ts\t°C\tdyne/cm²".encode()
+    for mut, new in (("units_row_short", "dyne/cm²\t1/s".encode()),
+                     ("unit_of_another_kind", units.replace(b"Pa.s", b"mm")),
+                     ("unknown_unit", units.replace("dyne/cm²".encode(), b"dyne/furlong", 1)),
+                     ("empty_unit", units.replace(b"1/s", b"")),
+                     ("no_units_row", b"")):
+        out.append(Case("trios", "hand.txt", mut, hand.replace(units + b"\ts\t\xc2\xb5m\r\n",
+                                                              new + b"\r\n" if new else b"",
+                                                              1)))
+    out.append(Case("trios", "hand.txt", "no_viscosity_column",
+                    hand.replace(b"\tViscosity\t", b"\tThickness\t")))
+    out.append(Case("trios", "hand.txt", "step_without_name",
+                    hand.replace(b"[step]\r\nFlow sweep - 1\r\n", b"[step]\r\n", 1)))
+    out.append(Case("trios", "hand.txt", "temperature_option", hand,
+                    args=("--temperature", "80 degC")))
+    for special in ("fifo", "folder", "device", "missing", "symlink_device"):
+        out.append(Case("trios", "-", special, special=special))
+    return out
+
+
 # ----------------------------------------------------------------------------- running
 class _Hang(BaseException):
     """Raised by the alarm when a case exceeds :data:`TIME_LIMIT`."""
@@ -587,6 +622,8 @@ def _command(case: Case, work: Path) -> list[str]:
     if r == "visc":
         ref = SAMPLE / "visc" / "visc_reference_25C.txt"
         return ["visc", "reduce", str(p), "--reference", str(ref), "-o", out]
+    if r == "trios":
+        return ["trios", "reduce", str(p), "-o", out]
     if r == "scene":
         return ["predict", "traction", str(p), "--creepage", "0:0.05:6", "-o", out]
     if r == "scene_stribeck":
@@ -651,6 +688,7 @@ _STDERR_OK = ("error: ", "warning: ")
 
 #: the commands that take --no-plot (tables only)
 _PLOTTING = {("hpt", "reduce"), ("mtm", "reduce"), ("optical", "reduce"), ("visc", "reduce"),
+             ("trios", "reduce"),
              ("predict", "traction"), ("predict", "stribeck")}
 
 

@@ -89,7 +89,7 @@ def test_corpus_has_no_traceback_exit_1_hang_or_raw_warning(corpus):
 
 def test_corpus_covers_every_reader_scene_and_protocol(outcomes):
     readers = {o.case.reader for o in outcomes}
-    assert readers >= {"hpt", "hpt_map", "pcs", "ehd2", "optical", "visc", "scene",
+    assert readers >= {"hpt", "hpt_map", "pcs", "ehd2", "optical", "visc", "trios", "scene",
                        "scene_stribeck", "protocol", "fit_hpt", "fit_removal",
                        "predict_retention", *NEW_COMMANDS}
     specials = {o.case.mutation for o in outcomes if o.case.special}

@@ -55,6 +55,9 @@ INSTRUMENTS: tuple[str, ...] = (
     "torlab.instruments.pcs",
     "torlab.instruments.optical",  # also reads PCS EHD2 exports, but only with --as optical
     "torlab.instruments.visc",
+    # recognised from its content (a 'Filename<TAB>' first line and a '[step]' line), a
+    # weaker mark than a first line of its own: after those
+    "torlab.instruments.trios",
 )
 
 
