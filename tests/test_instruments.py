@@ -56,12 +56,24 @@ def test_command_and_section_names_are_unique():
 def test_the_registry_loads_no_numerical_library():
     """``torlab --help`` reads every declaration: the modules import their libraries inside
     their functions."""
-    code = ("import sys, torlab.instruments as i; [x.options for x in i.REGISTRY.values()]; "
+    code = ("import sys, torlab.instruments as i; [o.shown_default() for x in "
+            "i.REGISTRY.values() for o in x.options.values()]; "
             "print(sorted(m for m in ('numpy', 'pandas', 'scipy', 'matplotlib', 'pint', "
-            "'pydantic') if m in sys.modules))")
+            "'pydantic', 'torlab.units') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, cwd=ROOT)
     assert out.stdout.strip() == "[]"
+
+
+@pytest.mark.parametrize("unit, kind", [("um", "length"), ("mm", "length"), ("s", "time"),
+                                        ("ms", "time"), ("K", "temperature_difference"),
+                                        ("kPa", "pressure"), ("GPa", "pressure"), ("N", "force")])
+def test_shown_defaults_scale_as_the_unit_table(unit, kind):
+    from torlab.instruments.plugin import _prefix_scale
+    from torlab.units import parse_unit_factor
+
+    assert _prefix_scale(unit, kind) == pytest.approx(parse_unit_factor(unit, kind)[0],
+                                                      rel=1e-15)
 
 
 def test_folders_are_searched_for_every_instruments_endings():

@@ -130,9 +130,12 @@ class Option:
         """The default as a user writes it: a quantity in its :attr:`unit` (``"20 um"``)."""
         if self.default is None or not self.unit:
             return self.default
-        from torlab.units import parse_unit_factor
+        scale = _prefix_scale(self.unit, self.kind)
+        offset = 0.0
+        if scale is None:  # not an SI unit with a prefix: the unit table (or pint)
+            from torlab.units import parse_unit_factor
 
-        scale, offset = parse_unit_factor(self.unit, self.kind)
+            scale, offset = parse_unit_factor(self.unit, self.kind)
         return f"{(self.default - offset) / scale:.6g} {self.unit}"
 
 
@@ -164,6 +167,23 @@ class Command:
     inputs: str
     argument: str = "files"
     what: str = "input"
+
+
+#: SI units of the quantity kinds options use, and the prefixes a shown default may carry:
+#: ``torlab --help`` shows ``[default: 20 um]`` without loading the unit table
+_SI_UNITS = {"length": "m", "time": "s", "temperature_difference": "K", "pressure": "Pa",
+             "force": "N", "mass": "kg", "frequency": "Hz"}
+_PREFIXES = {"": 1.0, "n": 1e-9, "u": 1e-6, "µ": 1e-6, "m": 1e-3, "k": 1e3, "M": 1e6,
+             "G": 1e9}
+
+
+def _prefix_scale(unit: str, kind: str) -> float | None:
+    """The factor of ``unit`` to SI when it is the kind's SI unit with a prefix (``um``),
+    else None (tests/test_instruments.py checks it against :func:`torlab.units.to_si`)."""
+    si = _SI_UNITS.get(kind)
+    if si is None or not unit.endswith(si) or kind == "mass":
+        return None
+    return _PREFIXES.get(unit[: -len(si)])
 
 
 def read_head(path: str | os.PathLike[str]) -> str:
