@@ -109,16 +109,26 @@ def _scene(**boundary):
 
 
 def test_scene_layer_follows_the_hpt_curve():
-    """One element at constant pressure: the yield stress after a plastic deformation lies
-    on the layer's HPT curve at the total displacement (torlab.model.layers.hpt_tau)."""
-    from torlab.model.exact.scene import voce_yield_stress
-    from torlab.model.layers import LayerParams, hpt_tau
+    """One element at constant pressure: the yield stress the solver reads after a plastic
+    deformation lies on the layer's HPT curve at the total displacement, and a plastic step
+    from the trial traction lands on it (torlab.model.layers)."""
+    from torlab.model.exact.scene import scene_layer
+    from torlab.model.layers import hpt_tau
 
-    lay = LayerParams(0.18, 0.25, 5e-6, 10e-6)
-    p = 800e6
+    sc = _scene()
+    layer = scene_layer(sc.boundary)
+    lay = sc.boundary.layer
+    p = np.full(7, 800e6)
     k = np.linspace(0, 3e-5, 7)
-    tau, _ = voce_yield_stress(0.18, 0.25, 5e-6, 10e-6, p, k)
-    assert np.allclose(tau, hpt_tau(k + tau * 5e-6 / p, p, lay), rtol=1e-12)
+    tau, slope = layer.law.stress(k, p, None)
+    Le = lay.L_mue / p
+    assert np.allclose(tau, hpt_tau(k + tau * Le, 800e6, lay), rtol=1e-12)
+    assert np.all(slope > 0)                       # this scene's layer hardens (mu_c2 > mu_c1)
+    r = np.full(7, 1e15)                           # Pa/m: a stiff element
+    mag = tau * 1.05 + 1e6
+    t2, dk, _ = layer.law.plastic_step(mag, k, r, p, None)
+    assert np.allclose(t2, layer.law.stress(k + dk, p, None)[0], rtol=1e-10)
+    assert np.allclose(mag - t2, r * dk, rtol=1e-10)
 
 
 def test_scene_perfectly_plastic_layer_is_coulomb():

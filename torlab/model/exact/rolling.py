@@ -25,6 +25,7 @@ moment of the tractions about the contact centre, positive with positive spin.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -50,7 +51,10 @@ class ExactLayer:
         ``flexibility_pressure``.
     flexibility_pressure
         ``L_mue`` (m): the thesis's flexibility ``L_mue / p`` (Eq. 5.28), used when
-        ``flexibility`` is None.
+        ``flexibility`` and ``flexibility_of`` are None.
+    flexibility_of
+        A function of the pressure (Pa) giving the flexibility (m/Pa), used when
+        ``flexibility`` is None (a layer law's own).
     law
         The yield law (:class:`~torlab.model.exact.local.LinearYield`,
         :class:`~torlab.model.exact.local.VoceYield`, ...), or None: elastic layer.
@@ -65,6 +69,7 @@ class ExactLayer:
 
     flexibility: float | None = 0.0
     flexibility_pressure: float = 0.0
+    flexibility_of: Callable[[np.ndarray], np.ndarray] | None = None
     law: YieldLaw | None = None
     c1: float | None = None
     c2: float | None = None
@@ -74,7 +79,9 @@ class ExactLayer:
     def on_grid(self, pn: np.ndarray) -> Layer:
         """The layer's arrays on a grid with the pressure ``pn`` (Pa)."""
         pos = pn > 0
-        if self.flexibility is None:
+        if self.flexibility is None and self.flexibility_of is not None:
+            flex = np.where(pos, self.flexibility_of(np.where(pos, pn, 1.0)), 0.0)
+        elif self.flexibility is None:
             flex = np.where(pos, self.flexibility_pressure / np.where(pos, pn, 1.0), 0.0)
         else:
             flex = np.full(pn.shape, float(self.flexibility))

@@ -3,19 +3,19 @@
 :func:`exact_contact` resolves a dry scene (``boundary:``, no ``lubricant:``) into the
 exact solver's :class:`~torlab.model.exact.rolling.ExactContact`: the Hertz patch and
 Kalker's combined ``G`` and ``nu`` of :func:`torlab.model.contact.build_contact`, and the
-third-body layer of the ``boundary:`` section in series with the half-space:
+third-body layer of the ``boundary:`` section in series with the half-space, read
+through the one interface of the layer laws (:mod:`torlab.model.layers`, whichever law
+the scene names):
 
-* its elastic flexibility ``L_mue / p`` (thesis Eq. 5.28), element by element;
-* its yield stress after the accumulated plastic deformation ``kappa``: the onset
-  ``tau_c1 = mu_c1 p`` (Eq. 5.26) hardening or softening towards ``tau_c2 = mu_c2 p``
-  (Eq. 5.27) with Voce's law over the length ``L_mup`` (Eqs. 5.24, 5.29), at the ambient
-  temperature (the exact solver has no thermal model: the limits' temperature
-  coefficients are not applied, and the output says so).  Voce's law is written for
-  the layer's displacement past the elastic limit, ``s = (tau - tau_c1) L_e + kappa``
-  (its elastic part beyond the limit plus its plastic part), so that one element
-  loaded at a constant pressure follows the HPT curve of :func:`torlab.model.layers.hpt_tau`:
-  ``tau = tau_c1 + (tau_c2 - tau_c1)(1 - exp(-s/L_mup))``, solved for ``tau`` at a given
-  ``kappa`` (:class:`LawYield`, the one place the exact solver reads the layer law).
+* its elastic flexibility ``L_e = L_mue / p`` (thesis Eq. 5.28,
+  :meth:`~torlab.model.layers.LayerLaw.elastic_flexibility`), element by element;
+* its yield stress against the accumulated plastic deformation ``kappa``
+  (:meth:`~torlab.model.layers.LayerLaw.yield_stress`: for Voce's law, the stress of one
+  element loaded at a constant pressure along the law's HPT curve) and the plastic step
+  of a yielding element (:meth:`~torlab.model.layers.LayerLaw.return_map` with the
+  element's own stiffness in the scheme), at the ambient temperature: the exact solver
+  has no thermal model, the limits' temperature coefficients are not applied, and the
+  output says so.
 
 The layer's yield stress is the friction: there is no separate Coulomb coefficient
 (``mu = inf``).  :func:`predict_exact` returns the same
@@ -31,128 +31,54 @@ from typing import Any
 
 import numpy as np
 
-from torlab.errors import ConvergenceError, TorlabInputError
+from torlab.errors import TorlabInputError
 from torlab.model.exact.rolling import ExactContact, ExactGrid, ExactLayer, exact_creep_forces
 
-__all__ = ["LawYield", "exact_contact", "predict_exact", "scene_layer", "voce_yield_stress"]
-
-
-def voce_yield_stress(mu_c1: float, mu_c2: float, L_mue: float, L_mup: float, p: Any,
-                      kappa: Any) -> tuple[np.ndarray, np.ndarray]:
-    """Voce's yield stress and its slope against the plastic deformation (module docstring).
-
-    ``z = tau - tau_c1`` solves ``z = D (1 - exp(-(z L_e + kappa)/L_mup))`` with
-    ``D = tau_c2 - tau_c1`` and ``L_e = L_mue/p``; the slope is
-    ``dtau/dkappa = g/(1 - g L_e)``, ``g = (tau_c2 - tau)/L_mup``.  Needs the plastic
-    branch less steep than the elastic one (``|D| L_e < L_mup``).
-
-    Returns
-    -------
-    tuple
-        ``(tau, dtau/dkappa)`` [Pa, Pa/m].
-    """
-    p = np.asarray(p, dtype=float)
-    kap = np.maximum(np.asarray(kappa, dtype=float), 0.0)
-    t1, t2 = mu_c1 * p, mu_c2 * p
-    D = t2 - t1
-    if L_mup <= 0:
-        return np.where(kap > 0, t2, t1) + 0.0 * kap, np.zeros(np.broadcast(p, kap).shape)
-    Le = L_mue / np.where(p > 0, p, np.inf)
-    if np.any(np.abs(D) * Le >= L_mup):
-        raise TorlabInputError("Voce layer: the plastic branch is steeper than the elastic one "
-                               "((mu_c2 - mu_c1) L_mue >= L_mup): the exact solver cannot split "
-                               "the layer's slip into an elastic and a plastic part",
-                               key="boundary")
-    z = D * -np.expm1(-kap / L_mup)
-    for _ in range(60):
-        e = np.exp(-(z * Le + kap) / L_mup)
-        f = z - D * (1 - e)
-        if np.all(np.abs(f) <= 1e-13 * (np.abs(D) + np.abs(t1))):
-            break
-        df = 1 - D * e * Le / L_mup
-        new = z - f / df
-        if np.all(np.abs(new - z) <= 1e-14 * (np.abs(D) + 1e-300)):
-            z = new
-            break
-        z = new
-    else:
-        raise ConvergenceError("Voce layer: the yield stress of an element did not converge")
-    tau = t1 + z
-    g = (t2 - tau) / L_mup
-    return tau, g / (1.0 - g * Le)
+__all__ = ["LawYield", "exact_contact", "predict_exact", "scene_layer"]
 
 
 class LawYield:
-    """The exact solver's yield law (:class:`~torlab.model.exact.local.YieldLaw`) of a
-    scene's layer: the element parameter ``c1`` is the pressure [Pa]."""
+    """A layer law of :mod:`torlab.model.layers` as the exact solver's yield law
+    (:class:`~torlab.model.exact.local.YieldLaw`): the element parameter ``c1`` is the
+    pressure [Pa]; ``lay`` the law's values (:class:`~torlab.model.layers.LayerParams`)."""
 
-    def __init__(self, boundary: Any) -> None:
-        self.params = (float(boundary.mu_c1), float(boundary.mu_c2), float(boundary.L_mue),
-                       float(boundary.L_mup))
+    def __init__(self, lay: Any) -> None:
+        self.lay = lay
+        self.law = lay.law
 
     def stress(self, kappa, c1, c2):
-        return voce_yield_stress(*self.params, c1, kappa)
+        return (self.law.yield_stress(self.lay, c1, kappa),
+                self.law.hardening_modulus(self.lay, c1, kappa))
 
     def plastic_step(self, mag, kappa0, r, c1, c2):
-        """A yielding element's step: ``tau`` solves
-        ``tau - t1 = D (1 - exp(-((tau - t1) L_e + kappa0 + (mag - tau)/r)/L_mup))``
-        between the yield stress before the step and the trial (hardening) or the
-        saturation (softening); ``dk = (mag - tau)/r``."""
-        mu1, mu2, lme, lmp = self.params
-        p = np.asarray(c1, dtype=float)
-        t1, t2 = mu1 * p, mu2 * p
-        D = t2 - t1
-        tc0, _ = self.stress(kappa0, p, None)
-        if lmp <= 0:
-            tau = np.minimum(mag, t2)
-            return tau, (mag - tau) / r, np.zeros_like(tau)
-        Le = lme / p
-        lo = np.minimum(tc0, np.where(D >= 0, mag, t2))
-        hi = np.maximum(tc0, np.where(D >= 0, mag, t2))
-        lo, hi = np.minimum(lo, mag), np.minimum(hi, mag)
-        t = np.clip(tc0, lo, hi)
-        for _ in range(60):
-            e = np.exp(-((t - t1) * Le + kappa0 + (mag - t) / r) / lmp)
-            f = t - t1 - D * (1 - e)
-            if np.all(np.abs(f) <= 1e-13 * (np.abs(D) + np.abs(t1))):
-                break
-            df = 1 - D * e * (Le - 1 / r) / lmp
-            lo = np.where(f < 0, t, lo)
-            hi = np.where(f >= 0, t, hi)
-            new = t - f / np.where(df != 0, df, 1.0)
-            bad = ~np.isfinite(new) | (new <= lo) | (new >= hi)
-            new = np.where(bad, 0.5 * (lo + hi), new)
-            step = np.abs(new - t)
-            t = new
-            if np.all(step <= 1e-14 * np.abs(mag) + 1e-300):
-                break
-        else:
-            raise ConvergenceError("Voce layer: an element's plastic step did not converge")
-        g = (t2 - t) / lmp
-        return t, (mag - t) / r, g / (1.0 - g * Le)
+        """The law's return map with the element's stiffness ``r`` [Pa/m]."""
+        tau, dk = self.law.return_map(self.lay, c1, mag, kappa0, r)
+        return np.abs(tau), dk, self.law.hardening_modulus(self.lay, c1, kappa0 + dk)
 
     def reaching(self, tau, c1, c2):
-        """The plastic deformation at which the yield stress reaches ``tau`` (bisection)."""
+        """The plastic deformation at which the yield stress reaches ``tau`` (bisection up to
+        1 m, inf where it never does)."""
         tau = np.asarray(tau, dtype=float)
-        lo = np.zeros(tau.shape)
-        hi = np.full(tau.shape, 1.0)
-        reach = np.full(tau.shape, np.inf)
-        t_hi, _ = self.stress(hi, c1, c2)
-        ok = (t_hi >= tau) & (self.stress(lo, c1, c2)[0] < tau)
+        lo, hi = np.zeros(tau.shape), np.full(tau.shape, 1.0)
+        ok = (self.stress(hi, c1, c2)[0] >= tau) & (self.stress(lo, c1, c2)[0] < tau)
         if not ok.any():
-            return reach
+            return np.full(tau.shape, np.inf)
         for _ in range(80):
             mid = 0.5 * (lo + hi)
             below = self.stress(mid, c1, c2)[0] < tau
             lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
-        return np.where(ok, 0.5 * (lo + hi), reach)
+        return np.where(ok, 0.5 * (lo + hi), np.inf)
 
 
 def scene_layer(boundary: Any) -> ExactLayer:
     """The exact solver's layer of a scene's ``boundary:`` section (module docstring)."""
-    return ExactLayer(flexibility=None, flexibility_pressure=float(boundary.L_mue),
-                      law=LawYield(boundary), c1=1.0, per_pressure=True,
-                      name="third-body layer in series (Voce: mu_c1, mu_c2, L_mue, L_mup)")
+    lay = boundary.layer
+    law = lay.law
+    return ExactLayer(flexibility=None,
+                      flexibility_of=lambda p: law.elastic_flexibility(lay, p),
+                      law=LawYield(lay), c1=1.0, per_pressure=True,
+                      name=f"third-body layer ({law.name} law: "
+                           f"{', '.join(law.names)})")
 
 
 def exact_contact(scene: Any, contact: Any = None) -> ExactContact:
