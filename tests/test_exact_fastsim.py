@@ -151,7 +151,7 @@ def test_predict_exact_for_a_scene():
     from torlab.model.exact.scene import predict_exact
 
     sc = _scene()
-    pe = predict_exact(sc, [1e-3, 3e-3, 3e-2], grid=ExactGrid(n=16))
+    pe = predict_exact(sc, [1e-3, 3e-3, 3e-2], grid=ExactGrid(n=12))
     t = pe.table
     assert {"creepage", "mu", "mu_x_error", "Fx_error_N", "adhesion_fraction",
             "plastic_fraction"} <= set(t.columns)
