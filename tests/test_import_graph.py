@@ -1,8 +1,11 @@
-"""The package's import graph: no cycle at import time, and the layers point one way.
+"""The package's import graph: no cycle, and the layers point one way.
 
 The graph is read from the source (every ``import`` and ``from ... import`` of every
 module, at module level and inside functions), so it holds for imports a test run
-never executes.
+never executes.  :data:`LAYERS` declares the floors of the house (DEVELOPERS.md draws
+them): a module imports modules of its own floor or of floors below, never above, and
+no two modules import each other, through any chain, even inside functions.  The few
+arrows that run back up on purpose are :data:`UPWARD`, each with the reason.
 """
 
 from __future__ import annotations
@@ -94,6 +97,44 @@ def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
     return found
 
 
+#: the floors, lowest first: a module belongs to the floor of the longest prefix that names it
+LAYERS: list[tuple[str, tuple[str, ...]]] = [
+    # errors, the lazy package face (its public names load torlab.api through importlib on
+    # first use, which is no import statement), the value codec, small helpers
+    ("base", ("torlab", "torlab.errors", "torlab._stats", "torlab._suggest", "torlab.progress",
+              "torlab.threads", "torlab.codec", "torlab._unit_table")),
+    # units at the edges, safe files and result folders, the executor, YAML, uncertainty
+    ("io", ("torlab.units", "torlab.files", "torlab.parallel", "torlab.grids", "torlab.yamlio",
+            "torlab.outputs", "torlab.uncertainty")),
+    ("inputs", ("torlab.scene", "torlab.parsers")),        # the scene contract, raw files
+    ("model", ("torlab.model",)),                          # the physics
+    ("reduce", ("torlab.reduce",)),                        # raw channels -> quantities
+    ("fit", ("torlab.fit",)),                              # quantities -> parameters
+    ("reports", ("torlab.reports",)),                      # results -> figures, tables
+    ("instruments", ("torlab.instruments",)),              # one plug-in per file format
+    ("campaigns", ("torlab.synth", "torlab.protocols")),   # virtual experiments, protocols
+    ("facade", ("torlab.api", "torlab.bench")),            # the public API, benchmarks
+    ("cli", ("torlab.cli", "torlab.__main__")),            # commands over the API
+]
+
+#: arrows that run back up on purpose: (importer, imported) -> why
+UPWARD: dict[tuple[str, str], str] = {
+    ("torlab.fit.result", "torlab.reports.fit"):
+        "FitResult.plot(): a result draws itself in a notebook (as lmfit's results do); the "
+        "drawing is the report layer's, imported only when asked",
+}
+
+
+def _layer(module: str) -> int:
+    best = (-1, -1)
+    for i, (_, prefixes) in enumerate(LAYERS):
+        for p in prefixes:
+            if (module == p or module.startswith(p + ".")) and len(p) > best[1]:
+                best = (i, len(p))
+    assert best[0] >= 0, f"{module} is on no floor: add it to LAYERS"
+    return best[0]
+
+
 def test_the_graph_is_read():
     # the reader sees what is there: the CLI's root module imports its commands lazily,
     # the public API the library, the protocol runner its stages
@@ -105,6 +146,40 @@ def test_the_graph_is_read():
 def test_no_import_cycle_at_import_time():
     graph = {m: _imports(m, top_level_only=True) for m in MODULES}
     assert _cycles(graph) == []
+
+
+def test_no_import_cycle_at_all():
+    """Not even through imports inside functions: no two modules need each other."""
+    graph = {m: _imports(m, top_level_only=False) for m in MODULES}
+    assert _cycles(graph) == []
+
+
+def _upward(graph: dict[str, set[str]]) -> list[str]:
+    """The arrows of ``graph`` that run to a higher floor and are not in :data:`UPWARD`."""
+    up = []
+    for m in sorted(graph):
+        for dep in sorted(graph[m]):
+            if _layer(dep) > _layer(m) and (m, dep) not in UPWARD:
+                up.append(f"{m} ({LAYERS[_layer(m)][0]}) -> {dep} ({LAYERS[_layer(dep)][0]})")
+    return up
+
+
+def test_every_module_is_on_a_floor_and_the_floors_point_down():
+    assert _upward({m: _imports(m, top_level_only=False) for m in MODULES}) == []
+    assert len(UPWARD) <= 2
+    for (m, dep), why in UPWARD.items():  # each exception still exists and says why
+        assert dep in _imports(m, top_level_only=False) and why
+
+
+def test_the_floor_check_sees_an_upward_import():
+    # a model module drawing a report, a parser reading through the registry: both found;
+    # an import on the same floor or downward is not
+    assert _upward({"torlab.model.fastsim": {"torlab.reports.render", "torlab.model.hertz"},
+                    "torlab.parsers.pcs": {"torlab.instruments", "torlab.files"}}) == [
+        "torlab.model.fastsim (model) -> torlab.reports.render (reports)",
+        "torlab.parsers.pcs (inputs) -> torlab.instruments (instruments)"]
+    assert _layer("torlab") < _layer("torlab.api")   # the package face is the ground floor
+    assert _layer("torlab.cli.fit") == len(LAYERS) - 1
 
 
 def test_the_library_does_not_import_the_cli_or_the_facade():

@@ -137,6 +137,11 @@ def _encode(v: Any) -> Any:
         return {"__t": "dict", "v": [[encode_value(k), encode_value(x)] for k, x in v.items()]}
     if isinstance(v, Path):
         return {"__t": "path", "v": str(v)}
+    return _enc_object(v)
+
+
+def _enc_object(v: Any) -> Any:
+    """Dates, pandas objects, torlab's result dataclasses and pydantic models."""
     import datetime as dt
 
     if isinstance(v, dt.datetime):
@@ -311,61 +316,65 @@ def _decode(t: Any, depth: int) -> Any:
     if not isinstance(t, dict) or not isinstance(t.get("__t"), str):
         raise BadEntry("not an encoded value")
     tag = t["__t"]
+    dec = _DECODERS.get(tag)
+    if dec is None:
+        raise BadEntry(f"unknown tag {tag!r}")
     try:
-        if tag == "ref":
-            rd = _READING.get()
-            k = t["i"]
-            if rd is None or type(k) is not int or k not in rd.objs:
-                raise BadEntry("reference to an object not decoded before")
-            return rd.objs[k]
-        if tag == "dict":
-            return {_hashable(decode_value(k, depth=d)): decode_value(x, depth=d)
-                    for k, x in t["v"]}
-        if tag == "tuple":
-            return tuple(decode_value(x, depth=d) for x in _list(t["v"]))
-        if tag in ("set", "frozenset"):
-            items = (_hashable(decode_value(x, depth=d)) for x in _list(t["v"]))
-            return set(items) if tag == "set" else frozenset(items)
-        if tag == "float":
-            if t["v"] not in ("nan", "inf", "-inf"):
-                raise BadEntry("bad float")
-            return float(t["v"])
-        if tag == "bigint":
-            s = t["v"]
-            if not isinstance(s, str) or len(s) > 400:
-                raise BadEntry("bad integer")
-            return int(s)
-        if tag == "np":
-            import numpy as np
-
-            return np.asarray(decode_value(t["v"], depth=d), dtype=_dtype(t["dtype"]))[()]
-        if tag in ("nd", "ndo"):
-            return _dec_array(t, d)
-        if tag == "path":
-            return Path(_str(t["v"]))
-        if tag in ("datetime", "date", "timestamp"):
-            import datetime as dt
-
-            if tag == "timestamp":
-                import pandas as pd
-
-                return pd.Timestamp(_str(t["v"]))
-            cls = dt.datetime if tag == "datetime" else dt.date
-            return cls.fromisoformat(_str(t["v"]))
-        if tag in ("df", "series"):
-            return _dec_pandas(t, d)
-        if tag == "dc":
-            return _dec_dataclass(t, d)
-        if tag == "model":
-            cls = _resolve_type(t["type"])
-            if not hasattr(cls, "model_validate"):
-                raise BadEntry(f"{t['type']} is not a model")
-            return cls.model_validate(decode_value(t["v"], depth=d))
+        return dec(t, d)
     except BadEntry:
         raise
     except (KeyError, TypeError, ValueError, AttributeError, OverflowError) as e:
         raise BadEntry(f"{tag}: {type(e).__name__}: {e}") from None
-    raise BadEntry(f"unknown tag {tag!r}")
+
+
+def _dec_ref(t: dict, d: int) -> Any:
+    rd = _READING.get()
+    k = t["i"]
+    if rd is None or type(k) is not int or k not in rd.objs:
+        raise BadEntry("reference to an object not decoded before")
+    return rd.objs[k]
+
+
+def _dec_set(t: dict, d: int) -> Any:
+    items = (_hashable(decode_value(x, depth=d)) for x in _list(t["v"]))
+    return set(items) if t["__t"] == "set" else frozenset(items)
+
+
+def _dec_float(t: dict, d: int) -> float:
+    if t["v"] not in ("nan", "inf", "-inf"):
+        raise BadEntry("bad float")
+    return float(t["v"])
+
+
+def _dec_bigint(t: dict, d: int) -> int:
+    s = t["v"]
+    if not isinstance(s, str) or len(s) > 400:
+        raise BadEntry("bad integer")
+    return int(s)
+
+
+def _dec_np(t: dict, d: int) -> Any:
+    import numpy as np
+
+    return np.asarray(decode_value(t["v"], depth=d), dtype=_dtype(t["dtype"]))[()]
+
+
+def _dec_time(t: dict, d: int) -> Any:
+    if t["__t"] == "timestamp":
+        import pandas as pd
+
+        return pd.Timestamp(_str(t["v"]))
+    import datetime as dt
+
+    cls = dt.datetime if t["__t"] == "datetime" else dt.date
+    return cls.fromisoformat(_str(t["v"]))
+
+
+def _dec_model(t: dict, d: int) -> Any:
+    cls = _resolve_type(t["type"])
+    if not hasattr(cls, "model_validate"):
+        raise BadEntry(f"{t['type']} is not a model")
+    return cls.model_validate(decode_value(t["v"], depth=d))
 
 
 def _list(v: Any) -> list:
@@ -608,6 +617,30 @@ def _dec_dataclass(t: dict, d: int) -> Any:
         if not f.init:
             object.__setattr__(obj, f.name, vals[f.name])
     return obj
+
+
+#: tag of an encoded value -> its decoder ``(tree, depth) -> value``
+_DECODERS: dict[str, Any] = {
+    "ref": _dec_ref,
+    "dict": lambda t, d: {_hashable(decode_value(k, depth=d)): decode_value(x, depth=d)
+                          for k, x in t["v"]},
+    "tuple": lambda t, d: tuple(decode_value(x, depth=d) for x in _list(t["v"])),
+    "set": _dec_set,
+    "frozenset": _dec_set,
+    "float": _dec_float,
+    "bigint": _dec_bigint,
+    "np": _dec_np,
+    "nd": _dec_array,
+    "ndo": _dec_array,
+    "path": lambda t, d: Path(_str(t["v"])),
+    "datetime": _dec_time,
+    "date": _dec_time,
+    "timestamp": _dec_time,
+    "df": _dec_pandas,
+    "series": _dec_pandas,
+    "dc": _dec_dataclass,
+    "model": _dec_model,
+}
 
 
 # ------------------------------------------------------------------------------ arrays apart

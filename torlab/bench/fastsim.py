@@ -336,7 +336,7 @@ def _test_set_error(tests: list, evaluate: Callable[[FastsimProblem, np.ndarray]
     return worst
 
 
-def run(quick: bool = False) -> list[BenchRow]:
+def run(quick: bool = False) -> list[BenchRow]:  # noqa: C901 (one benchmark run in reading order: rows, baselines, ratios)
     """FASTSIM speed against error (see the module docstring).
 
     Parameters

@@ -77,7 +77,7 @@ def _show_warning(message: Any, category: type, filename: str, lineno: int, file
 class _TorlabGroup(TyperGroup):
     """Root command: turns errors into one line and an exit code."""
 
-    def main(self, args: Sequence[str] | None = None, prog_name: str | None = None,
+    def main(self, args: Sequence[str] | None = None, prog_name: str | None = None,  # noqa: C901 (the program's one entry: each exit path of a command is a branch)
              complete_var: str | None = None, standalone_mode: bool = True,
              **extra: Any) -> Any:
         argv = list(sys.argv[1:] if args is None else args)

@@ -169,7 +169,7 @@ def fit_polach(problem: CreepProblem, creepage: Any, speed: Any, *, lateral: Any
     return res
 
 
-def fit_polach_data(df: Any, contact: Any, *, source: str = "", ordered: bool = True
+def fit_polach_data(df: Any, contact: Any, *, source: str = "", ordered: bool = True  # noqa: C901 (each input form of a measured creep curve and each fixed parameter is a case)
                     ) -> FitResult:
     """Fit Polach's law to creep forces given as a table (see :func:`polach_data`).
 

@@ -124,6 +124,29 @@ def _log_values(v: Any, k: int, path: str) -> np.ndarray:
     return _matrix([v], (1, k), "retention.fit_space.values", path)[0]
 
 
+def _fit_space(fs: dict, law: str, order: int, path: str,
+               bad: Callable[[str, str], TorlabInputError]) -> tuple[list[str], Any, Any]:
+    """The names, log values and covariance of ``fit_space`` (with its covariance without
+    the layer), checked: the names fit the law, the matrices are square, symmetric, with a
+    non-negative diagonal, and exact (zero) where the rate is zero."""
+    names = [str(n) for n in fs["names"]]
+    k = len(names)
+    if not 1 <= k <= 3 or names[0] != f"k{order}" or \
+            any(n not in ("spread", "transfer") for n in names[1:]):
+        raise bad(f"names {names} do not fit the law {law}", "fit_space.names")
+    theta = _log_values(fs.get("values"), k, path)
+    cov = _matrix(fs.get("covariance"), (k, k), "retention.fit_space.covariance", path)
+    cov0 = _matrix(fs.get("covariance_without_layer", cov), (k, k),
+                   "retention.fit_space.covariance_without_layer", path)
+    for c, nm in ((cov, "covariance"), (cov0, "covariance_without_layer")):
+        if not np.allclose(c, c.T, rtol=1e-6, atol=0.0) or np.any(np.diag(c) < 0):
+            raise bad("must be symmetric with a non-negative diagonal", f"fit_space.{nm}")
+        if theta[0] == -math.inf and np.any(c[0] != 0):
+            raise bad(f"a removal rate of zero ({names[0]}: 0, ln = -.inf) is exact: its row "
+                      "and column must be zero", f"fit_space.{nm}")
+    return names, theta, cov
+
+
 def retention_from_dict(d: Any, *, path: str = "", fit: Any = None) -> RetentionParams:
     """:class:`RetentionParams` from the ``retention:`` section (every value checked).
 
@@ -152,21 +175,8 @@ def retention_from_dict(d: Any, *, path: str = "", fit: Any = None) -> Retention
     if not isinstance(fs, dict) or not isinstance(fs.get("names"), list):
         raise bad("missing fit_space (names, values, covariance, layer_sensitivity)",
                   "fit_space")
-    names = [str(n) for n in fs["names"]]
+    names, theta, cov = _fit_space(fs, law, order, path, bad)
     k = len(names)
-    if not 1 <= k <= 3 or names[0] != f"k{order}" or \
-            any(n not in ("spread", "transfer") for n in names[1:]):
-        raise bad(f"names {names} do not fit the law {law}", "fit_space.names")
-    theta = _log_values(fs.get("values"), k, path)
-    cov = _matrix(fs.get("covariance"), (k, k), "retention.fit_space.covariance", path)
-    cov0 = _matrix(fs.get("covariance_without_layer", cov), (k, k),
-                   "retention.fit_space.covariance_without_layer", path)
-    for c, nm in ((cov, "covariance"), (cov0, "covariance_without_layer")):
-        if not np.allclose(c, c.T, rtol=1e-6, atol=0.0) or np.any(np.diag(c) < 0):
-            raise bad("must be symmetric with a non-negative diagonal", f"fit_space.{nm}")
-        if theta[0] == -math.inf and np.any(c[0] != 0):
-            raise bad(f"a removal rate of zero ({names[0]}: 0, ln = -.inf) is exact: its row "
-                      "and column must be zero", f"fit_space.{nm}")
     layer = AmountLayer.from_dict(d.get("layer"), path=path or None, key="retention.layer")
     n_nodes = layer.nodes.size
     G = fs.get("layer_sensitivity", [])

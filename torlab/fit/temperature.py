@@ -51,7 +51,7 @@ SELECTION_LEVEL = 0.05
 
 
 @small_problem  # one BLAS thread: small matrices (torlab.threads)
-def fit_temperature_coefficients(fits_or_curves: Any, temperatures_K: Any = None, *,
+def fit_temperature_coefficients(fits_or_curves: Any, temperatures_K: Any = None, *,  # noqa: C901 (each selection rule and undetermined coefficient is a case)
                                  reference_temperature_C: float = 25.0,
                                  selection: str = "lr",
                                  selection_level: float = SELECTION_LEVEL) -> FitResult:

@@ -156,7 +156,7 @@ def _start(model: Any, scene: Any, xi: np.ndarray, y: np.ndarray) -> dict[str, f
 
 
 @small_problem  # one BLAS thread: small matrices (torlab.threads)
-def fit_layer_traction(scene: Any, creepage: Any, mu: Any, *, fixed: dict[str, float] | None = None,
+def fit_layer_traction(scene: Any, creepage: Any, mu: Any, *, fixed: dict[str, float] | None = None,  # noqa: C901 (each input form, fixed parameter and fallback is a case, said in the result)
                        x0: dict[str, float] | None = None, max_nfev: int = 200) -> FitResult:
     """Fit the layer parameters to a traction curve with FASTSIM (thesis Eqs. 5.14-5.30).
 

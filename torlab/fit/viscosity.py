@@ -357,7 +357,7 @@ def fit_barus(p: Any, eta: Any, *, confidence: float = 0.95,
 
 
 @small_problem  # one BLAS thread: small matrices (torlab.threads)
-def fit_roelands(p: Any, eta: Any, *, eta0: float | None = None, fit_eta0: bool | None = None,
+def fit_roelands(p: Any, eta: Any, *, eta0: float | None = None, fit_eta0: bool | None = None,  # noqa: C901 (the fit's checks and fallbacks, each said in its result)
                  confidence: float = 0.95, temperature_C: float | None = None) -> ViscosityFit:
     """Roelands fit (Eq. 5.38) of ``Z`` (and ``eta0``) by nonlinear least squares in ``ln eta``.
 

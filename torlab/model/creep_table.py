@@ -177,7 +177,7 @@ def _column(ax: TableAxis) -> str:
     return f"{ax.name}{unit}"
 
 
-def creep_table(problem: CreepProblem | Sequence[tuple[float, CreepProblem]], creepage: Any,
+def creep_table(problem: CreepProblem | Sequence[tuple[float, CreepProblem]], creepage: Any,  # noqa: C901 (each axis of the table and its checks is a case)
                 lateral: Any, spin: Any, *, speed: Any = None, amount_unit: str = "",
                 grid: CreepGrid | None = None, chunk: int = 256,
                 map_fn: Callable[[Callable[[Any], Any], Iterable[Any]], Iterable[Any]] | None = None,

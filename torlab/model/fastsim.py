@@ -1388,7 +1388,7 @@ def _temperature_groups(solver: _Solver, th: ThermalParams, G: Any, new: np.ndar
 # -------------------------------------------------------------------------------------------
 # grid-free reference (adaptive quadrature of the continuous strip solution)
 # -------------------------------------------------------------------------------------------
-def boundary_traction_reference(prob: FastsimProblem, creepage: float, *, rtol: float = 1e-10) -> float:
+def boundary_traction_reference(prob: FastsimProblem, creepage: float, *, rtol: float = 1e-10) -> float:  # noqa: C901 (a reference solver spelled out case by case, for clarity over speed)
     """Grid-free reference ``mu_BL`` without temperature, by adaptive quadrature.
 
     Independent of the fast scheme's closed forms: per strip, ``E(X)`` and the

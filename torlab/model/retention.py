@@ -239,7 +239,7 @@ def _applied(removal: Any, layer: Any, amount: Any, bnd: Any, n_draws: int, rng:
     return node_draws, rd, tr, m0, how
 
 
-def predict_retention(scene: Any, layer: Any, removal: Any, amount: Any, *, creepage: float,
+def predict_retention(scene: Any, layer: Any, removal: Any, amount: Any, *, creepage: float,  # noqa: C901 (each input form (file, fit, layer) and option checked where it is read)
                       track_radius: float | None = None, band_length: float | None = None,
                       density: float | None = None, transfer: float | None = None,
                       passes: Any = None, n_passes: float | None = None, points: int = 501,

@@ -259,7 +259,7 @@ def read_hpt_map(path: PathOrBuffer) -> dict[str, Any]:
     }
 
 
-def read_hpt(src: PathOrBuffer, mapping: PathOrBuffer | dict[str, Any] | None = None, *,
+def read_hpt(src: PathOrBuffer, mapping: PathOrBuffer | dict[str, Any] | None = None, *,  # noqa: C901 (one pass over a vendor header: each key is a branch)
              name: str | None = None) -> tuple[Any, HptMetadata]:
     """Read an HPT raw log.
 
@@ -377,7 +377,7 @@ def _locate_mapped_header(lines: list[str], mapping: dict[str, Any], display: st
     return idx, mapping["delimiter"], mapping["decimal"], mapping["skip"]
 
 
-def _resolve_columns(fields: list[str], colspecs: dict[str, Any] | None, meta: HptMetadata,
+def _resolve_columns(fields: list[str], colspecs: dict[str, Any] | None, meta: HptMetadata,  # noqa: C901 (each column of the rig's export and its unit is a case)
                      display: str, header_line_no: int, mapping: dict[str, Any] | None):
     from torlab.units import parse_unit_factor, to_si
 

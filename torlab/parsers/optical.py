@@ -181,7 +181,7 @@ _HEADER_RANGES = {"ball_radius": "ball_radius", "temperature": "temperature",
                   "lubricant_viscosity": "viscosity"}
 
 
-def open_optical(src: PathOrBuffer, *, name: str | None = None) -> OpticalSource:
+def open_optical(src: PathOrBuffer, *, name: str | None = None) -> OpticalSource:  # noqa: C901 (each way the rig writes its log is a case)
     """Read the header of a ``torlab-optical`` log and check its rows' field counts.
 
     Returns

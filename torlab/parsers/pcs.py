@@ -632,7 +632,7 @@ def _detect(lines: list[str], meta: PcsMetadata, instrument: str | None, path: s
     meta.instrument = detected
 
 
-def _split(lines: list[str], meta: PcsMetadata, path: str) -> list[_Block]:
+def _split(lines: list[str], meta: PcsMetadata, path: str) -> list[_Block]:  # noqa: C901 (one pass over the export's sections: each section kind is a case)
     """Walk the lines: file header, then step blocks (metadata, table header, rows)."""
     n = len(lines)
     i = 0
@@ -936,7 +936,7 @@ def _decimals(values: list[str]) -> int:
     return d
 
 
-def _group_frame(hblocks: list[_Block], meta: PcsMetadata, path: str) -> Any:
+def _group_frame(hblocks: list[_Block], meta: PcsMetadata, path: str) -> Any:  # noqa: C901 (each column group the PCS software writes is a case)
     """Parse the tables of all steps sharing one column header."""
     import pandas as pd
 

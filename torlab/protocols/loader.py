@@ -223,121 +223,163 @@ def _problem(doc: Any, err: dict[str, Any], data: Any) -> TorlabInputError:
 
 def _cross_check(lp: LoadedProtocol, doc: Any) -> list[TorlabInputError]:
     """Problems the schema cannot see: dependencies between sections, scenes, names."""
-    p = lp.protocol
-    problems: list[TorlabInputError] = []
+    return _CrossCheck(lp, doc).run()
 
-    def err(keypath: tuple[Any, ...], message: str) -> None:
-        problems.append(doc.error(keypath, message))
 
-    d, f, r = p.data, p.fits, p.reports
-    measured_files = set(lp.data_files("optical")) | set(lp.data_files("mtm"))
-    if f.hpt_layers is not None and d.hpt is None:
-        err(("fits", "hpt_layers"), "fitting HPT layers needs data.hpt")
-    if f.lubricants and d.visc is None:
-        err(("fits", "lubricants"), "fitting lubricants needs data.visc (its calibration)")
-    visc_files = set(lp.data_files("visc"))
-    for i, lf in enumerate(f.lubricants):
-        if lf.measured.resolved not in visc_files:
-            err(("fits", "lubricants", i, "measured"),
-                f"{lf.measured.path} is not one of the files of data.visc")
-    for i, t in enumerate(f.traction_layers):
-        if t.measured.resolved not in measured_files:
-            err(("fits", "traction_layers", i, "measured"),
-                f"{t.measured.path} is not one of the files of data.optical or data.mtm")
-    names = [t.name for t in f.traction_layers]
-    lnames = [x.name for x in f.lubricants]
-    for section, items, used in (("traction_layers", f.traction_layers, names),
-                                 ("lubricants", f.lubricants, lnames)):
-        for i, x in enumerate(items):
-            if used.index(x.name) != i:
-                err(("fits", section, i, "name"), f"name {x.name!r} is used twice")
-    if r.amount is not None and d.hpt is None:
-        err(("reports", "amount"), "the amount-dependency report needs data.hpt")
-    if r.time_test is not None and d.mtm is None:
-        err(("reports", "time_test"), "the time-test report needs data.mtm")
-    if all(getattr(r, k) is None for k in REPORT_KEYS):
-        err(("reports",), "no report requested (amount, time_test, traction, stribeck, film or "
-            "retention)")
-    if r.retention is not None:
+class _CrossCheck:
+    """The checks of :func:`_cross_check`, one method per part of the protocol, run in the
+    order their problems are reported."""
+
+    def __init__(self, lp: LoadedProtocol, doc: Any) -> None:
+        self.lp, self.doc = lp, doc
+        self.p = lp.protocol
+        self.problems: list[TorlabInputError] = []
+        self.measured_files = set(lp.data_files("optical")) | set(lp.data_files("mtm"))
+        self.names = [t.name for t in self.p.fits.traction_layers]
+        self.lnames = [x.name for x in self.p.fits.lubricants]
+
+    def run(self) -> list[TorlabInputError]:
+        self._fits()
+        self._reports()
+        for i, t in enumerate(self.p.fits.traction_layers):
+            self._scene(("fits", "traction_layers", i, "scene"), t.scene)
+        for sec in ("traction", "stribeck", "film"):
+            rep = getattr(self.p.reports, sec)
+            for i, c in enumerate(rep.curves if rep is not None else []):
+                self._curve(sec, i, c)
+        self._stribeck_creepage()
+        self._retention_scenes()
+        self._initial_drop()
+        return self.problems
+
+    def err(self, keypath: tuple[Any, ...], message: str) -> None:
+        self.problems.append(self.doc.error(keypath, message))
+
+    def _fits(self) -> None:
+        """Fits need their data sections and files; names are unique."""
+        d, f, lp = self.p.data, self.p.fits, self.lp
+        if f.hpt_layers is not None and d.hpt is None:
+            self.err(("fits", "hpt_layers"), "fitting HPT layers needs data.hpt")
+        if f.lubricants and d.visc is None:
+            self.err(("fits", "lubricants"), "fitting lubricants needs data.visc (its calibration)")
+        visc_files = set(lp.data_files("visc"))
+        for i, lf in enumerate(f.lubricants):
+            if lf.measured.resolved not in visc_files:
+                self.err(("fits", "lubricants", i, "measured"),
+                         f"{lf.measured.path} is not one of the files of data.visc")
+        for i, t in enumerate(f.traction_layers):
+            if t.measured.resolved not in self.measured_files:
+                self.err(("fits", "traction_layers", i, "measured"),
+                         f"{t.measured.path} is not one of the files of data.optical or data.mtm")
+        for section, items, used in (("traction_layers", f.traction_layers, self.names),
+                                     ("lubricants", f.lubricants, self.lnames)):
+            for i, x in enumerate(items):
+                if used.index(x.name) != i:
+                    self.err(("fits", section, i, "name"), f"name {x.name!r} is used twice")
+
+    def _reports(self) -> None:
+        """Reports need their data sections; at least one report; the retention files."""
+        d, r = self.p.data, self.p.reports
+        if r.amount is not None and d.hpt is None:
+            self.err(("reports", "amount"), "the amount-dependency report needs data.hpt")
+        if r.time_test is not None and d.mtm is None:
+            self.err(("reports", "time_test"), "the time-test report needs data.mtm")
+        if all(getattr(r, k) is None for k in REPORT_KEYS):
+            self.err(("reports",), "no report requested (amount, time_test, traction, stribeck, "
+                     "film or retention)")
+        if r.retention is None:
+            return
         for sec in ("hpt", "mtm"):
             if getattr(d, sec) is None:
-                err(("reports", "retention"), f"the retention report needs data.{sec} (the HPT "
-                    "amount series and the MTM time tests)")
-        mtm_files = set(lp.data_files("mtm"))
+                self.err(("reports", "retention"), f"the retention report needs data.{sec} (the "
+                         "HPT amount series and the MTM time tests)")
+        mtm_files = set(self.lp.data_files("mtm"))
         for i, e in enumerate(r.retention.time_tests):
             if any(x not in mtm_files for x in e.resolved):
-                err(("reports", "retention", "time_tests", i),
-                    f"{e.path} is not one of the files of data.mtm")
+                self.err(("reports", "retention", "time_tests", i),
+                         f"{e.path} is not one of the files of data.mtm")
 
-    def check_params(keypath: tuple[Any, ...], params: list[str]) -> None:
+    def _params(self, keypath: tuple[Any, ...], params: list[str]) -> None:
+        """Parameter sets named by a curve exist among the fits."""
         for j, ps in enumerate(params):
             kind, _, name = ps.partition(":")
-            if kind == "hpt" and f.hpt_layers is None:
-                err((*keypath, j), f"{ps!r} needs fits.hpt_layers")
-            elif kind == "traction" and name not in names:
-                err((*keypath, j), f"{ps!r}: no fits.traction_layers entry named {name!r}")
-            elif kind == "lubricant" and name not in lnames:
-                err((*keypath, j), f"{ps!r}: no fits.lubricants entry named {name!r}")
+            if kind == "hpt" and self.p.fits.hpt_layers is None:
+                self.err((*keypath, j), f"{ps!r} needs fits.hpt_layers")
+            elif kind == "traction" and name not in self.names:
+                self.err((*keypath, j), f"{ps!r}: no fits.traction_layers entry named {name!r}")
+            elif kind == "lubricant" and name not in self.lnames:
+                self.err((*keypath, j), f"{ps!r}: no fits.lubricants entry named {name!r}")
 
-    def check_scene(keypath: tuple[Any, ...], refs: list[Any], *, lubricated: bool = False) -> None:
+    def _scene(self, keypath: tuple[Any, ...], refs: list[Any], *,
+               lubricated: bool = False) -> None:
+        """A scene's files load (each once: their merged data kept in ``lp.scenes``)."""
         if not refs:
             return
+        lp = self.lp
         key = tuple(x.resolved for x in refs)
         if key not in lp.scenes:
             try:
                 lp.scenes[key] = _scene_dict(key)
             except ValidationErrors as e:
-                problems.extend(e.problems)
+                self.problems.extend(e.problems)
                 lp.scenes[key] = {}
                 return
             except TorlabInputError as e:
-                problems.append(e)
+                self.problems.append(e)
                 lp.scenes[key] = {}
                 return
         sd = lp.scenes[key]
         if lubricated and sd and "lubricant" not in sd:
-            err(keypath, "a Stribeck or film curve needs a lubricated scene (lubricant: section)")
+            self.err(keypath, "a Stribeck or film curve needs a lubricated scene (lubricant: "
+                     "section)")
 
-    for i, t in enumerate(f.traction_layers):
-        check_scene(("fits", "traction_layers", i, "scene"), t.scene)
-    for sec in ("traction", "stribeck", "film"):
-        rep = getattr(r, sec)
-        if rep is None:
-            continue
-        for i, c in enumerate(rep.curves):
-            kp = ("reports", sec, "curves", i)
-            check_params((*kp, "params"), c.params)
-            check_scene((*kp, "scene"), c.scene, lubricated=sec != "traction")
-            if c.params and not c.scene:
-                err((*kp, "params"), "parameter sets are applied to a scene: give scene:")
-            if c.measured is not None and c.measured.resolved not in measured_files:
-                err((*kp, "measured"),
-                    f"{c.measured.path} is not one of the files of data.optical or data.mtm")
-            if c.speeds == "measured" and c.measured is None:
-                err((*kp, "speeds"), "speeds: measured needs measured: (the file to take them from)")
-            if c.speeds is not None and sec != "traction":
-                err((*kp, "speeds"), "speeds is a traction-report key (the Stribeck report's "
-                    "speeds are reports.stribeck.speed)")
-            if "{set}" in c.label and "hpt:*" not in c.params:
-                err((*kp, "label"), "'{set}' in a label needs 'hpt:*' in params")
-    if r.stribeck is not None and r.stribeck.creepage is None:
-        for i, c in enumerate(r.stribeck.curves):
+    def _curve(self, sec: str, i: int, c: Any) -> None:
+        """One curve of the traction, Stribeck or film report."""
+        kp = ("reports", sec, "curves", i)
+        self._params((*kp, "params"), c.params)
+        self._scene((*kp, "scene"), c.scene, lubricated=sec != "traction")
+        if c.params and not c.scene:
+            self.err((*kp, "params"), "parameter sets are applied to a scene: give scene:")
+        if c.measured is not None and c.measured.resolved not in self.measured_files:
+            self.err((*kp, "measured"),
+                     f"{c.measured.path} is not one of the files of data.optical or data.mtm")
+        if c.speeds == "measured" and c.measured is None:
+            self.err((*kp, "speeds"), "speeds: measured needs measured: (the file to take them "
+                     "from)")
+        if c.speeds is not None and sec != "traction":
+            self.err((*kp, "speeds"), "speeds is a traction-report key (the Stribeck report's "
+                     "speeds are reports.stribeck.speed)")
+        if "{set}" in c.label and "hpt:*" not in c.params:
+            self.err((*kp, "label"), "'{set}' in a label needs 'hpt:*' in params")
+
+    def _stribeck_creepage(self) -> None:
+        """A modelled Stribeck curve without a measured file needs the report's creepage."""
+        st = self.p.reports.stribeck
+        if st is None or st.creepage is not None:
+            return
+        for i, c in enumerate(st.curves):
             if c.scene and c.measured is None:
-                err(("reports", "stribeck", "curves", i),
-                    "give reports.stribeck.creepage (a modelled curve without a measured file "
-                    "has no SRR to take)")
-    if r.retention is not None:
-        kp = ("reports", "retention")
-        check_scene((*kp, "prediction", "scene"), r.retention.prediction.scene)
-        check_scene((*kp, "tribometer"), r.retention.tribometer)
-    if r.time_test is not None and r.time_test.initial_drop is not None:
-        idp = r.time_test.initial_drop
+                self.err(("reports", "stribeck", "curves", i),
+                         "give reports.stribeck.creepage (a modelled curve without a measured "
+                         "file has no SRR to take)")
+
+    def _retention_scenes(self) -> None:
+        ret = self.p.reports.retention
+        if ret is not None:
+            kp = ("reports", "retention")
+            self._scene((*kp, "prediction", "scene"), ret.prediction.scene)
+            self._scene((*kp, "tribometer"), ret.tribometer)
+
+    def _initial_drop(self) -> None:
+        tt = self.p.reports.time_test
+        if tt is None or tt.initial_drop is None:
+            return
+        idp = tt.initial_drop
         kp = ("reports", "time_test", "initial_drop")
-        check_params((*kp, "params"), idp.params)
-        check_scene((*kp, "scene"), idp.scene)
+        self._params((*kp, "params"), idp.params)
+        self._scene((*kp, "scene"), idp.scene)
         if "hpt:*" in idp.params:
-            err((*kp, "params"), "hpt:* makes one curve per product; name one product here")
-    return problems
+            self.err((*kp, "params"), "hpt:* makes one curve per product; name one product here")
 
 
 def _scene_dict(files: tuple[Path, ...]) -> dict[str, Any]:

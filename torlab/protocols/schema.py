@@ -121,7 +121,7 @@ def _amount(v: Any) -> Any:
 Amount = Annotated[tuple[Literal["volume", "mass"], float], BeforeValidator(_amount)]
 
 
-def _grid_values(kind: str, *, positive: bool = False, quantity: str | None = None):
+def _grid_values(kind: str, *, positive: bool = False, quantity: str | None = None):  # noqa: C901 (its validator's cases)
     """Before-validator for a grid of values.
 
     Accepts a list of quantities, ``"start:stop:count"`` (inclusive, linear, like
@@ -129,7 +129,7 @@ def _grid_values(kind: str, *, positive: bool = False, quantity: str | None = No
     With ``quantity``, every value is checked against :data:`torlab.units.RANGES`.
     """
 
-    def conv(v: Any) -> Any:
+    def conv(v: Any) -> Any:  # noqa: C901 (each way a grid of values may be written is a case)
         import numpy as np
 
         from torlab.units import to_si

@@ -150,7 +150,7 @@ def _window_samples(seconds: float, dt: float) -> int:
     return max(1, round(seconds / dt)) if seconds > 0 else 1
 
 
-def time_test_metrics(
+def time_test_metrics(  # noqa: C901 (the time test's figures in the order Paper B reports them)
     t: np.ndarray,
     mu: np.ndarray,
     *,
@@ -453,7 +453,7 @@ def step_label(step: Any, sub: Any) -> str:
     return f"step {step.number}"
 
 
-def reduce_pcs(df: Any, meta: PcsMetadata, *, time_tests: bool = True,
+def reduce_pcs(df: Any, meta: PcsMetadata, *, time_tests: bool = True,  # noqa: C901 (one pass over the file's steps: each kind's curve, row and time test)
                after_application: bool | None = None, **time_test_options: Any) -> PcsReduction:
     """Reduce a parsed PCS file: curves per step kind, step summaries, time tests.
 

@@ -179,91 +179,109 @@ def read_time_test(path: str | Path, *, step: int | None = None,
         Unreadable file, several timed steps without ``step``, missing columns,
         an amount without unit, no track radius, no application marker.
     """
-    import pandas as pd
-
     path = Path(path)
-    label = path.name
-    amount_text: str | None = None
     from torlab.files import open_regular
 
     with open_regular(path) as fh:  # a regular file only: no FIFO or device is waited on
         text_start = fh.read(200).decode("utf-8", "replace")
     if text_start.lstrip().lower().startswith(("mtm", "etm", "ehd")):
-        from torlab.parsers.pcs import read_pcs
-        from torlab.reduce.mtm import mu_series
-
-        df, meta = read_pcs(path)
-        timed = [s for s in meta.steps if s.type == "timed" and s.has_data]
-        if not timed:
-            raise TorlabInputError("no timed step (time test) with data", path=str(path))
-        if step is None and len(timed) > 1:
-            raise TorlabInputError(f"{len(timed)} timed steps ({', '.join(str(s.number) for s in timed)}): "
-                                   "choose one with step=", path=str(path), key="step")
-        st = timed[0] if step is None else meta.step(step)
-        sel = (df["step"] == st.number).to_numpy()
-        sub = df.loc[sel]
-        mu, _src = mu_series(sub)
-        if mu is None:
-            raise TorlabInputError(f"step {st.number} has no traction coefficient", path=str(path))
-        for c in ("step_time_s", "ball_load_N", "rolling_speed_m_s", "srr"):
-            if c not in sub or not sub[c].notna().any():
-                raise TorlabInputError(f"step {st.number} lacks the column {c} (load, rolling "
-                                       "speed and SRR are needed for the dissipated energy)",
-                                       path=str(path))
-        t = sub["step_time_s"].to_numpy(dtype=float)
-        if amount is None:
-            raw = {k.lower(): v for k, v in st.metadata_raw.items()}
-            txt = raw.get("applied amount")
-            if txt is None:
-                raise TorlabInputError(f"step {st.number} has no 'Applied amount': give the amount "
-                                       "with its unit (amount='5 uL')", path=str(path),
-                                       key="amount")
-            try:
-                amount = parse_amount(txt.replace("\t", " "), where="Applied amount")
-            except TorlabInputError as e:
-                lines = path.read_text(encoding="utf-8", errors="replace").splitlines()
-                ln = next((i + 1 for i in range(max(st.first_line - 1, 0), len(lines))
-                           if lines[i].lower().lstrip().startswith("applied amount")),
-                          st.first_line)
-                raise TorlabInputError(e.message, path=str(path), line=ln,
-                                       key="Applied amount") from None
-            amount_text = txt.strip()
-        if track_radius is None:
-            track_radius = st.metadata.get("disc_track_radius_m", meta.disc_track_radius_m)
-            if track_radius is None:
-                raise TorlabInputError("no disc track radius in the file: give track_radius=",
-                                       path=str(path), key="track_radius")
-        args = dict(load=sub["ball_load_N"].ffill().bfill().to_numpy(dtype=float),
-                    speed=sub["rolling_speed_m_s"].ffill().bfill().to_numpy(dtype=float),
-                    creepage=sub["srr"].ffill().bfill().to_numpy(dtype=float))
-        label = f"{path.name} step {st.number}"
+        t, mu, args, amount, amount_text, track_radius, label = _from_pcs(
+            path, step, amount, track_radius)
     else:
-        try:
-            df = pd.read_csv(path)
-        except Exception as e:  # pandas raises many classes for malformed CSV
-            raise TorlabInputError(f"not a readable CSV ({type(e).__name__})", path=str(path)) \
-                from None
-        need = ("step_time_s", "traction_coefficient", "srr", "rolling_speed_m_s", "ball_load_N")
-        miss = [c for c in need if c not in df.columns]
-        if miss:
-            bare = [c for c in df.columns if c in ("time", "mu", "load", "speed", "t")]
-            why = (f" (column(s) {', '.join(bare)} have no unit in their name)" if bare else "")
-            raise TorlabInputError(f"missing column(s) {', '.join(miss)}{why}; expected the "
-                                   "*_timed.csv of 'torlab mtm reduce'", path=str(path))
-        if step is not None and "step" in df:
-            df = df[df["step"] == step]
-        mu = df["traction_coefficient"].to_numpy(dtype=float)
-        t = df["step_time_s"].to_numpy(dtype=float)
-        args = {c: df[col].to_numpy(dtype=float) for c, col in
-                (("load", "ball_load_N"), ("speed", "rolling_speed_m_s"), ("creepage", "srr"))}
-        if amount is None:
-            raise TorlabInputError("a time-test CSV carries no applied amount: give it with its "
-                                   "unit (amount='5 uL')", path=str(path), key="amount")
-        if track_radius is None:
-            raise TorlabInputError("a time-test CSV carries no disc track radius: give "
-                                   "track_radius=", path=str(path), key="track_radius")
+        t, mu, args = _from_csv(path, step, amount, track_radius)
+        amount_text, label = None, path.name
     res = time_test(t, mu, amount=amount, application_time=application_time, density=density,
                     track_radius=float(track_radius), label=label, min_drop=min_drop, **args)
     if amount_text is not None:
         res.amount_text = amount_text
     return res
+
+
+def _from_pcs(path: Path, step: int | None, amount: Any, track_radius: float | None
+              ) -> tuple[Any, Any, dict[str, Any], Any, str | None, Any, str]:
+    """The timed step of a PCS export: time [s], coefficient, load [N], rolling speed [m/s]
+    and slide-roll ratio per sample; the amount and track radius [m] from the step where
+    not given; the label."""
+    from torlab.parsers.pcs import read_pcs
+    from torlab.reduce.mtm import mu_series
+
+    amount_text: str | None = None
+    df, meta = read_pcs(path)
+    timed = [s for s in meta.steps if s.type == "timed" and s.has_data]
+    if not timed:
+        raise TorlabInputError("no timed step (time test) with data", path=str(path))
+    if step is None and len(timed) > 1:
+        raise TorlabInputError(f"{len(timed)} timed steps ({', '.join(str(s.number) for s in timed)}): "
+                               "choose one with step=", path=str(path), key="step")
+    st = timed[0] if step is None else meta.step(step)
+    sel = (df["step"] == st.number).to_numpy()
+    sub = df.loc[sel]
+    mu, _src = mu_series(sub)
+    if mu is None:
+        raise TorlabInputError(f"step {st.number} has no traction coefficient", path=str(path))
+    for c in ("step_time_s", "ball_load_N", "rolling_speed_m_s", "srr"):
+        if c not in sub or not sub[c].notna().any():
+            raise TorlabInputError(f"step {st.number} lacks the column {c} (load, rolling "
+                                   "speed and SRR are needed for the dissipated energy)",
+                                   path=str(path))
+    t = sub["step_time_s"].to_numpy(dtype=float)
+    if amount is None:
+        raw = {k.lower(): v for k, v in st.metadata_raw.items()}
+        txt = raw.get("applied amount")
+        if txt is None:
+            raise TorlabInputError(f"step {st.number} has no 'Applied amount': give the amount "
+                                   "with its unit (amount='5 uL')", path=str(path),
+                                   key="amount")
+        try:
+            amount = parse_amount(txt.replace("\t", " "), where="Applied amount")
+        except TorlabInputError as e:
+            lines = path.read_text(encoding="utf-8", errors="replace").splitlines()
+            ln = next((i + 1 for i in range(max(st.first_line - 1, 0), len(lines))
+                       if lines[i].lower().lstrip().startswith("applied amount")),
+                      st.first_line)
+            raise TorlabInputError(e.message, path=str(path), line=ln,
+                                   key="Applied amount") from None
+        amount_text = txt.strip()
+    if track_radius is None:
+        track_radius = st.metadata.get("disc_track_radius_m", meta.disc_track_radius_m)
+        if track_radius is None:
+            raise TorlabInputError("no disc track radius in the file: give track_radius=",
+                                   path=str(path), key="track_radius")
+    args = dict(load=sub["ball_load_N"].ffill().bfill().to_numpy(dtype=float),
+                speed=sub["rolling_speed_m_s"].ffill().bfill().to_numpy(dtype=float),
+                creepage=sub["srr"].ffill().bfill().to_numpy(dtype=float))
+    return t, mu, args, amount, amount_text, track_radius, f"{path.name} step {st.number}"
+
+
+def _from_csv(path: Path, step: int | None, amount: Any, track_radius: float | None
+              ) -> tuple[Any, Any, dict[str, Any]]:
+    """A ``*_timed.csv`` of ``torlab mtm reduce``: time [s], coefficient, load [N], rolling
+    speed [m/s] and slide-roll ratio per sample (the amount and the track radius must be
+    given)."""
+    import pandas as pd
+
+    try:
+        df = pd.read_csv(path)
+    except Exception as e:  # pandas raises many classes for malformed CSV
+        raise TorlabInputError(f"not a readable CSV ({type(e).__name__})", path=str(path)) \
+            from None
+    need = ("step_time_s", "traction_coefficient", "srr", "rolling_speed_m_s", "ball_load_N")
+    miss = [c for c in need if c not in df.columns]
+    if miss:
+        bare = [c for c in df.columns if c in ("time", "mu", "load", "speed", "t")]
+        why = (f" (column(s) {', '.join(bare)} have no unit in their name)" if bare else "")
+        raise TorlabInputError(f"missing column(s) {', '.join(miss)}{why}; expected the "
+                               "*_timed.csv of 'torlab mtm reduce'", path=str(path))
+    if step is not None and "step" in df:
+        df = df[df["step"] == step]
+    mu = df["traction_coefficient"].to_numpy(dtype=float)
+    t = df["step_time_s"].to_numpy(dtype=float)
+    args = {c: df[col].to_numpy(dtype=float) for c, col in
+            (("load", "ball_load_N"), ("speed", "rolling_speed_m_s"), ("creepage", "srr"))}
+    if amount is None:
+        raise TorlabInputError("a time-test CSV carries no applied amount: give it with its "
+                               "unit (amount='5 uL')", path=str(path), key="amount")
+    if track_radius is None:
+        raise TorlabInputError("a time-test CSV carries no disc track radius: give "
+                               "track_radius=", path=str(path), key="track_radius")
+    return t, mu, args

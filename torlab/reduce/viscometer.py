@@ -238,7 +238,7 @@ def terminal_velocity(t: np.ndarray, x: np.ndarray, *, tol: float = DEFAULT_TOL,
     return v, se, s0, s1
 
 
-def find_falls(t: np.ndarray, x: np.ndarray, *, min_travel: float = MIN_TRAVEL_FRACTION
+def find_falls(t: np.ndarray, x: np.ndarray, *, min_travel: float = MIN_TRAVEL_FRACTION  # noqa: C901 (the fall detection's guards, each a named bad-input case)
                ) -> list[tuple[int, int]]:
     """Row ranges ``[i0, i1)`` of the falls in an LVDT trace (position increasing downward).
 
