@@ -97,23 +97,7 @@ def layer_fit_from_params(path: str | os.PathLike[str]) -> Any:
                                    line=doc.lines.line(("boundary", nm)), key=f"boundary.{nm}")
         vals.append(v)
         se.append(s)
-    cov = np.diag(np.square(se))
-    count = {2: "two", 3: "three", 4: "four"}.get(len(names_l), str(len(names_l)))
-    note = f"correlations not in the file: the {count} parameters taken as uncorrelated"
-    block = fit.get("covariance")
-    if isinstance(block, dict) and isinstance(block.get("names"), list):
-        names = [str(n) for n in block["names"]]
-        try:
-            mat = np.asarray(block.get("matrix"), dtype=float)
-        except (TypeError, ValueError):
-            mat = np.zeros(0)
-        if mat.shape == (len(names), len(names)) and np.all(np.isfinite(mat)):
-            idx = [names.index(n) if n in names else -1 for n in names_l]
-            for i, a in enumerate(idx):
-                for j, c in enumerate(idx):
-                    if a >= 0 and c >= 0:
-                        cov[i, j] = mat[a, c]
-            note = ""
+    cov, note = _covariance(fit.get("covariance"), names_l, se)
     meta = {k: fit.get(k) for k in ("product", "condition", "applied_amount",
                                     "applied_amount_unit", "product_density", "temperature_C")}
     meta["source"] = str(fit.get("source") or Path(p).name)
@@ -128,6 +112,29 @@ def layer_fit_from_params(path: str | os.PathLike[str]) -> Any:
                                      residual_norm=float(fit.get("residual_rms") or 0.0),
                                      n_points=int(fit.get("n_points") or 0), warnings=[],
                                      data=None, meta=meta, residual_unit="Pa")
+
+
+def _covariance(block: Any, names_l: Sequence[str], se: list[float]) -> tuple[Any, str]:
+    """The covariance of a parameter file's layer fit: its ``fit: covariance:`` block where
+    it is written (a well-formed one), else the standard errors uncorrelated, and the note
+    that says so."""
+    cov = np.diag(np.square(se))
+    count = {2: "two", 3: "three", 4: "four"}.get(len(names_l), str(len(names_l)))
+    note = f"correlations not in the file: the {count} parameters taken as uncorrelated"
+    if isinstance(block, dict) and isinstance(block.get("names"), list):
+        names = [str(n) for n in block["names"]]
+        try:
+            mat = np.asarray(block.get("matrix"), dtype=float)
+        except (TypeError, ValueError):
+            mat = np.zeros(0)
+        if mat.shape == (len(names), len(names)) and np.all(np.isfinite(mat)):
+            idx = [names.index(n) if n in names else -1 for n in names_l]
+            for i, a in enumerate(idx):
+                for j, c in enumerate(idx):
+                    if a >= 0 and c >= 0:
+                        cov[i, j] = mat[a, c]
+            note = ""
+    return cov, note
 
 
 def _fit_of(item: Any) -> Any:
