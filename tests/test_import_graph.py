@@ -38,10 +38,28 @@ def _resolve(name: str) -> str | None:
     return name or None
 
 
+def _runtime_nodes(tree: ast.AST) -> list[ast.AST]:
+    """Every node but those under ``if TYPE_CHECKING:`` (names for type hints only: no
+    module is loaded for them)."""
+    out: list[ast.AST] = []
+    todo = [tree]
+    while todo:
+        n = todo.pop()
+        out.append(n)
+        for c in ast.iter_child_nodes(n):
+            if isinstance(c, ast.If) and "TYPE_CHECKING" in ast.unparse(c.test):
+                todo.extend(c.orelse)
+                continue
+            todo.append(c)
+    return out
+
+
 def _imports(module: str, top_level_only: bool) -> set[str]:
     path = MODULES[module]
     tree = ast.parse(path.read_text(encoding="utf-8"))
-    nodes = tree.body if top_level_only else list(ast.walk(tree))
+    nodes = [n for n in tree.body if not (isinstance(n, ast.If) and "TYPE_CHECKING" in
+                                          ast.unparse(n.test))] \
+        if top_level_only else _runtime_nodes(tree)
     package = module if path.name == "__init__.py" else module.rpartition(".")[0]
     out: set[str] = set()
     for n in nodes:
@@ -106,6 +124,9 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
     # units at the edges, safe files and result folders, the executor, YAML, uncertainty
     ("io", ("torlab.units", "torlab.files", "torlab.parallel", "torlab.grids", "torlab.yamlio",
             "torlab.outputs", "torlab.uncertainty")),
+    # the layer laws' registry: each law's parameters, units, ranges and stress formulas,
+    # which the scene contract validates its boundary: section against (numpy only)
+    ("laws", ("torlab.model.layers",)),
     ("inputs", ("torlab.scene", "torlab.parsers")),        # the scene contract, raw files
     ("model", ("torlab.model",)),                          # the physics
     ("reduce", ("torlab.reduce",)),                        # raw channels -> quantities
@@ -137,9 +158,11 @@ def _layer(module: str) -> int:
 
 def test_the_graph_is_read():
     # the reader sees what is there: the CLI's root module imports its commands lazily,
-    # the public API the library, the protocol runner its stages
+    # the public API the library, the protocol runner its stages; a name imported for a
+    # type hint only (under TYPE_CHECKING) is no import
     assert "torlab.model.fastsim" in _imports("torlab.model.creep", True)
     assert "torlab.instruments" in _imports("torlab.api", False)
+    assert "torlab.scene" not in _imports("torlab.model.predict", False)
     assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
 
 

@@ -243,6 +243,8 @@ def _boundary_models() -> tuple[str, dict[str, type[Boundary]]]:
     """One :class:`Boundary` subclass per layer law (its parameters as fields)."""
     from pydantic import create_model
 
+    # the layer laws' registry sits below the scene (it imports nothing of the model): each
+    # law declares its boundary: keys, units and ranges there, and the scene validates them
     from torlab.model.layers import DEFAULT_LAW, LAWS
 
     models: dict[str, type[Boundary]] = {}
