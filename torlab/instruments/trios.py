@@ -204,6 +204,34 @@ def _read_header(lines: list[str], meta: TriosMetadata, display: str) -> int:
     raise TorlabInputError("no [step] block: not a TRIOS text export", path=display)
 
 
+def _step_columns(cols: list[str], units: list[str], step: TriosStep, display: str, k: int
+                  ) -> tuple[list[int], list[str], list[tuple[float, float]]]:
+    """The columns of a step torlab reads: their positions, torlab names and SI factors
+    (``(scale, offset)`` of each unit); the others are listed in ``step.left_out``."""
+    from torlab.units import parse_unit_factor
+
+    use: list[int] = []
+    names: list[str] = []
+    scales: list[tuple[float, float]] = []
+    for j, c in enumerate(cols):
+        known = COLUMNS.get(c.lower())
+        if known is None:
+            step.left_out.append(f"{c} [{units[j]}]" if units[j] else c)
+            continue
+        col, kind_ = known
+        if col in names:
+            raise TorlabInputError(f"two columns of {col}", path=display, line=k + 3,
+                                   key=f"column {c!r}")
+        if not units[j]:
+            raise TorlabInputError(f"no unit for column {c!r}", path=display, line=k + 4)
+        scales.append(parse_unit_factor(units[j], kind_, where=f"column {c!r}", path=display,
+                                        line=k + 4))
+        use.append(j)
+        names.append(col)
+        step.columns[col] = units[j]
+    return use, names, scales
+
+
 def _read_step(lines: list[str], k: int, meta: TriosMetadata, display: str
                ) -> tuple[TriosStep | None, Any, int]:
     """The block starting at ``lines[k]`` (``[step]``, or blank lines between blocks):
@@ -211,7 +239,6 @@ def _read_step(lines: list[str], k: int, meta: TriosMetadata, display: str
     import numpy as np
 
     from torlab.parsers._text import parse_numeric_rows
-    from torlab.units import parse_unit_factor
 
     if not lines[k].strip():
         return None, None, k + 1
@@ -235,23 +262,7 @@ def _read_step(lines: list[str], k: int, meta: TriosMetadata, display: str
     if len(units) < len(cols):
         raise TorlabInputError(f"the units row has {len(units)} units for {len(cols)} columns",
                                path=display, line=k + 4)
-    use, names, scales = [], [], []
-    for j, c in enumerate(cols):
-        known = COLUMNS.get(c.lower())
-        if known is None:
-            step.left_out.append(f"{c} [{units[j]}]" if units[j] else c)
-            continue
-        col, kind_ = known
-        if col in names:
-            raise TorlabInputError(f"two columns of {col}", path=display, line=k + 3,
-                                   key=f"column {c!r}")
-        if not units[j]:
-            raise TorlabInputError(f"no unit for column {c!r}", path=display, line=k + 4)
-        scales.append(parse_unit_factor(units[j], kind_, where=f"column {c!r}", path=display,
-                                        line=k + 4))
-        use.append(j)
-        names.append(col)
-        step.columns[col] = units[j]
+    use, names, scales = _step_columns(cols, units, step, display, k)
     if REQUIRED not in names:
         raise TorlabInputError(f"step {name!r} has no Viscosity column", path=display,
                                line=k + 3)
