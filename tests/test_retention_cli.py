@@ -299,6 +299,12 @@ def test_timed_csv_without_marker_and_without_units(cli, tmp_path):
     base = ["fit", "removal", p, *_hpt_args()]
     _bad(cli(*base, "--amount", "2 uL", "--track-radius", "21 mm", "-o", tmp_path / "o"),
          "no application marker")
+    # the hints name the command's options (and the keywords for Python)
+    for args, words in ((["--track-radius", "21 mm"], "--amount '5 uL'"),
+                        (["--amount", "2 uL"], "--track-radius '21 mm'"),
+                        (["--amount", "2 uL", "--track-radius", "21 mm"], "--application-time")):
+        r = cli(*base, *args, "-o", tmp_path / "o")
+        assert r.exit_code == 2 and words in error_lines(r)[-1], r.output
     _bad(cli(*base, "--amount", "2", "--track-radius", "21 mm", "-o", tmp_path / "o"),
          "no unit")
     _bad(cli(*base, "--amount", "-2 uL", "--track-radius", "21 mm", "-o", tmp_path / "o"),

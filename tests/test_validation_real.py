@@ -460,3 +460,96 @@ def test_t4_etm_boundary_layer_model_on_the_median_sweeps(etm):
     assert c.patch.p0 == pytest.approx(p0, rel=1e-3) and round(p0 / 1e9, 1) == 3.6
     h = float(hc_piezo(np.array([0.025]), 1647.0, c.E_star, c.rx, 0.030, 20e-9, 1.0)[0])
     assert round(h * 1e9) == 13
+
+
+# ------------------------------------------------------------------ MTM time test
+@pytest.fixture(scope="module")
+def mtm(tmp_path_factory):
+    """``torlab mtm reduce demo_5.txt --after-application`` (the start as the application)."""
+    from typer.testing import CliRunner
+
+    from torlab.cli import app
+
+    src = real_pcs_file("demo_5.txt")
+    out = tmp_path_factory.mktemp("mtm") / "out"
+    r = CliRunner().invoke(app, ["mtm", "reduce", str(src), "--after-application", "-o",
+                                 str(out)])
+    assert r.exit_code == 0, r.output
+    d = pd.read_csv(out / "demo_5_timed.csv")
+    return {"src": src, "out": out, "timed": d,
+            "tt": pd.read_csv(out / "time_tests.csv").iloc[0]}
+
+
+def _largest_drop(t: np.ndarray, mu: np.ndarray, seconds: float = 30.0) -> tuple[float, float]:
+    """The largest fall of the mean between two adjacent windows (numpy, independently of
+    torlab's detector), and where."""
+    w = round(seconds / float(np.median(np.diff(t))))
+    c = np.concatenate(([0.0], np.cumsum(mu)))
+    i = np.arange(w, mu.size - w + 1)
+    fall = (c[i] - c[i - w]) / w - (c[i + w] - c[i]) / w
+    k = int(np.argmax(fall))
+    return float(fall[k]), float(t[i[k]])
+
+
+@ETM
+def test_p1_mtm_no_application_to_fit_a_removal_to(mtm, tmp_path):
+    """The record holds no drop: ``fit removal`` refuses it in one line (the HPT amount
+    series and the amount are the sample campaign's; they are never reached)."""
+    from typer.testing import CliRunner
+
+    from torlab.cli import app
+
+    d = mtm["timed"]
+    drop, at = _largest_drop(d["step_time_s"].to_numpy(), d["traction_coefficient"].to_numpy())
+    assert drop < 0.05  # the detector's smallest application drop (min_drop)
+    assert mtm["tt"]["application_source"].startswith("start")
+    hpt = sorted((ROOT / "sample_data" / "retention").glob("hpt_*.txt"))
+    args = ["fit", "removal", str(mtm["src"]), "--amount", "2 uL", "--compliance",
+            str(ROOT / "sample_data" / "retention" / "rig_compliance.csv"),
+            "-o", str(tmp_path / "fit")]
+    for h in hpt:
+        args += ["--hpt", str(h)]
+    r = CliRunner().invoke(app, args)
+    assert r.exit_code == 2 and not (tmp_path / "fit").exists()
+    lines = [ln for ln in r.output.splitlines() if ln.startswith("error")]
+    assert len(lines) == 1 and "no application marker" in lines[0]
+    assert "--application-time" in lines[0]
+    _shows("P1", f"{drop:.3f} (at {at:.0f} s)")
+    _verdict("P1", "described")
+
+
+def test_p2_mtm_level_at_start_and_end(mtm):
+    """The first and last 1000 s: torlab's batch-means interval (hac_mean), and the same
+    batch means by hand."""
+    from scipy import stats
+
+    from torlab.reduce.time_test_uncertainty import hac_mean
+
+    d = mtm["timed"]
+    t, mu = d["step_time_s"].to_numpy(), d["traction_coefficient"].to_numpy()
+    cells = []
+    got = {}
+    for name, sel in (("first", t <= 1000), ("last", t > t.max() - 1000)):
+        m, se, dof = hac_mean(mu[sel])
+        b = mu[sel][: 100].reshape(10, 10).mean(axis=1)  # ten batches of 100 s
+        # the batch means' standard error, never below that of independent samples
+        by_hand = max(b.std(ddof=1) / math.sqrt(10), mu[sel].std(ddof=1) / math.sqrt(100))
+        assert m == pytest.approx(b.mean()) and se == pytest.approx(by_hand)
+        h = float(stats.t.ppf(0.975, dof)) * se
+        got[name] = (m, m - h, m + h)
+        cells.append(f"{m:.4f} [{m - h:.4f}, {m + h:.4f}]")
+    assert got["first"][2] < got["last"][1]
+    _shows("P2", *cells)
+    _shows("P2", f"{got['last'][0] - got['first'][0]:+.3f}", column=5)
+    _verdict("P2", "resolved")
+
+
+def test_p3_mtm_time_test_figures_read_a_running_in(mtm):
+    tt = mtm["tt"]
+    d = mtm["timed"]
+    assert tt["minimum"] == pytest.approx(d["traction_coefficient"].min())  # raw: 10 s samples
+    assert tt["time_below_threshold_s"] == pytest.approx(d["step_time_s"].max())
+    assert tt["recovered"] and tt["recovery_at_s"] < 600
+    _shows("P3", f"minimum {tt['minimum']:.4f} at {tt['minimum_time_s']:.0f} s",
+           f"at {tt['recovery_at_s']:.0f} s", f"plateau {tt['plateau']:.4f}")
+    _verdict("P3", "not described")

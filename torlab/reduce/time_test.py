@@ -97,7 +97,7 @@ def _detect_application(t: np.ndarray, mu: np.ndarray, label: str, min_drop: flo
         raise TorlabInputError(
             f"no application marker: the coefficient never drops by {min_drop:g} or more, and no "
             "application time was given; a removal fit needs the moment the product was applied "
-            "(application_time=)", path=label)
+            "(--application-time '60 s'; application_time= in Python)", path=label)
     return float(r.application_time_s)
 
 
@@ -230,8 +230,8 @@ def _from_pcs(path: Path, step: int | None, amount: Any, track_radius: float | N
         txt = raw.get("applied amount")
         if txt is None:
             raise TorlabInputError(f"step {st.number} has no 'Applied amount': give the amount "
-                                   "with its unit (amount='5 uL')", path=str(path),
-                                   key="amount")
+                                   "with its unit (--amount '5 uL'; amount='5 uL' in Python)",
+                                   path=str(path), key="amount")
         try:
             amount = parse_amount(txt.replace("\t", " "), where="Applied amount")
         except TorlabInputError as e:
@@ -245,8 +245,9 @@ def _from_pcs(path: Path, step: int | None, amount: Any, track_radius: float | N
     if track_radius is None:
         track_radius = st.metadata.get("disc_track_radius_m", meta.disc_track_radius_m)
         if track_radius is None:
-            raise TorlabInputError("no disc track radius in the file: give track_radius=",
-                                   path=str(path), key="track_radius")
+            raise TorlabInputError("no disc track radius in the file: give it (--track-radius "
+                                   "'21 mm'; track_radius= in Python)", path=str(path),
+                                   key="track_radius")
     args = dict(load=sub["ball_load_N"].ffill().bfill().to_numpy(dtype=float),
                 speed=sub["rolling_speed_m_s"].ffill().bfill().to_numpy(dtype=float),
                 creepage=sub["srr"].ffill().bfill().to_numpy(dtype=float))
@@ -280,8 +281,10 @@ def _from_csv(path: Path, step: int | None, amount: Any, track_radius: float | N
             (("load", "ball_load_N"), ("speed", "rolling_speed_m_s"), ("creepage", "srr"))}
     if amount is None:
         raise TorlabInputError("a time-test CSV carries no applied amount: give it with its "
-                               "unit (amount='5 uL')", path=str(path), key="amount")
+                               "unit (--amount '5 uL'; amount='5 uL' in Python)",
+                               path=str(path), key="amount")
     if track_radius is None:
-        raise TorlabInputError("a time-test CSV carries no disc track radius: give "
-                               "track_radius=", path=str(path), key="track_radius")
+        raise TorlabInputError("a time-test CSV carries no disc track radius: give it "
+                               "(--track-radius '21 mm'; track_radius= in Python)",
+                               path=str(path), key="track_radius")
     return t, mu, args
