@@ -57,7 +57,8 @@ def test_xlsx_sheets_in_the_units_of_the_figures(tmp_path):
                        "displacement_m": [1e-4], "shear_stress_Pa": [2.5e8],
                        "film_thickness_m": [3.2e-8], "rolling_speed_m_s": [0.025],
                        "alpha_1_Pa": [2e-8], "track_radius_m": [0.021],
-                       "traction_coefficient": [0.05], "step_time_s": [6.0]})
+                       "traction_coefficient": [0.05], "step_time_s": [6.0],
+                       "residual_m": [2e-10]})
     write_xlsx(tmp_path / "t.xlsx", {"curves": df})
     ws = load_workbook(tmp_path / "t.xlsx")["curves"]
     got = {ws.cell(1, j).value: ws.cell(2, j).value for j in range(1, ws.max_column + 1)}
@@ -67,7 +68,8 @@ def test_xlsx_sheets_in_the_units_of_the_figures(tmp_path):
                    "film_thickness [nm]": pytest.approx(32.0),
                    "rolling_speed [m/s]": pytest.approx(0.025),
                    "alpha [1/GPa]": pytest.approx(20.0), "track_radius [mm]": pytest.approx(21.0),
-                   "traction_coefficient": pytest.approx(0.05), "step_time [s]": 6.0}
+                   "traction_coefficient": pytest.approx(0.05), "step_time [s]": 6.0,
+                   "residual [nm]": pytest.approx(0.2)}  # the film fits' residual_m
     assert list(df.columns)[1] == "srr" and df["srr"].iloc[0] == 0.02  # the table as it was
 
 

@@ -196,6 +196,17 @@ def test_film_temperature_scaling_recovers_a_known_law():
     assert r.meta["speed_exponents"]["p_one_exponent"] > 0.01
     ratio = r.meta["viscosity_ratio_if_alpha_constant"]["80.0"]
     assert ratio == pytest.approx(math.exp(r.params["film_temperature_coefficient"] * 40 / 0.67))
+    # the new figure: on its canvas (the figure's own tight box), no legend entry twice
+    from torlab.reports.plotting import finish
+
+    fig = finish(r.plot())
+    fig.canvas.draw()
+    tight = fig.get_tightbbox(fig.canvas.get_renderer())
+    w, h = fig.get_size_inches()
+    assert tight.x0 >= -0.01 and tight.y0 >= -0.01 and tight.x1 <= w + 0.01 and tight.y1 <= h + 0.01
+    labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert len(labels) == len(set(labels)) and "95 % interval of each fit" in labels
+    assert "(°C)" in fig.axes[-1].get_xlabel() and "(nm)" in fig.axes[0].get_ylabel()
 
 
 def test_film_temperature_scaling_refuses_what_it_cannot_do():
@@ -211,3 +222,55 @@ def test_film_temperature_scaling_refuses_what_it_cannot_do():
     b = fit_film_thickness(v * 20, 40e-9 * (20 * v) ** 0.7 * (1 + 0.01 * np.cos(7 * v)))
     with pytest.raises(TorlabInputError, match="share no speed range"):
         fit_film_temperature([a, b], [40.0, 60.0])
+
+
+def test_fit_film_cli_temperature_scaling_from_csvs(cli, tmp_path):
+    """Two CSVs at 40 and 80 degC (a temperature_C column): one fit each and temperature/,
+    with the known law's coefficient in its interval and the exponents compared."""
+    import json
+
+    import pandas as pd
+
+    rng = np.random.default_rng(11)
+    v = np.geomspace(0.1, 1.0, 12)
+    files = []
+    for T in (40.0, 80.0):
+        h = 40e-9 * math.exp(-0.02 * (T - 40.0)) * v**0.7 * np.exp(rng.normal(0, 0.01, v.size))
+        f = tmp_path / f"film_{T:.0f}C.csv"
+        pd.DataFrame({"speed_m_s": v, "film_thickness_m": h, "temperature_C": T}).to_csv(
+            f, index=False)
+        files.append(f)
+    r = cli("fit", "film", *files, "-o", tmp_path / "out")
+    assert r.exit_code == 0, r.output
+    s = json.loads((tmp_path / "out" / "temperature" / "summary.json").read_text())
+    lo, hi = s["ci95"]["film_temperature_coefficient"]
+    assert lo < -0.02 < hi
+    e = s["meta"]["speed_exponents"]
+    said = "rejected" if e["p_one_exponent"] < 0.05 else "not rejected"
+    assert f"one common exponent {said} (Welch's F {e['welch_f']:.3g}" in " ".join(
+        r.output.split())
+    assert sorted(p.parent.name for p in (tmp_path / "out").glob("*/params.yaml")) == \
+        ["film_40C", "film_80C", "temperature"]
+
+
+@pytest.mark.slow  # 300 simulated campaigns of three film fits; the test's parts are quick above
+def test_one_exponent_test_rejects_a_true_common_exponent_at_its_level():
+    """Three curves of one law (exponent 0.7), 12 speeds, 1 % scatter: Welch's test of one
+    common exponent rejects at p < 0.05 in 5 % of campaigns (binomial 95 % range over 300:
+    2.7-7.7 %); a chi-squared with the fits' estimated variances taken as known would not."""
+    from torlab._stats import chi2_sf
+    from torlab.fit.film import fit_film_temperature, fit_film_thickness
+
+    v = np.geomspace(0.1, 1.0, 12)
+    welch = chi2 = 0
+    for seed in range(300):
+        rng = np.random.default_rng(seed)
+        fits = [fit_film_thickness(v, 40e-9 * math.exp(-0.02 * (T - 40.0)) * v**0.7
+                                   * np.exp(rng.normal(0, 0.01, v.size)))
+                for T in (40.0, 60.0, 80.0)]
+        e = fit_film_temperature(fits, [40.0, 60.0, 80.0]).meta["speed_exponents"]
+        welch += e["p_one_exponent"] < 0.05
+        chi2 += chi2_sf(e["chi2_one_exponent"], 2) < 0.05
+    assert 8 <= welch <= 23
+    assert chi2 > welch
+

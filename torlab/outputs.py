@@ -105,7 +105,8 @@ _SUFFIX_UNITS = {
     "_m": ("m", 1.0),
 }
 #: lengths: the unit the figures use for them, by a word of the column name (else mm)
-_LENGTH_UNITS = ((("film", "thickness", "wavelength", "separation", "h_star", "sigma"),
+_LENGTH_UNITS = ((("film", "thickness", "wavelength", "separation", "h_star", "sigma",
+                   "residual"),  # residual_m: the film fits' (HPT residuals are in Pa)
                   ("nm", 1e9)),
                  (("displacement", "u_layer", "wear", "l_mu", "window", "band_width"),
                   ("µm", 1e6)))

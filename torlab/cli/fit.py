@@ -435,15 +435,16 @@ def film_cmd(
     scaling, why_not = _film_scaling(fits, temps, vref)
     dest = OutputDir(out, force=force, inputs=[*files, *scenes], command=command_line())
     with dest:
-        what = write_fits(dest, fits, "Film thickness", xlsx=xlsx and scaling is None,
-                          formats=formats)
+        sheets = {}
         if scaling is not None:
-            write_fit(dest, scaling, "temperature", formats=formats,
-                      title="Film thickness at one rolling speed against temperature: "
-                            f"{files[0].name if len(files) == 1 else f'{len(files)} files'}")
-            what += ", temperature/ (the temperature scaling)"
-            if xlsx:
-                what = _film_xlsx(dest, fits, scaling, what)
+            sheets = write_fit(dest, scaling, "temperature", formats=formats,
+                               title="Film thickness at one rolling speed against temperature: "
+                                     f"{files[0].name if len(files) == 1 else f'{len(files)} files'}")
+        what = write_fits(dest, fits, "Film thickness", xlsx=xlsx, formats=formats,
+                          sheets=sheets)
+        if scaling is not None:
+            what = what.replace(", tables.xlsx", "") + ", temperature/ (the temperature " \
+                "scaling)" + (", tables.xlsx" if xlsx else "")
     for _, r in fits:
         print_fit(r, f"Film fit: {r.meta['source']}")
     if scaling is not None:
@@ -471,17 +472,6 @@ def _film_scaling(fits: list[tuple[str, Any]], temps: list[float | None],
     return r, ""
 
 
-def _film_xlsx(dest: Any, fits: list[tuple[str, Any]], scaling: Any, what: str) -> str:
-    """``tables.xlsx`` of the film fits and their temperature scaling."""
-    sheets: dict[str, Any] = {}
-    for name, r in fits:
-        sheets.update({f"{name}_fit_table": r.table(), f"{name}_fit_data": r.data})
-    sheets.update({"temperature_fit_table": scaling.table(),
-                   "temperature_fit_data": scaling.data})
-    dest.write_xlsx("tables.xlsx", sheets)
-    return what + ", tables.xlsx"
-
-
 def _print_film_scaling(r: Any) -> None:
     """The temperature scaling's parameters and the speed exponents compared."""
     m = r.meta
@@ -490,7 +480,7 @@ def _print_film_scaling(r: Any) -> None:
     c = console()
     c.print(f"speed exponents {', '.join(f'{v:.3f}' for v in e['values'])}: one common "
             f"exponent {'rejected' if e['p_one_exponent'] < 0.05 else 'not rejected'} "
-            f"(chi-squared {e['chi2_one_exponent']:.3g} on {e['dof']} dof, p = "
+            f"(Welch's F {e['welch_f']:.3g} on {e['dof'][0]} and {e['dof'][1]:.3g} dof, p = "
             f"{e['p_one_exponent']:.2g}); Hamrock-Dowson's 0.67 outside the 95 % interval at "
             f"{', '.join(e['hamrock_dowson_outside_interval_at']) or 'no temperature'}")
     ratio = ", ".join(f"{t} degC {v:.3g}" for t, v in m["viscosity_ratio_if_alpha_constant"]

@@ -19,7 +19,10 @@ film depends on the lubricant only through ``eta0^0.67 alpha^0.53`` (``U`` and
 ``G``); at one contact, load and speed ``b = 0.67 d ln eta0/dT + 0.53 d ln alpha/dT``
 is what the data resolve, without the contact's geometry or materials, and without
 the ambient viscosity.  The speed exponents of the temperatures are compared in the
-same result (a chi-squared test of one common exponent).
+same result: Welch's test of one common exponent for estimates whose variances are
+themselves estimated (each from its fit's scatter, on its own degrees of freedom;
+Welch 1951, Biometrika 38, 330), which a plain chi-squared with those variances taken
+as known would reject too often.
 
 Intervals are Student-t with ``n - 2`` (exponent) and ``n - 1`` (alpha) degrees
 of freedom from the scatter about the fitted line; the prefactor and ``alpha``
@@ -234,8 +237,9 @@ def fit_film_temperature(fits: Any, temperatures_C: Any, *,
         ratio ``sqrt(chi2 / (k - 2))`` with Student-t on ``k - 2`` degrees of freedom
         when the films scatter more about the line than their variances say.
         ``meta["speed_exponents"]`` compares the exponents: their weighted mean,
-        chi-squared against one common exponent, its p-value, and Hamrock-Dowson's
-        0.67 against each interval.  ``meta["viscosity_ratio_if_alpha_constant"]``
+        the chi-squared about it, Welch's F against one common exponent with its
+        degrees of freedom and p-value, and Hamrock-Dowson's 0.67 against each
+        interval.  ``meta["viscosity_ratio_if_alpha_constant"]``
         is ``eta0(T) / eta0(T_ref) = exp(b (T - T_ref) / 0.67)`` at each temperature,
         which holds only where alpha does not change with temperature.
 
@@ -247,7 +251,7 @@ def fit_film_temperature(fits: Any, temperatures_C: Any, *,
     """
     import pandas as pd
 
-    from torlab._stats import chi2_sf
+    from torlab._stats import f_sf
 
     fits = list(fits)
     T = np.asarray(temperatures_C, dtype=float).ravel()
@@ -270,7 +274,7 @@ def fit_film_temperature(fits: Any, temperatures_C: Any, *,
             raise TorlabInputError(f"must be a positive speed, got {reference_speed!r}",
                                    key="reference_speed")
     x = math.log(v_ref)
-    y, var, n_exp, n_se, n_ci = [], [], [], [], []
+    y, var, n_exp, n_se, n_ci, n_dof = [], [], [], [], [], []
     for f in fits:
         cov = np.asarray(f.covariance, dtype=float)
         C, n = f.params["film_prefactor"], f.params["speed_exponent"]
@@ -283,6 +287,7 @@ def fit_film_temperature(fits: Any, temperatures_C: Any, *,
         n_exp.append(n)
         n_se.append(f.stderr["speed_exponent"])
         n_ci.append(f.ci95["speed_exponent"])
+        n_dof.append(float(f.meta.get("interval_dof", {}).get("speed_exponent", f.dof)))
     y, var = np.array(y), np.array(var)
     if not np.all(np.isfinite(var) & (var > 0)):
         raise TorlabInputError("temperature scaling: every film fit needs a finite covariance")
@@ -300,11 +305,15 @@ def fit_film_temperature(fits: Any, temperatures_C: Any, *,
     if scaled:
         cov = cov * birge**2
     dof = k - 2 if scaled else 10**6
-    # exponents: one common exponent?
+    # exponents: one common exponent?  Welch's heteroscedastic test (the variances are
+    # estimates on each fit's degrees of freedom)
     w = 1.0 / np.square(n_se)
     n_bar = float(np.sum(w * n_exp) / np.sum(w))
     chi2_n = float(np.sum(w * (np.asarray(n_exp) - n_bar) ** 2))
-    p_n = float(chi2_sf(chi2_n, k - 1))
+    lam = float(np.sum((1.0 - w / np.sum(w)) ** 2 / np.maximum(n_dof, 1.0)))
+    f_welch = chi2_n / (k - 1) / (1.0 + 2.0 * (k - 2) / (k * k - 1) * lam)
+    dof2 = (k * k - 1) / (3.0 * lam) if lam > 0 else float("inf")
+    p_n = float(f_sf(f_welch, k - 1, min(dof2, 1e6)))
     h_ref = np.exp(y)
     h_mod = np.exp(X @ coef)
     data = pd.DataFrame({"temperature_C": T, "film_thickness_measured_m": h_ref,
@@ -321,9 +330,9 @@ def fit_film_temperature(fits: Any, temperatures_C: Any, *,
                         "exponential in temperature than the fits' own errors: intervals widened "
                         f"by that factor, Student-t on {k - 2} degree(s) of freedom")
     if p_n < 0.05:
-        warnings.append(f"the speed exponents differ between the temperatures (chi-squared "
-                        f"{chi2_n:.3g} on {k - 1} dof, p = {p_n:.2g}): the film's temperature "
-                        "scaling depends on the reference speed")
+        warnings.append(f"the speed exponents differ between the temperatures (Welch's F "
+                        f"{f_welch:.3g} on {k - 1} and {dof2:.3g} dof, p = {p_n:.2g}): the "
+                        "film's temperature scaling depends on the reference speed")
     outside = [f"{t:.1f} degC" for t, ci in zip(T, n_ci, strict=True)
                if not (ci[0] <= HD_SPEED_EXPONENT <= ci[1])]
     meta = {
@@ -334,8 +343,9 @@ def fit_film_temperature(fits: Any, temperatures_C: Any, *,
         "chi2": chi2, "birge_ratio": birge if k > 2 else None,
         "speed_exponents": {
             "values": [float(v) for v in n_exp], "stderr": [float(v) for v in n_se],
-            "weighted_mean": n_bar, "chi2_one_exponent": chi2_n, "dof": k - 1,
-            "p_one_exponent": p_n, "hamrock_dowson": HD_SPEED_EXPONENT,
+            "dof_each": n_dof, "weighted_mean": n_bar, "chi2_one_exponent": chi2_n,
+            "welch_f": f_welch, "dof": [k - 1, dof2], "p_one_exponent": p_n,
+            "hamrock_dowson": HD_SPEED_EXPONENT,
             "hamrock_dowson_outside_interval_at": outside},
         "viscosity_ratio_if_alpha_constant": {
             f"{t:.1f}": math.exp(b * (t - T_ref) / HD_SPEED_EXPONENT) for t in T},
