@@ -244,3 +244,25 @@ def test_catt3d_plast_sequence():
                     Layer(0.0, LinearYield(0.42857), 0.005))
     assert len(got) == len(ref)
     assert np.allclose(got, ref, rtol=1e-3)
+
+
+def test_ertz_temperature_full_sliding():
+    """Ertz-Knothe's full-sliding case: the frictional heat is the same in both programs
+    (every element slides at mu p), the temperature methods differ.  torlab's flash
+    temperature (the thesis's strip solution, half the heat into each body) lies 10 % below
+    CONTACT's: a regression guard on the documented difference, not a validation."""
+    from torlab.model.fastsim import FastsimProblem, ThermalParams, boundary_traction
+    from torlab.model.kalker import C11, L1
+    from torlab.model.layers import LayerParams
+
+    ref = second_row("examples/ertz_temperature.ref_out", "FN/G")[0]   # ..., PMAX, MAX(T1,T2)
+    tot = totals("examples/ertz_temperature.ref_out")[0]
+    a, b, load, G, nu = 5.88e-3, 10.54e-3, 100e3, 82e9, 0.28
+    prob = FastsimProblem(a=a, b=b, p0=3 * load / (2 * math.pi * a * b),
+                          L1=L1(a, C11(a / b, nu), G), layer=LayerParams(mu_c1=0.3, mu_c2=0.3),
+                          speed=30.0, ambient_temperature=0.0,
+                          thermal=ThermalParams(50.0, 7850.0, 450.0, 0.5, "rigid"))
+    r = boundary_traction(prob, 1 / 30)
+    assert float(r.mu[0]) * load == pytest.approx(tot["FX"], rel=1e-3)   # full sliding
+    t_max = float(r.max_temperature_C[0])
+    assert t_max / float(ref[-1]) - 1 == pytest.approx(-0.101, abs=0.005)
