@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 import pytest
-from contact_bank import cases, counts, second_row, totals
+from contact_bank import bank_file, cases, counts, second_row, totals
 
 from torlab.model.exact.grid import Grid
 from torlab.model.exact.local import LinearYield
@@ -266,3 +266,34 @@ def test_ertz_temperature_full_sliding():
     assert float(r.mu[0]) * load == pytest.approx(tot["FX"], rel=1e-3)   # full sliding
     t_max = float(r.max_temperature_C[0])
     assert t_max / float(ref[-1]) - 1 == pytest.approx(-0.101, abs=0.005)
+
+
+def test_hou_curves_do_not_separate_the_laws():
+    """The Hou-Kalousek-Magel curves of CONTACT's bank (doc/plot_hou.m) are its bilinear
+    idealisations: two points per material (the onset and one point of the plastic
+    branch).  CONTACT's linear law reproduces them by construction; Voce's law reaches a
+    straight branch only in its limit (a Voce length far beyond the tested slip, the
+    saturation stress far outside the measured range), where it fits them as well: the
+    curves cannot tell the laws apart."""
+    import re
+
+    from scipy.optimize import least_squares
+
+    text = bank_file("doc/plot_hou.m").read_text(encoding="utf-8")
+    pts = {}
+    for key in ("utot_c0", "tau_c0", "utot_c1", "tau_c1"):
+        pts[key] = [float(v) for v in re.findall(rf"{key}\(\d\)\s*=\s*([-\d.]+);", text)]
+    assert all(len(v) == 4 for v in pts.values())
+    for u0, t0, u1, t1 in zip(*pts.values(), strict=True):
+        k = (t1 - t0) / (u1 - u0)                       # MPa/um
+        u = np.linspace(u0, 600.0, 200)
+        lin = t0 + k * (u - u0)
+        if k == 0:                                      # magnetite: perfectly plastic
+            continue
+        fit = least_squares(lambda x, u=u, lin=lin, t0=t0, u0=u0:
+                            t0 + (x[0] - t0) * -np.expm1(-(u - u0) / x[1]) - lin,
+                            [t0 + 500 * k, 1000.0], bounds=([-1e5, 1.0], [1e5, 1e8]))
+        rms = math.sqrt(np.mean(fit.fun**2))
+        assert rms < 1e-3 * abs(t1 - t0)
+        assert fit.x[1] > 10 * (600.0 - u0)             # Voce length >> the tested slip
+
