@@ -244,3 +244,22 @@ def test_bad_contact_is_refused():
         exact_creep_forces(ExactContact(a=1e-3, b=1e-3, load=1e3, G=G, nu=0.5, mu=0.3), 1e-3)
     with pytest.raises(ValueError, match="finite"):
         exact_creep_forces(_contact(), [1e-3, np.nan])
+
+
+@pytest.mark.slow  # starts a pool of two worker processes (about 3 s)
+def test_curve_on_two_workers_is_bit_for_bit_the_serial_one():
+    from torlab import parallel
+
+    c = _contact(0.5)
+    xs = normalised_creepages(c, 1.0)[0]
+    xi = np.linspace(0.02, 1.2, 19) / float(xs)
+    grid = ExactGrid(n=12)
+    serial = exact_creep_forces(c, xi, 0.0, 0.0, grid)
+    ex = parallel.get_executor(2)
+    try:
+        with parallel.use(ex):
+            pooled = exact_creep_forces(c, xi, 0.0, 0.0, grid)
+    finally:
+        ex.close()
+    for name in ("Fx", "Fx_error", "adhesion_fraction"):
+        assert np.array_equal(getattr(serial, name), getattr(pooled, name))

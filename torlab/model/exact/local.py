@@ -119,7 +119,8 @@ class Projection:
     ``state`` (:data:`ADHESION`, :data:`SLIP`, :data:`PLASTIC`); ``plastic_lam`` the
     part of ``lam`` that is plastic deformation; ``zhat``, ``fac``, ``radial`` the
     derivative's parts (``dPi = fac (I - zhat zhat') + radial zhat zhat'`` where
-    slipping, ``I`` where sticking).
+    slipping, ``I`` where sticking); ``slope`` the yield stress's slope ``dtau/dkappa``
+    where the element flows plastically (0 elsewhere).
     """
 
     p: np.ndarray
@@ -129,6 +130,7 @@ class Projection:
     zhat: np.ndarray
     fac: np.ndarray
     radial: np.ndarray
+    slope: np.ndarray | None = None
 
     def derivative(self, v: np.ndarray) -> np.ndarray:
         """``dPi v`` for ``v`` of shape ``(n, 2)``."""
@@ -224,6 +226,7 @@ def project(z: np.ndarray, r: np.ndarray, g: np.ndarray, law: YieldLaw | None = 
     p = np.where(stick[:, None], z, b[:, None] * zhat)
     fac = np.where(slip, b / np.where(zn > 0, zn, 1.0), 1.0)
     radial = np.where(slip, db / (db + r), 1.0)
+    slope = np.where(plastic, db, 0.0)
     state = np.where(stick, ADHESION, np.where(plastic, PLASTIC, SLIP))
     plam = np.zeros(n)
     if fast:
@@ -231,7 +234,7 @@ def project(z: np.ndarray, r: np.ndarray, g: np.ndarray, law: YieldLaw | None = 
     elif law is not None and slip.any():
         plam = _plastic_part(lam, plastic, g, law, kappa0, c1, c2)
     return Projection(p=p, lam=lam, state=state, plastic_lam=plam, zhat=zhat, fac=fac,
-                      radial=radial)
+                      radial=radial, slope=slope)
 
 
 def _plastic_part(lam, plastic, g, law, kappa0, c1, c2):

@@ -277,6 +277,25 @@ class _Problem:
         p = np.cumsum(full[::-1], axis=0)[::-1].reshape(-1, 2)[self.idx]
         return np.where(stick[:, None], p, v)
 
+    def carried_derivative(self, pr: Any, dz: np.ndarray) -> np.ndarray:
+        """The tractions' change through the plastic deformation carried from ahead.
+
+        A flowing element's traction ``tau(kappa + lam) zhat`` changes with ``kappa`` by
+        ``tau' r/(tau' + r)`` and its plastic increment with its own ``|z|`` by
+        ``1/(tau' + r)``; summed along the rows from the leading edge (to first order:
+        the change of ``lam`` through ``kappa`` itself is left out).
+        """
+        slope = pr.slope
+        flow = pr.state == PLASTIC
+        if slope is None or not flow.any():
+            return np.zeros_like(dz)
+        dl = np.where(flow, (pr.zhat * dz).sum(axis=1) / (slope + self.r), 0.0)
+        inc = np.zeros((self.grid.mx + 1, self.grid.my))
+        inc[self.col, self.row] = dl
+        ahead = np.cumsum(inc[::-1], axis=0)[::-1][self.col + 1, self.row]
+        gain = np.where(flow, slope * self.r / (slope + self.r), 0.0)
+        return (gain * ahead)[:, None] * pr.zhat
+
     def _lq(self, full: np.ndarray) -> np.ndarray:
         Lv = self.flex * full
         if self.mode == "steady":
@@ -394,6 +413,7 @@ def solve(grid: Grid, G: float, nu: float, pn: np.ndarray, mu: float | np.ndarra
         return p - pr.p, pr
 
     F, pr = evaluate(p)
+    carried = mode == "steady" and prob.law is not None
     hist = []
     steps = 0
     while True:
@@ -417,7 +437,11 @@ def solve(grid: Grid, G: float, nu: float, pn: np.ndarray, mu: float | np.ndarra
 
         def J(vflat, pr=pr, r=r):
             v = vflat.reshape(n, 2)
-            return (v - pr.derivative(v - r[:, None] * prob.B(v))).ravel()
+            dz = v - r[:, None] * prob.B(v)
+            out = v - pr.derivative(dz)
+            if carried:
+                out = out - prob.carried_derivative(pr, dz)
+            return out.ravel()
 
         stick = pr.state == ADHESION
 
