@@ -277,6 +277,18 @@ class _Problem:
         p = np.cumsum(full[::-1], axis=0)[::-1].reshape(-1, 2)[self.idx]
         return np.where(stick[:, None], p, v)
 
+    def scale(self, pr: Any, bounded: bool) -> float:
+        """The traction the stopping test is relative to: the largest bound (the Coulomb
+        bound, the layer's yield stress of fresh material) or traction."""
+        if bounded:
+            s = float(np.max(np.where(np.isfinite(self.g), self.g, 0.0)))
+            if self.law is not None:
+                tau0, _ = self.law.stress(np.zeros(self.n), self.c1, self.c2)
+                s = max(s, float(np.abs(pr.p).max()), float(np.max(tau0)))
+        else:
+            s = float(np.abs(pr.p).max())
+        return s if s > 0 else 1.0
+
     def carried_derivative(self, pr: Any, dz: np.ndarray) -> np.ndarray:
         """The tractions' change through the plastic deformation carried from ahead.
 
@@ -417,14 +429,7 @@ def solve(grid: Grid, G: float, nu: float, pn: np.ndarray, mu: float | np.ndarra
     hist = []
     steps = 0
     while True:
-        if bounded:
-            scale = float(np.max(np.where(np.isfinite(prob.g), prob.g, 0.0)))
-            if prob.law is not None:
-                scale = max(scale, float(np.abs(pr.p).max()), float(np.max(prob.c1)))
-        else:
-            scale = float(np.abs(pr.p).max())
-        scale = scale if scale > 0 else 1.0
-        res = float(np.abs(F).max()) / scale
+        res = float(np.abs(F).max()) / prob.scale(pr, bounded)
         hist.append(res)
         if res <= tol:
             break
