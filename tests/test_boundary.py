@@ -15,18 +15,13 @@ import numpy as np
 import pytest
 
 from torlab.errors import ConvergenceError
-from torlab.model.fastsim import (
-    FastsimGrid,
-    FastsimProblem,
-    ThermalParams,
-    boundary_traction,
-    boundary_traction_reference,
-    e_strip,
-    flash_temperature_matrix,
-)
+from torlab.model.fastsim import FastsimGrid, FastsimProblem, boundary_traction
+from torlab.model.flash import ThermalParams, flash_temperature_matrix
 from torlab.model.hertz import E_star, hertz_approximate, hertz_exact
 from torlab.model.kalker import C11, ExtremeContactWarning, combined_G_nu
 from torlab.model.layers import LayerParams
+from torlab.model.reference_solvers import boundary_traction_reference
+from torlab.model.strip import e_strip
 
 G_STEEL, NU = combined_G_nu(210e9, 0.28, 210e9, 0.28)
 
@@ -222,7 +217,7 @@ def test_e_strip_gauss_nodes_against_mpmath():
     """e(theta; r) with the nodes the Bernstein ellipse asks for (6 to 24) against 30-digit
     quadrature over the hard cases, to 1e-13 relative; the worst case (r = 1/2, theta = pi)
     keeps all 24 nodes."""
-    from torlab.model.fastsim import _gauss_nodes
+    from torlab.model.strip import _gauss_nodes
 
     r, th, ref = _e_grid(_E_R, _E_TH)
     got = e_strip(th, r)
@@ -247,14 +242,14 @@ def test_e_in_temperature_cell_against_mpmath(r):
     its temperature cell (48 nodes) plus the piece up to theta, against 30-digit quadrature
     of the whole integral, to 1e-13 relative -- in the first and the last cell, and where
     r is too small for the piece's rule (``e_strip`` then)."""
-    from torlab.model.fastsim import _e_in_cell
+    from torlab.model.strip import e_in_cell
 
     h = math.pi / 47
     t0 = np.array([0.0, 0.0, 3 * h, 20 * h, 46 * h, 46 * h])
     th = t0 + np.array([1e-7, 0.6, 0.3, 1.0, 0.5, 1.0]) * h
     th[-1] = math.pi
     e0 = np.array([_e_ref(a, r) if a > 0 else 0.0 for a in t0])
-    got = _e_in_cell(th, np.full(th.shape, r), t0, e0)
+    got = e_in_cell(th, np.full(th.shape, r), t0, e0)
     ref = np.array([_e_ref(t, r) for t in th])
     np.testing.assert_allclose(got, ref, rtol=1e-13, atol=0)
 

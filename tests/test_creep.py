@@ -19,19 +19,9 @@ import numpy as np
 import pytest
 
 from torlab.errors import ConvergenceError, TorlabInputError
-from torlab.model.creep import (
-    CreepGrid,
-    CreepProblem,
-    creep_forces,
-    creep_forces_reference,
-    naive_creep_forces,
-)
-from torlab.model.fastsim import (
-    FastsimProblem,
-    ThermalParams,
-    boundary_traction,
-    boundary_traction_reference,
-)
+from torlab.model.creep import CreepGrid, CreepProblem, creep_forces
+from torlab.model.fastsim import FastsimProblem, boundary_traction
+from torlab.model.flash import ThermalParams
 from torlab.model.kalker import (
     C11,
     C22,
@@ -44,6 +34,11 @@ from torlab.model.kalker import (
     creepage_coefficients,
 )
 from torlab.model.layers import LayerParams
+from torlab.model.reference_solvers import (
+    boundary_traction_reference,
+    creep_forces_reference,
+    naive_creep_forces,
+)
 
 G_STEEL, NU = combined_G_nu(210e9, 0.28, 210e9, 0.28)
 WR_LAYER = LayerParams(0.30, 0.45, 10e-6, 20e-6)

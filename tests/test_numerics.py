@@ -26,8 +26,9 @@ from torlab.bench.scenes import full_mixed_scene
 from torlab.bench.temperature import thermal_problem
 from torlab.errors import ConvergenceError
 from torlab.model import fastsim
-from torlab.model.fastsim import boundary_traction, e_strip
+from torlab.model.fastsim import boundary_traction
 from torlab.model.hertz import hertz_exact
+from torlab.model.strip import e_strip
 from torlab.scene import load_scene, scene_from_dict
 
 SOFTENING = {"mu_c1": 0.45, "mu_c2": 0.30}

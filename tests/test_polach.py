@@ -11,7 +11,7 @@ import pytest
 from torlab.errors import TorlabInputError
 from torlab.fit.polach import fit_polach, fit_polach_data, polach_data
 from torlab.model.creep import CreepProblem, creep_forces
-from torlab.model.fastsim import ThermalParams
+from torlab.model.flash import ThermalParams
 from torlab.model.kalker import L1, L2, L3, combined_G_nu, creepage_coefficients
 from torlab.model.layers import LayerParams
 from torlab.model.polach import PolachParams, polach_contact, polach_forces

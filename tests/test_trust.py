@@ -630,7 +630,7 @@ def test_markdown_report_escapes_html_from_log_headers():
 # ------------------------------------------------------------------------------ the issue's wrong numbers
 def test_e_strip_without_elastic_layer_is_the_closed_form():
     """L_mue = 0 (the scene default) gives r = 0: e = 1 - cos(theta), also at theta = 0."""
-    from torlab.model.fastsim import e_strip
+    from torlab.model.strip import e_strip
 
     th = np.array([0.0, 1e-12, 0.3, 1.0, np.pi / 2, np.pi])
     with warnings.catch_warnings():

@@ -7,7 +7,7 @@ isothermal.  Measured side by side in one run:
 * ``torlab`` -- :func:`torlab.model.creep.creep_forces` at several
   :class:`~torlab.model.creep.CreepGrid` s, the default marked; unit of work: one
   3-creepage point (xi, eta, phi all non-zero), as a vehicle-dynamics code calls it;
-* ``baseline`` -- :func:`torlab.model.creep.naive_creep_forces`, the first-order
+* ``baseline`` -- :func:`torlab.model.reference_solvers.naive_creep_forces`, the first-order
   FASTSIM with spin on a uniform ``m x m`` grid (Kalker's discrete scheme as CONTACT
   runs it, with the layer), vectorised over the rows;
 * the longitudinal point of :func:`torlab.model.fastsim.boundary_traction` (the cost
@@ -19,7 +19,7 @@ isothermal.  Measured side by side in one run:
 
 Error of a variant: the largest of ``|F - F_ref|/(mu_c2 N)`` over the components Fx, Fy
 and ``|Mz - Mz_ref|/(mu_c2 N c)`` (``c = sqrt(ab)``) and over the test set, against the
-grid-free reference :func:`torlab.model.creep.creep_forces_reference` (ODE per strip
+grid-free reference :func:`torlab.model.reference_solvers.creep_forces_reference` (ODE per strip
 with events, adaptive quadrature across), evaluated once per run.  The default row's
 ``extra`` holds the per-component errors, the ratios the issue asks for and the
 machine's load (the machines are shared: only ratios measured in one run mean much).
@@ -37,14 +37,8 @@ from typing import Any
 import numpy as np
 
 from torlab.bench import BenchRow, median_time
-from torlab.model.creep import (
-    CreepGrid,
-    CreepProblem,
-    creep_forces,
-    creep_forces_reference,
-    creep_problem,
-    naive_creep_forces,
-)
+from torlab.model.creep import CreepGrid, CreepProblem, creep_forces, creep_problem
+from torlab.model.reference_solvers import creep_forces_reference, naive_creep_forces
 
 __all__ = ["TEST_SET", "paired_ratio", "run", "wheel_rail_problem"]
 

@@ -7,7 +7,7 @@ F = 20 kN, steel E = 210 GPa, nu = 0.28) with a third-body layer
 Unit of work: a 101-point traction curve, creepage 0 ... 0.05.  Error of a
 variant: ``max |mu - mu_ref| / max |mu_ref|`` over a handful of creepages
 (8 from 1e-4 to 0.05; 4 with ``quick``) where the grid-free reference
-:func:`torlab.model.fastsim.boundary_traction_reference` (adaptive quadrature
+:func:`torlab.model.reference_solvers.boundary_traction_reference` (adaptive quadrature
 of the continuous strip solution) is evaluated once per run and cached.
 
 Measured side by side in one run:
@@ -130,7 +130,7 @@ def scene_problem(a_over_b: float | None = None, layer: bool = True,
 @lru_cache(maxsize=4096)
 def reference_mu(prob: FastsimProblem, creepage: float) -> float:
     """Grid-free reference ``mu`` (cached for the run; ``boundary_traction_reference``)."""
-    from torlab.model.fastsim import boundary_traction_reference
+    from torlab.model.reference_solvers import boundary_traction_reference
 
     return float(boundary_traction_reference(prob, creepage))
 

@@ -107,14 +107,13 @@ The numerical scheme
   iteration when it has converged, or :class:`~torlab.errors.ConvergenceError`
   naming the point).
 
-:func:`creep_forces_reference` integrates the same model without a grid (an ODE
-per strip with event location, adaptive quadrature across the strips) for tests
-and the benchmark.
+:func:`torlab.model.reference_solvers.creep_forces_reference` integrates the same model
+without a grid (an ODE per strip with event location, adaptive quadrature across the
+strips) for tests and the benchmark.
 """
 
 from __future__ import annotations
 
-import itertools
 import math
 from dataclasses import dataclass, field
 from functools import cache, lru_cache
@@ -122,17 +121,11 @@ from typing import Any, Literal
 
 import numpy as np
 
-from torlab.errors import ConvergenceError, NumericalError, TorlabInputError
-from torlab.model.fastsim import (
-    _G,
-    FastsimProblem,
-    ThermalParams,
-    _interp_uniform,
-    converge_flash_temperature,
-    e_strip,
-    flash_temperature_matrix,
-)
+from torlab.errors import NumericalError, TorlabInputError
+from torlab.model.fastsim import FastsimProblem
+from torlab.model.flash import ThermalParams, converge_flash_temperature, flash_temperature_matrix
 from torlab.model.layers import LayerParams
+from torlab.model.strip import G_strip, e_strip, gauss_legendre, interp_uniform
 
 __all__ = [
     "CreepGrid",
@@ -140,10 +133,8 @@ __all__ = [
     "CreepResult",
     "canonical_creepages",
     "creep_forces",
-    "creep_forces_reference",
     "creep_problem",
     "kalker_weighted_flexibility",
-    "naive_creep_forces",
     "predict_creep",
 ]
 
@@ -415,16 +406,6 @@ def predict_creep(scene: Any, creepage: Any, lateral: float = 0.0, spin: float =
                               summary=summary)
 
 
-# -------------------------------------------------------------------------------------------
-# closed forms along a strip
-# -------------------------------------------------------------------------------------------
-@cache
-def _gauss(n: int) -> tuple[np.ndarray, np.ndarray]:
-    """Gauss-Legendre nodes and weights on [0, 1]."""
-    x, w = np.polynomial.legendre.leggauss(n)
-    return 0.5 * (x + 1.0), 0.5 * w
-
-
 @cache
 def _gauss_integration(n: int) -> np.ndarray:
     """Integration matrix of a panel from its start to its ``n`` Gauss nodes.
@@ -432,7 +413,7 @@ def _gauss_integration(n: int) -> np.ndarray:
     ``S[k, :] @ [f(0), f(x_1) ... f(x_n), f(1)]`` integrates the interpolant of ``f``
     through the panel's two ends and its Gauss nodes from 0 to ``x_k`` (order ``n + 2``).
     """
-    x, _ = _gauss(n)
+    x, _ = gauss_legendre(n)
     pts = np.concatenate([[0.0], x, [1.0]])
     k = pts.size
     coef = np.linalg.inv(np.vander(pts, k, increasing=True))  # l_j(x) = sum_i coef[i, j] x^i
@@ -444,7 +425,7 @@ def _gauss_integration(n: int) -> np.ndarray:
 @cache
 def _panel_strips(panels: int, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Strips of ``panels`` equal panels in ``phi`` over (-pi/2, pi/2), ``n`` Gauss nodes each."""
-    x, w = _gauss(n)
+    x, w = gauss_legendre(n)
     edges = np.linspace(-0.5 * math.pi, 0.5 * math.pi, panels + 1)
     h = np.diff(edges)
     ph = (edges[:-1, None] + h[:, None] * x[None, :]).ravel()
@@ -459,7 +440,7 @@ def _strips(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     The Gauss rule of each half, mirrored: with ``eta = phi = 0`` the two halves
     give the same strips, so the longitudinal model is reproduced node for node.
     """
-    x, w = _gauss(n)
+    x, w = gauss_legendre(n)
     ph = 0.5 * math.pi * x
     ph = np.concatenate([-ph[::-1], ph])
     ww = np.concatenate([w[::-1], w]) * 0.5 * math.pi
@@ -467,7 +448,7 @@ def _strips(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def _e(theta: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """``e(theta; r)`` (:func:`torlab.model.fastsim.e_strip`); ``1 - cos`` when ``r = 0``."""
+    """``e(theta; r)`` (:func:`torlab.model.strip.e_strip`); ``1 - cos`` when ``r = 0``."""
     if not np.any(r):
         return 2.0 * np.sin(0.5 * np.asarray(theta, dtype=float)) ** 2 + 0.0 * r
     return e_strip(theta, r)
@@ -539,7 +520,7 @@ class _Lanes:
         e1 = _e(theta, r1)
         e2 = e1 if r2 is r1 or (self.L[1] == self.L[0]) or not self.lateral else _e(theta, r2)
         e3 = e1 if (self.L[2] == self.L[0]) or not self.spin else _e(theta, r3)
-        G3 = _G(np.sin(theta), r3) if self.spin else 0.0 * e1
+        G3 = G_strip(np.sin(theta), r3) if self.spin else 0.0 * e1
         return e1, e2, e3, G3
 
     def _coef(self, ndim: int) -> tuple[np.ndarray, ...]:
@@ -740,7 +721,7 @@ class _Solver:
         if lay.mu_c1 == 0.0:
             return np.zeros((nc, ns)), np.zeros((nc, ns)), np.zeros((nc, ns))
         tab = np.broadcast_to(self.tab, (nc, ns, self.tab.size))
-        dTt = 0.0 if dT_grid is None else _interp_uniform(tab, dT_grid)
+        dTt = 0.0 if dT_grid is None else interp_uniform(tab, dT_grid)
         tx, ty = ln.tau_el(tab, self._tab_ex)
         mu1T = lay.mu_c1_T
         t1 = lay.mu_c1 * ln.pressure(tab, self.tab_st) * (np.exp(mu1T * dTt) if mu1T else 1.0)
@@ -752,7 +733,7 @@ class _Solver:
         tx0 = np.where(k > 0, _pick(tx, km), 0.0)
         ty0 = np.where(k > 0, _pick(ty, km), 0.0)
         lo0 = lo.copy()
-        xg, wg = _gauss(6)
+        xg, wg = gauss_legendre(6)
         last = {}
         # start: regula falsi between the bracketing table values
         fk = _pick(f, k)
@@ -771,7 +752,7 @@ class _Solver:
             last["tau"] = (th, txx, tyy)
             m = np.sqrt(txx * txx + tyy * tyy)
             Tx1, Ty1 = Tx[..., -1], Ty[..., -1]
-            dT = 0.0 if dT_grid is None else _interp_uniform(th[..., None], dT_grid)[..., 0]
+            dT = 0.0 if dT_grid is None else interp_uniform(th[..., None], dT_grid)[..., 0]
             f1 = np.exp(mu1T * dT) if mu1T else 1.0
             dm = np.where(m > 0, (txx * Tx1 + tyy * Ty1) / np.where(m > 0, m, 1.0), 0.0)
             return (m - lay.mu_c1 * ln.pressure(th, sp[..., -1]) * f1,
@@ -791,12 +772,12 @@ class _Solver:
         nc, ns = th_y.shape
         if not lay.law.hardens(lay):
             return th_y  # no hardening: the clamp does not change g
-        dTy = 0.0 if dT_grid is None else _interp_uniform(th_y[..., None], dT_grid)[..., 0]
+        dTy = 0.0 if dT_grid is None else interp_uniform(th_y[..., None], dT_grid)[..., 0]
         k_y = ln.kappa(th_y, dTy)
         if (k_y >= 0).all():
             return th_y  # every strip yields past the clamp (its leading half)
         tab = np.broadcast_to(self.tab, (nc, ns, self.tab.size))
-        dTt = 0.0 if dT_grid is None else _interp_uniform(tab, dT_grid)
+        dTt = 0.0 if dT_grid is None else interp_uniform(tab, dT_grid)
         kt = ln.kappa(tab, dTt, self.tab_st, self.tab_ct)
         lo, hi, found = _first_root(kt, self.tab, th_y)
         mu1T = lay.mu_c1_T
@@ -809,7 +790,7 @@ class _Solver:
                          0.5 * (lo + hi))
 
         def fdf(th):
-            dT = 0.0 if dT_grid is None else _interp_uniform(th[..., None], dT_grid)[..., 0]
+            dT = 0.0 if dT_grid is None else interp_uniform(th[..., None], dT_grid)[..., 0]
             f1 = np.exp(mu1T * dT) if mu1T else 1.0
             st, ct = np.sin(th), np.cos(th)
             k = ln.kappa(th, dT, st, ct)
@@ -911,7 +892,7 @@ class _Solver:
         explicit, in one stacked array.
         """
         ln, m = self.ln, self.grid.m
-        x, w = _gauss(m)
+        x, w = gauss_legendre(m)
         SmT = _gauss_integration(m).T
         lo, hv = edges[..., :-1, None], np.diff(edges, axis=-1)[..., None]
         th = lo + hv * x  # (nc, ns, P, m)
@@ -945,7 +926,7 @@ class _Solver:
         pts = np.concatenate([th_y[..., None], thp], axis=-1)  # (nc, ns, M+1)
         telx = np.concatenate([txy[..., None], pl["tx"]], axis=-1)
         tely = np.concatenate([tyy[..., None], pl["ty"]], axis=-1)
-        dT_p = 0.0 if dT_grid is None else _interp_uniform(pts, dT_grid)
+        dT_p = 0.0 if dT_grid is None else interp_uniform(pts, dT_grid)
         S = np.concatenate([S_y[..., None], pl["S"]], axis=-1)
         st = np.concatenate([np.sin(th_y)[..., None], pl["st"]], axis=-1)
         _, gp = ln.limits(pts, dT_p, S, st)
@@ -989,7 +970,7 @@ def _edge_fractions(graded: int, uniform: int, clamp: int
 @cache
 def _composite_gauss(panels: int, m: int) -> tuple[np.ndarray, np.ndarray]:
     """Nodes and weights on [0, 1] of ``panels`` equal panels with ``m`` Gauss nodes each."""
-    x, w = _gauss(m)
+    x, w = gauss_legendre(m)
     lo = np.arange(panels)[:, None] / panels
     return (lo + x / panels).ravel(), np.tile(w / panels, panels)
 
@@ -1196,7 +1177,6 @@ def _march_lanes(pts: np.ndarray, telx: np.ndarray, tely: np.ndarray, gp: np.nda
     return tx, ty, plast
 
 
-
 def canonical_creepages(xi: np.ndarray, eta: np.ndarray, phi: np.ndarray
                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The distinct creepage triples up to the model's symmetries.
@@ -1357,7 +1337,7 @@ def _temperature(solver: _Solver, prob: CreepProblem, grid: CreepGrid
                  ) -> tuple[np.ndarray, np.ndarray, str, np.ndarray]:
     """Converge the flash temperature on the per-strip grid, every point at once.
 
-    As :func:`torlab.model.fastsim._temperature`: each point has its own adaptively
+    As the longitudinal model's temperature (:mod:`torlab.model.fastsim`): each point has its own adaptively
     under-relaxed fixed-point iteration; the points iterate together in one array, and a
     point leaves the active set as soon as it has converged, so its result does not depend
     on the other points computed with it.
@@ -1415,255 +1395,3 @@ def _temperature(solver: _Solver, prob: CreepProblem, grid: CreepGrid
                                       prob.ambient_temperature)
 
 
-# -------------------------------------------------------------------------------------------
-# grid-free reference (ODE per strip with events, adaptive quadrature across)
-# -------------------------------------------------------------------------------------------
-def _reference_strip(prob: CreepProblem, xi: float, eta: float, phi: float, yb: float,  # noqa: C901 (a reference solver spelled out case by case, for clarity over speed)
-                     rtol: float) -> np.ndarray:
-    """``(Fx, Fy, Mz)`` per unit width of the strip at ``y = b yb`` (the reference's ODE)."""
-    from scipy.integrate import solve_ivp
-
-    lay = prob.layer
-    L1 = prob.L1
-    L2 = prob.L2 if prob.L2 is not None else L1
-    L3 = prob.L3 if prob.L3 is not None else L1
-    LK = float(kalker_weighted_flexibility(prob, xi, eta, phi))
-    kalker = prob.restick == "kalker"
-    parab = prob.traction_bound == "parabolic"
-    p0 = (4.0 / 3.0) * prob.p0 if parab else prob.p0
-    c2 = 1.0 - yb * yb
-    if c2 <= 0:
-        return np.zeros(3)
-    ay = prob.a * math.sqrt(c2)
-    y = prob.b * yb
-    pc = p0 * (c2 if parab else math.sqrt(c2))  # peak pressure of the strip
-    wx = xi - phi * y
-
-    # integrated in the angle t with X = ay (1 - cos t), x = ay cos t, p = pc sin t
-    # (sin^2 t for the parabolic bound): every integrand is smooth in t
-    def p_of(t):
-        st = math.sin(t)
-        return pc * (st * st if parab else st)
-
-    def dp_of(t):  # dp/dt
-        return pc * (2 * math.sin(t) * math.cos(t) if parab else math.cos(t))
-
-    def Tel(t):  # d tau_el / dt
-        p = p_of(t)
-        if lay.L_mue > 0:
-            if p <= 0:
-                return 0.0, 0.0
-            le = lay.L_mue / p
-        else:
-            le = 0.0
-        x = ay * math.cos(t)
-        j = ay * math.sin(t)
-        return (j * (xi / (L1 + le) - phi * y / (L3 + le)),
-                j * (eta / (L2 + le) + phi * x / (L3 + le)))
-
-    def absw(t):  # |w| dX/dt
-        return math.hypot(wx, eta + phi * ay * math.cos(t)) * ay * math.sin(t)
-
-    def kap(t, S):  # Voce slip before the clamp max(., 0); S rides along as a state
-        return S - lay.mu_c1 * (LK * p_of(t) + lay.L_mue)
-
-    law = lay.law
-
-    def glim(t, S):
-        p = p_of(t)
-        return float(law.strip_plastic(lay, p, S, LK * p + lay.L_mue, 0.0))
-
-    def dglim(t, S):  # dg/dt = g_p dp/dt + g_u dS/dt + g_pL LK dp/dt
-        p, dp = p_of(t), dp_of(t)
-        g_p, g_u, g_pL = law.strip_partials(lay, p, S, LK * p + lay.L_mue)
-        return g_p * dp + g_u * absw(t) + g_pL * LK * dp
-
-    end = math.pi
-    X0 = 0.0
-    # stick: [tau_x, tau_y, S, Fx, Fy, Mz]; slip: [psi, 0, S, Fx, Fy, Mz]
-    state = np.zeros(6)
-    mode = "stick"
-    first = [True]
-    rt = dict(method="DOP853", rtol=rtol,
-              atol=1e-14 * max(1.0, float(law.reference_mu(lay)) * prob.p0 * ay))
-
-    def rhs_stick(t, s):
-        Tx, Ty = Tel(t)
-        x = ay * math.cos(t)
-        j = ay * math.sin(t)
-        return [Tx, Ty, absw(t), j * s[0], j * s[1], j * (x * s[1] - y * s[0])]
-
-    def rhs_slip(t, s):
-        Tx, Ty = Tel(t)
-        g = glim(t, s[2])
-        c, sn = math.cos(s[0]), math.sin(s[0])
-        x = ay * math.cos(t)
-        j = ay * math.sin(t)
-        dpsi = (-sn * Tx + c * Ty) / g if g > 0 else 0.0
-        return [dpsi, 0.0, absw(t), j * g * c, j * g * sn, j * g * (x * sn - y * c)]
-
-    def ev_yield(t, s):
-        # a particle that unloaded sits at the limit: a relative margin of 1e-9 keeps
-        # the event from firing again at the point where it stuck
-        lim = lay.mu_c1 * p_of(t) if first[0] else glim(t, s[2]) * (1 + 1e-9)
-        return math.hypot(s[0], s[1]) - lim if t > 1e-12 else -1.0
-
-    ev_yield.terminal = True
-    ev_yield.direction = 1
-
-    def ev_unload(t, s):
-        Tx, Ty = Tel(t)
-        lam = math.cos(s[0]) * Tx + math.sin(s[0]) * Ty
-        gd = dglim(t, s[2])
-        return lam - (gd if kalker else min(gd, 0.0))
-
-    ev_unload.terminal = True
-    ev_unload.direction = -1
-
-    def ev_clamp(t, s):  # the Voce limit's kink: restart the integrator there
-        return kap(t, s[2])
-
-    ev_clamp.terminal = True
-    ev_clamp.direction = 1
-    guard = 0
-    skip_clamp = False
-    while X0 < end - 1e-12 and guard < 400:
-        guard += 1
-        if mode == "stick":
-            sol = solve_ivp(rhs_stick, (X0, end), state, events=ev_yield, **rt)
-        else:
-            evs = [ev_unload] if skip_clamp else [ev_unload, ev_clamp]
-            sol = solve_ivp(rhs_slip, (X0, end), state, events=evs, **rt)
-        skip_clamp = mode == "slip" and sol.status == 1 and not sol.t_events[0].size
-        if sol.status == -1:
-            raise ConvergenceError(f"reference ODE failed on a strip: {sol.message}")
-        state = sol.y[:, -1].copy()
-        Xn = sol.t[-1]
-        if sol.status == 1:
-            if mode == "stick":
-                mag = math.hypot(state[0], state[1])
-                if mag > 0:
-                    psi = math.atan2(state[1], state[0])
-                else:
-                    Tx, Ty = Tel(Xn + 1e-9)
-                    psi = math.atan2(Ty, Tx)
-                state[0], state[1] = psi, 0.0
-                mode = "slip"
-                first[0] = False
-            elif sol.t_events[0].size:  # unloading: stick again
-                g = glim(Xn, state[2])
-                state[0], state[1] = g * math.cos(state[0]), g * math.sin(state[0])
-                mode = "stick"
-            # the clamp event only restarts the slip integration
-            if Xn <= X0:  # an event at the start point: step past it
-                Xn = X0 + 1e-12
-        X0 = Xn
-    if guard >= 400:
-        raise ConvergenceError("reference: more than 400 stick/slip switches on one strip")
-    return state[3:]
-
-
-
-def creep_forces_reference(problem: CreepProblem, creepage: float, lateral: float = 0.0,
-                           spin: float = 0.0, *, rtol: float = 1e-9) -> tuple[float, float, float]:
-    """Grid-free ``(Fx, Fy, Mz)`` of the isothermal model, for tests and the benchmark.
-
-    Independent of the fast scheme's closed forms, tables and march: per strip,
-    ``solve_ivp`` (DOP853) integrates the stick traction ``d tau/dX`` from the
-    rigid slip and the flexibilities, or in slip the direction
-    ``d psi/dX = (n . d tau_el/dX)/g`` with the magnitude ``g`` from the layer law,
-    switching at located events (yield, unloading, re-yield) and at the clamp end;
-    the forces ride along as integrals; ``quad_vec`` integrates across the strips.
-    Slow (seconds to a minute).
-    """
-    from scipy.integrate import quad_vec
-
-    prob = problem
-    if prob.thermal is not None and any(prob.layer.law.temperature_coefficients(prob.layer)):
-        raise ValueError("the reference covers the isothermal model only")
-    xi, eta, phi = float(creepage), float(lateral), float(spin)
-
-    scale = np.array([1.0, 1.0, 1.0 / prob.a])  # Mz/a: comparable sizes for quad_vec's norm
-
-    def integrand(ph: float) -> np.ndarray:
-        return _reference_strip(prob, xi, eta, phi, math.sin(ph), rtol) * math.cos(ph) * scale
-
-    pts = np.linspace(-0.5 * math.pi, 0.5 * math.pi, 9)
-    total = np.zeros(3)
-    for lo, hi in itertools.pairwise(pts):
-        val, _err = quad_vec(integrand, lo, hi, epsabs=0.0, epsrel=1e2 * rtol, limit=400)
-        total += val
-    return tuple(float(v) for v in prob.b * total / scale)
-
-
-# -------------------------------------------------------------------------------------------
-# naive first-order FASTSIM (uniform grid), the benchmark's baseline
-# -------------------------------------------------------------------------------------------
-def naive_creep_forces(problem: CreepProblem, creepage: Any, lateral: Any = 0.0, spin: Any = 0.0,
-                       *, mx: int = 50, my: int = 50, scale: float = 1.0
-                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """FASTSIM with the layer on a uniform ``mx x my`` grid (first order), isothermal.
-
-    Kalker's discrete scheme as CONTACT runs it (element centres, implicit Euler
-    from the leading edge: ``tau_i = tau_(i-1) + Delta tau_el``, clipped to the
-    limit), with the layer's flexibility and the Voce limit of this module at the
-    element centres.  Vectorised over rows and creepages, marched along ``x``.
-    ``scale`` enlarges the grid's box beyond the ellipse as CONTACT's potential contact
-    does (elements count where their centre is inside the ellipse).
-    Returns ``(Fx, Fy, Mz)`` in the broadcast shape of the creepages.
-    """
-    prob = problem
-    lay = prob.layer
-    xi_in, eta_in, phi_in = np.broadcast_arrays(*(np.asarray(v, dtype=float)
-                                                  for v in (creepage, lateral, spin)))
-    shape = xi_in.shape
-    xi, eta, phi = (v.ravel()[:, None] for v in (xi_in, eta_in, phi_in))
-    L1 = prob.L1
-    L2 = prob.L2 if prob.L2 is not None else L1
-    L3 = prob.L3 if prob.L3 is not None else L1
-    LK = kalker_weighted_flexibility(prob, xi, eta, phi)
-    a, b = prob.a, prob.b
-    dx, dy = 2 * scale * a / mx, 2 * scale * b / my
-    yc = -scale * b + dy * (np.arange(my) + 0.5)
-    xc = scale * a - dx * (np.arange(mx) + 0.5)  # leading edge first
-    parab = prob.traction_bound == "parabolic"
-    pk = (4.0 / 3.0) * prob.p0 if parab else prob.p0
-    y = yc[None, :]
-    nc = xi.shape[0]
-    tau = np.zeros((nc, my), dtype=complex)
-    S = np.zeros((nc, my))
-    plastic = np.zeros((nc, my), dtype=bool)
-    yielded = np.zeros((nc, my), dtype=bool)
-    Fx = np.zeros(nc)
-    Fy = np.zeros(nc)
-    Mz = np.zeros(nc)
-    kalker = prob.restick == "kalker"
-    wx = xi - phi * y
-    for x in xc:
-        u = 1.0 - (x / a) ** 2 - (y / b) ** 2
-        inside = np.broadcast_to(u > 0, (nc, my))
-        p = pk * (np.maximum(u, 0.0) if parab else np.sqrt(np.maximum(u, 0.0)))
-        with np.errstate(divide="ignore"):
-            le = np.where(u > 0, lay.L_mue / np.where(u > 0, p, 1.0), 0.0)
-        wy = eta + phi * x
-        S = np.where(inside, S + np.hypot(wx, wy) * dx, 0.0)
-        d_el = ((xi / (L1 + le) - phi * y / (L3 + le))
-                + 1j * (eta / (L2 + le) + phi * x / (L3 + le))) * dx
-        t1 = lay.mu_c1 * p
-        g = lay.law.strip_plastic(lay, p, S, LK * p + lay.L_mue, 0.0)
-        cur = np.abs(tau)
-        trial = np.where(inside, tau + d_el, 0.0)
-        at = np.abs(trial)
-        lim_stick = g if kalker else np.minimum(cur, g)
-        stay = plastic & ~(at < lim_stick)
-        yield_now = ~plastic & (at >= np.where(yielded, g, t1))
-        newp = (stay | yield_now) & inside
-        with np.errstate(invalid="ignore", divide="ignore"):
-            dirn = np.where(at > 0, trial / np.where(at > 0, at, 1.0), 0.0)
-        tau = np.where(newp, g * dirn, trial)
-        plastic = newp
-        yielded = (yielded | newp) & inside
-        Fx += np.sum(tau.real, axis=1) * dx * dy
-        Fy += np.sum(tau.imag, axis=1) * dx * dy
-        Mz += np.sum(x * tau.imag - y * tau.real, axis=1) * dx * dy
-    return Fx.reshape(shape), Fy.reshape(shape), Mz.reshape(shape)

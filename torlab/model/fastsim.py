@@ -55,7 +55,8 @@ continuous strip solution:
   symmetry halves the work.
 
 The default grid (``n = 6`` strips, ``m = 4`` nodes per panel; 6 graded, 3
-uniform and 1 clamp panel) is within 2.2e-5 (the target is 0.1 %) of the grid-free reference (:func:`boundary_traction_reference`,
+uniform and 1 clamp panel) is within 2.2e-5 (the target is 0.1 %) of the grid-free reference
+(:func:`torlab.model.reference_solvers.boundary_traction_reference`,
 adaptive quadrature of the continuous strip solution) over the accuracy test
 set; ``torlab bench`` prints the speed-against-error table.
 
@@ -81,47 +82,43 @@ when it has converged: its result does not depend on the other points.
 from __future__ import annotations
 
 import copy
-import itertools
 import math
 from dataclasses import dataclass, field
-from functools import cache
 from typing import Any
 
 import numpy as np
 
 from torlab.errors import ConvergenceError
+from torlab.model.flash import (
+    ThermalParams,
+    converge_flash_temperature,
+    converge_flash_temperature_groups,
+    flash_temperature_matrix,
+)
 from torlab.model.layers import LayerParams
+from torlab.model.strip import (
+    G_strip,
+    e_in_cell,
+    e_strip,
+    gauss_legendre,
+    interp_uniform,
+    row_chunks,
+    sin2_integral,
+)
 
 __all__ = [
     "BoundaryDraws",
     "BoundaryResult",
     "FastsimGrid",
     "FastsimProblem",
-    "ThermalParams",
     "boundary_traction",
     "boundary_traction_draws",
-    "boundary_traction_reference",
-    "e_strip",
-    "flash_temperature_matrix",
 ]
 
 
 # -------------------------------------------------------------------------------------------
 # problem definition
 # -------------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class ThermalParams:
-    """Thermal properties for the flash temperature (Tab. 5.4 defaults)."""
-
-    conductivity: float = 50.0
-    density: float = 7850.0
-    heat_capacity: float = 450.0
-    partition: float = 1.0
-    slip_velocity: str = "rigid"
-    tolerance: float = 0.1
-    max_iterations: int = 200
-
-
 @dataclass(frozen=True)
 class FastsimGrid:
     """Resolution of the default scheme.
@@ -222,189 +219,13 @@ class BoundaryResult:
 
 
 # -------------------------------------------------------------------------------------------
-# closed forms along a strip
-# -------------------------------------------------------------------------------------------
-@cache
-def _gauss(n: int) -> tuple[np.ndarray, np.ndarray]:
-    """Gauss-Legendre nodes and weights on [0, 1]."""
-    x, w = np.polynomial.legendre.leggauss(n)
-    return 0.5 * (x + 1.0), 0.5 * w
-
-
-#: elements of the (points, strips, nodes) arrays computed at once with a layer per point,
-#: and of e_strip's quadrature: temporaries below ~128 kB come from the allocator's free
-#: lists and stay in cache; larger ones are fresh pages each time (several times slower)
-_CHUNK_ELEMENTS = 12288
-
-
-def _row_chunks(n_rows: int, per_row: int) -> list[slice]:
-    """Slices of ``n_rows`` rows with about :data:`_CHUNK_ELEMENTS` elements each."""
-    step = max(1, _CHUNK_ELEMENTS // max(per_row, 1))
-    return [slice(i, min(i + step, n_rows)) for i in range(0, n_rows, step)]
-
-
-def e_strip(theta: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """``e(theta; r) = integral_0^theta sin^2 t / (sin t + r) dt`` (elastic stress shape).
-
-    ``tau_el = xi (a(y)/L1) e(theta; r)`` with ``r = L_mue/(L1 P(y))``.  Closed form
-    ``(1 - cos theta) - r theta + r^2 J`` with ``J = integral dt/(sin t + r)``
-    (tangent half-angle substitution) where ``r < 1/2`` and ``theta > r``; a
-    Gauss-Legendre rule elsewhere (the integrand's nearest singularity is then far
-    from the interval), with as many nodes as that distance needs for round-off
-    accuracy (:func:`_gauss_nodes`: 6 to 24).
-    """
-    theta, r = np.broadcast_arrays(np.asarray(theta, dtype=float), np.asarray(r, dtype=float))
-    out = np.empty(theta.shape)
-    # r = 0 (no elastic layer, L_mue = 0): e = 1 - cos(theta), also at theta = 0 where the
-    # quadrature's integrand would be 0/0
-    closed = (r < 0.5) & ((theta > r) | (r <= 0))
-    if closed.any():
-        th, rr = theta[closed], r[closed]
-        res = 2.0 * np.sin(0.5 * th) ** 2  # 1 - cos(theta) without cancellation
-        pos = rr > 0
-        if pos.any():
-            t, q = th[pos], rr[pos]
-            s = np.sqrt(1.0 - q * q)
-            v = np.cos(0.5 * t) / np.sin(0.5 * t)  # cot(theta/2), 0 at theta = pi
-            J = (np.log1p(q * v / (1.0 + s)) - np.log1p((1.0 + s) * v / q)
-                 + 2.0 * np.log((1.0 + s) / q)) / s
-            res[pos] = res[pos] - q * t + q * q * J
-        out[closed] = res
-    other = ~closed
-    if other.any():
-        th, rr = theta[other], r[other]
-        out[other] = _gauss_piece(None, th, rr, _gauss_nodes(th, rr))
-    return out
-
-
-@cache
-def _gauss_rules() -> tuple[np.ndarray, np.ndarray]:
-    """Nodes and weights on [0, 1] of every even Gauss-Legendre rule from 6 to 24 points,
-    one row per rule (row ``k``: the ``2k``-point rule), padded with zero weights to 24
-    columns."""
-    x = np.zeros((13, 24))
-    w = np.zeros((13, 24))
-    for n in range(_GAUSS_MIN, 25, 2):
-        x[n // 2, :n], w[n // 2, :n] = _gauss(n)
-    return x, w
-
-
-#: Gauss-Legendre nodes of e_strip's rule: ``n >= _GAUSS_A / ln(rho)``, even, from
-#: ``_GAUSS_MIN`` to 24 (see :func:`_gauss_nodes`)
-_GAUSS_A = 13.0
-_GAUSS_MIN = 6
-
-
-def _gauss_nodes(theta: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """Nodes of the Gauss-Legendre rule for ``e(theta; r)`` (:func:`e_strip`), per element.
-
-    The integrand ``sin^2 t / (sin t + r)`` is analytic except where ``sin t = -r``:
-    at ``t = -asin r`` for ``r <= 1``, at ``t = -pi/2 +- i acosh r`` for ``r > 1``
-    (the points after ``theta <= pi`` are farther).  The ``n``-point rule on
-    ``[0, theta]`` then errs by ``O(M rho^(-2n))`` with ``rho`` the Bernstein ellipse
-    through that point (foci at 0 and ``theta``: ``rho = A + sqrt(A^2 - 1)`` with ``2 A
-    theta`` the sum of the point's distances to the foci) and ``M`` the integrand's
-    largest value on it (Trefethen, *Approximation Theory and Approximation Practice*,
-    Thm. 19.3).  ``sin^2 t`` grows like ``exp(2 |Im t|)``, so ``rho`` is capped where
-    the ellipse's half-width reaches 1 (``(theta/4)(rho - 1/rho) = 1``; the case of a
-    large ``r``, whose singularity is far).  ``n = 2 ceil(13 / ln rho)``
-    (``rho^(-2n) <= e^-52``), from 6 to 24: round-off accuracy with a margin over
-    the worst case, ``r = 1/2`` at ``theta = pi``, which needs the 24 nodes
-    (``tests/test_boundary.py`` checks it against 30-digit quadrature).
-    """
-    with np.errstate(divide="ignore", invalid="ignore"):
-        near = r <= 1.0
-        c = np.arccosh(np.where(near, 1.0, r))
-        half = 0.5 * math.pi
-        A = np.where(near, 1.0 + 2.0 * np.arcsin(np.minimum(r, 1.0)) / theta,
-                     (np.hypot(half, c) + np.hypot(theta + half, c)) / theta)
-        # the ellipse also stays within |Im t| <= 1, where sin^2 t grows by at most cosh(1)^2
-        cap = 4.0 / theta + np.sqrt(16.0 / (theta * theta) + 1.0)
-        rho = np.minimum(A + np.sqrt(A * A - 1.0), cap)
-        n = 2.0 * np.ceil(_GAUSS_A / np.log(rho))
-    return np.where(np.isfinite(n) & (n < 24), np.maximum(n, _GAUSS_MIN), 24).astype(int)
-
-
-def _G(s: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """``G(s) = integral_0^s x^2/(x + r) dx = s^2/2 - r s + r^2 ln(1 + s/r)``."""
-    s, r = np.broadcast_arrays(np.asarray(s, dtype=float), np.asarray(r, dtype=float))
-    out = 0.5 * s * s
-    pos = r > 0
-    if pos.any():
-        ss, rr = s[pos], r[pos]
-        z = ss / rr
-        series = z < 0.1
-        val = np.empty(ss.shape)
-        if series.any():
-            zz, r2 = z[series], rr[series] ** 2
-            acc = np.zeros(zz.shape)
-            for k in range(3, 20):
-                acc += (-1) ** (k + 1) * zz**k / k
-            val[series] = r2 * acc
-        ns = ~series
-        if ns.any():
-            val[ns] = 0.5 * ss[ns] ** 2 - rr[ns] * ss[ns] + rr[ns] ** 2 * np.log1p(z[ns])
-        out[pos] = val
-    return out
-
-
-def _S2(theta: np.ndarray) -> np.ndarray:
-    """``integral_0^theta sin^2 t dt``."""
-    return 0.5 * theta - 0.25 * np.sin(2.0 * theta)
-
-
-# -------------------------------------------------------------------------------------------
-# temperature: product integration of the Ertz-Knothe / thesis kernel (Eq. 5.50)
-# -------------------------------------------------------------------------------------------
-@cache
-def flash_temperature_matrix(n_nodes: int) -> tuple[np.ndarray, np.ndarray]:
-    """Nodes ``theta_i`` (uniform on [0, pi]) and matrix ``K`` for a strip of half-length 1.
-
-    For a piecewise-linear heat flux ``q`` on the nodes ``X_i = 1 - cos theta_i``,
-    ``(K @ q)_i = integral_0^{X_i} q(X') / sqrt(X_i - X') dX'`` exactly.  For a
-    strip of half-length ``a`` the integral scales with ``sqrt(a)``.
-    """
-    theta = np.linspace(0.0, math.pi, n_nodes)
-    X = 1.0 - np.cos(theta)
-    X[-1] = 2.0
-    K = np.zeros((n_nodes, n_nodes))
-    for i in range(1, n_nodes):
-        Xc, Xn = X[:i], X[1 : i + 1]
-        h = Xn - Xc
-        sa = np.maximum(X[i] - Xn, 0.0)  # near end of each cell, in s = X_i - X'
-        sb = X[i] - Xc
-        r_a, r_b = np.sqrt(sa), np.sqrt(sb)
-        i0 = 2.0 * (r_b - r_a)  # integral ds / sqrt(s)
-        i1 = (2.0 / 3.0) * (sb * r_b - sa * r_a)  # integral s ds / sqrt(s)
-        w_start = (i1 - sa * i0) / h  # weight of q at the cell's upstream node X_c
-        w_end = (sb * i0 - i1) / h  # weight of q at the downstream node X_{c+1}
-        np.add.at(K[i], np.arange(i), w_start)
-        np.add.at(K[i], np.arange(1, i + 1), w_end)
-    return theta, K
-
-
-# -------------------------------------------------------------------------------------------
 # the solver
 # -------------------------------------------------------------------------------------------
 def _strips(n: int) -> tuple[np.ndarray, np.ndarray]:
     """``cos phi_j`` and integration weights of the strips (``y = b sin phi``, half contact)."""
-    x, w = _gauss(n)
+    x, w = gauss_legendre(n)
     phi = 0.5 * math.pi * x
     return np.cos(phi), 0.5 * math.pi * w
-
-
-def _interp_uniform(theta: np.ndarray, grid_T: np.ndarray) -> np.ndarray:
-    """Linear interpolation of ``grid_T[..., i]`` given on uniform theta nodes on [0, pi].
-
-    ``theta`` has shape ``(..., k)`` with the leading axes of ``grid_T``.
-    """
-    nT = grid_T.shape[-1]
-    pos = np.clip(theta / math.pi * (nT - 1), 0.0, nT - 1 - 1e-12)
-    i0 = pos.astype(int)
-    f = pos - i0
-    lo = np.take_along_axis(grid_T, i0, axis=-1)
-    hi = np.take_along_axis(grid_T, i0 + 1, axis=-1)
-    return lo + f * (hi - lo)
 
 
 def _expand(lay: LayerParams) -> LayerParams:
@@ -595,7 +416,7 @@ class _Solver:
         xi = self.xi
         # elastic part, closed form
         ey = e_strip(th_y, r)
-        F_el = xi * (aj * aj / prob.L1) * (_G(np.sin(th_y), r) - ey * np.cos(th_y))
+        F_el = xi * (aj * aj / prob.L1) * (G_strip(np.sin(th_y), r) - ey * np.cos(th_y))
         # panels of the plastic zone
         A = xi * aj
         B = lay.mu_c1 * prob.L1 * Pj
@@ -619,17 +440,17 @@ class _Solver:
         cl = th_y[..., None] + (th_s - th_y)[..., None] * np.linspace(0, 1, g.clamp_panels + 1)
         edges = np.concatenate([cl, thb[..., 1:], uni[..., 1:]], axis=-1)  # (nx, ns, P+1)
         lo, hi = edges[..., :-1], edges[..., 1:]
-        x, w = _gauss(g.m)
+        x, w = gauss_legendre(g.m)
         th = lo[..., None] + (hi - lo)[..., None] * x  # (nx, ns, P, m)
         wt = (hi - lo)[..., None] * w
         th = th.reshape(*th.shape[:2], -1)
         wt = wt.reshape(*wt.shape[:2], -1)
-        dT = 0.0 if dT_grid is None else _interp_uniform(th, dT_grid)
+        dT = 0.0 if dT_grid is None else interp_uniform(th, dT_grid)
         tau = self.tau(th, None, dT)  # every node of these panels is plastic
         F_pl = aj * np.sum(wt * tau * np.sin(th), axis=-1)
         Ftot = 2.0 * prob.b * np.sum(self.wy * self.cphi * (F_el + F_pl), axis=-1)
         # load fraction still elastic: integral of p over [0, theta_y] per strip
-        stick = 2.0 * prob.b * np.sum(self.wy * self.cphi * aj * Pj * _S2(th_y), axis=-1)
+        stick = 2.0 * prob.b * np.sum(self.wy * self.cphi * aj * Pj * sin2_integral(th_y), axis=-1)
         return Ftot, stick / prob.load
 
 
@@ -760,7 +581,7 @@ def _yield_isothermal(c: np.ndarray, r: np.ndarray,
         table[..., -1] = np.inf
         inv = inv.reshape(-1)
         k = np.empty(logc.shape, dtype=int)
-        for sl in _row_chunks(logc.shape[0], logc.shape[1] * nt):  # small temporaries
+        for sl in row_chunks(logc.shape[0], logc.shape[1] * nt):  # small temporaries
             k[sl] = np.sum(table[inv[sl]] < logc[sl, ..., None], axis=-1)
     edges = np.r_[0.0, grid]
     lo = edges[k]
@@ -831,7 +652,7 @@ def _yield_thermal(c: np.ndarray, r: np.ndarray, e_nodes: np.ndarray, dT: np.nda
     else:  # many points: in pieces that stay in cache
         k, d0, slope, f0, f1, e0 = (np.empty(c.shape, dtype=int), *(np.empty(c.shape)
                                                                      for _ in range(5)))
-        for sl in _row_chunks(c.shape[0], int(np.prod(dT.shape[1:]))):
+        for sl in row_chunks(c.shape[0], int(np.prod(dT.shape[1:]))):
             k[sl], d0[sl], slope[sl], f0[sl], f1[sl], e0[sl] = cells(c[sl], e_nodes[sl],
                                                                      mu1T_nodes[sl], dT[sl])
     lo = k * h
@@ -841,7 +662,7 @@ def _yield_thermal(c: np.ndarray, r: np.ndarray, e_nodes: np.ndarray, dT: np.nda
     def fdf(th: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         st, ct = np.sin(th), np.cos(th)
         lim = c * np.exp(mu1T * (d0 + slope * (th - start)))
-        e = _e_in_cell(th, r, start, e0)
+        e = e_in_cell(th, r, start, e0)
         return e - lim * st, st * st / (st + r) - lim * (ct + mu1T * slope * st)
 
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -856,66 +677,11 @@ def _yield_thermal(c: np.ndarray, r: np.ndarray, e_nodes: np.ndarray, dT: np.nda
         cc, rr, dd, sl, st0, m1, ee = (x[idx] for x in flat)
         st, ct = np.sin(th), np.cos(th)
         lim = cc * np.exp(m1 * (dd + sl * (th - st0)))
-        return (_e_in_cell(th, rr, st0, ee) - lim * st,
+        return (e_in_cell(th, rr, st0, ee) - lim * st,
                 st * st / (st + rr) - lim * (ct + m1 * sl * st))
 
     return _bracketed_newton(fdf_g, lo, hi, th0, "FASTSIM yield angle with temperature",
                              groups=groups)
-
-
-#: Gauss-Legendre nodes of e(theta; r) over a part of a temperature cell (:func:`_e_in_cell`)
-_CELL_NODES = 8
-
-
-def _e_in_cell(theta: np.ndarray, r: np.ndarray, t0: np.ndarray, e0: np.ndarray) -> np.ndarray:
-    """``e(theta; r)`` (:func:`e_strip`) from its value ``e0`` at ``t0 <= theta``, the start
-    of the temperature cell that holds ``theta``: ``e0`` plus the integral over the short
-    piece ``[t0, theta]`` by an :data:`_CELL_NODES`-point Gauss-Legendre rule.
-
-    The integrand's singularities (``sin t = -r``) lie at least ``delta = r + min(t0,
-    pi - theta)`` from the piece for ``r <= 1`` (``asin r >= r``) and at least ``pi/2``
-    for ``r > 1``.  Where ``delta >= 4 d`` (``d = theta - t0``; every ``r >= 0.27`` with
-    the default 48 temperature nodes) the Bernstein ellipse of the piece has ``rho >=
-    9 + sqrt(80) > 17`` and 8 nodes err by ``rho^-16 < 1e-19`` relative to the piece;
-    :func:`e_strip` elsewhere.  ``tests/test_boundary.py`` checks both against 30-digit
-    quadrature.
-    """
-    shape = theta.shape
-    theta, r, t0, e0 = (np.ravel(x) for x in np.broadcast_arrays(theta, r, t0, e0))
-    d = theta - t0
-    inc = r + np.minimum(t0, math.pi - theta) >= 4.0 * d
-    if inc.all():
-        return (e0 + _gauss_piece(t0, d, r)).reshape(shape)
-    out = np.empty(theta.shape)
-    rest = ~inc
-    out[rest] = e_strip(theta[rest], r[rest])
-    if inc.any():
-        out[inc] = e0[inc] + _gauss_piece(t0[inc], d[inc], r[inc])
-    return out.reshape(shape)
-
-
-def _gauss_piece(a: np.ndarray | None, d: np.ndarray, r: np.ndarray,
-                 nodes: np.ndarray | int = _CELL_NODES) -> np.ndarray:
-    """``integral_a^(a+d) sin^2 t / (sin t + r) dt`` (``a`` None: from 0) by the
-    Gauss-Legendre rule of ``nodes`` points (even, 6 to 24; one count for all or one per
-    element), every element in one pass: each row takes its rule's nodes and weights,
-    padded with zero weights to the largest rule in use, which add nothing (a row's sum
-    differs from its rule's alone only in the order of the additions)."""
-    xs, ws = _gauss_rules()
-    k_all = np.broadcast_to(np.asarray(nodes) // 2, d.shape)
-    m = 2 * int(k_all.max()) if d.size else 0
-    out = np.empty(d.shape)
-    # in pieces of _CHUNK_ELEMENTS nodes: temporaries that stay small are much faster
-    for sl in _row_chunks(d.size, m):
-        k = k_all[sl]
-        x, w = xs[k, :m], ws[k, :m]
-        t = d[sl, None] * x if a is None else a[sl, None] + d[sl, None] * x
-        st = np.sin(t)
-        den = st + r[sl, None]
-        # the integrand tends to 0 with sin t where r = 0 (no layer): no 0/0 at sin t = 0
-        f = np.divide(st * st, den, out=np.zeros_like(den), where=den > 0)
-        out[sl] = d[sl] * np.sum(w * f, axis=1)
-    return out
 
 
 def _check_finite(name: str, arr: np.ndarray) -> None:
@@ -1100,7 +866,7 @@ def boundary_traction_draws(prob: FastsimProblem, layers: Any, creepage: Any,
         th_y = solver.yield_angle(dT_grid)
         F, st = np.empty(rows.size), np.empty(rows.size)
         per_row = grid.n * grid.m * (grid.graded_panels + grid.uniform_panels + grid.clamp_panels)
-        for sl in _row_chunks(rows.size, per_row):
+        for sl in row_chunks(rows.size, per_row):
             sub = solver.subset(sl)
             F[sl], st[sl] = sub.force(th_y[sl], None if dT_grid is None else dT_grid[sl])
         mu[rows] = F / prob.load
@@ -1135,11 +901,6 @@ def _extra_flux(extra_heat_flux: Any, grid: FastsimGrid, solver: _Solver, mag: n
                                      solver.cphi[..., None], mag[:, None, None])
     return (np.broadcast_to(np.asarray(q_scale, dtype=float), full)[nz],
             np.broadcast_to(np.asarray(q_add, dtype=float), full)[nz])
-
-
-#: largest |mu_T dT| the iteration accepts: exp(30) = 1e13 changes of the limits mean
-#: a thermal runaway, not a temperature
-_MAX_EXPONENT = 30.0
 
 
 def _temperature(solver: _Solver, prob: FastsimProblem, grid: FastsimGrid, xi: np.ndarray,
@@ -1193,7 +954,7 @@ def _temperature(solver: _Solver, prob: FastsimProblem, grid: FastsimGrid, xi: n
             return heat(sub, rows, th_y, dT)
         # many points: the (points, strips, nodes) arrays in pieces that stay in cache
         out = np.empty_like(dT)
-        for sl in _row_chunks(rows.size, ns * nT):
+        for sl in row_chunks(rows.size, ns * nT):
             out[sl] = heat(sub.subset(sl), rows[sl], th_y[sl], dT[sl])
         return out
 
@@ -1218,268 +979,14 @@ def _temperature(solver: _Solver, prob: FastsimProblem, grid: FastsimGrid, xi: n
         peak = np.max(np.abs(new).reshape(nx, -1), axis=1)
         sens = solver.lay.law.temperature_sensitivity(solver.lay)[:, 0]
         single = peak * sens < 1e-6  # heating too small to change the limits: one pass
-        return _temperature_groups(solver, th, G, new, single, peak, sens, its, moving, where)
+
+        def fail(bad: np.ndarray, why: str) -> np.ndarray:  # the points of the failed groups
+            solver._fail(bad, why)
+            return np.isin(solver.gid, np.fromiter(solver.stats["failed"], dtype=int))
+
+        return converge_flash_temperature_groups(G, new, single, peak, sens, its, moving, where,
+                                                 th, prob.ambient_temperature, fail)
     return converge_flash_temperature(G, dT, its, moving, th, lay, where,
                                       prob.ambient_temperature)
 
 
-def converge_flash_temperature(G: Any, dT: np.ndarray, its: np.ndarray, moving: np.ndarray,
-                               th: ThermalParams, lay: LayerParams, where: Any, ambient: float
-                               ) -> tuple[np.ndarray, np.ndarray, str, np.ndarray]:
-    """The flash temperature's fixed point ``dT = G(dT)``, each point on its own.
-
-    Shared by the longitudinal model (:func:`_temperature`) and the creep forces
-    (:mod:`torlab.model.creep`).  ``G(dT[rows], rows)`` is the temperature rise the
-    points ``rows`` produce at the temperature ``dT`` (the first index of ``dT``
-    numbers the points).  One pass suffices where the heating cannot change the
-    limits (``|dT|`` times the largest temperature coefficient ``< 1e-6``); elsewhere each point iterates
-    with its own adaptive under-relaxation (halved whenever its residual does not
-    fall by 10 %) and leaves the active set once ``max |G(dT) - dT| < tolerance``.
-
-    Returns
-    -------
-    tuple
-        ``(dT, iterations per point, "single pass" or "iterated", Tmax per point)``.
-
-    Raises
-    ------
-    ConvergenceError
-        Thermal runaway (the limits would change by more than ``exp(30)``), or no
-        convergence within ``th.max_iterations``; the message names the point
-        (``where(i)``).
-    """
-    n = dT.shape[0]
-    rows = np.flatnonzero(moving)
-    new = np.zeros_like(dT)
-    new[rows] = G(dT[rows], rows)
-    peak = np.max(np.abs(new).reshape(n, -1), axis=1)
-    sens = lay.law.temperature_sensitivity(lay)
-    single = peak * sens < 1e-6  # heating too small to change the limits: one pass
-    if sens == 0.0 or single.all():
-        return new, its, "single pass", ambient + np.max(new.reshape(n, -1), axis=1)
-    if np.max(peak) * sens > _MAX_EXPONENT:
-        bad = int(np.argmax(peak))
-        raise ConvergenceError(
-            f"contact temperature runs away at {where(bad)}: the first pass already "
-            f"heats by {peak[bad]:.3g} K, and the temperature coefficients "
-            f"{lay.law.temperature_text(lay)} would change the limits "
-            f"by a factor exp({_MAX_EXPONENT:g})", iterations=1)
-    dT[single] = new[single]
-    active = moving & ~single
-    omega = np.ones(n)
-    res_prev = np.full(n, np.inf)
-    for k in range(1, th.max_iterations + 1):
-        rows = _relaxed_step(G, new, dT, active, omega, res_prev, its, k, th.tolerance)
-        if rows.size == 0:
-            break
-        runaway = ~np.isfinite(new[rows]) | (sens * np.abs(new[rows]) > _MAX_EXPONENT)
-        if runaway.any():
-            bad = int(rows[np.argmax(runaway.reshape(rows.size, -1).any(axis=1))])
-            raise ConvergenceError(
-                f"contact temperature diverged at {where(bad)} (thermal runaway: the "
-                f"temperature coefficients {'/'.join(lay.law.temperature_names)} make frictional heating "
-                f"self-amplifying)", iterations=k)
-    else:
-        rows = np.flatnonzero(active)
-        res = np.max(np.abs(new[rows] - dT[rows]).reshape(rows.size, -1), axis=1)
-        j = int(np.argmax(res))
-        bad = int(rows[j])
-        raise ConvergenceError(
-            f"contact temperature did not converge at {where(bad)}: max |dT| = "
-            f"{res[j]:.3g} K after {th.max_iterations} under-relaxed iterations (relaxation "
-            f"{omega[bad]:.3g}); the temperature coefficients {lay.law.temperature_text(lay)} "
-            "make the heating unstable at this slip",
-            iterations=th.max_iterations, residual=float(res[j]))
-    return dT, its, "iterated", ambient + np.max(dT.reshape(n, -1), axis=1)
-
-
-def _relaxed_step(G: Any, new: np.ndarray, dT: np.ndarray, active: np.ndarray,
-                  omega: np.ndarray, res_prev: np.ndarray, its: np.ndarray, k: int,
-                  tol: float) -> np.ndarray:
-    """Step ``k`` of the flash temperature's fixed-point iteration, in place.
-
-    The active points whose residual ``max |G(dT) - dT|`` is below ``tol`` keep ``G(dT)``
-    and leave the active set; the others move by their own under-relaxation factor
-    (halved, down to 1/1024, whenever the residual did not fall by 10 %) and are
-    evaluated again (``new``).  Returns the rows stepped (empty: every point converged).
-    """
-    rows = np.flatnonzero(active)
-    if rows.size == 0:
-        return rows
-    # the arrays are large (points x strips x nodes): every point's rows as views where all
-    # are active, each temporary once (fresh pages are what costs here)
-    sel = _rows(rows, new.shape[0])
-    diff = new[sel] - dT[sel]  # G(T) - T
-    res = np.max(np.abs(diff).reshape(rows.size, -1), axis=1)
-    done = res < tol
-    if done.any():
-        dT[rows[done]] = new[rows[done]]  # converged: keep G(T), leave the active set
-        active[rows[done]] = False
-        keep = ~done
-        rows, res, diff = rows[keep], res[keep], diff[keep]
-        if rows.size == 0:
-            return rows
-        sel = rows
-    worse = res > 0.9 * res_prev[rows]
-    omega[rows] = np.where(worse, np.maximum(omega[rows] * 0.5, 1.0 / 1024), omega[rows])
-    res_prev[rows] = res
-    diff *= omega[rows][:, None, None]
-    if isinstance(sel, slice):
-        dT += diff
-    else:
-        dT[sel] = dT[sel] + diff
-    its[rows] = k + 1
-    new[sel] = G(dT[sel], rows)
-    return rows
-
-
-def _rows(rows: np.ndarray, n: int) -> np.ndarray | slice:
-    """``rows`` (sorted, distinct) as a slice when they are every row (a view, not a copy)."""
-    return slice(None) if rows.size == n else rows
-
-
-def _temperature_groups(solver: _Solver, th: ThermalParams, G: Any, new: np.ndarray,
-                        single: np.ndarray, peak: np.ndarray, sens: np.ndarray,
-                        its: np.ndarray, moving: np.ndarray, where: Any
-                        ) -> tuple[np.ndarray, np.ndarray, str, np.ndarray]:
-    """The iteration of :func:`_temperature` with a layer per point (see there): the same
-    steps for each point, a failure recorded for its group instead of raised."""
-    prob = solver.prob
-    nx = new.shape[0]
-    gid = solver.gid
-
-    def drop(bad: np.ndarray, why: str) -> None:
-        solver._fail(bad, why)
-        gone = np.isin(gid, np.fromiter(solver.stats["failed"], dtype=int))
-        active[gone] = False
-
-    dT = np.zeros_like(new)
-    dT[single] = new[single]
-    active = moving & ~single
-    runaway = active & (peak * sens > _MAX_EXPONENT)
-    if runaway.any():
-        drop(runaway, f"contact temperature runs away at {where(int(np.argmax(runaway)))}: the "
-                      "first pass already changes the limits by more than a factor "
-                      f"exp({_MAX_EXPONENT:g})")
-    omega = np.ones(nx)
-    res_prev = np.full(nx, np.inf)
-    tol = th.tolerance
-    for k in range(1, th.max_iterations + 1):
-        rows = _relaxed_step(G, new, dT, active, omega, res_prev, its, k, tol)
-        if rows.size == 0:
-            break
-        # not finite, or beyond the largest exponent (NaN fails the comparison)
-        peak_k = np.max(np.abs(new[_rows(rows, nx)]).reshape(rows.size, -1), axis=1)
-        bad = ~(sens[rows] * peak_k <= _MAX_EXPONENT)
-        if bad.any():
-            mask = np.zeros(nx, dtype=bool)
-            mask[rows[bad]] = True
-            drop(mask, f"contact temperature diverged at {where(int(rows[np.argmax(bad)]))} "
-                       "(thermal runaway)")
-    else:
-        if active.any():
-            drop(active.copy(), f"contact temperature did not converge at "
-                                f"{where(int(np.argmax(active)))} after {th.max_iterations} "
-                                "under-relaxed iterations")
-    tmax = prob.ambient_temperature + np.max(dT.reshape(nx, -1), axis=1)
-    return dT, its, "iterated", tmax
-
-
-# -------------------------------------------------------------------------------------------
-# grid-free reference (adaptive quadrature of the continuous strip solution)
-# -------------------------------------------------------------------------------------------
-def boundary_traction_reference(prob: FastsimProblem, creepage: float, *, rtol: float = 1e-10) -> float:  # noqa: C901 (a reference solver spelled out case by case, for clarity over speed)
-    """Grid-free reference ``mu_BL`` without temperature, by adaptive quadrature.
-
-    Independent of the fast scheme's closed forms: per strip, ``E(X)`` and the
-    elastic force come from an ODE integration in ``X`` (``solve_ivp``, DOP853,
-    ``rtol`` 1e-12), the yield point from ``brentq`` on its dense output, the
-    plastic force from ``quad`` with the clamp and the law's grading length
-    (Voce: ``L_mup``) as break points, and the strips from ``quad`` over ``y``.  Slow (seconds); for tests
-    and the benchmark.
-    """
-    from scipy.integrate import quad, solve_ivp
-    from scipy.optimize import brentq
-
-    if prob.thermal is not None and any(prob.layer.law.temperature_coefficients(prob.layer)):
-        raise ValueError("the reference covers the isothermal model only")
-    xi = abs(float(creepage))
-    if xi == 0:
-        return 0.0
-    lay = prob.layer
-    L1 = prob.L1
-
-    def strip_force(eta: float) -> float:
-        s = math.sqrt(max(1.0 - eta * eta, 0.0))
-        ay, Py = prob.a * s, prob.p0 * s
-        if ay <= 0:
-            return 0.0
-
-        # the ODE in theta for the dimensionless e = E L1/ay and m = M L1/ay^2, with
-        # X = ay (1 - cos theta), p = Py sin theta: de/dtheta = sin^2/(sin + r),
-        # dm/dtheta = (1 - cos theta) de/dtheta, r = L_mue/(L1 Py); integrated numerically
-        r = lay.L_mue / (L1 * Py)
-
-        def rhs(th, y):
-            st = math.sin(th)
-            de = st * st / (st + r) if st + r > 0 else 0.0
-            return [de, (1.0 - math.cos(th)) * de]
-
-        sol = solve_ivp(rhs, (0.0, math.pi), [0.0, 0.0], method="DOP853", rtol=1e-12,
-                        atol=1e-15, dense_output=True)
-        kE = ay / L1
-
-        if lay.mu_c1 == 0:
-            thy = 0.0
-        else:
-            # first sign change of xi E - tau_c1 on a fine scan, then brentq
-            def g(th):
-                return xi * kE * float(sol.sol(th)[0]) - lay.mu_c1 * Py * math.sin(th)
-
-            ths = np.linspace(0, math.pi, 4001)[1:]
-            gv = xi * kE * sol.sol(ths)[0] - lay.mu_c1 * Py * np.sin(ths)
-            k = int(np.argmax(gv >= 0))
-            lo = ths[k - 1] if k > 0 else 1e-300
-            thy = brentq(g, lo, ths[k], xtol=1e-16, rtol=1e-15, maxiter=500)
-        ey, my = (float(v) for v in sol.sol(thy))
-        # elastic force: integral_0^Xy xi E dX = xi (Xy E(Xy) - integral_0^Xy X/L dX)
-        F_el = xi * ay * kE * ((1.0 - math.cos(thy)) * ey - my)
-
-        def tau_pl_theta(th):
-            pp = Py * math.sin(th)
-            X = ay * (1.0 - math.cos(th))
-            tau = float(lay.law.strip_plastic(lay, pp, xi * X, L1 * pp + lay.L_mue, 0.0))
-            return tau * ay * math.sin(th)
-
-        def dfun(th):
-            return xi * ay * (1.0 - math.cos(th)) - lay.mu_c1 * (L1 * Py * math.sin(th) + lay.L_mue)
-
-        pts = [thy]
-        tg = np.linspace(thy, math.pi, 2001)
-        dv = xi * ay * (1.0 - np.cos(tg)) - lay.mu_c1 * (L1 * Py * np.sin(tg) + lay.L_mue)
-        for i in np.flatnonzero((dv[:-1] < 0) != (dv[1:] < 0)):
-            pts.append(brentq(dfun, tg[i], tg[i + 1], xtol=1e-16, rtol=1e-15))
-        grading = float(lay.law.grading_length(lay))
-        if grading > 0:
-            Xb = ay * (1.0 - math.cos(pts[-1]))
-            ell = grading / xi
-            for k in (0.25, 0.5, 1, 2, 4, 8, 16, 32, 64):
-                if Xb + ell * k < 2 * ay:
-                    pts.append(math.acos(1.0 - (Xb + ell * k) / ay))
-        pts = [*sorted(set(min(max(t, thy), math.pi) for t in pts)), math.pi]
-        F_pl = 0.0
-        for lo_, hi_ in itertools.pairwise(pts):
-            if hi_ > lo_:
-                val, err, *_ = quad(tau_pl_theta, lo_, hi_, epsabs=0, epsrel=rtol, limit=200,
-                                    full_output=1)
-                # quadpack's round-off flag at the clamp kink is harmless; a real loss is not
-                if err > 1e3 * rtol * abs(val) + 1e-300:
-                    raise ConvergenceError(f"reference quadrature error {err:.3g} on a strip")
-                F_pl += val
-        return F_el + F_pl
-
-    def integrand(phi: float) -> float:
-        return strip_force(math.sin(phi)) * math.cos(phi)
-
-    Fx = 2.0 * prob.b * quad(integrand, 0.0, 0.5 * math.pi, epsabs=0, epsrel=rtol, limit=200)[0]
-    return Fx / prob.load

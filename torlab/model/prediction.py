@@ -14,7 +14,8 @@ from typing import Any
 import numpy as np
 
 from torlab.model.contact import ContactModel, build_contact
-from torlab.model.fastsim import FastsimGrid, FastsimProblem, ThermalParams
+from torlab.model.fastsim import FastsimGrid, FastsimProblem
+from torlab.model.flash import ThermalParams
 
 __all__ = ["TREND_CLASSES", "TREND_PROBABILITY", "TREND_TOLERANCE", "TractionPrediction",
            "classify_trend", "fastsim_grid", "fastsim_problem"]
