@@ -251,7 +251,8 @@ def test_ertz_temperature_full_sliding():
     (every element slides at mu p), the temperature methods differ.  torlab's flash
     temperature (the thesis's strip solution, half the heat into each body) lies 10 % below
     CONTACT's: a regression guard on the documented difference, not a validation."""
-    from torlab.model.fastsim import FastsimProblem, ThermalParams, boundary_traction
+    from torlab.model.fastsim import FastsimProblem, boundary_traction
+    from torlab.model.flash import ThermalParams
     from torlab.model.kalker import C11, L1
     from torlab.model.layers import LayerParams
 
