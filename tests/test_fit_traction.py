@@ -173,3 +173,83 @@ def test_noisy_sparse_curve_never_gives_a_negative_bound_and_states_each_choice(
             else:
                 assert n in res.fixed and n not in res.names
     assert seen == {"kept", "not determined", "fixed at the lower end of its range"}, seen
+
+
+def _two_speeds():
+    sc = load_scene(SCENE)
+    xi1 = np.linspace(0.004, 0.05, 8)
+    return sc, np.concatenate([xi1, xi1]), np.repeat([0.1, 0.5], xi1.size)
+
+
+SPEED_TRUTH = {"mu_c1": 0.2, "mu_c2": 0.26, "L_mue": 2e-6, "L_mup": 4e-6}
+
+
+def test_a_log_at_several_speeds_is_modelled_at_each_points_speed():
+    """A lubricated traction test recorded at two rolling speeds: the film (and with it the
+    asperities' share) differs between them, so one scene speed cannot model both curves.
+    The fit's model evaluates each point at its own speed."""
+    from torlab.fit.traction import speed_model
+
+    sc, xi, v = _two_speeds()
+    f, speeds, group = speed_model(sc, v)
+    assert speeds == pytest.approx([0.1, 0.5]) and list(group) == [0] * 8 + [1] * 8
+    mu = f(SPEED_TRUTH, xi)
+    slow = sc.model_copy(update={"kinematics": sc.kinematics.model_copy(update={"speed": 0.1})})
+    np.testing.assert_allclose(mu[:8], traction_model(slow)(SPEED_TRUTH, xi[:8]), atol=1e-14)
+    np.testing.assert_allclose(mu[8:], traction_model(sc)(SPEED_TRUTH, xi[8:]), atol=1e-14)
+    assert abs(traction_model(sc)(SPEED_TRUTH, xi[:8]) - mu[:8]).max() > 0.02
+    with pytest.raises(TorlabInputError, match="speeds"):
+        fit_layer_traction(sc, xi, mu, speed=v[:3])
+
+
+@pytest.mark.slow  # two mixed-model curves fitted (3 s); the model at each speed: the test above
+def test_a_log_at_several_speeds_is_fitted_at_each_points_speed():
+    """The fit of the two-speed curve recovers the layer (mu_c2 in its interval)."""
+    from torlab.fit.traction import speed_model
+
+    sc, xi, v = _two_speeds()
+    mu = speed_model(sc, v)[0](SPEED_TRUTH, xi)
+    mu = mu * (1 + 0.005 * np.random.default_rng(3).standard_normal(xi.size))
+    res = fit_layer_traction(sc, xi, mu, speed=v)
+    assert res.meta["speeds_m_s"] == pytest.approx([0.1, 0.5])
+    assert set(res.data["curve"]) == {"0.1 m/s", "0.5 m/s"}
+    lo, hi = res.ci95["mu_c2"]
+    assert lo <= SPEED_TRUTH["mu_c2"] <= hi and hi - lo < 0.05
+
+
+@pytest.mark.slow  # the sample log's five speeds through the mixed model (10 s); parts above
+def test_paper_a_lubricated_traction_log_fits_from_the_command_line(tmp_path, cli):
+    """``torlab fit traction`` on Paper A's lubricated traction log (five speeds, truth in
+    sample_data/optical/truth.yaml: mu_c2 0.26): no internal error, a valid summary.json,
+    the generating mu_c2 within its interval, the speeds stated."""
+    import json
+
+    from torlab.yamlio import load_yaml
+
+    opt = ROOT / "sample_data" / "optical"
+    r = cli("fit", "traction", SCENE, opt / "traction_rough.csv", "-o", tmp_path / "o")
+    assert r.exit_code == 0, r.output
+    s = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert len(s["meta"]["speeds_m_s"]) == 5
+    truth = load_yaml(opt / "truth.yaml").data["layer"]["mu_c2"]
+    lo, hi = s["ci95"]["mu_c2"]
+    assert lo <= truth <= hi
+
+
+def test_an_unbounded_interval_reaches_the_summary_as_null():
+    """A parameter whose interval has no upper end (a length at the foot of its range) is
+    written as null in summary.json and params.yaml, never as an infinity."""
+    import json
+
+    from torlab.fit.result import FitResult
+
+    res = FitResult.from_covariance("layer_traction", ("mu_c2", "L_mue"),
+                                    np.array([0.26, 1e-10]), np.diag([1e-8, 1e-13]), dof=20,
+                                    log_scale=("mu_c2", "L_mue"), residual_norm=0.001,
+                                    n_points=25, warnings=[], data=None)
+    assert res.ci95["L_mue"][1] == np.inf
+    res.meta["model_selection"] = {"L_mue": {"ci95": list(res.ci95["L_mue"])}}
+    s = json.dumps(res.summary(), allow_nan=False)
+    assert json.loads(s)["meta"]["model_selection"]["L_mue"]["ci95"] == [0.0, None]
+    assert res.provenance()["model_selection"]["L_mue"]["ci95"][1] is None
+    assert "unbounded" in res.report()

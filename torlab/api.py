@@ -300,14 +300,17 @@ def fit_traction(scene: Any, data: Any, *, fix: dict[str, Any] | None = None,
     if isinstance(data, (str, os.PathLike)):
         from torlab.instruments.measured import traction_data
 
-        xi, mu, _ = traction_data(Path(data))
+        xi, mu, _, v = traction_data(Path(data))
     elif isinstance(data, Reduction):
         cs = data.traction_curves()
         xi, mu = np.concatenate([c.x for c in cs]), np.concatenate([c.y for c in cs])
+        v = np.concatenate([np.full(np.size(c.x), float(c.speed_m_s)) for c in cs]) \
+            if cs and all(c.speed_m_s is not None for c in cs) else None
     else:
         xi, mu = data
+        v = None
     return fit_layer_traction(sc, np.asarray(xi, dtype=float), np.asarray(mu, dtype=float),
-                              fixed=layer_values(fix or {}))
+                              fixed=layer_values(fix or {}), speed=v)
 
 
 def fit_viscosity(data: Any, law: str = "roelands", **options: Any) -> Any:

@@ -130,10 +130,11 @@ def print_fit(result: Any, title: str) -> None:
         unit = PARAM_UNITS.get(r["parameter"], "")
         f = 1e6 if unit == "m" and abs(r["value"]) < 1e-2 else 1e9 if unit == "1/Pa" else 1.0
         u = {1e6: "µm", 1e9: "1/GPa"}.get(f, unit)
+        hi = "unbounded" if r["ci95_high"] != r["ci95_high"] else f"{r['ci95_high'] * f:.5g}"
         rows.append({"parameter": r["parameter"], "value": f"{r['value'] * f:.5g}",
                      "± se": "—" if r["stderr"] != r["stderr"] else f"{r['stderr'] * f:.2g}",
                      "95 % interval": "—" if r["ci95_low"] != r["ci95_low"] else
-                     f"[{r['ci95_low'] * f:.5g}, {r['ci95_high'] * f:.5g}]",
+                     f"[{r['ci95_low'] * f:.5g}, {hi}]",
                      "unit": u, "status": r["status"]})
     print_table(rows, title=title)
     c = console()
@@ -258,18 +259,19 @@ def traction_cmd(
     console().print(f"wrote {what} to {out}")
 
 
-def _traction_fits(sc: Any, curves: list[tuple[Path, Any, Any, str]], *, joint: bool,
+def _traction_fits(sc: Any, curves: list[tuple[Path, Any, Any, str, Any]], *, joint: bool,
                    dry: bool, fixed: dict[str, float]
                    ) -> tuple[list[tuple[str, Any]], dict[str, Any]]:
-    """One traction fit per curve ``(file, creepage, mu, test)``, or one to all (``joint``);
-    each with its dense model curve.  A dry test is fitted in the scene without its
-    lubricant and roughness."""
+    """One traction fit per curve ``(file, creepage, mu, test, speed)``, or one to all
+    (``joint``); each with its dense model curve (one speed).  A dry test is fitted in the
+    scene without its lubricant and roughness; the points of a log at several speeds each
+    at its own speed."""
     import numpy as np
 
     from torlab.errors import TorlabInputError
     from torlab.fit.traction import fit_layer_traction, traction_model
 
-    is_dry = [dry or test == "dry_traction" for *_, test in curves]
+    is_dry = [dry or c[3] == "dry_traction" for c in curves]
     if joint and len(set(is_dry)) > 1:
         wet = [c[0].name for c, d in zip(curves, is_dry, strict=True) if not d]
         raise TorlabInputError(f"--joint pools repeats of one test, but {', '.join(wet)} "
@@ -287,11 +289,15 @@ def _traction_fits(sc: Any, curves: list[tuple[Path, Any, Any, str]], *, joint: 
         scg = sc.model_copy(update={"lubricant": None, "roughness": None}) \
             if dry_group and lubricated else sc
         xi = np.concatenate([c[1] for c in group])
-        res = fit_layer_traction(scg, xi, np.concatenate([c[2] for c in group]), fixed=fixed)
+        v = np.concatenate([c[4] for c in group]) if all(c[4] is not None for c in group) \
+            else None
+        res = fit_layer_traction(scg, xi, np.concatenate([c[2] for c in group]), fixed=fixed,
+                                 speed=v)
         res.meta["source"] = ", ".join(c[0].name for c in group)
         name = _stem(group[0][0], names)
-        dense = np.linspace(float(np.min(xi)), float(np.max(xi)), 201)
-        model_curves[name] = (dense, traction_model(scg)(res.params, dense))
+        if len(res.meta.get("speeds_m_s", [])) <= 1:  # one speed: the model as a dense curve
+            dense = np.linspace(float(np.min(xi)), float(np.max(xi)), 201)
+            model_curves[name] = (dense, traction_model(scg)(res.params, dense))
         fits.append((name, res))
     return fits, model_curves
 

@@ -30,6 +30,7 @@ __all__ = [
     "PARAM_UNITS",
     "FitResult",
     "covariance_from_jacobian",
+    "finite_tree",
     "hac_covariance",
     "log_interval",
     "student_t",
@@ -331,7 +332,7 @@ class FitResult:
         if cs is not None:
             prov["covariance"] = cs
         if isinstance(self.meta.get("model_selection"), dict):
-            prov["model_selection"] = self.meta["model_selection"]
+            prov["model_selection"] = finite_tree(self.meta["model_selection"])
         for k, v in self.meta.items():
             if k != "lubricant_extra" and (v is None or isinstance(v, (str, int, float, bool, list))):
                 prov.setdefault(k, v)
@@ -372,7 +373,8 @@ class FitResult:
                  "|---|---|---|---|---|---|"]
         for r in self.table().itertuples():
             se = "—" if r.stderr != r.stderr else f"{r.stderr:.3g}"
-            ci = "—" if r.ci95_low != r.ci95_low else f"[{r.ci95_low:.5g}, {r.ci95_high:.5g}]"
+            hi = "unbounded" if r.ci95_high != r.ci95_high else f"{r.ci95_high:.5g}"
+            ci = "—" if r.ci95_low != r.ci95_low else f"[{r.ci95_low:.5g}, {hi}]"
             lines.append(f"| {r.parameter} | {r.value:.5g} | {se} | {ci} | {r.unit} | "
                          f"{r.status} |")
         lines += [""] + [f"- warning: {w}" for w in self.warnings]
@@ -442,7 +444,7 @@ class FitResult:
             "fixed": dict(self.fixed),
             "log_scale": list(self.log_scale),
             "warnings": list(self.warnings),
-            "meta": {k: v for k, v in self.meta.items() if k != "lubricant_extra"},
+            "meta": finite_tree({k: v for k, v in self.meta.items() if k != "lubricant_extra"}),
         }
 
 
@@ -465,6 +467,19 @@ def log_interval(value: float, se: float, tq: float) -> tuple[float, float]:
 
 def _finite_or_none(x: float) -> float | None:
     return float(x) if x is not None and math.isfinite(x) else None
+
+
+def finite_tree(obj: Any) -> Any:
+    """``obj`` with every non-finite number (an unbounded interval's end, an undetermined
+    estimate) replaced by None, in nested dicts, lists and tuples: what a result file
+    may hold (JSON has no infinity; a report says "unbounded" where it finds None)."""
+    if isinstance(obj, dict):
+        return {k: finite_tree(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [finite_tree(v) for v in obj]
+    if isinstance(obj, (float, np.floating)):
+        return float(obj) if math.isfinite(obj) else None
+    return obj
 
 
 def viscosity_result(vf: Any) -> FitResult:

@@ -24,6 +24,11 @@ each point is kept.  Standard errors are ``s^2 (J^T J)^-1`` with the residual
 standard deviation ``s`` (independent points: each is a steady-state average).
 Parameters may be held fixed (``fixed={"L_mup": 20e-6}``) when the curve does
 not determine them.
+
+A log recorded at several rolling speeds (an optical traction test at 0.25-2 m/s)
+is fitted with each point at its own speed (``speed=``): in a lubricated contact
+the film, and with it the asperities' share of the load, changes with the speed,
+so one scene speed for every point would fit a different contact.
 """
 
 from __future__ import annotations
@@ -155,9 +160,57 @@ def _start(model: Any, scene: Any, xi: np.ndarray, y: np.ndarray) -> dict[str, f
     return law.traction_start(mu1, mu2, lme)
 
 
+def speed_model(scene: Any, speed: Any) -> tuple[Any, list[float], np.ndarray]:
+    """The traction model of points at their own rolling speeds.
+
+    Parameters
+    ----------
+    scene
+        The test contact.
+    speed
+        Rolling speed of every point [m/s] (None: the scene's for all).
+
+    Returns
+    -------
+    (model, speeds, group)
+        ``model(params, xi)`` evaluates each point at its speed (``xi`` in the
+        order of ``speed``); the distinct speeds [m/s] (within 5 % of a group's
+        slowest, their mean) and each point's group index.  ``model.contact`` and
+        ``model.first`` (the model at the slowest speed alone, for the start) as
+        :func:`traction_model`.
+    """
+    if speed is None:
+        m = traction_model(scene)
+        m.first = m  # type: ignore[attr-defined]
+        return m, [float(scene.kinematics.speed)], None  # type: ignore[return-value]
+    from torlab.reduce.optical import speed_groups
+
+    v = np.asarray(speed, dtype=float).ravel()
+    if not (np.all(np.isfinite(v)) and np.all(v > 0)):
+        raise TorlabInputError("traction fit: the rolling speeds must be positive numbers",
+                               key="speed")
+    g = speed_groups(v)
+    speeds = [float(np.mean(v[g == k])) for k in range(int(g.max()) + 1)]
+    models = [traction_model(scene.model_copy(update={"kinematics": scene.kinematics.model_copy(
+        update={"speed": s})})) for s in speeds]
+
+    def f(params: dict[str, float], xi: np.ndarray) -> np.ndarray:
+        xi = np.asarray(xi, dtype=float)
+        out = np.empty(xi.shape)
+        for k, m in enumerate(models):
+            sel = g == k
+            out[sel] = m(params, xi[sel])
+        return out
+
+    f.contact = models[0].contact  # type: ignore[attr-defined]
+    f.first = models[0]  # type: ignore[attr-defined]
+    return f, speeds, g
+
+
 @small_problem  # one BLAS thread: small matrices (torlab.threads)
 def fit_layer_traction(scene: Any, creepage: Any, mu: Any, *, fixed: dict[str, float] | None = None,  # noqa: C901 (each input form, fixed parameter and fallback is a case, said in the result)
-                       x0: dict[str, float] | None = None, max_nfev: int = 200) -> FitResult:
+                       x0: dict[str, float] | None = None, max_nfev: int = 200,
+                       speed: Any = None) -> FitResult:
     """Fit the layer parameters to a traction curve with FASTSIM (thesis Eqs. 5.14-5.30).
 
     Parameters
@@ -174,6 +227,9 @@ def fit_layer_traction(scene: Any, creepage: Any, mu: Any, *, fixed: dict[str, f
         Starting values (SI) overriding the data-driven guess.
     max_nfev
         Model-evaluation budget of the optimiser.
+    speed
+        Rolling speed of every point [m/s] (a log at several speeds); default the
+        scene's for all.
 
     Returns
     -------
@@ -190,6 +246,14 @@ def fit_layer_traction(scene: Any, creepage: Any, mu: Any, *, fixed: dict[str, f
     import pandas as pd
     from scipy.optimize import least_squares
 
+    if speed is not None and scene.lubricant is None and scene.thermal is None:
+        speed = None  # a dry isothermal contact does not depend on the speed
+    if speed is not None:
+        v_all = np.asarray(speed, dtype=float).ravel()
+        if v_all.size != np.asarray(creepage).size:
+            raise TorlabInputError(f"traction fit: {np.asarray(creepage).size} creepages but "
+                                   f"{v_all.size} speeds", key="speed")
+        speed = v_all[np.asarray(creepage, dtype=float).ravel() != 0]
     xi, y = _check(creepage, mu)
     fixed = dict(fixed or {})
     law = scene.boundary.layer.law if scene.boundary is not None else get_law()
@@ -204,14 +268,15 @@ def fit_layer_traction(scene: Any, creepage: Any, mu: Any, *, fixed: dict[str, f
     if xi.size < len(free) + 2:
         raise TorlabInputError(f"traction fit: {xi.size} points for {len(free)} parameters; need "
                                f"at least {len(free) + 2}")
-    model = traction_model(scene)
+    model, speeds, group = speed_model(scene, speed)
     nfev = [0]
 
     def evaluate(p: dict[str, float]) -> np.ndarray:
         nfev[0] += 1
         return model(p, xi)
 
-    start = _start(model, scene, xi, y)
+    first = slice(None) if group is None else group == 0
+    start = _start(model.first, scene, xi[first], y[first])
     nfev[0] += 1
     start.update(x0 or {})
     sc = np.array([law.param(n).scale for n in free])
@@ -279,6 +344,9 @@ def fit_layer_traction(scene: Any, creepage: Any, mu: Any, *, fixed: dict[str, f
     dof = xi.size - len(keep) - (1 if w is not None else 0)
     y_model = y + r
     data = pd.DataFrame({"creepage": xi, "mu_measured": y, "mu_model": y_model, "residual": -r})
+    if len(speeds) > 1:
+        data.insert(0, "curve", [f"{speeds[k]:.3g} m/s" for k in group])
+        data.insert(1, "speed_m_s", np.asarray(speed, dtype=float))
     if w is not None:
         data["residual_sd_relative"] = np.sqrt(w)
     meta = {"method": "bounded least squares (trf) of FASTSIM + layer (torlab predict's model)"
@@ -287,6 +355,7 @@ def fit_layer_traction(scene: Any, creepage: Any, mu: Any, *, fixed: dict[str, f
             "scene": getattr(scene, "name", ""),
             "model": "dry: Hertz + FASTSIM" if scene.lubricant is None else "mixed (predict_traction)",
             "creepage_range": [float(np.min(xi)), float(np.max(xi))],
+            "speeds_m_s": speeds,
             "noise_model": vf.describe() if w is not None else
             "constant (the variance function's proportional share is negligible)",
             "noise_proportional_share": float(vf.phi)}

@@ -133,9 +133,11 @@ def is_hpt_input(path: Path) -> bool:
         return b"shear_stress_Pa" in f.read(2000).split(b"\n", 1)[0]
 
 
-def traction_data(path: Path) -> tuple[Any, Any, str]:
-    """Creepage and coefficient of a measured traction curve: an instrument file (its folded
-    traction curves, every speed) or a CSV with creepage (or srr) and mu."""
+def traction_data(path: Path) -> tuple[Any, Any, str, Any]:
+    """Creepage, coefficient, test type and rolling speed of a measured traction curve: an
+    instrument file (its folded traction curves, every speed) or a CSV with creepage (or
+    srr), mu and optionally speed_m_s (or rolling_speed_m_s).  The speed is one value per
+    point [m/s], or None where the file does not give it."""
     import numpy as np
 
     if detected(path):
@@ -144,11 +146,16 @@ def traction_data(path: Path) -> tuple[Any, Any, str]:
         red = reduce_file(path)
         curves = red.traction_curves()
         test = getattr(red.detail, "test", "")
+        v = None
+        if curves and all(c.speed_m_s is not None for c in curves):
+            v = np.concatenate([np.full(np.size(c.x), float(c.speed_m_s)) for c in curves])
         return (np.concatenate([c.x for c in curves]), np.concatenate([c.y for c in curves]),
-                test)
+                test, v)
     df, (xc, yc) = read_csv(path, (("creepage", "srr"), ("mu", "traction_coefficient")),
                              "a traction curve")
-    return numbers(df, xc, path), numbers(df, yc, path), ""
+    vc = next((c for c in ("speed_m_s", "rolling_speed_m_s") if c in df), None)
+    return (numbers(df, xc, path), numbers(df, yc, path), "",
+            None if vc is None else numbers(df, vc, path))
 
 
 def film_data(path: Path) -> list[tuple[str, Any, Any, float | None]]:
