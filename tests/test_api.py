@@ -55,6 +55,38 @@ def test_unknown_option_says_did_you_mean():
         torlab.reduce_file(f, "hpx")
 
 
+def test_a_fit_object_gives_the_band_its_params_file_gives(tmp_path):
+    """``predict_*(..., params=fit)`` carries the fit's covariance exactly as the fit's
+    params.yaml does: the same band, column for column, and the same band summary."""
+    import numpy as np
+
+    import torlab
+    from torlab.fit.result import FitResult
+
+    names = ("mu_c1", "mu_c2", "L_mue", "L_mup")
+    sd = np.array([0.004, 0.005, 0.6e-6, 1.5e-6])
+    corr = np.array([[1, 0.6, 0.2, 0], [0.6, 1, 0, 0.5], [0.2, 0, 1, 0.1], [0, 0.5, 0.1, 1]])
+    fit = FitResult.from_covariance(  # what fit_hpt returns, without the curve's 2 s fit
+        "layer_hpt", names, np.array([0.16, 0.26, 6e-6, 12e-6]), corr * np.outer(sd, sd),
+        dof=30, log_scale=names, residual_norm=1e6, n_points=400, warnings=[], data=None,
+        residual_unit="Pa")
+    path = tmp_path / "params.yaml"
+    fit.to_params(path)
+    scene = ROOT / "protocols" / "scenes" / "optical_paper_a_dry.yaml"
+    a = torlab.predict_traction(scene, "0:2 %:6", params=fit)
+    b = torlab.predict_traction(scene, "0:2 %:6", params=path)
+    assert "mu_low95" in a.table and a.summary["band"]["method"] != "not computed"
+    for col in ("mu", "mu_low95", "mu_high95"):
+        np.testing.assert_array_equal(a.table[col].to_numpy(), b.table[col].to_numpy())
+    assert a.summary["band"] == b.summary["band"]
+    assert a.trend == b.trend
+    # the object and the file together: two independent blocks, as two files give
+    two = torlab.load_scene(scene, path, path)
+    c = torlab.predict_traction(scene, "0:2 %:6", params=[fit, path])
+    assert len(two.fit.covariances) == len(torlab.api._scene(scene, [fit, path]).fit.covariances)
+    assert c.summary["band"] == torlab.predict_traction(two, "0:2 %:6").summary["band"]
+
+
 def _cells(md: str) -> list[str]:
     return re.findall(r"```python\n(.*?)```", md, flags=re.S)
 

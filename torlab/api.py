@@ -258,14 +258,31 @@ def _scene(scene: Any, params: Any = None) -> Any:
         sc = scene
     else:
         sc = scene_from_dict(dict(scene))
-    sets = [p.to_scene_dict() if isinstance(p, FitResult) else
+    # a FitResult brings what its params.yaml holds: the values and the fit: section with
+    # its covariance, so a prediction from the object has the band the file gives
+    sets = [p.to_yaml_dict() if isinstance(p, FitResult) else
             _param_file(p) if isinstance(p, (str, os.PathLike)) else p for p in extra]
     if not sets:
         return sc
     d = sc.model_dump(exclude_none=True)
+    # every set's covariance block is kept (independent fits), as load_scene keeps them
+    covs = _covariance_blocks(d)
     for s in sets:
+        s = copy.deepcopy(dict(s))
+        covs += _covariance_blocks(s)
         deep_merge(d, s)
+    if covs:
+        d.setdefault("fit", {})["covariance"] = covs if len(covs) > 1 else covs[0]
     return scene_from_dict(d)
+
+
+def _covariance_blocks(d: dict) -> list:
+    """The ``fit: covariance:`` blocks of a scene or parameter mapping, taken out of it."""
+    fit = d.get("fit")
+    if not isinstance(fit, dict) or fit.get("covariance") is None:
+        return []
+    c = fit.pop("covariance")
+    return list(c) if isinstance(c, list) else [c]
 
 
 def fit_traction(scene: Any, data: Any, *, fix: dict[str, Any] | None = None,
