@@ -123,7 +123,8 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
               "torlab.threads", "torlab.codec", "torlab._unit_table")),
     # units at the edges, safe files and result folders, the executor, YAML, uncertainty
     ("io", ("torlab.units", "torlab.files", "torlab.parallel", "torlab.grids", "torlab.yamlio",
-            "torlab.outputs", "torlab.uncertainty")),
+            "torlab.outputs", "torlab.uncertainty", "torlab.random_effects",
+            "torlab.comparison")),
     # the layer laws' registry: each law's parameters, units, ranges and stress formulas,
     # which the scene contract validates its boundary: section against (numpy only)
     ("laws", ("torlab.model.layers",)),

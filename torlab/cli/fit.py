@@ -9,7 +9,8 @@ Each command writes ``params.yaml`` (the scene contract's ``boundary:`` /
 table in ``tables.xlsx`` too.  Data arguments take files, folders and patterns
 (``'runs/*.csv'``, expanded by torlab: a folder contributes the files the fit can
 read); several curves give one fit each, in a sub-folder per curve with
-``fit_summary.csv`` over them, or with ``--joint`` one fit to all of them.  A fit
+``fit_summary.csv`` over them, or with ``--joint`` one parameter set: their fits pooled
+with random effects (:mod:`torlab.fit.repeats`).  A fit
 that fails writes nothing.
 """
 
@@ -140,6 +141,8 @@ def print_fit(result: Any, title: str) -> None:
     c = console()
     c.print(f"{result.n_points} points, residual RMS {result.residual_norm:.4g} "
             f"{result.residual_unit}, {result.n_evaluations} model evaluations")
+    if result.meta.get("scatter"):
+        c.print(str(result.meta["scatter"]))
     for w in result.warnings:
         c.print(f"[yellow]warning:[/yellow] {w}")
 
@@ -169,8 +172,9 @@ def hpt_cmd(
                                                  "('torlab hpt reduce' output); folders and "
                                                  "patterns such as 'logs/*.txt' expanded.")],
     out: OutOpt,
-    joint: Annotated[bool, typer.Option("--joint", help="One fit of shared parameters to all "
-                                        "curves (repeats of one product and amount).")] = False,
+    joint: Annotated[bool, typer.Option("--joint", help="One parameter set for all curves "
+                                        "(repeats of one product and amount): each fitted, "
+                                        "pooled with the scatter between runs.")] = False,
     compliance: Annotated[str | None, typer.Option(
         help="Rig compliance (curve file or constant such as '0.012 um/MPa'); default: the one "
         "the reduction subtracted.")] = None,
@@ -181,7 +185,10 @@ def hpt_cmd(
     """Layer parameters mu_c1, mu_c2, L_mue, L_mup from HPT curves (thesis Eqs. 5.24-5.29).
 
     One fit per curve (a sub-folder per curve and fit_summary.csv when there are several)
-    or, with --joint, one fit to all curves.
+    or, with --joint, one parameter set: the curves' fits pooled with random effects (REML
+    between-run variance, Hartung-Knapp intervals on runs - 1 degrees of freedom), whose
+    intervals hold the scatter from run to run; summary.json's random_effects gives each
+    parameter's share of its variance within and between runs.
     """
     from torlab.fit.layer import fit_layer_hpt, fit_layers_hpt
     from torlab.instruments.measured import hpt_curves
@@ -221,8 +228,9 @@ def traction_cmd(
         "PCS exports or torlab-optical logs; folders and patterns such as 'runs/*.csv' "
         "expanded.")],
     out: OutOpt,
-    joint: Annotated[bool, typer.Option("--joint", help="One fit to all curves together "
-                                        "(repeats of one test in this scene).")] = False,
+    joint: Annotated[bool, typer.Option("--joint", help="One parameter set for all curves "
+                                        "(repeats of one test in this scene): each fitted, "
+                                        "pooled with the scatter between them.")] = False,
     fix: Annotated[list[str] | None, typer.Option(
         "--fix", help="Hold a parameter fixed: 'L_mup=20 um' (repeatable).")] = None,
     dry: Annotated[bool, typer.Option("--dry", help="Dry test: ignore the scene's lubricant: and "
@@ -238,7 +246,8 @@ def traction_cmd(
     A lubricated scene is fitted with the mixed model (film + asperities + layer); a dry
     test (--dry, or a torlab-optical log of test dry_traction) with the dry model.  Every
     curve is one test in the scene: several files give one fit each (a sub-folder per file
-    and fit_summary.csv), or with --joint one fit to all their points.
+    and fit_summary.csv), or with --joint one parameter set: the curves' fits pooled with
+    random effects (the intervals hold the scatter between the repeats).
     """
     from torlab.outputs import OutputDir
     from torlab.scene import load_scene
@@ -281,10 +290,9 @@ def _traction_fits(sc: Any, curves: list[tuple[Path, Any, Any, str, Any]], *, jo
     if lubricated and any(is_dry):
         console().print("dry traction test: the scene's lubricant: and roughness: are ignored "
                         "(Hertz + FASTSIM + layer)")
-    groups = [curves] if joint else [[c] for c in curves]
     names: list[str] = []
     fits, model_curves = [], {}
-    for group in groups:
+    for group in [[c] for c in curves]:
         dry_group = is_dry[curves.index(group[0])]
         scg = sc.model_copy(update={"lubricant": None, "roughness": None}) \
             if dry_group and lubricated else sc
@@ -299,7 +307,16 @@ def _traction_fits(sc: Any, curves: list[tuple[Path, Any, Any, str, Any]], *, jo
             dense = np.linspace(float(np.min(xi)), float(np.max(xi)), 201)
             model_curves[name] = (dense, traction_model(scg)(res.params, dense))
         fits.append((name, res))
+    if joint and len(fits) > 1:  # repeats: each curve's fit, pooled with their scatter
+        return _pooled(fits), {}
     return fits, model_curves
+
+
+def _pooled(fits: list[tuple[str, Any]]) -> list[tuple[str, Any]]:
+    """Repeated curves' fits as one: pooled with random effects (torlab.fit.repeats)."""
+    from torlab.fit.repeats import pool_fits
+
+    return [(fits[0][0], pool_fits([r for _, r in fits]))]
 
 
 def _parse_fixed(items: list[str]) -> dict[str, float]:
@@ -389,8 +406,9 @@ def film_cmd(
                                                "alpha.")] = None,
     min_speed: Annotated[str | None, typer.Option(help="Fit only speeds at or above this, e.g. "
                                                   "'50 mm/s'.")] = None,
-    joint: Annotated[bool, typer.Option("--joint", help="One fit to all curves together "
-                                        "(repeats at one temperature).")] = False,
+    joint: Annotated[bool, typer.Option("--joint", help="One parameter set for all curves "
+                                        "(repeats at one temperature): each fitted, pooled "
+                                        "with the scatter between them.")] = False,
     reference_speed: Annotated[str | None, typer.Option(
         help="Speed at which curves at different temperatures are compared (default: the "
         "geometric centre of the speed range they share), e.g. '300 mm/s'.")] = None,
@@ -401,11 +419,10 @@ def film_cmd(
     """Speed exponent of the film (Hamrock-Dowson predicts 0.67, Eq. 5.32) and, with a scene,
     the effective pressure-viscosity coefficient alpha.  Every film curve gets its own fit
     (a sub-folder each, named by file and, for EHD2 film steps, by temperature, and
-    fit_summary.csv); --joint fits all curves together.  Curves at two or more temperatures
-    also give the film's temperature scaling at one speed (temperature/: d ln h/dT, the
-    speed exponents compared)."""
-    import numpy as np
-
+    fit_summary.csv); --joint pools the curves' fits with random effects (the intervals hold
+    the scatter between them).  Curves at two or more temperatures also give the film's
+    temperature scaling at one speed (temperature/: d ln h/dT, the speed exponents
+    compared)."""
     from torlab.fit.film import fit_film_thickness
     from torlab.outputs import OutputDir
     from torlab.scene import load_scene
@@ -422,22 +439,20 @@ def film_cmd(
         where="--reference-speed")
     groups = [(f, label, v, h, temp) for f in files
               for label, v, h, temp in (loaded[f] if f in loaded else film_data(f))]
-    if joint:
-        groups = [(files[0], "", np.concatenate([g[2] for g in groups]),
-                   np.concatenate([g[3] for g in groups]), None)]
     names: list[str] = []
     fits = []
     temps = []
     for f, label, v, h, temp in groups:
         r = fit_film_thickness(v, h, scene=sc, min_speed=vmin)
-        r.meta["source"] = ", ".join(x.name for x in files) if joint else \
-            f"{f.name}{'' if not label else f' {label}'}"
+        r.meta["source"] = f"{f.name}{'' if not label else f' {label}'}"
         if temp is not None:
             r.meta["temperature_C"] = float(temp)
         tag = label.replace(" °C", "C").replace(" ", "_")
         fits.append((_stem(tag if len(files) == 1 and tag else
                            f"{f.stem}_{tag}" if tag else f.stem, names), r))
         temps.append(temp)
+    if joint:  # repeats: each curve's fit, pooled with the scatter between them
+        fits, temps = _pooled(fits), [None]
     scaling, why_not = _film_scaling(fits, temps, vref)
     dest = OutputDir(out, force=force, inputs=[*files, *scenes], command=command_line())
     with dest:

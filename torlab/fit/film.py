@@ -172,6 +172,9 @@ def fit_film_thickness(speed_m_s: Any, h_m: Any, *, scene: Any = None,
         residual_norm=float(np.sqrt(np.mean((h - h_model) ** 2))), n_points=int(n),
         warnings=warnings, data=data, meta=meta, residual_unit="m", n_evaluations=1,
         x_column="speed_m_s", y_column="film_thickness_measured_m")
+    from torlab.random_effects import ONE_RUN
+
+    res.meta.setdefault("scatter", ONE_RUN)  # one curve: its record's intervals
     return res
 
 

@@ -308,14 +308,17 @@ def law_choice(law: Any) -> list[LayerLaw]:
 
 @small_problem  # one BLAS thread: small matrices (torlab.threads)
 def fit_layer_hpt(curves: Any, *, sigma: float | None = None, compliance: Any = None,
-                  joint: bool = True, law: Any = None) -> FitResult:
+                  joint: bool = True, law: Any = None, between: str = "random") -> FitResult:
     """Fit a layer law's parameters to HPT curves (Voce: ``mu_c1, mu_c2, L_mue, L_mup``,
     thesis Eqs. 5.24, 5.26-5.29).
 
-    One curve gives its fit; several curves (repeats of one product and
-    amount) are fitted jointly: the parameters shared, each curve with
-    its own normal stress and compliance.  One fit per curve is
-    :func:`fit_layers_hpt`.
+    One curve gives its fit (its intervals hold for that record alone, and
+    ``meta["scatter"]`` says so).  Several curves (repeats of one product and
+    amount) give one parameter set: each curve is fitted alone and the runs are
+    pooled with random effects (:func:`torlab.fit.repeats.pool_fits`: REML
+    between-run variance, Hartung-Knapp intervals on ``runs - 1`` degrees of
+    freedom), so the intervals hold the scatter from run to run.  One fit per
+    curve is :func:`fit_layers_hpt`.
 
     Parameters
     ----------
@@ -335,7 +338,15 @@ def fit_layer_hpt(curves: Any, *, sigma: float | None = None, compliance: Any = 
         The layer law (:mod:`torlab.model.layers`): ``"voce"`` (default), ``"linear"``,
         ``"perfect"``, or ``"auto"`` (or a list of laws): each is fitted and the one
         with the smallest AICc is returned, the comparison in ``meta["law_selection"]``
-        (:func:`select_law`).
+        (:func:`select_law`); with repeats the law is chosen on all their points and
+        each run fitted with it.
+    between
+        Several curves: ``"random"`` (default) pools the curves' own fits with the
+        between-run variance; ``"none"`` fits the parameters to every point at
+        once (the run-to-run scatter then only widens the residual noise model: the
+        interval of the record, not of the product).  When a curve cannot be fitted
+        alone (it never yields) the curves are fitted together and a warning says
+        that the scatter is not estimated.
 
     Returns
     -------
@@ -353,14 +364,35 @@ def fit_layer_hpt(curves: Any, *, sigma: float | None = None, compliance: Any = 
     if not joint:
         raise TypeError("fit_layer_hpt fits the curves together; use fit_layers_hpt for one fit "
                         "per curve")
+    from torlab.fit.repeats import pool_fits
+
+    if between not in ("random", "none"):
+        raise TorlabInputError(f"between must be 'random' or 'none', not {between!r}",
+                               key="between")
     laws = law_choice(law)
     items = list(curves) if isinstance(curves, (list, tuple)) else [curves]
     if not items:
         raise TorlabInputError("no HPT curve given")
     cs = [hpt_curve(c, sigma=sigma, compliance=compliance) for c in items]
-    if len(laws) == 1:
-        return _fit(cs, laws[0])
-    return select_law(cs, laws)
+    together = _fit(cs, laws[0]) if len(laws) == 1 else select_law(cs, laws)
+    if len(cs) == 1:
+        return pool_fits([together])
+    if between == "none":
+        return together
+    chosen = LAWS.get(str(together.meta.get("law", "")), laws[0]) if len(laws) > 1 else laws[0]
+    try:
+        fits = [_fit([c], chosen) for c in cs]
+    except FitError as e:
+        together.warnings.append(
+            f"run-to-run scatter not estimated: a curve cannot be fitted alone ({e}); the "
+            "curves are fitted together, and the intervals hold the noise within the records "
+            "only")
+        return together
+    res = pool_fits(fits)
+    for k in ("law", "law_selection", "criterion"):
+        if k in together.meta:
+            res.meta[k] = together.meta[k]
+    return res
 
 
 def fit_layers_hpt(curves: Any, *, sigma: float | None = None, compliance: Any = None,

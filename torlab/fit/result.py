@@ -262,6 +262,13 @@ class FitResult:
             sel, [self.params[n] for n in sel], cov,
             log_scale=[n for n in sel if n in self.log_scale], dof=self._block_dof(sel))
 
+    def _param_dof(self, name: str) -> float:
+        """Degrees of freedom of one parameter's interval."""
+        pd = self.meta.get("interval_dof")
+        if isinstance(pd, dict) and name in pd:
+            return float(pd[name])
+        return float(max(self.dof, 1))
+
     def _block_dof(self, names: Any) -> float:
         pd = self.meta.get("interval_dof")
         if isinstance(pd, dict) and pd:
@@ -322,7 +329,7 @@ class FitResult:
             "parameters": {
                 n: {"value": self.params[n], "stderr": _finite_or_none(self.stderr[n]),
                     "ci95": [_finite_or_none(self.ci95[n][0]), _finite_or_none(self.ci95[n][1])],
-                    "unit": PARAM_UNITS.get(n, "")}
+                    "unit": PARAM_UNITS.get(n, ""), "dof": self._param_dof(n)}
                 for n in self.names
             },
             "fixed": dict(self.fixed),
@@ -331,6 +338,8 @@ class FitResult:
         cs = self.covariance_section()
         if cs is not None:
             prov["covariance"] = cs
+        if isinstance(self.meta.get("runs"), list) and self.meta["runs"]:
+            prov["runs_pooled"] = len(self.meta["runs"])
         if isinstance(self.meta.get("model_selection"), dict):
             prov["model_selection"] = finite_tree(self.meta["model_selection"])
         for k, v in self.meta.items():
@@ -377,6 +386,8 @@ class FitResult:
             ci = "—" if r.ci95_low != r.ci95_low else f"[{r.ci95_low:.5g}, {hi}]"
             lines.append(f"| {r.parameter} | {r.value:.5g} | {se} | {ci} | {r.unit} | "
                          f"{r.status} |")
+        if self.meta.get("scatter"):
+            lines += ["", str(self.meta["scatter"])]
         lines += [""] + [f"- warning: {w}" for w in self.warnings]
         return "\n".join(lines).rstrip() + "\n"
 

@@ -214,6 +214,11 @@ def fit_temperature_coefficients(fits_or_curves: Any, temperatures_K: Any = None
     jac = np.ones(len(names))
     jac[n_slopes:] = values[n_slopes:]
     cov = cov_t * np.outer(jac, jac)
+    # the scatter about each line is the runs' own noise plus the scatter between runs:
+    # its REML split (the runs' own variances of ln mu from their layer fits)
+    between: dict[str, Any] = {}
+    for key in keys:
+        between[key] = _scatter_split(fits, key, X if keep[key] else X[:, :1], lines[key])
     dof = min(lines[k].dof for k in keys)
     rms = []
     for key in keys:
@@ -237,7 +242,13 @@ def fit_temperature_coefficients(fits_or_curves: Any, temperatures_K: Any = None
             "selection": selection,
             "model_selection": selection_info,
             "noise_model": "; ".join(f"{k}: {v}" for k, v in noise.items()),
-            **rhos}
+            **rhos,
+            "random_effects": between,
+            "scatter": (f"{n} runs: the scatter about each line holds the scatter between runs "
+                        "as well as each run's own noise (" + "; ".join(
+                            f"{k}: {100 * b['share_between']:.0f} % between runs"
+                            for k, b in between.items() if b["share_between"] is not None)
+                        + ")")}
     if law is not get_law():
         meta["law"] = law.name
     res = FitResult.from_covariance(
@@ -247,3 +258,24 @@ def fit_temperature_coefficients(fits_or_curves: Any, temperatures_K: Any = None
         warnings=warnings, data=data, meta=meta, fixed=fixed, residual_unit="-",
         n_evaluations=0, x_column="temperature_C", y_column=f"{keys[-1]}_measured")
     return res
+
+
+def _scatter_split(fits: list[FitResult], key: str, X: np.ndarray, line: Any) -> dict[str, Any]:
+    """How much of the scatter of ``ln key`` about its line is the runs' own noise and how
+    much the scatter between runs (:func:`torlab.random_effects.reml_between` with each
+    run's own variance ``(se/mu)^2``).  The line's interval rests on the residual scatter,
+    which holds both (for equal own variances its REML is ``tau^2 + v``)."""
+    from torlab.random_effects import reml_between
+
+    mu = np.array([f.params[key] for f in fits])
+    se = np.array([f.stderr.get(key, math.nan) for f in fits])
+    v = np.where(np.isfinite(se), (se / mu) ** 2, 0.0)
+    tau2 = reml_between(np.log(mu), v, X)
+    vw = float(np.mean(v))
+    tot = tau2 + vw
+    resid = float(np.sqrt(np.mean(line.residuals ** 2)))
+    return {"runs": int(mu.size), "residual_relative_sd": resid,
+            "within_run_relative_sd": math.sqrt(vw) if np.isfinite(se).any() else None,
+            "between_run_relative_sd": math.sqrt(tau2),
+            "share_between": tau2 / tot if tot > 0 and np.isfinite(se).any() else None,
+            "method": "REML of the between-run variance of ln mu about the line"}

@@ -359,6 +359,9 @@ def fit_layer_traction(scene: Any, creepage: Any, mu: Any, *, fixed: dict[str, f
             "noise_model": vf.describe() if w is not None else
             "constant (the variance function's proportional share is negligible)",
             "noise_proportional_share": float(vf.phi)}
+    from torlab.random_effects import ONE_RUN
+
+    meta["scatter"] = ONE_RUN  # one curve; repeats are pooled by torlab.fit.repeats
     fixed = {**fixed, **{n: p[n] for n in at_zero}}
     res = FitResult.from_covariance(
         "layer_traction", tuple(names_fit), np.array([p[n] for n in names_fit]), cov, dof=dof,

@@ -168,7 +168,9 @@ class ViscosityFit(FitResult):
             ci95=ci95, correlation=corr, residual_norm=math.sqrt(rss / dof), n_points=n,
             warnings=warnings, data=data,
             meta={"law": law, "eta0_source": eta0_source, "temperature_C": temperature_C,
-                  "lubricant_extra": {"viscosity": law}},
+                  "lubricant_extra": {"viscosity": law},
+                  "scatter": "one sample: the interval holds for these falls alone; the "
+                             "scatter between samples is not estimated"},
             fixed=fixed, residual_unit="ln(Pa*s)", dof=int(dof), x_column="pressure_Pa",
             covariance=cov, log_scale=("eta0",) if "eta0" in names and cov is not None else (),
             y_column="viscosity_measured_Pa_s", law=law, eta0=eta0, eta0_ci=eta0_ci,

@@ -229,7 +229,9 @@ REPEAT_FIGURES = {"mean_after_recovery": "mean_after_recovery", "minimum": "mini
 
 
 def repeat_scatter(values: Any, groups: Any, record_sd: Any = None) -> dict[str, Any]:
-    """Pooled one-way random-effects scatter of one test's figure (module docstring).
+    """Pooled one-way random-effects scatter of one test's figure (module docstring):
+    :func:`torlab.random_effects.one_way`, the REML of every repeated measurement in
+    torlab.
 
     Parameters
     ----------
@@ -250,27 +252,9 @@ def repeat_scatter(values: Any, groups: Any, record_sd: Any = None) -> dict[str,
         explain), ``n_tests``, ``n_compositions`` (with at least two finite values),
         ``means`` (``{composition: (mean, n)}``).
     """
-    x = np.asarray(values, dtype=float)
-    g = np.asarray([str(v) for v in groups], dtype=object)
-    sd = np.full(x.shape, np.nan) if record_sd is None else np.asarray(record_sd, dtype=float)
-    ok = np.isfinite(x)
-    ss, dof, rec, n_t = 0.0, 0, [], 0
-    means: dict[str, tuple[float, int]] = {}
-    for k in dict.fromkeys(g[ok]):
-        sel = ok & (g == k)
-        xs = x[sel]
-        means[str(k)] = (float(xs.mean()), int(xs.size))
-        if xs.size >= 2:
-            ss += float(np.sum((xs - xs.mean()) ** 2))
-            dof += xs.size - 1
-            n_t += xs.size
-            rec += [v for v in sd[sel] if math.isfinite(v)]
-    s = math.sqrt(ss / dof) if dof else float("nan")
-    sr = math.sqrt(float(np.mean(np.square(rec)))) if rec else float("nan")
-    between = math.sqrt(max(0.0, s * s - sr * sr)) if math.isfinite(s) and math.isfinite(sr) \
-        else float("nan")
-    return {"sd_test": s, "dof": dof, "sd_record": sr, "sd_between": between, "n_tests": n_t,
-            "n_compositions": sum(1 for _, n in means.values() if n >= 2), "means": means}
+    from torlab.random_effects import one_way
+
+    return one_way(values, groups, record_sd)
 
 
 def apply_repeats(evidence: dict[Any, dict[str, Any]], results: dict[Any, Any],
