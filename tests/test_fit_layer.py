@@ -135,7 +135,7 @@ def test_shared_parameters_fitted_to_every_point_hold_only_the_records_noise():
     """The fit of one parameter set to the OFM1 campaign's four 25 degC runs at once
     (``between="none"``) gives mu_c2 0.2348-0.2363, while the runs alone spread over
     0.223-0.245: the pooled fit's interval (tests/test_random_effects.py) holds that."""
-    from torlab.fit.layer import hpt_curves
+    from torlab.instruments.measured import hpt_curves
 
     files = sorted(HPT.glob("hpt_OFM1_4uL_25C*.txt"))
     shared = fit_layer_hpt(hpt_curves(files, compliance=HPT / "rig_compliance.csv"),

@@ -407,6 +407,37 @@ def test_paper_b_expected_summary(paper_b):
     assert not diffs, "summary.json changed:\n  " + "\n  ".join(diffs)
 
 
+def test_paper_b_compares_the_compositions_and_torlab_compare_reads_the_run(paper_b, cli,
+                                                                            tmp_path):
+    """The report's comparisons: every composition against the base medium on the time-test
+    figures (one test each: the record's noise only, and the report says so), the custom
+    lubricant's layer against TOR A's (two runs each, pooled); torlab compare reads the
+    same estimates back from the results folder."""
+    out, res = paper_b
+    cmp = res.summary["reports"]["compare"]["comparisons"]
+    base = cmp["compositions against the base medium"]
+    assert base["reference"] == "base medium 5 uL"
+    rows = [r for r in base["comparisons"] if r["quantity"] == "mean_after_recovery"]
+    assert {r["a"] for r in rows} == {"base + Al2O3 5 uL", "base + MoS2 5 uL"}
+    al = next(r for r in rows if r["a"] == "base + Al2O3 5 uL")
+    # the sample campaign's truth: plateaus 0.22 and 0.17 (sample_data/mtm/truth.yaml)
+    assert al["ci95_low"] <= 0.05 <= al["ci95_high"]
+    assert al["verdict"].endswith("(one run: record noise only)")
+    hpt = cmp["the custom TOR lubricant against TOR A (HPT layer)"]["comparisons"]
+    mu2 = next(r for r in hpt if r["quantity"] == "mu_c2")
+    assert mu2["kind"] == "ratio" and mu2["ci95_high"] < 1 and mu2["verdict"] == "TOR-A lower"
+    md = (out / "report.md").read_text(encoding="utf-8")
+    assert "## Comparisons" in md and (out / "compare").is_dir()
+    r = cli("compare", out, "--reference", "base medium 5 uL", "--quantity",
+            "mean_after_recovery", "-o", tmp_path / "c")
+    assert r.exit_code == 0, r.output
+    again = json.loads((tmp_path / "c" / "summary.json").read_text())["comparisons"]
+    got = next(c for c in again if c["a"] == "base + Al2O3 5 uL")
+    assert got["estimate"] == pytest.approx(al["estimate"], rel=1e-12)
+    assert (got["ci95_low"], got["ci95_high"]) == pytest.approx((al["ci95_low"],
+                                                                 al["ci95_high"]), rel=1e-9)
+
+
 # --------------------------------------------------------------------------- Paper A
 @pytest.mark.slow
 def test_paper_a_against_model_truth(paper_a):

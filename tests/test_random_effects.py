@@ -56,7 +56,7 @@ def test_pooled_estimate_is_hartung_knapp_by_hand():
     assert 0.9 < p.share_between <= 1.0  # runs 0.002 apart scatter 0.009: between dominates
     from scipy.stats import t
 
-    lo, hi = p.interval()
+    _, hi = p.interval()
     assert hi - mu == pytest.approx(t.ppf(0.975, 3) * p.se)
     one = pool([0.2], [0.001 ** 2], dof_one=12)
     assert one.k == 1 and one.dof == 12 and math.isnan(one.tau) and one.se == 0.001
@@ -87,7 +87,8 @@ def test_repeated_hpt_runs_are_pooled_with_their_scatter():
     """The sample OFM1 campaign's four 25 degC runs: their fits spread over 0.223-0.245, so
     the pooled interval holds that scatter (the fit of shared parameters to every point
     gave 0.2348-0.2363: tests/test_fit_layer.py)."""
-    from torlab.fit.layer import fit_layer_hpt, hpt_curves
+    from torlab.fit.layer import fit_layer_hpt
+    from torlab.instruments.measured import hpt_curves
 
     hpt = ROOT / "sample_data" / "hpt"
     files = sorted(hpt.glob("hpt_OFM1_4uL_25C*.txt"))

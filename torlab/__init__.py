@@ -46,6 +46,7 @@ _LAZY = {
     "predict_retention": "torlab.api",
     "predict_sweep": "torlab.api",
     "run_protocol": "torlab.api",
+    "compare": "torlab.api",
     "FitResult": "torlab.fit.result",
     "Reduction": "torlab.instruments.reduction",
     "REGISTRY": "torlab.instruments",

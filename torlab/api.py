@@ -24,6 +24,7 @@ returns DataFrames and result objects:
 :func:`creep_table`       dry scene, creepage x lateral x spin axes -> creep-force table
 :func:`fit_polach`        dry scene, creepage and speed range -> Polach's parameters
 :func:`run_protocol`      a YAML protocol -> reports in a folder
+:func:`compare`           products or conditions -> differences, P(A better), rankings
 ========================  ===============================================================
 
 Example::
@@ -48,6 +49,7 @@ from typing import Any
 from torlab.errors import TorlabInputError
 
 __all__ = [
+    "compare",
     "creep_table",
     "fit_film",
     "fit_hpt",
@@ -916,3 +918,69 @@ def run_protocol(protocol: PathLike, out: PathLike, *, force: bool = False,
     from torlab.protocols.runner import run_protocol as _run
 
     return _run(protocol, out, force=force, cache=cache, command="torlab.run_protocol")
+
+
+# ------------------------------------------------------------------ is A better than B?
+def compare(items: Any, *, reference: str | None = None, quantities: Any = None,
+            better: dict[str, str] | None = None, pairs: str = "reference",
+            probability: float = 0.9, confidence: float = 0.95, seed: int = 0) -> Any:
+    """Compare products, compositions or conditions on every quantity they share: the
+    difference (a ratio for positive quantities) with its interval, P(A higher) and, with a
+    stated direction, P(A better), and with more than two items a ranking with
+    probabilities (:mod:`torlab.comparison`, ``docs/uncertainty.md``).
+
+    Parameters
+    ----------
+    items
+        ``{label: thing or [things]}`` or a list of things (or ``(label, thing)`` pairs).
+        A thing is a :class:`~torlab.fit.result.FitResult`, a parameter file
+        (``params.yaml``), a results folder (``torlab fit``, ``torlab predict retention``,
+        ``torlab run``) or a :class:`~torlab.comparison.Item`.  Things under one label
+        are repeats: pooled with random effects before the comparison.
+    reference
+        The label the others are compared against (default the first).
+    quantities
+        Quantity names to compare (default every shared one).
+    better
+        ``{quantity: "higher" | "lower"}``: the direction that is better.
+    pairs
+        ``"reference"`` or ``"all"``.
+    probability, confidence, seed
+        Probability a verdict needs, the intervals' confidence, the rankings' seed.
+
+    Returns
+    -------
+    CompareResult
+        ``table()`` (one row per comparison), ``values_table()``, ``ranking_table()``,
+        ``summary()``.
+    """
+    from torlab.comparison import Item, item_from_fit, items_from_path
+    from torlab.comparison import compare as _compare
+    from torlab.fit.result import FitResult
+
+    def load(thing: Any, label: str | None) -> list[Any]:
+        if isinstance(thing, Item):
+            return [thing if label is None else Item(label, thing.estimates, thing.sources,
+                                                      thing.notes)]
+        if isinstance(thing, FitResult):
+            return [item_from_fit(thing, label)]
+        if isinstance(thing, (str, os.PathLike)):
+            return items_from_path(thing, label)
+        raise TorlabInputError(f"cannot compare a {type(thing).__name__}: give fit results, "
+                               "parameter files or results folders", key="items")
+
+    found: list[Any] = []
+    if isinstance(items, dict):
+        for lab, things in items.items():
+            for t in things if isinstance(things, (list, tuple)) else [things]:
+                found += load(t, str(lab))
+    else:
+        for t in items:
+            if isinstance(t, tuple) and len(t) == 2 and isinstance(t[0], str):
+                found += load(t[1], t[0])
+            else:
+                found += load(t, None)
+    qs = [quantities] if isinstance(quantities, str) else quantities
+    return _compare(found, reference=reference, quantities=list(qs) if qs else None,
+                    better=better, pairs=pairs, probability=probability,
+                    confidence=confidence, seed=seed)

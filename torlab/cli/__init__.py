@@ -175,7 +175,8 @@ def _root(
 
 
 #: command modules, each with ``register(app)``
-_COMMAND_MODULES = ("reduce", "instruments", "synth", "predict", "fit", "run", "bench")
+_COMMAND_MODULES = ("reduce", "instruments", "synth", "predict", "fit", "run", "bench",
+                    "compare")
 
 
 def _register() -> None:

@@ -77,6 +77,9 @@ class RunContext:
     fit_summary: dict[str, Any] = field(default_factory=dict)
     data_summary: dict[str, Any] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    #: what the sections found of each item (product, composition) for ``reports.compare``:
+    #: label -> :class:`torlab.comparison.Item`
+    compare_items: dict[str, Any] = field(default_factory=dict)
 
     @property
     def p(self) -> Any:
@@ -115,17 +118,41 @@ class RunContext:
         if keep_set:
             add_covariance(scene_dict, res, first=True)
             self.param_sets[name] = scene_dict
+        re = res.meta.get("random_effects") or {}
         for r in res.table().to_dict("records"):
-            self.fit_rows.append({"set": name, "kind": res.kind, **r})
+            sh = (re.get(r["parameter"]) or {}).get("share_between")
+            self.fit_rows.append({"set": name, "kind": res.kind, **r,
+                                  "between_runs_pct": float("nan") if sh is None
+                                  else 100.0 * float(sh)})
         self.fit_results.append((name, res))
         self.fit_summary[name] = {"kind": res.kind, "params": dict(res.params),
                                   "ci95": {k: list(v) for k, v in res.ci95.items()},
                                   "residual_rms": res.residual_norm,
                                   "warnings": list(res.warnings)}
+        if res.meta.get("scatter"):
+            self.fit_summary[name]["scatter"] = str(res.meta["scatter"])
+        if re:
+            self.fit_summary[name]["random_effects"] = re
         if res.meta.get("model_selection"):
             self.fit_summary[name]["model_selection"] = res.meta["model_selection"]
+        from torlab.comparison import item_from_fit
+
+        it = item_from_fit(res, name.split(":", 1)[-1])
+        if it.estimates:
+            self.add_estimates([it])
         self.dest.write_text(f"fits/{safe_name(name.replace(':', '_'))}.yaml",
                              dump_yaml(finite(res.to_yaml_dict())))
+
+    def add_estimates(self, items: list[Any]) -> None:
+        """Add items' estimates (:class:`torlab.comparison.Item`) for ``reports.compare``;
+        an item's quantities from several sections (a product's layer and its crossing)
+        join under its label."""
+        from torlab.comparison import Item
+
+        for it in items:
+            have = self.compare_items.setdefault(it.label, Item(it.label))
+            have.estimates.update(it.estimates)
+            have.sources += [s for s in it.sources if s not in have.sources]
 
     def selection_choices(self, sets: list[str]) -> list[str]:
         """The model-selection choices of the fits behind parameter sets, one line each.

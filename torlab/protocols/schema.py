@@ -785,6 +785,30 @@ class RetentionReport(_Model):
         return self
 
 
+class CompareSpec(_Model):
+    """One entry of ``reports.compare``: items of the run compared on the quantities they
+    share (:mod:`torlab.comparison`).
+
+    The items are the run's products and compositions: a product's fitted layer and
+    temperature coefficients (``fits.hpt_layers``, label: the product), its amount
+    crossing (``reports.amount``), a time test's figures (``reports.time_test``, label:
+    the file's label or its composition under ``repeats``), a retention prediction's
+    figures (``reports.retention``, label: its product).
+    """
+
+    name: str = Field(default="", description="title of the comparison")
+    items: list[str] = Field(default_factory=list,
+                             description="labels of the items (default every item)")
+    reference: str | None = Field(default=None, description="compare every item against it "
+                                  "(default the first); none with pairs: all")
+    pairs: Literal["reference", "all"] = "reference"
+    quantities: list[str] = Field(default_factory=list,
+                                  description="quantities to compare (default every shared)")
+    better: dict[str, Literal["higher", "lower"]] = Field(default_factory=dict)
+    #: probability a verdict needs to be called
+    probability: Fraction = Field(default=0.9, gt=0.5, lt=1)
+
+
 class Reports(_Model):
     """``reports:``: the analyses to write (each needs its data; see docs/protocols.md)."""
 
@@ -794,6 +818,8 @@ class Reports(_Model):
     stribeck: StribeckReport | None = None
     film: FilmReport | None = None
     retention: RetentionReport | None = None
+    #: comparisons of the run's items (products, compositions): one entry or a list
+    compare: Annotated[list[CompareSpec], BeforeValidator(_listify)] = []
     #: file formats of every figure (``torlab run --formats`` overrides)
     figure_formats: Annotated[list[Literal["png", "svg", "pdf"]],
                               BeforeValidator(_formats)] = Field(default=["png"], min_length=1)

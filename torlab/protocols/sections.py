@@ -32,8 +32,9 @@ def build_sections(ctx: RunContext, ready: Any = None) -> list[Any]:
     """
     r = ctx.p.reports
     builders = (("amount", amount), ("time_test", time_test), ("traction", traction),
-                ("stribeck", stribeck), ("film", film), ("retention", retention))
-    wanted = [(key, fn) for key, fn in builders if getattr(r, key) is not None]
+                ("stribeck", stribeck), ("film", film), ("retention", retention),
+                ("compare", compare))  # compare last: the others add its items
+    wanted = [(key, fn) for key, fn in builders if getattr(r, key, None) not in (None, [])]
     ready = ready or (lambda section: None)
     fits = None
     if ctx.fit_rows and not any(key in ("film", "retention") for key, _ in wanted):
@@ -83,7 +84,30 @@ def amount(ctx: RunContext) -> Any:
             "amount_statistics", lambda: amount_statistics(
                 series, fits, threshold=cfg.threshold, confidence=cfg.confidence,
                 probability=cfg.probability), series=digest, options=opts)
+    if fits:
+        ctx.add_estimates(_crossing_items(series, fits))
     return amount_section(series, cfg, fits, stats)
+
+
+def _crossing_items(series: Any, fits: list[Any]) -> list[Any]:
+    """Each product's crossing as an applied mass (comparable across liquids and solids)."""
+    import math
+
+    from torlab.comparison import Estimate, Item
+    from torlab.fit.crossing import mass_factor
+
+    out = []
+    for cf in fits:
+        mf = mass_factor(series, cf.product) * 1e-6  # kg per unit of its amounts
+        vals = (cf.crossing * mf, cf.crossing_low * mf, cf.crossing_high * mf)
+        if not all(math.isfinite(v) and v > 0 for v in vals):
+            continue
+        out.append(Item(cf.product, {"crossing_mass": Estimate.from_interval(
+            *vals, max(int(cf.dof), 1), log=True, runs=int(cf.n_points),
+            holds="the scatter of the runs about the products' logistic curves, pooled over "
+                  "the products (one run per amount: run-to-run scatter and each run's own "
+                  "noise together)")}, [f"amount series of {cf.product}"]))
+    return out
 
 
 def _initial_drop(ctx: RunContext, idp: Any) -> dict[str, Any]:
@@ -132,8 +156,30 @@ def time_test(ctx: RunContext) -> Any:
     model = _initial_drop(ctx, cfg.initial_drop) if cfg.initial_drop is not None else None
     evidence = _time_test_evidence(ctx, cfg)
     repeats = _time_test_repeats(ctx, cfg, evidence) if evidence else None
+    if evidence:
+        ctx.add_estimates(_time_test_items(ctx, cfg, evidence, repeats))
     return time_test_section([(lab, r.detail) for lab, r in ctx.labelled("mtm")], cfg, model,
                              evidence, repeats)
+
+
+def _time_test_items(ctx: RunContext, cfg: Any, evidence: dict[Any, Any],
+                     repeats: dict[str, Any] | None) -> list[Any]:
+    """The time tests as items for ``reports.compare``: a test by its file's label (with its
+    step where a file holds several), a repeated composition by its name."""
+    from torlab.comparison import items_from_time_tests
+
+    results = {(lab, tt.step): tt for lab, red in ctx.labelled("mtm")
+               for tt in red.detail.time_tests}
+    steps: dict[str, int] = {}
+    for lab, _ in evidence:
+        steps[lab] = steps.get(lab, 0) + 1
+    member = {lab: c for c, labs in cfg.repeats.items() for lab in labs}
+    labels = {k: member.get(k[0]) or (k[0] if steps[k[0]] == 1 else f"{k[0]} step {k[1]}")
+              for k in evidence}
+    comps = (repeats or {}).get("compositions") or {}
+    dof = {f: float(v.get("dof") or 0) or float("inf")
+           for f, v in ((repeats or {}).get("figures") or {}).items()}
+    return items_from_time_tests(evidence, results, labels, comps, dof)
 
 
 def _time_test_repeats(ctx: RunContext, cfg: Any, evidence: dict[Any, Any]) -> dict[str, Any]:
@@ -461,6 +507,33 @@ def retention(ctx: RunContext) -> Any:
     return retention_section(cfg.product, fit, layer, pred, sweep, axis=cfg.axis)
 
 
+def compare(ctx: RunContext) -> Any:
+    """``reports.compare``: the run's items compared on the quantities they share."""
+    from torlab._suggest import did_you_mean
+    from torlab.comparison import compare as _compare
+    from torlab.reports.compare import compare_section
+
+    have = ctx.compare_items
+    results = []
+    for k, spec in enumerate(ctx.p.reports.compare):
+        where = f"reports.compare[{k}]"
+        labels = list(spec.items) or list(have)
+        for lab in labels:
+            if lab not in have:
+                raise TorlabInputError(
+                    f"no item {lab!r} in this run (items: {', '.join(have) or 'none'})"
+                    f"{did_you_mean(lab, list(have))}", key=f"{where}.items")
+        try:
+            res = _compare([have[lab] for lab in labels], reference=spec.reference,
+                           quantities=list(spec.quantities) or None, better=dict(spec.better),
+                           pairs=spec.pairs, probability=spec.probability)
+        except TorlabInputError as e:
+            raise TorlabInputError(e.message, key=where) from None
+        name = spec.name or (f"against {res.reference}" if res.reference else "every pair")
+        results.append((name, res))
+    return compare_section(results)
+
+
 def fits_section(ctx: RunContext) -> Any:
     """The fitted parameter sets: table, data-against-model figures, warnings."""
     import pandas as pd
@@ -475,7 +548,8 @@ def fits_section(ctx: RunContext) -> Any:
     warn = [f"{name}: {w}" for name, res in ctx.fit_results for w in res.warnings]
     show = {"set": ("set", ""), "parameter": ("parameter", ""), "value": ("value", ".5g"),
             "stderr": ("stderr", ".3g"), "95 % low": ("ci95_low", ".5g"),
-            "95 % high": ("ci95_high", ".5g"), "unit": ("unit", ""), "status": ("status", "")}
+            "95 % high": ("ci95_high", ".5g"), "unit": ("unit", ""), "status": ("status", ""),
+            "between runs (% of variance)": ("between_runs_pct", ".0f")}
     sel = _selection_rows(ctx)
     paragraphs = [
         "Parameters identified from the protocol's data (torlab.fit): the HPT layers "
@@ -484,6 +558,16 @@ def fits_section(ctx: RunContext) -> Any:
         "scene parameter file in fits/ for 'torlab predict', with the covariance of its "
         "estimates (fit: covariance:), which the predictions above propagate into their bands.",
     ]
+    paragraphs.append(
+        "Repeated runs (the same product, amount and temperature) are fitted one by one and "
+        "pooled with random effects (REML between-run variance, Hartung-Knapp interval on "
+        "runs - 1 degrees of freedom): their intervals hold the scatter from run to run, "
+        "and the table gives each parameter's share of its variance that is scatter between "
+        "runs. A set from a single run has no such share: its interval holds for that record "
+        "alone.")
+    for name, res in ctx.fit_results:
+        if res.meta.get("scatter"):
+            paragraphs.append(f"{name}: {res.meta['scatter']}.")
     if sel:
         fixed = [r for r in sel if r["decision"].startswith("fixed")]
         kept = [r for r in sel if not r["decision"].startswith("fixed")]
@@ -496,7 +580,8 @@ def fits_section(ctx: RunContext) -> Any:
             test = f" ({r['test']}, p = {r['p_value']:.2g})" if r["p_value"] == r["p_value"] else ""
             paragraphs.append(f"{r['set']}: {r['parameter']} {r['decision']}{test}.")
     tables = [Table("parameters", pd.DataFrame(ctx.fit_rows), "Fitted parameters", show,
-                    allow_missing=("value", "stderr", "ci95_low", "ci95_high"))]
+                    allow_missing=("value", "stderr", "ci95_low", "ci95_high",
+                                   "between_runs_pct"))]
     if sel:
         tables.append(Table(
             "model_selection", pd.DataFrame(sel), "Model selection per fit", {
