@@ -70,7 +70,9 @@ def test_predict_traction_cli_dry(cli, tmp_path):
     assert len(t) == 101 and t["mu"].iloc[0] == 0.0
     assert np.all(np.diff(t["mu"]) > 0) and t["mu"].max() < 0.45
     s = json.loads((out / "summary.json").read_text())
-    assert s["trend_after_saturation"]["trend"] in ("negative", "neutral", "positive")
+    # the scene has no temperature coefficients: an isothermal layer, which only rises to mu_c2
+    assert s["trend_after_saturation"]["trend"] in ("negative", "neutral",
+                                                  "not saturated in this range")
     assert any("EHL film: not modelled" in m for m in s["modelled"])
     assert (out / "traction.png").stat().st_size > 10_000
     assert not (out / "traction.svg").exists()  # PNG by default; SVG/PDF on request
@@ -325,9 +327,37 @@ def test_classify_trend_on_analytic_curves():
     assert classify_trend(x, 0.3 * base * (1 - 2 * x))["trend"] == "negative"
     assert classify_trend(x, 0.3 * base)["trend"] == "neutral"
     assert classify_trend(x, 0.3 * base * (1 + 2 * x))["trend"] == "positive"
-    assert classify_trend(x, 2 * x)["trend"] == "not saturated"
+    assert classify_trend(x, 2 * x)["trend"] == "not saturated in this range"
     assert classify_trend(-x, -0.3 * base * (1 - 2 * x))["trend"] == "negative"
 
+
+
+def test_an_isothermal_layer_still_rising_is_not_saturated_not_positive():
+    """Without a temperature effect the layer's curve only rises towards mu_c2 (Eqs. 5.26-5.29
+    with mu_ci_T unused): a 30 um Voce length on the Tab. 5.4 contact still rises by several
+    per cent after 2.5 % creepage.  The band makes that rise near certain; it is the curve
+    not having saturated in this range, not a positive characteristic (H4.1).  One creepage
+    has too few points for any trend."""
+    import torlab
+    from torlab.fit.result import FitResult
+
+    names = ("mu_c1", "mu_c2", "L_mue", "L_mup")
+    v = np.array([0.14, 0.23, 8e-6, 30e-6])
+    fit = FitResult.from_covariance("layer_hpt", names, v, np.diag((0.05 * v) ** 2), dof=30,
+                                    log_scale=names, residual_norm=1.0, n_points=100,
+                                    warnings=[], data=None)
+    scene = ROOT / "protocols" / "scenes" / "wheel_rail_tab54.yaml"
+    p = torlab.predict_traction(scene, "0:5 %:51", params=fit)
+    t = p.trend
+    assert t["probabilities"]["positive"] > 0.9  # the rise itself is near certain
+    assert t["trend"] == t["trend_point"] == "not saturated in this range"
+    assert t["rises_only"] and "isothermal" in t["note"]
+    raw = classify_trend(p.table["creepage"].to_numpy(), p.table["mu"].to_numpy(),
+                         uncertainty=p.band)
+    assert raw["trend"] == "positive"  # what the curve alone would be called
+    assert torlab.predict_traction(scene, [0.01]).trend["trend"] == "too few points"
+    assert classify_trend(np.array([0.0, 0.01]), np.array([0.0, 0.2]))["trend"] == \
+        "too few points"
 
 
 def test_classify_trend_sparse_and_folded_curves():

@@ -333,7 +333,8 @@ def test_paper_c_layers_and_traction(paper_c):
     curves = s["reports"]["traction"]["curves"]
     assert {c.split(" (")[0] for c in curves} == set(gen)
     for v in curves.values():
-        assert v["trend"] in ("negative", "neutral", "positive", "not saturated", "undetermined")
+        assert v["trend"] in ("negative", "neutral", "positive", "not saturated in this range",
+                              "undetermined")
         assert 0 < v["mu_max"] < 1
     # every fitted layer is written as a parameter file torlab predict reads
     from torlab.scene import load_scene

@@ -194,8 +194,12 @@ def _print_trend(pred: Any) -> None:
                 f"{abs(float(np.asarray(tab['mu_high95'])[i])):.4f})")
     c.print(f"max |mu| = {mu[i]:.4f}{band} at creepage "
             f"{float(np.asarray(tab['creepage'])[i]):.4g}")
-    if t["trend"] == "not saturated":
-        c.print("trend after saturation: not saturated (the curve does not level off in this range)")
+    if t.get("saturation_creepage") is None:
+        c.print(f"trend after saturation: {t['trend']}" + (
+            " (give three or more creepages)" if t["trend"] == "too few points" else ""))
+    elif t["trend"] == "not saturated in this range" and t.get("relative_change") is None:
+        c.print("trend after saturation: not saturated in this range (the curve does not level "
+                "off in this range)")
     elif t.get("trend_from_creepage") is None:  # e.g. 'too few points' after saturation
         c.print(f"trend after saturation (H4.1): {t['trend']} (saturated at creepage "
                 f"{t['saturation_creepage']:.4g}; give more creepages beyond it to read a trend)")
@@ -209,6 +213,8 @@ def _print_trend(pred: Any) -> None:
                 f"creepage {t['saturation_creepage']:.4g}; from {t['trend_from_creepage']:.4g} "
                 f"to the end mu changes {100 * t['relative_change']:+.2f} %, neutral within "
                 f"±{100 * t['tolerance']:g} %{ev})")
+        if t.get("note") and t["trend"] == "not saturated in this range":
+            c.print(f"  {t['note']}")
 
 
 def _no_retention_file(files: Sequence[Path]) -> None:

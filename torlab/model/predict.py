@@ -135,7 +135,8 @@ def _finish_band(pred: TractionPrediction, su: Any, band: Any, tolerance: float,
     try:
         trend = classify_trend(pred.table["creepage"].to_numpy(dtype=float),
                                pred.table["mu"].to_numpy(dtype=float), tolerance=tolerance,
-                               threshold=threshold, uncertainty=band)
+                               threshold=threshold, uncertainty=band,
+                               rises_only=bool(pred.trend.get("rises_only")))
     except NumericalError as e:
         _no_band(pred, su, e)
         return

@@ -17,7 +17,8 @@ from torlab.model.contact import ContactModel, build_contact
 from torlab.model.fastsim import FastsimGrid, FastsimProblem
 from torlab.model.flash import ThermalParams
 
-__all__ = ["TREND_CLASSES", "TREND_PROBABILITY", "TREND_TOLERANCE", "TractionPrediction",
+__all__ = ["NOT_SATURATED", "TOO_FEW_POINTS", "TREND_CLASSES", "TREND_PROBABILITY",
+           "TREND_TOLERANCE", "TractionPrediction",
            "classify_trend", "fastsim_grid", "fastsim_problem"]
 
 
@@ -82,6 +83,15 @@ TREND_TOLERANCE = 0.01
 TREND_PROBABILITY = 0.9
 #: the trend classes in the order of :meth:`~torlab.uncertainty.Propagation.class_probabilities`
 TREND_CLASSES = ("negative", "neutral", "positive")
+#: the class of a curve that has not levelled off within its creepage range
+NOT_SATURATED = "not saturated in this range"
+#: the class of a curve with too few creepages to read a trend
+TOO_FEW_POINTS = "too few points"
+#: why a rise of an isothermal layer's curve is not a positive trend (``rises_only``)
+RISES_ONLY_NOTE = ("an isothermal layer (no temperature effect modelled) only approaches its "
+                   "plateau from below, so a rise after the saturation point means the curve "
+                   "has not saturated in this range; it is not a positive characteristic "
+                   "(thesis H4.1)")
 
 
 def _fold(creepage: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -102,19 +112,21 @@ def _relative_change(x: np.ndarray, y: np.ndarray) -> float:
 def classify_trend(creepage: np.ndarray, mu: np.ndarray, *, saturation: float = 0.95,
                    tolerance: float = TREND_TOLERANCE, threshold: float = TREND_PROBABILITY,
                    uncertainty: Any = None, output: str = "mu",
-                   measured: bool = False) -> dict[str, Any]:
+                   measured: bool = False, rises_only: bool = False) -> dict[str, Any]:
     """Trend of the traction curve after saturation (thesis H4.1, Fig. 2.2), with its evidence.
 
     The saturation point is the smallest positive creepage at which ``|mu|``
     reaches ``saturation`` times its maximum over the curve; if it lies in the
     second half of the creepage range the curve has not levelled off
-    (``not saturated``).  A straight line is fitted to ``|mu|`` over the second
-    half of the range after saturation (so the knee of the curve does not tilt it);
+    (``not saturated in this range``).  A straight line is fitted to ``|mu|`` over the
+    second half of the range after saturation (so the knee of the curve does not tilt it);
     its change over that range relative to ``|mu|`` at its start is the trend
     statistic: ``negative`` below ``-tolerance``, ``positive`` above
     ``+tolerance``, ``neutral`` between (:data:`TREND_TOLERANCE`, 1 %, by
-    default).  Fewer than two points in that second half (a sparse measured
-    curve) give ``too few points`` rather than a line through the knee.
+    default).  Fewer than three creepages, or fewer than two points in that second
+    half (a sparse measured curve), give ``too few points`` rather than a line through
+    the knee.  A curve that can only rise towards its plateau (``rises_only``: an
+    isothermal layer) and still rises is ``not saturated in this range``, not positive.
 
     With an uncertainty, each class gets its probability and a class is
     called only when its probability is at least ``threshold``
@@ -143,12 +155,17 @@ def classify_trend(creepage: np.ndarray, mu: np.ndarray, *, saturation: float = 
         A measured curve: the probabilities come from the scatter of the
         points about the trend line (Student t with ``n - 2`` degrees of
         freedom; three or more points in the window).
+    rises_only
+        The model's curve can only approach its plateau from below (an isothermal
+        layer: no temperature effect modelled): the ``positive`` class is then called
+        ``not saturated in this range`` (its probability is still the ``positive``
+        entry of ``probabilities``), and ``note`` says why.
 
     Returns
     -------
     dict
         ``trend`` (``negative``/``neutral``/``positive``/``undetermined``/
-        ``not saturated``/``too few points``), ``trend_point`` (the class of
+        ``not saturated in this range``/``too few points``), ``trend_point`` (the class of
         the curve itself), ``probabilities`` (``{class: p}`` or None),
         ``probability_threshold``, ``basis`` (what the probabilities rest on),
         ``saturation_creepage``, ``mu_saturation``, ``trend_from_creepage``
@@ -164,8 +181,11 @@ def classify_trend(creepage: np.ndarray, mu: np.ndarray, *, saturation: float = 
                            "basis": "the curve alone (no uncertainty given)",
                            "trend_from_creepage": None, "relative_change_low95": None,
                            "relative_change_high95": None}
+    if rises_only:
+        out.update(rises_only=True, note=RISES_ONLY_NOTE)
     if len(x) < 3 or y.max() <= 0:
-        out.update(trend="not saturated", trend_point="not saturated", saturation_creepage=None,
+        cls = TOO_FEW_POINTS if len(x) < 3 else NOT_SATURATED
+        out.update(trend=cls, trend_point=cls, saturation_creepage=None,
                    mu_saturation=None, slope_per_unit_creepage=None, relative_change=None)
         return out
     k = int(np.argmax(y >= saturation * y.max()))
@@ -175,7 +195,7 @@ def classify_trend(creepage: np.ndarray, mu: np.ndarray, *, saturation: float = 
     if len(xs) < 3 or x[k] > 0.5 * x[-1]:
         # a curve that reaches 95 % of its maximum only in the second half of the
         # range has not levelled off (a linear, film-dominated curve reaches it at 95 %)
-        out.update(trend="not saturated", trend_point="not saturated",
+        out.update(trend=NOT_SATURATED, trend_point=NOT_SATURATED,
                    slope_per_unit_creepage=None, relative_change=None)
         return out
     # the trend is read on the second half of the post-saturation range, where the
@@ -183,7 +203,7 @@ def classify_trend(creepage: np.ndarray, mu: np.ndarray, *, saturation: float = 
     mid = 0.5 * (x[k] + x[-1])
     tail = x >= mid
     if tail.sum() < 2:
-        out.update(trend="too few points", trend_point="too few points",
+        out.update(trend=TOO_FEW_POINTS, trend_point=TOO_FEW_POINTS,
                    slope_per_unit_creepage=None, relative_change=None)
         return out
     xs, ys = x[tail], y[tail]
@@ -235,6 +255,10 @@ def classify_trend(creepage: np.ndarray, mu: np.ndarray, *, saturation: float = 
         out["probabilities"] = p
         best = max(p, key=p.get)
         out["trend"] = best if p[best] >= threshold else "undetermined"
+    if rises_only:
+        for k in ("trend", "trend_point"):
+            if out[k] == "positive":
+                out[k] = NOT_SATURATED
     return out
 
 

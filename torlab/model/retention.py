@@ -551,7 +551,7 @@ def simulate_sweep(scene: Any, layer: Any, removal: Any, amount: Any, *,
     from scipy.integrate import solve_ivp
 
     from torlab.model.contact import build_contact
-    from torlab.model.prediction import TREND_PROBABILITY, classify_trend
+    from torlab.model.prediction import NOT_SATURATED, TREND_PROBABILITY, classify_trend
 
     thr = TREND_PROBABILITY if trend_probability is None else float(trend_probability)
 
@@ -640,7 +640,7 @@ def simulate_sweep(scene: Any, layer: Any, removal: Any, amount: Any, *,
         joint = {"made_by_removal": p_made,
                  "both_positive": float(np.mean([a == b == "positive" for a, b in
                                                  zip(sw, st, strict=True)])),
-                 "never_levels_off": float(np.mean([a == "not saturated" != b for a, b in
+                 "never_levels_off": float(np.mean([a == NOT_SATURATED != b for a, b in
                                                     zip(sw, st, strict=True)])),
                  "not_positive": float(np.mean([a != "positive" for a in sw]))}
         for tr, pr in ((trend_sweep, p_sweep), (trend_steady, p_steady)):
@@ -683,6 +683,8 @@ def _sweep_verdict(sweep: str, steady: str, p_pos: float | None,
     """The sweep's verdict in one sentence.  With draws (``joint``: the probability of each
     outcome over them) an outcome is called only at ``threshold``; without, the classes of
     the curves at the estimate (``sweep``, ``steady``) are used and the sentence says so."""
+    from torlab.model.prediction import NOT_SATURATED
+
     if joint:
         pm, pb, pn, pnp = (joint["made_by_removal"], joint["both_positive"],
                            joint["never_levels_off"], joint["not_positive"])
@@ -715,7 +717,7 @@ def _sweep_verdict(sweep: str, steady: str, p_pos: float | None,
                 "during the sweep (thesis H4.1)")
     if sweep == "positive" and steady == "positive":
         return f"both curves are positive{prob}: the steady curve is positive without removal"
-    if sweep == "not saturated" and steady != "not saturated":
+    if sweep == NOT_SATURATED and steady != NOT_SATURATED:
         return (f"the measured-looking curve never levels off{prob}: the removal during the "
                 f"sweep outpaces the saturation of the traction (the steady curve is {steady})")
     return (f"the measured-looking curve is {sweep}{prob} and the steady curve {steady}: removal "

@@ -123,7 +123,11 @@ def dry_traction_curve(scene: Scene, creepage: ArrayLike, *,
                 "EHL film: not modelled (dry scene, no lubricant:)",
                 "asperity load sharing: not modelled (dry scene)"]
     modelled.append(_temperature_note(res.temperature_loop, scene))
-    trend = classify_trend(xi, res.mu, tolerance=trend_tolerance)
+    b = scene.boundary
+    # without a temperature effect the layer's curve only rises towards its plateau
+    isothermal = scene.thermal is None or (b.mu_c1_T == 0 and b.mu_c2_T == 0)
+    trend = classify_trend(xi, res.mu, tolerance=trend_tolerance,
+                           rises_only=isothermal and b.mu_c1 <= b.mu_c2)
     summary = _summary(scene, contact, modelled, trend, table)
     if res.temperature_iterations is not None:
         summary["temperature_iterations_max"] = int(np.max(res.temperature_iterations))

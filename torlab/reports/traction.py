@@ -5,7 +5,7 @@ protocol's scenes with the fitted parameter sets applied; measured curves are th
 optical tribometer's folded traction points (|SRR|, one curve per rolling speed)
 or MTM traction steps.  Every curve's trend after saturation is classified by
 :func:`torlab.model.prediction.classify_trend` (negative / neutral / positive /
-not saturated; thesis H4.1, Fig. 2.2).
+not saturated in this range, too few points; thesis H4.1, Fig. 2.2).
 """
 
 from __future__ import annotations
