@@ -373,3 +373,58 @@ def test_classify_trend_sparse_and_folded_curves():
     assert abs(t["relative_change"]) < 0.01
     falling = np.r_[-x, x], 0.25 * np.tanh(np.r_[-x, x] / 0.01) * (1 - 2 * np.abs(np.r_[-x, x]))
     assert classify_trend(*falling)["trend"] == "negative"
+
+
+def test_several_parameter_files_give_one_labelled_curve_each(cli, tmp_path):
+    """Two layer fits (the same scene keys) are alternatives: one curve each, with its band,
+    in one long CSV and one figure; a temperature fit beside them applies to both; a label
+    given as LABEL=FILE names its curve."""
+    from torlab.fit.result import FitResult
+
+    names = ("mu_c1", "mu_c2", "L_mue", "L_mup")
+    for tag, mu in (("a", 0.20), ("b", 0.26)):
+        v = np.array([0.6 * mu, mu, 6e-6, 12e-6])
+        FitResult.from_covariance("layer_hpt", names, v, np.diag((0.03 * v) ** 2), dof=20,
+                                  log_scale=names, residual_norm=1.0, n_points=100,
+                                  warnings=[], data=None, meta={"product": f"P{tag}"}
+                                  ).to_params(tmp_path / f"{tag}.yaml")
+    (tmp_path / "t.yaml").write_text("boundary:\n  mu_c1_T: -0.0005\n  mu_c2_T: -0.0005\n")
+    scene = SCENES / "optical_paper_a_dry.yaml"
+    r = cli("predict", "traction", scene, tmp_path / "a.yaml", f"second={tmp_path / 'b.yaml'}",
+            tmp_path / "t.yaml", "--creepage", "0:4 %:9", "-o", tmp_path / "o")
+    assert r.exit_code == 0, r.output
+    t = pd.read_csv(tmp_path / "o" / "traction.csv")
+    assert list(t.columns[:3]) == ["curve", "creepage", "mu"]
+    assert set(t["curve"]) == {"Pa", "second"} and "mu_low95" in t
+    s = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert set(s["curves"]) == {"Pa", "second"}
+    for c in s["curves"].values():  # the temperature file applies to both
+        assert c["boundary"]["mu_c2_T"] == -0.0005 and c["band"]["method"] != "not computed"
+    hi = t[t["curve"] == "second"]["mu"].max()
+    assert hi > t[t["curve"] == "Pa"]["mu"].max()
+    assert (tmp_path / "o" / "traction.png").is_file() and "(2 curves)" in r.output
+    # one file after the scene: one curve, as before (no curve column)
+    r = cli("predict", "traction", scene, tmp_path / "a.yaml", "--creepage", "0:4 %:9",
+            "-o", tmp_path / "one", "--no-plot")
+    assert r.exit_code == 0 and "curve" not in pd.read_csv(tmp_path / "one" / "traction.csv")
+
+
+@pytest.mark.slow  # two lubricated curves with bands (several s); the overlay: the traction test
+def test_stribeck_curves_of_two_parameter_sets(cli, tmp_path):
+    from torlab.fit.result import FitResult
+
+    names = ("mu_c1", "mu_c2", "L_mue", "L_mup")
+    for tag, mu in (("a", 0.20), ("b", 0.26)):
+        v = np.array([0.6 * mu, mu, 6e-6, 12e-6])
+        FitResult.from_covariance("layer_hpt", names, v, np.diag((0.03 * v) ** 2), dof=20,
+                                  log_scale=names, residual_norm=1.0, n_points=100,
+                                  warnings=[], data=None).to_params(tmp_path / f"{tag}.yaml")
+    r = cli("predict", "stribeck", SCENES / "optical_paper_a_rough.yaml",
+            f"A={tmp_path / 'a.yaml'}", f"B={tmp_path / 'b.yaml'}", "--speed", "0.05:1:4", "-o",
+            tmp_path / "o", "--no-plot")
+    assert r.exit_code == 0, r.output
+    t = pd.read_csv(tmp_path / "o" / "stribeck.csv")
+    assert list(t.columns[:2]) == ["curve", "speed_m_s"] and set(t["curve"]) == {"A", "B"}
+    assert "mu_low95" in t and len(t) == 8
+    a, b = (t[t["curve"] == k]["mu"].to_numpy() for k in "AB")
+    assert np.all(b >= a)  # the stronger layer carries more where the asperities touch

@@ -177,6 +177,70 @@ def test_predict_retention_outputs_and_crossings(fitted, cli, tmp_path):
     assert "enters the band" in r.output and "leaves the band" in r.output
 
 
+def test_retention_figures_labs_report_follow_from_the_curve(fitted, cli, tmp_path):
+    """The effective friction level is the mean of the table's coefficient over the window,
+    the fraction in the band follows from the crossings (the coefficient only rises after
+    the application), the retentivity is the passes to leave the band; each with its
+    interval.  A named band preset and a fraction of dry work too."""
+    out, _ = fitted
+    r = cli("predict", "retention", TAB54, out / "params.yaml", "--amount", "100000 mg/m^2",
+            "--draws", "60", "--passes", "400", "-o", tmp_path / "p")
+    assert r.exit_code == 0, r.output
+    t = pd.read_csv(tmp_path / "p" / "retention.csv")
+    s = json.loads((tmp_path / "p" / "summary.json").read_text())
+    m = s["retention_metrics"]
+    assert m["window_passes"] == [0, 400] and m["band"] == [0.15, 0.25]
+    assert t["passes"].iloc[-1] == 400  # the window is the predicted range
+    mean = np.trapezoid(t["mu"], t["passes"]) / 400
+    assert m["effective_friction"]["value"] == pytest.approx(mean, rel=2e-3)
+    a, b = s["passes_to_enter_band"]["passes"], s["passes_to_leave_band"]["passes"]
+    assert m["fraction_in_band"]["value"] == pytest.approx((min(b, 400) - min(a, 400)) / 400,
+                                                           abs=2e-3)
+    assert m["retentivity"]["value"] == pytest.approx(b, rel=1e-9)
+    for k in ("effective_friction", "retentivity", "fraction_in_band"):
+        e = m[k]
+        assert e["low95"] <= e["value"] <= e["high95"], k
+    assert "effective friction level over passes 0–400" in r.output
+    r = cli("predict", "retention", TAB54, out / "params.yaml", "--amount", "100000 mg/m^2",
+            "--draws", "0", "--band", "intermediate", "--retentivity", "0.9", "--window",
+            "100:300", "-o", tmp_path / "q")
+    assert r.exit_code == 0, r.output
+    s = json.loads((tmp_path / "q" / "summary.json").read_text())
+    m = s["retention_metrics"]
+    assert s["band"] == [0.2, 0.35] and m["retentivity"]["level"] == pytest.approx(
+        0.9 * s["mu_dry"])
+    assert m["window_passes"] == [100, 300] and m["effective_friction"]["low95"] is None
+    r = cli("predict", "retention", TAB54, out / "params.yaml", "--amount", "100000 mg/m^2",
+            "--band", "thesiss", "-o", tmp_path / "r")
+    assert r.exit_code == 2 and "did you mean 'thesis'" in r.output
+
+
+def test_fit_removal_reports_each_tests_retention_figures(fitted):
+    out, output = fitted
+    s = json.loads((out / "summary.json").read_text())
+    for t in s["meta"]["tests"]:
+        m = t["retention_metrics"]
+        e = m["effective_friction"]
+        assert e["low95"] <= e["value"] <= e["high95"]
+        assert 0 <= m["fraction_in_band"]["value"] <= 1
+        assert "record's own noise" in m["holds"]
+    assert "(measured): effective friction level" in output
+
+
+def test_predict_retention_of_two_products_in_one_figure(fitted, cli, tmp_path):
+    """Two removal files: one labelled curve each, on one passes axis, in one long CSV."""
+    out, _ = fitted
+    r = cli("predict", "retention", TAB54, f"A={out / 'params.yaml'}",
+            f"B={out / 'params.yaml'}", "--amount", "100000 mg/m^2", "--draws", "0",
+            "-o", tmp_path / "p")
+    assert r.exit_code == 0, r.output
+    t = pd.read_csv(tmp_path / "p" / "retention.csv")
+    assert list(t.columns[:2]) == ["curve", "passes"] and set(t["curve"]) == {"A", "B"}
+    s = json.loads((tmp_path / "p" / "summary.json").read_text())
+    assert set(s["curves"]) == {"A", "B"}
+    assert (tmp_path / "p" / "retention.png").is_file()
+
+
 def test_predict_retention_volume_on_a_rail_and_time_axis(fitted, cli, tmp_path):
     out, _ = fitted
     r = cli("predict", "retention", TAB54, out / "params.yaml", "--amount", "4 uL",

@@ -119,3 +119,25 @@ def test_without_repeats_nothing_changes():
     before = dict(ev[("a", 1)])
     out = apply_repeats(ev, res, {("a", 1): "a"})
     assert out["repeated"] == {} and ev[("a", 1)] == before
+
+
+def test_measured_retention_figures_of_a_known_record():
+    """A coefficient rising linearly from 0.10 to 0.40 over 1000 passes with white noise:
+    the effective level is 0.25, a third of the passes lie in 0.15-0.25, and the running
+    median leaves the band at 500 passes; each within its interval."""
+    from torlab.reduce.time_test_uncertainty import measured_retention
+
+    rng = np.random.default_rng(7)
+    N = np.linspace(0, 1000, 2001)
+    mu = 0.10 + 0.30 * N / 1000 + 0.004 * rng.standard_normal(N.size)
+    m = measured_retention(N, mu, band=(0.15, 0.25), replicates=100)
+    e, f, r = m["effective_friction"], m["fraction_in_band"], m["retentivity"]
+    assert e["low95"] <= 0.25 <= e["high95"] and e["value"] == pytest.approx(0.25, abs=0.002)
+    assert f["value"] == pytest.approx(1 / 3, abs=0.01) and f["low95"] < f["high95"]
+    assert r["value"] == pytest.approx(500, abs=10) and r["low95"] <= r["value"] <= r["high95"]
+    d = measured_retention(N, mu, band=(0.15, 0.25), mu_dry=0.4, retentivity=0.9,
+                           replicates=0)
+    assert d["retentivity"]["level"] == pytest.approx(0.36)
+    assert d["retentivity"]["value"] == pytest.approx(867, abs=15)
+    never = measured_retention(N, np.full(N.size, 0.2), band=(0.15, 0.25), replicates=20)
+    assert never["retentivity"]["value"] is None and never["fraction_in_band"]["value"] == 1.0

@@ -624,13 +624,36 @@ def _layer_above(layer: Any, above: str | None) -> Any:
 
 
 def _band(band: Any) -> tuple[float, float]:
+    """A coefficient band: a preset name (``"thesis"``, ``"intermediate"``:
+    :data:`torlab.model.retention.BAND_PRESETS`), ``"LOW:HIGH"`` or ``(low, high)``."""
+    from torlab.model.retention import BAND_PRESETS
+
+    if isinstance(band, str) and ":" not in band:
+        from torlab.model.retention import retention_band
+
+        return retention_band(band)[0]
     if isinstance(band, str):
         parts = band.split(":")
         if len(parts) != 2:
-            raise TorlabInputError(f"{band!r}: write LOW:HIGH, e.g. 0.15:0.25", key="band")
+            raise TorlabInputError(f"{band!r}: write LOW:HIGH (e.g. 0.15:0.25) or a preset "
+                                   f"({', '.join(BAND_PRESETS)})", key="band")
         band = parts
     lo, hi = (_si(v, "dimensionless", "band") for v in band)
     return float(lo), float(hi)
+
+
+def _window(window: Any) -> tuple[float, float] | None:
+    """``"FIRST:LAST"`` passes (or a pair) of the effective friction level; None: all."""
+    if window is None:
+        return None
+    if isinstance(window, str):
+        parts = window.split(":")
+        if len(parts) != 2:
+            raise TorlabInputError(f"{window!r}: write FIRST:LAST passes, e.g. 0:5000",
+                                   key="window")
+        window = parts
+    a, b = (_si(v, "dimensionless", "window") for v in window)
+    return float(a), float(b)
 
 
 def predict_retention(scene: Any, params: Any, amount: Any, *, creepage: Any = "1 %",
@@ -638,9 +661,12 @@ def predict_retention(scene: Any, params: Any, amount: Any, *, creepage: Any = "
                       band: Any = (0.15, 0.25), band_length: Any = None,
                       track_radius: Any = None, pass_interval: Any = None, density: Any = None,
                       transfer: Any = None, n_draws: int = 200, seed: int = 0,
-                      points: int = 501, above: str | None = None) -> Any:
-    """The coefficient against axle passes after one application, with 95 % intervals, and
-    the passes until it enters and leaves the band (``docs/model/retention.md``).
+                      points: int = 501, above: str | None = None, window: Any = None,
+                      retentivity: Any = "band") -> Any:
+    """The coefficient against axle passes after one application, with 95 % intervals, the
+    passes until it enters and leaves the band, and the figures labs report: the effective
+    friction level, the retentivity and the fraction of passes in the band
+    (``docs/model/retention.md``).
 
     Parameters
     ----------
@@ -661,7 +687,15 @@ def predict_retention(scene: Any, params: Any, amount: Any, *, creepage: Any = "
         ``time`` (``"2 h"``) at ``speed`` (default the scene's); default until
         1.2 x the passes to the dry anchor.
     band
-        ``(low, high)`` or ``"0.15:0.25"``.
+        ``(low, high)``, ``"0.15:0.25"`` or a preset name (``"thesis"`` 0.15-0.25,
+        ``"intermediate"`` 0.20-0.35: :data:`torlab.model.retention.BAND_PRESETS`, with
+        where their numbers come from).
+    window
+        ``"FIRST:LAST"`` passes (or cycles of a disc) of the effective friction level and
+        the fraction in the band; default the predicted range.
+    retentivity
+        ``"band"`` (passes until mu leaves the band) or a fraction of the dry coefficient
+        (``0.9``: passes until mu returns to 90 % of dry).
     band_length, track_radius, pass_interval
         Rail length a volume or mass covers; a disc track's radius (then a pass
         is a revolution); time between passes on a rail (for a time axis).
@@ -716,7 +750,9 @@ def predict_retention(scene: Any, params: Any, amount: Any, *, creepage: Any = "
                     density=dens if dens is not None else rp.density,
                     transfer=_si(transfer, "dimensionless", "transfer"), band=_band(band),
                     n_draws=int(n_draws), seed=int(seed), points=int(points),
-                    pass_interval=dt, **kw)
+                    pass_interval=dt, window=_window(window),
+                    retentivity=retentivity if retentivity in (None, "band")
+                    else _si(retentivity, "dimensionless", "retentivity"), **kw)
     pred.summary["parameter_file"] = rp.source
     pred.summary["density_kg_m3"] = dens if dens is not None else rp.density
     return pred

@@ -689,14 +689,24 @@ def removal_cmd(
                      command=command_line())
     with dest:
         _write_removal(dest, res, xlsx=xlsx, formats=formats)
+    _print_removal(res)
+    console().print(f"wrote {', '.join(_FILES)}, law_selection.csv, amount_layer.csv/.png"
+                    f"{', tables.xlsx' if xlsx else ''} to {out}")
+
+
+def _print_removal(res: Any) -> None:
+    """The removal fit, its law choice, each test's measured retention figures, the notes."""
+    from torlab.reports.retention import metrics_text
+
     print_fit(res, f"Removal fit ({res.meta['law']}): {res.meta['source']}")
     print_table([{k: r[k] for k in ("law", "parameters", "aicc", "delta_aicc", "weight")}
                  for r in res.meta["law_selection"]], title="Law choice (AICc)",
                 formats={"aicc": ".1f", "delta_aicc": ".1f", "weight": ".3f"})
+    for t in res.meta.get("tests", []):
+        if t.get("retention_metrics"):
+            console().print(f"{t['label']} (measured): {metrics_text(t['retention_metrics'])}")
     for n in res.meta.get("notes", []):
         console().print(f"[yellow]note:[/yellow] {n}")
-    console().print(f"wrote {', '.join(_FILES)}, law_selection.csv, amount_layer.csv/.png"
-                    f"{', tables.xlsx' if xlsx else ''} to {out}")
 
 
 def _no_hpt_logs_among_time_tests(files: list[Path], hpt: list[str]) -> None:

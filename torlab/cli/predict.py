@@ -37,6 +37,84 @@ def _written(names: list[str]) -> str:
     return ", ".join(names)
 
 
+def _param_keys(path: Path) -> set[tuple[str, str]]:
+    """The scene keys a parameter file sets (``(section, key)``; its ``fit:`` provenance
+    aside)."""
+    from torlab.yamlio import load_yaml
+
+    d = load_yaml(path).data
+    out: set[tuple[str, str]] = set()
+    for sec, v in (d.items() if isinstance(d, dict) else []):
+        if sec == "fit":
+            continue
+        if isinstance(v, dict):
+            out |= {(str(sec), str(k)) for k in v}
+        else:
+            out.add((str(sec), ""))
+    return out
+
+
+def _curve_label(path: Path, taken: list[str]) -> str:
+    """A curve's label: the product of the fit behind its file, else its folder or stem."""
+    from torlab.yamlio import load_yaml
+
+    d = load_yaml(path).data
+    fit = d.get("fit") if isinstance(d, dict) else None
+    lab = ""
+    if isinstance(fit, dict) and fit.get("product"):
+        lab = str(fit["product"]) + (f"-{fit['condition']}" if fit.get("condition") else "")
+    if not lab or lab in taken:
+        lab = path.parent.name if path.stem == "params" and path.parent.name else path.stem
+    while lab in taken:
+        lab += "'"
+    taken.append(lab)
+    return lab
+
+
+def split_curves(args: list[Path]) -> tuple[list[Path], list[tuple[str, list[Path]]]]:
+    """The scene and parameter files of a prediction, and its curves.
+
+    ``LABEL=FILE`` arguments are curves (files under one label together make one curve);
+    unlabelled parameter files that set the same scene keys as another file (two layers,
+    two removal laws) are alternatives, one curve each; the others (a temperature fit
+    beside a layer) apply to every curve.  Returns every file (scene first, for the checks)
+    and the curves ``(label, files)``: empty when there is one curve (the files merged in
+    order, as before).
+    """
+    from torlab.errors import TorlabInputError
+
+    scene: list[Path] = []
+    labelled: dict[str, list[Path]] = {}
+    plain: list[Path] = []
+    for k, a in enumerate(args):
+        s = str(a)
+        lab, sep, rest = s.partition("=")
+        if k and sep and lab.strip() and not Path(s).exists():
+            labelled.setdefault(lab.strip(), []).append(Path(rest.strip()))
+        elif k == 0:
+            scene.append(Path(s))
+        else:
+            plain.append(Path(s))
+    every = [*scene, *plain, *(f for fs in labelled.values() for f in fs)]
+    files = require_files(every, "scene")
+    if not labelled and len(plain) < 2:
+        return files, []
+    keys = {f: _param_keys(f) for f in [*plain, *(g for fs in labelled.values() for g in fs)]}
+    alt = [f for f in plain if any(keys[f] & keys[g] for g in keys if g != f)]
+    common = [f for f in plain if f not in alt]
+    taken = list(labelled)
+    curves = [(lab, [*common, *fs]) for lab, fs in labelled.items()]
+    curves += [(_curve_label(f, taken), [*common, f]) for f in alt]
+    if len(curves) == 1 and not labelled:
+        return files, []
+    if not curves:
+        return files, []
+    if len(curves) > 12:
+        raise TorlabInputError(f"{len(curves)} curves: compare at most 12 in one figure",
+                               key="PARAMS")
+    return files, [(lab, [scene[0], *fs]) for lab, fs in curves]
+
+
 def register(root: typer.Typer) -> None:
     """Add the ``predict`` group to the root app."""
     root.add_typer(app, name="predict")
@@ -123,12 +201,16 @@ def traction_cmd(
     """
     from torlab.reports.render import early_drawing, parse_formats
 
-    files = require_files(scene, "scene")
+    files, curves = split_curves(scene)
     fmts = parse_formats(formats)
     if sweep is not None or amount is not None:
         return _sweep(files, out, force, fmts, creepage=creepage, seconds=sweep, amount=amount,
                       band_length=band_length, track_radius=track_radius,
                       pass_interval=pass_interval, above="hold" if hold_above else None)
+    if curves:
+        return _traction_overlay(files, curves, out, creepage, lateral, spin, force=force,
+                                 formats=None if no_plot else fmts, jobs=jobs,
+                                 scheduler=scheduler, quiet=quiet)
     # the figure's worker loads matplotlib while this process loads the scene and computes
     with early_drawing(not no_plot, jobs, scheduler) as drawer:
         pred, names = _traction(files, out, creepage, lateral, spin, force=force,
@@ -177,6 +259,59 @@ def _traction(files: list[Path], out: Path, creepage: str, lateral: str, spin: s
                        boundary=sc.boundary, title=f"Traction: {sc.name or files[0].stem}")
             names += write_figures(dest, [("traction", fig)], formats, executor=drawer)[0]
     return pred, names
+
+
+def _traction_overlay(files: list[Path], curves: list[tuple[str, list[Path]]], out: Path,
+                      creepage: str, lateral: str, spin: str, *, force: bool,
+                      formats: Sequence[str] | None, jobs: int | None, scheduler: str | None,
+                      quiet: bool) -> None:
+    """Several parameter sets: one labelled curve each, with its band, in one long CSV
+    (``curve`` first), one figure and one summary (``curves``)."""
+    import pandas as pd
+
+    from torlab.cli._common import parse_values, session
+    from torlab.model.predict import predict_traction
+    from torlab.outputs import OutputDir
+    from torlab.scene import load_scene
+
+    _no_retention_file(files)
+    xi = parse_values(creepage, "dimensionless", "--creepage", "creepage")
+    eta = float(parse_values(lateral, "dimensionless", "--lateral", "creepage")[0])
+    phi = float(parse_values(spin, "inverse_length", "--spin", "spin")[0])
+    scenes = [(lab, load_scene(*fs), fs) for lab, fs in curves]
+    dest = OutputDir(out, force=force, inputs=files, command=command_line())
+    names = ["traction.csv", "summary.json"]
+    preds = []
+    with dest, session(jobs, scheduler, quiet):
+        for lab, sc, _ in scenes:
+            if eta or phi:
+                from torlab.model.creep import predict_creep
+
+                preds.append((lab, predict_creep(sc, xi, eta, phi)))
+            else:
+                preds.append((lab, predict_traction(sc, xi)))
+        long = pd.concat([pd.DataFrame(p.table).assign(curve=lab) for lab, p in preds],
+                         ignore_index=True)
+        long = long[["curve", *[c for c in long.columns if c != "curve"]]]
+        dest.write_csv("traction.csv", long, allow_missing=tuple(
+            c for c in long.columns if c not in ("curve", "creepage", "mu")))
+        dest.write_json("summary.json", {
+            "curves": {lab: dict(p.summary, parameter_files=[str(f) for f in fs[1:]])
+                       for (lab, p), (_, _, fs) in zip(preds, scenes, strict=True)},
+            "creepage_range": [float(xi.min()), float(xi.max())], "n_points": int(xi.size)})
+        if formats is not None:
+            from torlab.reports.predict import traction_figure
+            from torlab.reports.render import plot, write_figures
+
+            fig = plot(traction_figure, [(lab, p.table) for lab, p in preds],
+                       title=f"Traction: {scenes[0][1].name or files[0].stem}, "
+                             f"{len(preds)} parameter sets")
+            names += write_figures(dest, [("traction", fig)], formats)[0]
+    for lab, p in preds:
+        console().print(f"[bold]{lab}[/bold] ({', '.join(f.name for f in dict(curves)[lab][1:])})")
+        _print_band(p.summary)
+        _print_trend(p)
+    console().print(f"wrote {_written(names)} ({len(preds)} curves) to {out}")
 
 
 def _print_trend(pred: Any) -> None:
@@ -274,7 +409,13 @@ def retention_cmd(
                                              "or a rail with --pass-interval).")] = None,
     speed: Annotated[str | None, typer.Option(help="Rolling speed (default the scene's).")]
     = None,
-    band: Annotated[str, typer.Option(help="The coefficient band LOW:HIGH.")] = "0.15:0.25",
+    band: Annotated[str, typer.Option(help="The coefficient band: a preset (thesis: 0.15-0.25, "
+                                      "intermediate: 0.20-0.35; docs/model/retention.md) or "
+                                      "LOW:HIGH.")] = "thesis",
+    window: Annotated[str | None, typer.Option(help="FIRST:LAST passes of the effective "
+                                               "friction level (default: all).")] = None,
+    retentivity: Annotated[str, typer.Option(help="'band' (until mu leaves it) or a fraction "
+                                             "of dry (0.9).")] = "band",
     band_length: Annotated[str | None, typer.Option(help="Rail length a volume or mass "
                                                     "covers ('20 mm').")] = None,
     track_radius: Annotated[str | None, typer.Option(help="Disc track radius: a closed track, "
@@ -298,13 +439,12 @@ def retention_cmd(
     energy_J_m2[, time_s]), summary.json (crossings with 95 % intervals, law, what was
     modelled), retention.png (--formats: also .svg/.pdf).
     """
-    from torlab.api import predict_retention
     from torlab.errors import TorlabInputError
     from torlab.outputs import OutputDir
     from torlab.reports.retention import write_retention
     from torlab.units import to_si
 
-    files = require_files(scene, "scene")
+    files, curves = split_curves(scene)  # several removal files: one curve each
     given = [k for k, v in (("--passes", passes), ("--cycles", cycles), ("--time", time)) if v]
     if len(given) > 1:
         raise TorlabInputError(f"give one of {', '.join(given)}", key=given[1])
@@ -313,17 +453,43 @@ def retention_cmd(
                                key="--cycles")
     n = passes or cycles
     with hold_above_hint(), option_keys(retention_cmd):
-        pred = predict_retention(
-            files[0], files[1:], amount, creepage=creepage, time=time, speed=speed, band=band,
-            passes=None if n is None else to_si(n, "dimensionless", where=given[0]),
-            band_length=band_length, track_radius=track_radius, pass_interval=pass_interval,
-            density=density, n_draws=draws, seed=seed, above="hold" if hold_above else None)
+        preds = _retention_predictions(
+            curves or [("", files)], None if n is None else to_si(
+                n, "dimensionless", where=given[0]), amount=amount, creepage=creepage,
+            time=time, speed=speed, band=band, band_length=band_length,
+            track_radius=track_radius, pass_interval=pass_interval, density=density,
+            n_draws=draws, seed=seed, above="hold" if hold_above else None, window=window,
+            retentivity=retentivity)
     axis = "time" if time else "cycles" if track_radius else "passes"
     with OutputDir(out, force=force, inputs=files, command=command_line()) as dest:
-        names = write_retention(dest, pred, axis=axis, formats=formats)
-    _print_modelled(pred.modelled, [])
-    _print_crossings(pred.summary)
+        from torlab.reports.retention import write_retention_overlay
+
+        names = write_retention_overlay(dest, preds, axis=axis, formats=formats, title=(
+            f"Retention of {len(preds)} products")) if curves else write_retention(
+            dest, preds[0][1], axis=axis, formats=formats)
+    for lab, pred in preds:
+        if lab:
+            console().print(f"[bold]{lab}[/bold]")
+        _print_modelled(pred.modelled, [])
+        _print_crossings(pred.summary)
     console().print(f"wrote {', '.join(names)} to {out}")
+
+
+def _retention_predictions(runs: list[tuple[str, list[Path]]], n_passes: Any, **kw: Any
+                           ) -> list[tuple[str, Any]]:
+    """One retention prediction per curve (scene first in its files); several on one passes
+    axis (the longest of their default ranges)."""
+    from torlab.api import predict_retention
+
+    def predict(fs: list[Path], n: Any) -> Any:
+        return predict_retention(fs[0], fs[1:], passes=n, **kw)
+
+    preds = [(lab, predict(fs, n_passes)) for lab, fs in runs]
+    if len(preds) > 1 and n_passes is None and kw.get("time") is None:
+        end = max(float(p.table["passes"].iloc[-1]) for _, p in preds)
+        preds = [(lab, p if float(p.table["passes"].iloc[-1]) == end else predict(fs, end))
+                 for (lab, p), (_, fs) in zip(preds, runs, strict=True)]
+    return preds
 
 
 def _print_crossings(s: dict) -> None:
@@ -336,6 +502,10 @@ def _print_crossings(s: dict) -> None:
         cr = s[key]
         c.print(f"mu {word} the band (crosses {cr['level']:g}): "
                 f"[bold]{crossing_text(cr)}[/bold] -- {cr['status']}")
+    if s.get("retention_metrics"):
+        from torlab.reports.retention import metrics_text
+
+        c.print(metrics_text(s["retention_metrics"]))
 
 
 @app.command("stribeck")
@@ -365,33 +535,27 @@ def stribeck_cmd(
     parameter file that carries its fit covariance: the 95 % bands of mu and the film
     thickness (mu_low95, mu_high95, film_thickness_low95_m ...) in the CSV and figure.
     """
-    import numpy as np
-
     from torlab.reports.render import early_drawing, parse_formats
 
-    files = require_files(scene, "scene")
+    files, curves = split_curves(scene)
     fmts = parse_formats(formats)
     # the figure's worker loads matplotlib while this process loads the scene and computes
     with early_drawing(not no_plot, jobs, scheduler) as drawer:
-        from torlab.cli._common import parse_values, session
+        from torlab.cli._common import session
         from torlab.errors import TorlabInputError
         from torlab.model.predict import predict_stribeck
         from torlab.outputs import OutputDir
         from torlab.scene import load_scene
 
-        sc = load_scene(*files)
+        sc = load_scene(*(curves[0][1] if curves else files))
         if sc.lubricant is None:
             raise TorlabInputError("a Stribeck curve needs a lubricated scene (lubricant: section)",
                                    path=files[0], key="lubricant")
-        v = parse_values(speed, "velocity", "--speed", "speed")
-        if log and ":" in speed and "," not in speed:
-            if v[0] <= 0:
-                raise TorlabInputError("log-spaced speeds must start above 0 (or use --linear)",
-                                       key="--speed")
-            v = np.geomspace(v[0], v[-1], v.size)
-        xi = parse_values(creepage, "dimensionless", "--creepage", "creepage")
-        if xi.size != 1:
-            raise TorlabInputError("give one creepage", key="--creepage")
+        v, xi = _stribeck_axes(speed, creepage, log)
+        if curves:
+            return _stribeck_overlay(files, curves, out, v, float(xi[0]), force=force,
+                                     formats=None if no_plot else fmts, jobs=jobs,
+                                     scheduler=scheduler, quiet=quiet)
         dest = OutputDir(out, force=force, inputs=files, command=command_line())
         names = ["stribeck.csv", "summary.json"]
         with dest, session(jobs, scheduler, quiet):
@@ -418,6 +582,65 @@ def stribeck_cmd(
 
         console().print(f"regime transitions: {_transition_words(s['transitions'])}")
     console().print(f"wrote {_written(names)} to {out}")
+
+
+def _stribeck_axes(speed: str, creepage: str, log: bool) -> tuple[Any, Any]:
+    """``--speed`` (log-spaced for start:stop:count with ``--log``) and the one ``--creepage``."""
+    import numpy as np
+
+    from torlab.cli._common import parse_values
+    from torlab.errors import TorlabInputError
+
+    v = parse_values(speed, "velocity", "--speed", "speed")
+    if log and ":" in speed and "," not in speed:
+        if v[0] <= 0:
+            raise TorlabInputError("log-spaced speeds must start above 0 (or use --linear)",
+                                   key="--speed")
+        v = np.geomspace(v[0], v[-1], v.size)
+    xi = parse_values(creepage, "dimensionless", "--creepage", "creepage")
+    if xi.size != 1:
+        raise TorlabInputError("give one creepage", key="--creepage")
+    return v, xi
+
+
+def _stribeck_overlay(files: list[Path], curves: list[tuple[str, list[Path]]], out: Path,
+                      v: Any, xi: float, *, force: bool, formats: Sequence[str] | None,
+                      jobs: int | None, scheduler: str | None, quiet: bool) -> None:
+    """Several parameter sets: one labelled Stribeck curve each, with its bands, in one long
+    CSV (``curve`` first), one figure and one summary (``curves``)."""
+    import pandas as pd
+
+    from torlab.cli._common import session
+    from torlab.model.predict import predict_stribeck
+    from torlab.outputs import OutputDir
+    from torlab.scene import load_scene
+
+    scenes = [(lab, load_scene(*fs), fs) for lab, fs in curves]
+    dest = OutputDir(out, force=force, inputs=files, command=command_line())
+    names = ["stribeck.csv", "summary.json"]
+    with dest, session(jobs, scheduler, quiet):
+        preds = [(lab, predict_stribeck(sc, v, xi)) for lab, sc, _ in scenes]
+        long = pd.concat([pd.DataFrame(p.table).assign(curve=lab) for lab, p in preds],
+                         ignore_index=True)
+        long = long[["curve", *[c for c in long.columns if c != "curve"]]]
+        dest.write_csv("stribeck.csv", long, allow_missing=tuple(
+            c for c in long.columns if c not in ("curve", "speed_m_s", "mu")))
+        dest.write_json("summary.json", {"curves": {
+            lab: dict(p.summary, parameter_files=[str(f) for f in fs[1:]])
+            for (lab, p), (_, _, fs) in zip(preds, scenes, strict=True)}})
+        if formats is not None:
+            from torlab.reports.predict import stribeck_overlay_figure
+            from torlab.reports.render import plot, write_figures
+
+            fig = plot(stribeck_overlay_figure, [(lab, p.table) for lab, p in preds],
+                       title=f"Stribeck curves: {scenes[0][1].name or files[0].stem}",
+                       creepage=xi)
+            names += write_figures(dest, [("stribeck", fig)], formats)[0]
+    for lab, p in preds:
+        s = p.summary
+        console().print(f"[bold]{lab}[/bold]: mu from {s['mu_min']:.4g} to {s['mu_max']:.4g}")
+        _print_band(s)
+    console().print(f"wrote {_written(names)} ({len(preds)} curves) to {out}")
 
 
 @app.command("table")

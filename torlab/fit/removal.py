@@ -94,6 +94,18 @@ def default_tribometer_scene(load: float = 18.0, speed: float = 1.0) -> Any:
 # ---------------------------------------------------------------------------------------------
 # preparation of one test
 # ---------------------------------------------------------------------------------------------
+def _measured_retention(p: Any) -> dict[str, Any]:
+    """A time test's retention figures as labs report them, from its record after the
+    application (:func:`torlab.reduce.time_test_uncertainty.measured_retention`, the
+    thesis's band 0.15-0.25); finite numbers or None."""
+    from torlab.fit.result import finite_tree
+    from torlab.model.retention import DEFAULT_BAND
+    from torlab.reduce.time_test_uncertainty import measured_retention
+
+    return finite_tree(measured_retention(p.N, p.mu, band=DEFAULT_BAND, mu_dry=p.mu_dry,
+                                          replicates=100))
+
+
 @dataclass
 class _Prepared:
     test: TimeTest
@@ -772,7 +784,8 @@ def fit_removal(tests: TimeTest | Sequence[TimeTest], layer: Any, scene: Any, *,
                    "initial_amount_mg_m2": p.m_applied / MG_M2, "band_area_m2": p.area,
                    "load_N": p.load, "speed_m_s": p.speed, "creepage": p.creepage,
                    "fit_from_s": p.skip, "samples_in_fit": int(np.count_nonzero(p.window)),
-                   "energy_at_end_J_m2": float(p.E[-1]), "passes_at_end": float(p.N[-1])}
+                   "energy_at_end_J_m2": float(p.E[-1]), "passes_at_end": float(p.N[-1]),
+                   "retention_metrics": _measured_retention(p)}
                   for p in preps],
         "notes": notes,
         "source": ", ".join(p.test.label for p in preps),

@@ -478,17 +478,20 @@ class PassesSolution:
         out = (m1 + a / s) * np.exp(-s * dN) - a / s if s > 0 else m1 - a * dN
         return np.maximum(out, 0.0)
 
-    def crossing(self, level: float) -> tuple[np.ndarray, np.ndarray]:
+    def crossing(self, level: Any) -> tuple[np.ndarray, np.ndarray]:
         """Passes (and amount, kg/m^2) at which ``mu`` first reaches ``level`` rising.
 
         0 where ``mu`` starts at or above ``level``; ``inf`` (amount NaN) where it
         never does (no removal, or a dry coefficient below ``level``).  ``mu`` is
         constant below the dry anchor, so a crossing, if any, lies above it.
+        ``level`` is one coefficient or one per draw.
         """
         D = self.n_draws
         Nc = np.full(D, np.inf)
         mc = np.full(D, np.nan)
+        levels = np.broadcast_to(np.asarray(level, dtype=float), (D,))
         for d in range(D):
+            level = float(levels[d])
             xs, mus, Ns, _ = self.curves[d]
             if mus[0] >= level:
                 Nc[d], mc[d] = 0.0, self.m0[d]

@@ -50,15 +50,67 @@ from torlab.model.removal import (
 )
 
 __all__ = [
+    "BAND_PRESETS",
     "RetentionPrediction",
     "SweepPrediction",
     "predict_retention",
     "propagate_draws",
     "removal_draws",
+    "retention_band",
+    "retention_metrics",
     "simulate_sweep",
 ]
 
 DEFAULT_BAND = (0.15, 0.25)
+
+#: named coefficient bands: name -> (low, high, where the numbers come from).  The twin-disc
+#: practice for rail friction materials (EN 15427-2-1, Annex H; CEN/TS 15427-2-2 for
+#: top-of-rail materials) reports an effective friction level and a retentivity; the band
+#: a product should hold depends on its class, and these values are the thesis's or a
+#: convention, not numbers of those documents.
+BAND_PRESETS: dict[str, tuple[float, float, str]] = {
+    "thesis": (0.15, 0.25, "the thesis's optimal band for top-of-rail products (ch. 6): low "
+                           "enough to cut wear and noise, high enough for traction and braking"),
+    "intermediate": (0.20, 0.35, "a convention for drying top-of-rail friction modifiers, which "
+                                 "are held at an intermediate friction above the thesis's band; "
+                                 "the numbers are a common choice, not a standard's"),
+}
+#: the default retentivity: passes until mu leaves the band (rises above its upper bound)
+RETENTIVITY_BAND = "band"
+
+
+def retention_band(band: Any) -> tuple[tuple[float, float], str]:
+    """A band from a preset name (:data:`BAND_PRESETS`), ``"LOW:HIGH"`` or ``(low, high)``:
+    ``((low, high), what it is)``.
+
+    Raises
+    ------
+    TorlabInputError
+        An unknown name, not two increasing positive numbers.
+    """
+    from torlab._suggest import did_you_mean
+
+    if isinstance(band, str) and ":" not in band:
+        name = band.strip().lower()
+        if name not in BAND_PRESETS:
+            raise TorlabInputError(f"{band!r} is not a band preset ({', '.join(BAND_PRESETS)}) "
+                                   f"nor LOW:HIGH{did_you_mean(name, list(BAND_PRESETS))}",
+                                   key="band")
+        lo, hi, why = BAND_PRESETS[name]
+        return (lo, hi), f"{name}: {lo:g}-{hi:g} ({why})"
+    if isinstance(band, str):
+        parts = band.split(":")
+        if len(parts) != 2:
+            raise TorlabInputError(f"{band!r}: write LOW:HIGH, e.g. 0.15:0.25", key="band")
+        try:
+            band = (float(parts[0]), float(parts[1]))
+        except ValueError:
+            raise TorlabInputError(f"{band!r}: write LOW:HIGH, e.g. 0.15:0.25", key="band") from None
+    lo, hi = (float(v) for v in band)
+    if not (0 < lo < hi and math.isfinite(hi)):
+        raise TorlabInputError(f"band must be two increasing positive coefficients, got "
+                               f"{lo:g}:{hi:g}", key="band")
+    return (lo, hi), f"{lo:g}-{hi:g} (given)"
 #: probability over the parameter draws that a crossing (or its absence) needs to be stated;
 #: below it the crossing's status is "undetermined" with the probability
 CROSSING_PROBABILITY = 0.9
@@ -245,7 +297,8 @@ def predict_retention(scene: Any, layer: Any, removal: Any, amount: Any, *, cree
                       passes: Any = None, n_passes: float | None = None, points: int = 501,
                       band: tuple[float, float] = DEFAULT_BAND, confidence: float = 0.95,
                       n_draws: int = 200, seed: int = 0, per_interval: int = 6,
-                      pass_interval: float | None = None) -> RetentionPrediction:
+                      pass_interval: float | None = None, window: Any = None,
+                      retentivity: Any = RETENTIVITY_BAND) -> RetentionPrediction:
     """Coefficient against passes after one application, with intervals (module docstring).
 
     Parameters
@@ -285,6 +338,12 @@ def predict_retention(scene: Any, layer: Any, removal: Any, amount: Any, *, cree
         Friction-table nodes per interval between tested amounts.
     pass_interval
         Time between passes (s) on a rail, for a ``time_s`` column.
+    window
+        ``(first, last)`` passes of the effective friction level and the fraction of
+        passes in the band (:func:`retention_metrics`); default the predicted range.
+    retentivity
+        ``"band"`` (default): passes until mu leaves the band; a fraction ``f``: passes
+        until mu returns to ``f`` times the dry coefficient.
 
     Raises
     ------
@@ -359,6 +418,11 @@ def predict_retention(scene: Any, layer: Any, removal: Any, amount: Any, *, cree
     else:
         cols["mu_low95"] = cols["mu_high95"] = np.full(Nq.size, np.nan)
         notes.append("no parameter draws (n_draws=0): no intervals")
+    metrics = retention_metrics(central, dsol if node_draws is not None else None,
+                                table.mu_dry[0], mu_nodes[0] if node_draws is not None else None,
+                                band, window=window if window is not None else
+                                (0.0, float(Nq.max())), retentivity=retentivity,
+                                confidence=confidence)
     cols["energy_J_m2"] = E[:, 0]
     dt = bnd.pass_interval(sc.kinematics.speed) if pass_interval is None else float(pass_interval)
     if dt is not None:
@@ -396,6 +460,7 @@ def predict_retention(scene: Any, layer: Any, removal: Any, amount: Any, *, cree
         "energy_per_pass_initial_J_m2": float(energy_per_pass(mu[0, 0], F, creepage, bnd.width)),
         "passes_to_dry_anchor": _num(central.N_dry[0]),
         **crossings,
+        "retention_metrics": metrics,
         "confidence": confidence,
         "n_draws": int(n_draws),
         "uncertainty": ("parameter draws: layer (each tested amount's fit; boundary model "
@@ -410,6 +475,104 @@ def predict_retention(scene: Any, layer: Any, removal: Any, amount: Any, *, cree
         "friction_evaluations": int(table.n_evaluations),
     }
     return RetentionPrediction(table=out, summary=summary, modelled=modelled, notes=notes)
+
+
+def retention_metrics(central: Any, draws: Any, mu_dry: float, mu_dry_draws: Any,
+                      band: tuple[float, float], *, window: tuple[float, float],
+                      retentivity: Any = RETENTIVITY_BAND, confidence: float = 0.95,
+                      n_grid: int = 2001) -> dict[str, Any]:
+    """The retention figures labs report (EN 15427-2-1 Annex H; CEN/TS 15427-2-2), each with
+    its interval from the parameter draws.
+
+    * **effective friction level**: the mean coefficient over the window of passes
+      (trapezoidal mean on ``n_grid`` passes);
+    * **retentivity**: passes until the coefficient leaves the band (rises above its
+      upper bound; ``retentivity="band"``), or until it returns to a fraction ``f`` of the
+      dry coefficient (``retentivity=f``, each draw with its own dry coefficient); infinite
+      where it never does within the model (no removal), reported as never;
+    * **fraction of passes in the band** over the window.
+
+    Parameters
+    ----------
+    central, draws
+        :class:`~torlab.model.removal.PassesSolution` at the estimate and of the draws
+        (None: no intervals).
+    mu_dry, mu_dry_draws
+        Dry coefficient at the estimate and per draw.
+    band
+        ``(low, high)``.
+    window
+        ``(first, last)`` passes.
+    retentivity, confidence, n_grid
+        As above; interval level; passes of the window's grid.
+
+    Returns
+    -------
+    dict
+        ``effective_friction``, ``retentivity``, ``fraction_in_band``: each ``value``,
+        ``low95``, ``high95`` (None without draws or where infinite); the retentivity's
+        ``definition``, ``level`` and ``p_reached`` (share of draws where it happens);
+        ``window_passes``; ``holds``.
+
+    Raises
+    ------
+    TorlabInputError
+        A window that is not two increasing non-negative numbers, a fraction of dry
+        outside (0, 1].
+    """
+    a, b = (float(v) for v in window)
+    if not (0 <= a < b and math.isfinite(b)):
+        raise TorlabInputError(f"window must be two increasing non-negative pass counts, got "
+                               f"{a:g}:{b:g}", key="window")
+    grid = np.linspace(a, b, int(n_grid))
+
+    def stats(sol: Any) -> tuple[np.ndarray, np.ndarray]:
+        _, mu, _ = sol.at(grid)                      # (n_grid, D)
+        eff = np.trapezoid(mu, grid, axis=0) / (b - a)
+        inside = ((mu >= band[0]) & (mu <= band[1])).astype(float)
+        frac = np.trapezoid(inside, grid, axis=0) / (b - a)
+        return eff, frac
+
+    if retentivity == RETENTIVITY_BAND or retentivity is None:
+        level, level_d = band[1], band[1]
+        definition = f"passes until mu leaves the band (rises above {band[1]:g})"
+    else:
+        f = float(retentivity)
+        if not (0 < f <= 1):
+            raise TorlabInputError(f"retentivity: a fraction of the dry coefficient in (0, 1], "
+                                   f"got {f:g}", key="retentivity")
+        level = f * float(mu_dry)
+        level_d = f * np.asarray(mu_dry_draws, dtype=float) if mu_dry_draws is not None \
+            else level
+        definition = f"passes until mu returns to {f:g} of dry ({level:.4g})"
+    eff0, frac0 = stats(central)
+    ret0 = float(central.crossing(level)[0][0])
+
+    def entry(v: float, d: Any = None, log: bool = False) -> dict[str, Any]:
+        e: dict[str, Any] = {"value": _num(v), "low95": None, "high95": None}
+        if d is not None:
+            lo, hi = propagate_draws(np.asarray(d, dtype=float), confidence=confidence)
+            e["low95"], e["high95"] = _num(lo), _num(hi)
+        return e
+
+    out: dict[str, Any] = {
+        "effective_friction": entry(float(eff0[0])),
+        "retentivity": {**entry(ret0), "definition": definition, "level": float(level)},
+        "fraction_in_band": entry(float(frac0[0])),
+        "window_passes": [a, b], "band": list(band), "confidence": confidence,
+        "holds": ("the parameter draws of the layer and the removal law (the fits' "
+                  "uncertainty, the scatter between runs where a fit pooled repeats)")
+        if draws is not None else "the estimate alone (no parameter draws)"}
+    if draws is not None:
+        eff, frac = stats(draws)
+        Nc, _ = draws.crossing(level_d)
+        out["effective_friction"] = entry(float(eff0[0]), eff)
+        out["fraction_in_band"] = entry(float(frac0[0]), frac)
+        out["retentivity"].update(entry(ret0, Nc))
+        out["retentivity"]["p_reached"] = float(np.mean(np.isfinite(Nc)))
+    if not math.isfinite(ret0):
+        out["retentivity"]["note"] = "never within the model (no removal, or dry below the level)"
+    return out
 
 
 def _below_tested(m0: float, layer: Any) -> list[str]:

@@ -522,7 +522,23 @@ def _check_params(v: list[str]) -> list[str]:
 ParamSets = Annotated[list[str], AfterValidator(_check_params)]
 
 
+def _listify_pair(v: Any) -> Any:
+    """``[first, last]`` -> a pair (two numbers)."""
+    if isinstance(v, list):
+        if len(v) != 2:
+            raise ValueError(f"give two values [first, last], got {len(v)}")
+        return tuple(v)
+    return v
+
+
 def _pair(v: Any) -> Any:
+    if isinstance(v, str):  # a band preset (thesis, intermediate) or LOW:HIGH
+        from torlab.model.retention import retention_band
+
+        try:
+            return retention_band(v)[0]
+        except TorlabInputError as e:
+            raise ValueError(e.message) from None
     if isinstance(v, list):
         if len(v) != 2:
             raise ValueError(f"give two values [low, high], got {len(v)}")
@@ -719,6 +735,11 @@ class RetentionPredictionSpec(_Model):
     passes: float | None = Field(default=None, gt=0, le=1e9)
     draws: int = Field(default=200, ge=0, le=5000)
     seed: int = 0
+    #: passes (cycles of a disc) of the effective friction level and the fraction in the
+    #: band, [first, last]; default the predicted range
+    window: Annotated[tuple[float, float], BeforeValidator(_listify_pair)] | None = None
+    #: "band" (passes until mu leaves the band) or a fraction of the dry coefficient
+    retentivity: Literal["band"] | Annotated[float, Field(gt=0, le=1)] = "band"
 
     @model_validator(mode="after")
     def _check(self) -> RetentionPredictionSpec:

@@ -47,7 +47,7 @@ from typing import Any
 import numpy as np
 
 __all__ = ["MEAN_BATCHES", "REPEAT_FIGURES", "TIME_TEST_PROBABILITY", "apply_repeats",
-           "hac_mean", "repeat_scatter", "time_test_uncertainty"]
+           "hac_mean", "measured_retention", "repeat_scatter", "time_test_uncertainty"]
 
 #: probability a time-test verdict (recovered, in the band) needs to be called
 TIME_TEST_PROBABILITY = 0.9
@@ -340,3 +340,102 @@ def apply_repeats(evidence: dict[Any, dict[str, Any]], results: dict[Any, Any],
 def _band_verdict(p_in: float, probability: float) -> str:
     return ("in band" if p_in >= probability else "outside the band" if 1 - p_in >= probability
             else "undetermined")
+
+
+# ---------------------------------------------------------------------------------------------
+# a time test after application in the shape labs report (retention)
+# ---------------------------------------------------------------------------------------------
+def measured_retention(passes: np.ndarray, mu: np.ndarray, *, band: tuple[float, float],
+                       mu_dry: float | None = None, retentivity: Any = "band",
+                       smooth: int = 21, replicates: int = 200, seed: int = 0
+                       ) -> dict[str, Any]:
+    """The retention figures of one measured test after application (the shape of
+    EN 15427-2-1 Annex H; CEN/TS 15427-2-2), each with its 95 % interval from the record.
+
+    * **effective friction level**: the mean coefficient over the test from the
+      application on, Student t on its batch-means standard error (:func:`hac_mean`);
+    * **fraction of the passes in the band**: the mean of the in-band indicator, its
+      interval likewise (batch means of the indicator);
+    * **retentivity**: the passes (disc revolutions) until the running median of the
+      coefficient leaves the band (rises above its upper bound) or, with a fraction ``f``,
+      returns to ``f`` times ``mu_dry``; its interval from a moving-block bootstrap of the
+      record's scatter about that median (as the time-test figures); None (never) where
+      the record does not get there.
+
+    Parameters
+    ----------
+    passes, mu
+        Passes since the application and the coefficient.
+    band
+        ``(low, high)``.
+    mu_dry
+        The dry coefficient (for ``retentivity`` as a fraction).
+    retentivity
+        ``"band"`` or a fraction of dry.
+    smooth
+        Samples of the running median.
+    replicates, seed
+        Block-bootstrap replicates of the retentivity and their seed.
+
+    Returns
+    -------
+    dict
+        ``effective_friction``, ``fraction_in_band``, ``retentivity`` (``value``, ``low95``,
+        ``high95``; the retentivity's ``definition``, ``level``, ``p_reached``),
+        ``window_passes``, ``band``, ``holds``.
+    """
+    from torlab._stats import t_ppf
+    from torlab.reduce.mtm import running_median
+
+    N = np.asarray(passes, dtype=float)
+    y = np.asarray(mu, dtype=float)
+    ok = np.isfinite(N) & np.isfinite(y)
+    N, y = N[ok], y[ok]
+
+    def mean_entry(v: np.ndarray) -> dict[str, Any]:
+        m, se, dof = hac_mean(v)
+        if not math.isfinite(se):
+            return {"value": m, "low95": None, "high95": None}
+        tq = float(t_ppf(0.975, dof))
+        return {"value": m, "low95": m - tq * se, "high95": m + tq * se}
+
+    if retentivity == "band" or retentivity is None:
+        level, definition = band[1], f"passes until mu leaves the band (rises above {band[1]:g})"
+    else:
+        if mu_dry is None:
+            raise ValueError("retentivity as a fraction of dry needs the dry coefficient")
+        level = float(retentivity) * float(mu_dry)
+        definition = f"passes until mu returns to {float(retentivity):g} of dry ({level:.4g})"
+    inside = ((y >= band[0]) & (y <= band[1])).astype(float)
+    med = running_median(y, smooth)
+
+    def first_above(s: np.ndarray) -> float:
+        hit = np.flatnonzero(s > level)
+        return float(N[hit[0]]) if hit.size else math.inf
+
+    r0 = first_above(med)
+    rets = []
+    r = y - med
+    if replicates > 0 and r.size >= 8:
+        L = _block_length(r, smooth)
+        rng = np.random.default_rng(seed)
+        nb = math.ceil(r.size / L)
+        for _ in range(int(replicates)):
+            starts = rng.integers(0, r.size, size=nb)
+            idx = (starts[:, None] + np.arange(L)[None, :]).ravel()[:r.size] % r.size
+            rets.append(first_above(running_median(med + r[idx], smooth)))
+    ret: dict[str, Any] = {"value": r0 if math.isfinite(r0) else None, "low95": None,
+                           "high95": None, "definition": definition, "level": float(level)}
+    if rets:
+        a = np.asarray(rets)
+        # "never" ranks above every number (a stand-in keeps the quantiles' arithmetic finite)
+        lo, hi = (math.inf if v >= 1e300 else float(v)
+                  for v in np.quantile(np.where(np.isfinite(a), a, 1e300), [0.025, 0.975]))
+        ret.update(low95=float(lo) if math.isfinite(lo) else None,
+                   high95=float(hi) if math.isfinite(hi) else None,
+                   p_reached=float(np.mean(np.isfinite(a))))
+    return {"effective_friction": mean_entry(y), "fraction_in_band": mean_entry(inside),
+            "retentivity": ret, "window_passes": [float(N[0]), float(N[-1])],
+            "band": list(band),
+            "holds": "the record's own noise (batch means; block bootstrap of the scatter about "
+                     "its running median); one test: not the scatter between tests"}

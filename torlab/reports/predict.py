@@ -9,7 +9,8 @@ import numpy as np
 
 from torlab.reports.plotting import subplots
 
-__all__ = ["REGIME_COLOURS", "shade_regimes", "stribeck_figure", "traction_figure"]
+__all__ = ["REGIME_COLOURS", "shade_regimes", "stribeck_figure", "stribeck_overlay_figure",
+           "traction_figure"]
 
 #: Background colours of the lubrication regimes on Stribeck figures.
 REGIME_COLOURS = {"boundary": "#f4cccc", "mixed": "#fff2cc", "full_film": "#d9ead3",
@@ -165,4 +166,49 @@ def stribeck_figure(table: Any, *, title: str = "", creepage: float | None = Non
     ax_sh.set_ylim(-0.02, 1.02)
     ax_sh.set_ylabel("asperity load\n" + axis_label("share F_BL/F", ""))
     ax_sh.set_xlabel(axis_label("rolling speed", "v", "m/s"))
+    return fig
+
+
+def stribeck_overlay_figure(curves: Sequence[tuple[str, Any]], *, title: str = "",
+                            creepage: float | None = None) -> Any:
+    """Several Stribeck curves: ``mu`` (top) and the central film thickness (bottom)
+    against speed, one colour per labelled curve, each with its 95 % bands where the
+    table has them.
+
+    Parameters
+    ----------
+    curves
+        ``(label, table)`` pairs of :func:`torlab.model.predict.predict_stribeck` tables.
+    title, creepage
+        Figure title (the creepage appended).
+    """
+    from torlab.reports.plotting import axis_label, band, colours, legend
+
+    fig, (ax_mu, ax_h) = subplots(2, 1, sharex=True, figsize=(7.0, 6.4), height_ratios=[2, 1.3])
+    col = colours([lab for lab, _ in curves])
+    for label, table in curves:
+        t = _columns(table)
+        keep = np.asarray(t["speed_m_s"], dtype=float) > 0
+        v = np.asarray(t["speed_m_s"], dtype=float)[keep]
+        c = col[label]
+        ax_mu.plot(v, np.asarray(t["mu"], dtype=float)[keep], lw=1.7, color=c, label=label)
+        if "mu_low95" in t and "mu_high95" in t:
+            band(ax_mu, v, np.asarray(t["mu_low95"], dtype=float)[keep],
+                 np.asarray(t["mu_high95"], dtype=float)[keep], color=c,
+                 label=f"{label}: 95 % band (fit uncertainty)")
+        h = np.asarray(t["film_thickness_m"], dtype=float)[keep] * 1e9
+        ax_h.plot(v, h, lw=1.5, color=c)
+        if "film_thickness_low95_m" in t and "film_thickness_high95_m" in t:
+            band(ax_h, v, np.asarray(t["film_thickness_low95_m"], dtype=float)[keep] * 1e9,
+                 np.asarray(t["film_thickness_high95_m"], dtype=float)[keep] * 1e9, color=c)
+    for ax in (ax_mu, ax_h):
+        ax.set_xscale("log")
+    ax_h.set_yscale("log")
+    ax_mu.set_ylabel(axis_label("traction coefficient", "μ"))
+    ax_h.set_ylabel(axis_label("central film", "h_c", "nm"))
+    ax_h.set_xlabel(axis_label("rolling speed", "v", "m/s"))
+    ttl = title + (f" (creepage {100 * creepage:g} %)" if creepage is not None else "")
+    if ttl:
+        ax_mu.set_title(ttl)
+    legend(ax_mu)
     return fig

@@ -199,6 +199,63 @@ def _trend(s: dict[str, Any], col: str) -> str:
     return str(tr.get("trend", ""))
 
 
+def retention_overlay_figure(curves: list[tuple[str, Any]], *, band: Any, axis: str = "passes",
+                             title: str = "") -> Any:
+    """Several products' coefficient against passes after one application: one colour per
+    labelled curve with its 95 % interval shaded, the band marked.
+
+    Parameters
+    ----------
+    curves
+        ``(label, table)`` pairs of retention tables (``passes``, ``mu``, ``mu_low95``,
+        ``mu_high95`` [, ``time_s``]).
+    band
+        ``(low, high)``.
+    axis, title
+        As :func:`retention_figure`.
+    """
+    from torlab.reports.plotting import colours
+
+    fig, ax = subplots(figsize=(7.5, 4.8))
+    col = colours([lab for lab, _ in curves])
+    lo, hi = band
+    ax.axhspan(lo, hi, color="#d9ead3", alpha=0.6, lw=0, label=f"band {lo:g}–{hi:g}")
+    xlabel = ""
+    for label, t in curves:
+        x, xlabel = _xaxis(t, axis)
+        c = col[label]
+        if t["mu_low95"].notna().all():
+            ax.fill_between(x, t["mu_low95"], t["mu_high95"], color=c, alpha=0.2, lw=0,
+                            label=f"{label}: 95 % interval")
+        ax.plot(x, t["mu"], color=c, lw=1.8, label=label)
+    ax.set_ylabel("traction coefficient μ (–)")
+    ax.set_xlabel(xlabel)
+    ax.set_ylim(bottom=0)
+    if title:
+        ax.set_title(title)
+    legend(ax)
+    return fig
+
+
+def write_retention_overlay(dest: Any, preds: list[tuple[str, Any]], *, axis: str = "passes",
+                            title: str = "", formats: Any = None) -> list[str]:
+    """Several products' predictions: one long ``retention.csv`` (``curve`` first), one
+    ``summary.json`` (``curves``) and one figure."""
+    import pandas as pd
+
+    from torlab.reports.render import parse_formats, write_figures
+
+    long = pd.concat([p.table.assign(curve=lab) for lab, p in preds], ignore_index=True)
+    long = long[["curve", *[c for c in long.columns if c != "curve"]]]
+    dest.write_csv("retention.csv", long, allow_missing=("mu_low95", "mu_high95"))
+    dest.write_json("summary.json", {"curves": {lab: p.summary for lab, p in preds}})
+    band = preds[0][1].summary["band"]
+    names, _ = write_figures(dest, [("retention", plot(
+        retention_overlay_figure, [(lab, p.table) for lab, p in preds], band=band, axis=axis,
+        title=title))], parse_formats(formats))
+    return ["retention.csv", *names, "summary.json"]
+
+
 # --------------------------------------------------------------------------- command outputs
 def write_retention(dest: Any, pred: Any, *, axis: str = "passes", title: str = "",
                     formats: Any = None) -> list[str]:
@@ -245,6 +302,27 @@ def _crossing_rows(summary: dict[str, Any]) -> list[dict[str, Any]]:
 
 def _nan(v: Any) -> float:
     return float("nan") if v is None else float(v)
+
+
+def metrics_text(m: dict[str, Any]) -> str:
+    """The retention figures labs report, in words: effective friction level, retentivity and
+    fraction of passes in the band, each with its 95 % interval."""
+    def iv(e: dict[str, Any], fmt: str) -> str:
+        if e.get("value") is None:
+            return "never"
+        lo, hi = e.get("low95"), e.get("high95")
+        rng = "" if lo is None else (f" (95 %: {format(lo, fmt)}–"
+                                     f"{'open' if hi is None else format(hi, fmt)})")
+        return format(e["value"], fmt) + rng
+
+    a, b = m["window_passes"]
+    r = m["retentivity"]
+    reached = f", reached in {100 * r['p_reached']:.0f} % of the draws" \
+        if r.get("p_reached") is not None and r["p_reached"] < 1 else ""
+    return (f"effective friction level over passes {a:.4g}–{b:.4g}: "
+            f"{iv(m['effective_friction'], '.4f')}; retentivity ({r['definition']}): "
+            f"{iv(r, '.4g')} passes{reached}; fraction of those passes in the band "
+            f"{m['band'][0]:g}–{m['band'][1]:g}: {iv(m['fraction_in_band'], '.3f')}")
 
 
 def crossing_text(cr: dict[str, Any]) -> str:
@@ -306,6 +384,11 @@ def retention_section(product: str, fit: Any, layer: Any, pred: Any, sweep: Any 
             if s["passes_to_enter_band"].get("above_band_at_application") else
             f"entered after {crossing_text(s['passes_to_enter_band'])}, left after "
             f"{crossing_text(s['passes_to_leave_band'])}."),
+        "As labs report it (the twin-disc practice of EN 15427-2-1, Annex H, and CEN/TS "
+        "15427-2-2): " + metrics_text(s["retention_metrics"]) + ".",
+        *(f"Measured, {t['label']} (after the application): "
+          f"{metrics_text(t['retention_metrics'])}." for t in fit.meta.get("tests", [])
+          if t.get("retention_metrics")),
         "Modelled: " + "; ".join(m for m in s["modelled"] if m not in pred.notes) + ".",
     ]
     figs = [Figure("removal_fit", plot(removal_figure, fit),
@@ -328,7 +411,8 @@ def retention_section(product: str, fit: Any, layer: Any, pred: Any, sweep: Any 
         "tested_amounts_mg_m2": s["tested_amounts_mg_m2"],
         "prediction": {k: s[k] for k in (
             "scene", "creepage", "band", "applied", "initial_amount_mg_m2", "mu_initial",
-            "mu_dry", "passes_to_dry_anchor", "passes_to_enter_band", "passes_to_leave_band")},
+            "mu_dry", "passes_to_dry_anchor", "passes_to_enter_band", "passes_to_leave_band",
+            "retention_metrics")},
     }
     tables = [
         Table("removal_fit", fit.table(), "Removal law: parameters, standard errors and 95 % "
