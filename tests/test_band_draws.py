@@ -16,7 +16,7 @@ import pytest
 
 from tests.conftest import ROOT
 from torlab.errors import NumericalError
-from torlab.model.bands import _DryTractionModel, _MixedTractionModel, traction_band
+from torlab.model.bands import DryTractionModel, MixedTractionModel, traction_band
 from torlab.model.fastsim import (
     FastsimGrid,
     FastsimProblem,
@@ -84,7 +84,7 @@ def _dry(thermal: bool):
     prob = fastsim_problem(sc)
     if not thermal:
         prob = replace(prob, thermal=None)
-    return _DryTractionModel(prob, fastsim_grid(sc), XI,
+    return DryTractionModel(prob, fastsim_grid(sc), XI,
                              ("mu", "max_temperature_C") if thermal else ("mu",))
 
 
@@ -168,11 +168,11 @@ def _lubricated(**over) -> dict:
     return d
 
 
-def _mixed_model(d: dict) -> _MixedTractionModel:
+def _mixed_model(d: dict) -> MixedTractionModel:
     sc = scene_from_dict(d)
     table = traction_curve(sc, XI).table
     outs = tuple(k for k in ("mu", "film_thickness_m", "max_temperature_C") if k in table)
-    return _MixedTractionModel(mixed_traction_curve, sc, XI, (), outs)
+    return MixedTractionModel(mixed_traction_curve, sc, XI, (), outs)
 
 
 def test_mixed_draws_equal_the_whole_prediction_one_by_one():
@@ -240,7 +240,7 @@ def test_traction_band_of_a_lubricated_scene_equals_the_row_by_row_band():
 
     su = scene_uncertainty(sc)
     a = traction_band(sc, XI, table, su, method="sampling", n_samples=45)
-    model = _MixedTractionModel(mixed_traction_curve, sc, XI, (), ("mu", "film_thickness_m"))
+    model = MixedTractionModel(mixed_traction_curve, sc, XI, (), ("mu", "film_thickness_m"))
     b = propagate(_RowByRow(model), su.dist, method="sampling", n_samples=45,
                   f0={k: table[k].to_numpy() for k in ("mu", "film_thickness_m")})
     for k in ("mu", "film_thickness_m"):

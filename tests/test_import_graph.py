@@ -206,6 +206,31 @@ def test_the_floor_check_sees_an_upward_import():
     assert _layer("torlab.cli.fit") == len(LAYERS) - 1
 
 
+def _room(module: str) -> str:
+    """The room of a module: a top-level module, or the first-level package it is in."""
+    parts = module.split(".")
+    return ".".join(parts[:2]) if len(parts) > 2 or (PKG / parts[-1]).is_dir() else module
+
+
+def test_no_private_name_crosses_rooms():
+    """What two rooms share is public in one of them: no module takes a ``_name`` from a
+    module of another room (inside a room, a package's modules may share helpers)."""
+    crossing = []
+    for m, path in sorted(MODULES.items()):
+        for n in _runtime_nodes(ast.parse(path.read_text(encoding="utf-8"))):
+            if not (isinstance(n, ast.ImportFrom) and n.module and not n.level
+                    and n.module.startswith("torlab")):
+                continue
+            src = _resolve(n.module)
+            for a in n.names:
+                if a.name.startswith("_") and not a.name.startswith("__") and src and \
+                        _room(src) != _room(m):
+                    crossing.append(f"{m} <- {n.module}.{a.name}")
+    assert crossing == []
+    assert _room("torlab.model.exact.rolling") == _room("torlab.model.fastsim") != \
+        _room("torlab.bench.exact")
+
+
 def test_the_library_does_not_import_the_cli_or_the_facade():
     """Library modules import neither ``torlab.cli`` nor the public API module
     (``torlab.api`` sits on top of the library; the CLI on top of both)."""

@@ -117,7 +117,7 @@ def test_stribeck_with_temperature_equals_one_fastsim_call_per_speed():
     per-speed calls it replaces, on a scene where the speeds need 0-4 loop iterations
     (v = 0: boundary regime, no heating)."""
     from torlab.model.loadshare import solve_load_sharing
-    from torlab.model.mixed import _boundary, mixed_contact
+    from torlab.model.mixed import boundary_part, mixed_contact
     from torlab.model.predict import predict_stribeck
 
     sc = _hot_mixed_scene()
@@ -129,7 +129,7 @@ def test_stribeck_with_temperature_equals_one_fastsim_call_per_speed():
     ls = solve_load_sharing(v, p.F, p.a, p.b, mc.film, mc.asperity)
     counts = set()
     for i in range(v.size):
-        one = _boundary(mc, np.array([xi]), float(v[i]), float(ls.film_thickness[i]),
+        one = boundary_part(mc, np.array([xi]), float(v[i]), float(ls.film_thickness[i]),
                         float(ls.load_share_asperity[i]))
         assert table["mu_boundary"][i] == pytest.approx(one.mu[0], rel=1e-13)
         assert table["max_temperature_C"][i] == pytest.approx(one.max_temperature_C[0], rel=1e-13)

@@ -215,14 +215,14 @@ def test_predict_figure_drawn_by_the_early_worker_is_the_same(tmp_path, cli, mon
         r = cli("predict", "traction", SCENE, "-o", tmp_path / jobs, "--jobs", jobs,
                 "--creepage", "0:0.05:21")
         assert r.exit_code == 0, r.output
-    assert used == ["_draw_task"]  # --jobs 2 only
+    assert used == ["draw_task"]  # --jobs 2 only
     assert (tmp_path / "2" / "traction.png").read_bytes() == \
         (tmp_path / "1" / "traction.png").read_bytes()
     for jobs in ("2", "1"):
         r = cli("predict", "stribeck", ROOT / "protocols" / "scenes" / "optical_paper_a_rough.yaml",
                 "-o", tmp_path / f"s{jobs}", "--jobs", jobs, "--speed", "0.01:2:8")
         assert r.exit_code == 0, r.output
-    assert used == ["_draw_task"] * 2
+    assert used == ["draw_task"] * 2
     assert (tmp_path / "s2" / "stribeck.png").read_bytes() == \
         (tmp_path / "s1" / "stribeck.png").read_bytes()
     # a bad scene with the worker started: one error line, nothing written, nothing drawn
@@ -230,7 +230,7 @@ def test_predict_figure_drawn_by_the_early_worker_is_the_same(tmp_path, cli, mon
     bad.write_text(SCENE.read_text() + "\nno_such_key: 1\n")
     r = cli("predict", "traction", bad, "-o", tmp_path / "bad", "--jobs", "2")
     assert r.exit_code == 2 and "no_such_key" in r.output, r.output
-    assert not (tmp_path / "bad").exists() and used == ["_draw_task"] * 2
+    assert not (tmp_path / "bad").exists() and used == ["draw_task"] * 2
 
 
 # ------------------------------------------------------------------------------ same bytes
@@ -264,14 +264,14 @@ def test_creep_table_chunks_bit_for_bit(executors):
 
 
 def test_band_draws_bit_for_bit(executors):
-    from torlab.model.bands import _DryTractionModel
+    from torlab.model.bands import DryTractionModel
     from torlab.model.prediction import fastsim_grid, fastsim_problem
     from torlab.scene import load_scene
     from torlab.uncertainty import MANY_BLOCK, SAMPLE_ROUND, ParameterDistribution, propagate
 
     sc = load_scene(SCENE)
     xi = np.linspace(0.0, 0.02, 11)
-    model = _DryTractionModel(fastsim_problem(sc), fastsim_grid(sc), xi, ("mu",))
+    model = DryTractionModel(fastsim_problem(sc), fastsim_grid(sc), xi, ("mu",))
     dist = ParameterDistribution.from_covariance(
         ("mu_c1", "mu_c2", "L_mue"), [0.30, 0.45, 1e-5],
         [[4e-4, 1e-4, 0.0], [1e-4, 4e-4, 0.0], [0.0, 0.0, 4e-12]], log_scale=("L_mue",), dof=12)
@@ -289,13 +289,13 @@ def test_band_draws_bit_for_bit(executors):
 
 
 def _band_problem():
-    from torlab.model.bands import _DryTractionModel
+    from torlab.model.bands import DryTractionModel
     from torlab.model.prediction import fastsim_grid, fastsim_problem
     from torlab.scene import load_scene
     from torlab.uncertainty import ParameterDistribution
 
     sc = load_scene(SCENE)
-    model = _DryTractionModel(fastsim_problem(sc), fastsim_grid(sc), np.linspace(0.0, 0.02, 11),
+    model = DryTractionModel(fastsim_problem(sc), fastsim_grid(sc), np.linspace(0.0, 0.02, 11),
                               ("mu", "max_temperature_C"))
     dist = ParameterDistribution.from_covariance(
         ("mu_c1", "mu_c2", "L_mue"), [0.30, 0.45, 1e-5],

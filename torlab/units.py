@@ -74,7 +74,7 @@ KINDS: dict[str, tuple[str, str]] = {
     "inverse_length": ("1/[length]", "1/m"),
 }
 
-_NUMBER = re.compile(
+NUMBER_PATTERN = re.compile(
     r"^\s*(?P<num>[+-]?(?:inf(?:inity)?|nan|(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?))\s*(?P<unit>.*?)\s*$",
     re.IGNORECASE,
 )
@@ -149,14 +149,14 @@ def _wrong_kind(unit: str, u: str, kind: str) -> str | None:
     if ok:
         return None
     return (f"unit {unit!r} is not {_article(kind)} {kind.replace('_', ' ')} (expected something "
-            f"like {_example(kind)}; got {dim})")
+            f"like {example_quantity(kind)}; got {dim})")
 
 
 def known_kinds(text: str) -> set[str]:
     """The kinds under which the unit of ``text`` (``"4 mg"``, ``"mg"``) is a stored common
     unit (:mod:`torlab._unit_table`); empty when it is not one.  Lets a caller that
     accepts several kinds try the right one first, without loading pint."""
-    m = _NUMBER.match(text) if isinstance(text, str) else None
+    m = NUMBER_PATTERN.match(text) if isinstance(text, str) else None
     u = _normalise_unit(m.group("unit") if m else str(text))
     return {k for (unit, k) in _known() if unit == u}
 
@@ -201,7 +201,7 @@ def _pint_factor(unit: str, u: str, kind: str, *, where: str = "", path: Any = N
     except _WrongDim as e:
         raise TorlabInputError(
             f"unit {unit!r} is not {_article(kind)} {kind.replace('_', ' ')} (expected something like "
-            f"{_example(kind)}; got {e.dim})", path=path, line=line, key=where or None) from None
+            f"{example_quantity(kind)}; got {e.dim})", path=path, line=line, key=where or None) from None
     except Exception as e:  # pint raises several unrelated classes for unknown units
         raise TorlabInputError(f"unknown unit {unit!r} ({type(e).__name__})", path=path, line=line,
                                key=where or None) from None
@@ -218,7 +218,7 @@ class _WrongDim(Exception):
         super().__init__(self.dim)
 
 
-def _example(kind: str) -> str:
+def example_quantity(kind: str) -> str:
     examples = {
         "length": "'0.373 mm'", "force": "'20 kN'", "pressure": "'750 MPa'",
         "viscosity": "'1 mPa*s'", "velocity": "'1 m/s'", "temperature": "'20 degC'",
@@ -267,18 +267,18 @@ def to_si(value: Any, kind: str, *, where: str = "", path: Any = None, line: int
         x = float(value)
         scale, offset = 1.0, 0.0
     elif isinstance(value, str):
-        m = _NUMBER.match(value)
+        m = NUMBER_PATTERN.match(value)
         if not m:
             raise TorlabInputError(
                 f"{value!r} is not a quantity (write a number, optionally with a unit, e.g. "
-                f"{_example(kind)})", **loc)
+                f"{example_quantity(kind)})", **loc)
         x = float(m.group("num"))
         unit = m.group("unit")
         scale, offset = parse_unit_factor(unit, kind, where=where, path=path, line=line) \
             if unit else (1.0, 0.0)
     else:
         raise TorlabInputError(
-            f"expected a {kind.replace('_', ' ')} such as {_example(kind)}, got {type(value).__name__}",
+            f"expected a {kind.replace('_', ' ')} such as {example_quantity(kind)}, got {type(value).__name__}",
             **loc)
     if math.isnan(x):
         raise TorlabInputError("value is NaN", **loc)

@@ -87,7 +87,7 @@ def _draw_cases() -> list[tuple[str, object, object, dict, str]]:
     """(name, band model, distribution, outputs at the estimate, unit of work)."""
     from pathlib import Path
 
-    from torlab.model.bands import _DryTractionModel, _MixedTractionModel, scene_uncertainty
+    from torlab.model.bands import DryTractionModel, MixedTractionModel, scene_uncertainty
     from torlab.model.mixed import mixed_traction_curve
     from torlab.model.prediction import fastsim_grid, fastsim_problem
     from torlab.model.traction import traction_curve
@@ -108,7 +108,7 @@ def _draw_cases() -> list[tuple[str, object, object, dict, str]]:
     xi = np.linspace(0.0, 0.1, 41)
     t = traction_curve(sc, xi).table
     outs = ("mu", "film_thickness_m")
-    cases.append(("mixed", _MixedTractionModel(mixed_traction_curve, sc, xi, (), outs),
+    cases.append(("mixed", MixedTractionModel(mixed_traction_curve, sc, xi, (), outs),
                   scene_uncertainty(sc).dist, {k: t[k].to_numpy() for k in outs},
                   "400 draws of a 41-point mixed traction curve (Paper A rough ball, water)"))
     # Tab. 5.4 with the flash temperature and temperature coefficients
@@ -123,7 +123,7 @@ def _draw_cases() -> list[tuple[str, object, object, dict, str]]:
     xi = np.linspace(0.0, 0.05, 51)
     t = traction_curve(sc, xi).table
     outs = ("mu", "max_temperature_C")
-    cases.append(("thermal", _DryTractionModel(fastsim_problem(sc), fastsim_grid(sc), xi, outs),
+    cases.append(("thermal", DryTractionModel(fastsim_problem(sc), fastsim_grid(sc), xi, outs),
                   scene_uncertainty(sc).dist, {k: t[k].to_numpy() for k in outs},
                   "400 draws of a 51-point Tab. 5.4 curve with flash temperature"))
     return cases

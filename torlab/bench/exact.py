@@ -46,12 +46,12 @@ def _cases() -> list[Any]:
 
 def _values(case: Any, n: int, coarse: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """Normalised ``(Fx, Fy, Mz)`` and their Richardson errors on one (or two) grids."""
-    from torlab.model.exact.fastsim_error import _creepages, _scales, case_contact
+    from torlab.model.exact.fastsim_error import case_contact, case_creepages, case_scales
     from torlab.model.exact.rolling import ExactGrid, exact_creep_forces
 
     c = case_contact(case)
-    r = exact_creep_forces(c, *_creepages(case, c), grid=ExactGrid(n=n, coarse=coarse))
-    sc = _scales(c)
+    r = exact_creep_forces(c, *case_creepages(case, c), grid=ExactGrid(n=n, coarse=coarse))
+    sc = case_scales(c)
     v = np.array([float(r.Fx[()]) / sc["Fx"], float(r.Fy[()]) / sc["Fy"],
                   float(r.Mz[()]) / sc["Mz"]])
     e = np.array([float(r.Fx_error[()]) / sc["Fx"], float(r.Fy_error[()]) / sc["Fy"],
@@ -61,12 +61,12 @@ def _values(case: Any, n: int, coarse: int = 0) -> tuple[np.ndarray, np.ndarray]
 
 def _solver(case: Any, n: int):
     """A function solving the case from rest on one ``n x n`` grid (set up once)."""
-    from torlab.model.exact.fastsim_error import _creepages, case_contact
-    from torlab.model.exact.rolling import ExactGrid, _Setup
+    from torlab.model.exact.fastsim_error import case_contact, case_creepages
+    from torlab.model.exact.rolling import ExactGrid, RollingSetup
 
     c = case_contact(case)
-    setup = _Setup(c, n, ExactGrid(n=n))
-    cr = _creepages(case, c)
+    setup = RollingSetup(c, n, ExactGrid(n=n))
+    cr = case_creepages(case, c)
     return lambda: setup.solve(*cr, None)
 
 

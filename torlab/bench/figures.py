@@ -114,9 +114,9 @@ def _figure_rows(rounds: int) -> list[BenchRow]:
     rows = []
     for name, p in cases:
         def draw(p: Plot = p) -> None:
-            from torlab.reports.render import _draw_task
+            from torlab.reports.render import draw_task
 
-            _draw_task((p, ("png",), None))
+            draw_task((p, ("png",), None))
 
         rows.append(BenchRow("figure to PNG", name, _cpu(draw, rounds), None, "", True,
                              "build, lay out, draw and encode one figure (CPU time)",

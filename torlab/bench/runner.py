@@ -152,7 +152,7 @@ def machine_info() -> dict[str, str]:
     }
 
 
-def _select(only: Sequence[str] | None) -> list[str]:
+def select_components(only: Sequence[str] | None) -> list[str]:
     names = available_benchmarks()
     if not only:
         return names
@@ -195,7 +195,7 @@ def run_benchmarks(quick: bool = False, only: Sequence[str] | None = None,
     TorlabInputError
         An unknown name in ``only``.
     """
-    names = _select(only)
+    names = select_components(only)
     say = progress or (lambda _m: None)
     machine = machine_info()
     rows: list[BenchRow] = []

@@ -91,7 +91,7 @@ def _stribeck_per_speed(scene, v: np.ndarray, default, t_default: float,
     """
     from torlab.model.ehl import mu_ehl
     from torlab.model.loadshare import solve_load_sharing
-    from torlab.model.mixed import SHARE_TOL, _boundary, mixed_contact
+    from torlab.model.mixed import SHARE_TOL, boundary_part, mixed_contact
 
     xi = 0.05
 
@@ -105,7 +105,7 @@ def _stribeck_per_speed(scene, v: np.ndarray, default, t_default: float,
         mu_ehl(xi * v[film], h[film], p.p0, mc.lubricant)
         mu_b = np.full(v.shape, np.nan)
         for i in np.flatnonzero(share >= SHARE_TOL):
-            mu_b[i] = _boundary(mc, np.array([xi]), float(v[i]), float(h[i]),
+            mu_b[i] = boundary_part(mc, np.array([xi]), float(v[i]), float(h[i]),
                                 float(share[i])).mu[0]
         return mu_b
 

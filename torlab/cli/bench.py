@@ -34,7 +34,7 @@ def bench_cmd(
     """
     from rich.console import Console
 
-    from torlab.bench.runner import _select, run_benchmarks, write_bench_outputs
+    from torlab.bench.runner import run_benchmarks, select_components, write_bench_outputs
     from torlab.outputs import OutputDir
     from torlab.progress import Progress, enabled_for
 
@@ -42,7 +42,7 @@ def bench_cmd(
     dest = OutputDir(out, force=force, command=cmd)  # refuses an occupied folder before the run
     err = Console(stderr=True, highlight=False, soft_wrap=True)
     with Progress(enabled_for(quiet)) as prog, \
-            prog.task("benchmark modules", len(_select(only))) as advance:
+            prog.task("benchmark modules", len(select_components(only))) as advance:
         def say(m: str) -> None:
             with prog.pause():
                 err.print(m)

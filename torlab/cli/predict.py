@@ -578,9 +578,9 @@ def stribeck_cmd(
     console().print(f"mu from {s['mu_min']:.4g} to {s['mu_max']:.4g}; regimes: "
                     + ", ".join(f"{k} ({n} speeds)" for k, n in s["regimes"].items()))
     if s.get("transitions"):
-        from torlab.reports.stribeck import _transition_words
+        from torlab.reports.stribeck import transition_words
 
-        console().print(f"regime transitions: {_transition_words(s['transitions'])}")
+        console().print(f"regime transitions: {transition_words(s['transitions'])}")
     console().print(f"wrote {_written(names)} to {out}")
 
 

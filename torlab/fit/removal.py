@@ -233,14 +233,14 @@ def _prepare(tt: TimeTest, scene: Any, layer: Any, *, skip: Any, duration: float
                                f"{MIN_WINDOW}", path=tt.label, key="skip")
     i0 = int(np.flatnonzero(win)[0])
     t_rev = band.track_length / v
-    from torlab.model.removal import _cumulative_integral
+    from torlab.model.removal import cumulative_integral
 
     xg = np.linspace(float(table.x[0]), float(table.x[-1]), 2049)
     mug = np.asarray(curve(xg), dtype=float)
     mug[0] = float(table.mu_dry[0])
     c_rev = F * s / band.width
-    I0 = {0: _cumulative_integral(np.exp(xg) / (c_rev * mug), float(xg[1] - xg[0])),
-          1: _cumulative_integral(1.0 / (c_rev * mug), float(xg[1] - xg[0]))}
+    I0 = {0: cumulative_integral(np.exp(xg) / (c_rev * mug), float(xg[1] - xg[0])),
+          1: cumulative_integral(1.0 / (c_rev * mug), float(xg[1] - xg[0]))}
     return _Prepared(test=tt, t_rel=t, mu=mu, E=E, N=N, window=win, m_applied=m_app,
                      transfer_max=tr_max, i0=i0, N_win=(t[i0:] - t[i0]) / t_rev,
                      c_rev=c_rev, xg=xg, mug=mug, I0=I0, table=table,
@@ -359,14 +359,14 @@ def _with_mu_nodes(p: _Prepared, mu_nodes: np.ndarray) -> _Prepared:
     """A copy of a prepared test whose friction table has the node values ``mu_nodes``."""
     from dataclasses import replace as dc_replace
 
-    from torlab.model.removal import _cumulative_integral
+    from torlab.model.removal import cumulative_integral
 
     curve = p.table.curve(mu_nodes=mu_nodes)
     mug = np.asarray(curve(p.xg), dtype=float)
     mug[0] = float(mu_nodes[0])
     h = float(p.xg[1] - p.xg[0])
-    I0 = {0: _cumulative_integral(np.exp(p.xg) / (p.c_rev * mug), h),
-          1: _cumulative_integral(1.0 / (p.c_rev * mug), h)}
+    I0 = {0: cumulative_integral(np.exp(p.xg) / (p.c_rev * mug), h),
+          1: cumulative_integral(1.0 / (p.c_rev * mug), h)}
     return dc_replace(p, curve=curve, mug=mug, I0=I0, mu_dry=float(mu_nodes[0]))
 
 

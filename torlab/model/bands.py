@@ -177,11 +177,11 @@ def traction_band(scene: Any, creepage: np.ndarray, table: Any, su: SceneUncerta
     outs = tuple(k for k in BAND_COLUMNS if k in table)
     f0 = _outputs(table, outs)
     if scene.lubricant is None:
-        model: Any = _DryTractionModel(fastsim_problem(scene), fastsim_grid(scene), xi, outs)
+        model: Any = DryTractionModel(fastsim_problem(scene), fastsim_grid(scene), xi, outs)
     else:
         from torlab.model.mixed import mixed_traction_curve
 
-        model = _MixedTractionModel(mixed_traction_curve, scene, xi, (), outs)
+        model = MixedTractionModel(mixed_traction_curve, scene, xi, (), outs)
     return propagate(model, su.dist, f0=f0, seed=seed, **options)
 
 
@@ -201,7 +201,7 @@ def stribeck_band(scene: Any, speed: np.ndarray, creepage: float, table: Any,
 # evaluate a block of draws in one call (``evaluate_many``, torlab.uncertainty._Block),
 # each draw to round-off as the call with its parameters alone
 @dataclass
-class _DryTractionModel:
+class DryTractionModel:
     """FASTSIM of a dry scene with the layer's parameters replaced (one draw per call, or
     many: :meth:`evaluate_many`)."""
 
@@ -254,7 +254,7 @@ class _SceneModel:
 
 
 @dataclass
-class _MixedTractionModel(_SceneModel):
+class MixedTractionModel(_SceneModel):
     """The traction curve of a lubricated scene (:class:`_SceneModel` of
     :func:`~torlab.model.mixed.mixed_traction_curve`), which also evaluates many draws in
     one call (:meth:`evaluate_many`)."""

@@ -162,7 +162,7 @@ def _heat_of_film(mc: MixedContact, v: Any, h: Any, share: Any):
     return flux
 
 
-def _boundary(mc: MixedContact, creepage: np.ndarray, v: Any, h: Any, share: Any):
+def boundary_part(mc: MixedContact, creepage: np.ndarray, v: Any, h: Any, share: Any):
     """FASTSIM for the asperity part (with the film's heat when thermal).
 
     ``v``, ``h``, ``share``: one speed (scalars) for a traction curve, or one per
@@ -276,7 +276,7 @@ def mixed_traction_curve(scene: Any, creepage: Any, *, trend_tolerance: float = 
     loop = "off"
     bl = None
     if share >= SHARE_TOL:
-        bl = _boundary(mc, xi, v, h, share)
+        bl = boundary_part(mc, xi, v, h, share)
         mu += share * bl.mu
         loop = bl.temperature_loop
     table["mu"] = mu
@@ -411,13 +411,13 @@ def stribeck_curve(scene: Any, speed: Any, creepage: float) -> StribeckPredictio
     loop = "off"
     if need.any():
         if mc.problem.thermal is None:
-            bl = _boundary(mc, np.array([xi]), mc.problem.speed, 0.0, 1.0)
+            bl = boundary_part(mc, np.array([xi]), mc.problem.speed, 0.0, 1.0)
             mu_b[need] = bl.mu[0]
             loop = bl.temperature_loop
         else:
             # one point per speed, all speeds in one call (each has its own tau-T loop)
             i = np.flatnonzero(need)
-            bl = _boundary(mc, np.full(i.size, xi), v[i], h[i], share[i])
+            bl = boundary_part(mc, np.full(i.size, xi), v[i], h[i], share[i])
             mu_b[i] = bl.mu
             tmax[i] = bl.max_temperature_C
             loop = bl.temperature_loop

@@ -508,7 +508,7 @@ class PassesSolution:
         return Nc, mc
 
 
-def _cumulative_integral(f: np.ndarray, h: float) -> np.ndarray:
+def cumulative_integral(f: np.ndarray, h: float) -> np.ndarray:
     """Cumulative integral along axis 0 on a uniform grid (from 0 at the first node).
 
     Trapezoidal sums with the Euler-Maclaurin end correction
@@ -544,7 +544,7 @@ def passes_solution(curve: Any, mu_dry: Any, x_dry: float, m0: Any, order: int, 
         ``e_pass = c mu`` (``F |xi| / w``, J/m^2 per pass).
     n_grid
         Points of the quadrature grid in ``ln m`` (trapezoidal sums with the
-        Euler-Maclaurin end correction, :func:`_cumulative_integral`).
+        Euler-Maclaurin end correction, :func:`cumulative_integral`).
     """
     mu_dry = np.atleast_1d(np.asarray(mu_dry, dtype=float))
     shapes = [np.shape(v) for v in (mu_dry, m0, k, spread)]
@@ -569,8 +569,8 @@ def passes_solution(curve: Any, mu_dry: Any, x_dry: float, m0: Any, order: int, 
     fN = mx / hh                        # dN/dx
     fE = mx * e / hh                    # dE/dx
     h_x = float(x[1] - x[0])
-    IN = _cumulative_integral(fN, h_x)
-    IE = _cumulative_integral(fE, h_x)
+    IN = cumulative_integral(fN, h_x)
+    IE = cumulative_integral(fE, h_x)
     curves = []
     N_dry = np.zeros(D)
     E_dry = np.zeros(D)

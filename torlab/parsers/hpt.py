@@ -154,7 +154,7 @@ class HptMetadata(LogMetadata):
 
 def _set_meta(meta: HptMetadata, key: str, value: str, *, path: str, line: int | None,
               source: str = "header") -> None:
-    from torlab.units import _NUMBER, check_range, parse_unit_factor, to_si
+    from torlab.units import NUMBER_PATTERN, check_range, parse_unit_factor, to_si
 
     key = key.strip()
     value = str(value).strip()
@@ -165,7 +165,7 @@ def _set_meta(meta: HptMetadata, key: str, value: str, *, path: str, line: int |
         setattr(meta, key, value)
         return
     if kind == "amount":
-        m = _NUMBER.match(value)
+        m = NUMBER_PATTERN.match(value)
         unit = m.group("unit") if m else ""
         for amount_kind in ("volume", "mass"):
             try:
@@ -185,11 +185,11 @@ def _set_meta(meta: HptMetadata, key: str, value: str, *, path: str, line: int |
             parse_unit_factor(unit, "volume", where=key, path=path, line=line)  # raises a clear error
         raise TorlabInputError(f"{value!r} is not an amount (write e.g. '4 uL' or '2 mg')",
                                path=path, line=line, key=key)
-    m = _NUMBER.match(value)
+    m = NUMBER_PATTERN.match(value)
     if m and not m.group("unit") and kind not in ("dimensionless",):
-        from torlab.units import _example
+        from torlab.units import example_quantity
 
-        raise TorlabInputError(f"needs a unit (e.g. {_example(kind)}); a plain number "
+        raise TorlabInputError(f"needs a unit (e.g. {example_quantity(kind)}); a plain number "
                                f"would be taken as SI ({value} {_si_unit(kind)})", path=path,
                                line=line, key=key)
     si = to_si(value, kind, where=key, path=path, line=line)

@@ -429,7 +429,7 @@ def _ranges(nums: list[int]) -> str:
     return f"{min(nums)}-{max(nums)}" if len(nums) > 3 else ", ".join(map(str, nums))
 
 
-def _sanitise(name: str) -> str:
+def sanitise(name: str) -> str:
     s = re.sub(r"[^0-9a-zA-Z]+", "_", name.strip()).strip("_").lower()
     if not s:
         return "unnamed"
@@ -487,7 +487,7 @@ def _parse_hms(text: str, path: str, line: int) -> float:
 
 def _quantity(key: str, value: str, unit_hint: str, *, path: str, line: int) -> tuple[str, Any]:
     """(metadata key, value): a number with a unit becomes SI, text stays text."""
-    base = _sanitise(key)
+    base = sanitise(key)
     known = _KNOWN_META.get(base)
     m = _NUM.match(value)
     if not m:
@@ -867,7 +867,7 @@ def _resolve_header(cells: list[str], path: str, line: int, meta: PcsMetadata) -
             sc, off = _unit_factor(u, kind, where=f"column {cell!r}", path=path, line=line)
             cols.append(_Col(j, cell, tname, kind, sc, off, order=order[tname]))
             continue
-        base = _sanitise(nm)
+        base = sanitise(nm)
         if not unit:
             cols.append(_Col(j, cell, base))
             continue
@@ -881,7 +881,7 @@ def _resolve_header(cells: list[str], path: str, line: int, meta: PcsMetadata) -
         else:
             meta.warnings.append(f"line {line}: column {cell!r} has a unit torlab does not know; "
                                  "kept as written")
-            cols.append(_Col(j, cell, f"{base}_{_sanitise(unit)}"))
+            cols.append(_Col(j, cell, f"{base}_{sanitise(unit)}"))
     return cols
 
 

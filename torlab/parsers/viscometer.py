@@ -134,13 +134,13 @@ def parse_calibration_constant(value: Any, *, where: str = "calibration_constant
 
     ``K`` has the unit of ``eta v / delta rho``: Pa s x m/s / (kg/m^3) = m^3/s^2.
     """
-    from torlab.units import _NUMBER, registry
+    from torlab.units import NUMBER_PATTERN, registry
 
     loc = {"path": path, "line": line, "key": where}
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         x = float(value)
     else:
-        m = _NUMBER.match(str(value))
+        m = NUMBER_PATTERN.match(str(value))
         if not m:
             raise TorlabInputError(f"{value!r} is not a quantity (e.g. '1.9e-8 m^3/s^2')", **loc)
         x = float(m.group("num"))

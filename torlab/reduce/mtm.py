@@ -425,9 +425,9 @@ def step_kind(step: Any) -> str:
     """The kind a step is reduced as: its normalised type, or its own type name when unknown."""
     if step.type != "other":
         return step.type
-    from torlab.parsers.pcs import _sanitise
+    from torlab.parsers.pcs import sanitise
 
-    return _sanitise(step.type_raw) or "other"
+    return sanitise(step.type_raw) or "other"
 
 
 def application_marked(step: Any, meta: PcsMetadata) -> bool:

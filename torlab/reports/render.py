@@ -220,7 +220,7 @@ def early_drawing(enabled: bool = True, jobs: int | None = None,
             worker.close()
 
 
-def _draw_task(task: tuple[Plot, tuple[str, ...], float | None]) -> dict[str, bytes]:
+def draw_task(task: tuple[Plot, tuple[str, ...], float | None]) -> dict[str, bytes]:
     """Draw one figure and render it in each format (a task for the executor)."""
     p, formats, dpi = task
     fig = p.draw()
@@ -322,7 +322,7 @@ def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DE
             from torlab.parallel import SerialExecutor
 
             ex = SerialExecutor()
-        drawn = ex.map(_draw_task, [(p, formats, dpi) for _, p, _ in todo],
+        drawn = ex.map(draw_task, [(p, formats, dpi) for _, p, _ in todo],
                        description=description)
         new += [(name, keys, res) for (name, _, keys), res in zip(todo, drawn, strict=True)]
     for name, keys, res in new:  # drawn here or ahead: into the store
@@ -395,7 +395,7 @@ class FiguresAhead:
             todo.append((dg, p))
         if not todo:
             return 0
-        batch = self.executor.background(_draw_task, [(p, self.formats, self.dpi)
+        batch = self.executor.background(draw_task, [(p, self.formats, self.dpi)
                                                       for _, p in todo],
                                          description="drawing figures")
         self._batches.append(batch)

@@ -87,7 +87,7 @@ def _transition_columns(tr: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def _transition_words(tr: dict[str, Any]) -> str:
+def transition_words(tr: dict[str, Any]) -> str:
     """The regime transitions with their intervals, verdicts and what they rest on."""
     if not tr:
         return ""
@@ -272,7 +272,7 @@ def _stribeck_sentence(r: dict[str, Any], c: StribeckCurve) -> str:
         hi = c.table[["mu_low95", "mu_high95"]].abs().max(axis=1)
         out += f" (band {float(lo.min()):.4f}–{float(hi.max()):.4f})"
     out += f"; {_band_words(c.band)}"
-    tw = _transition_words(c.transitions)
+    tw = transition_words(c.transitions)
     if tw:
         out += f". Regime transitions: {tw}"
     if r.get("rms_measured_minus_model") is not None and "n_measured" in r:

@@ -102,12 +102,12 @@ def case_contact(case: ErrorCase) -> ExactContact:
     return ExactContact(a=c * s, b=c / s, load=100e3, G=82e9, nu=NU, mu=MU)
 
 
-def _creepages(case: ErrorCase, contact: ExactContact) -> tuple[float, float, float]:
+def case_creepages(case: ErrorCase, contact: ExactContact) -> tuple[float, float, float]:
     s = normalised_creepages(contact, 1.0, 1.0, 1.0)
     return case.xi / float(s[0]), case.eta / float(s[1]), case.phi / float(s[2])
 
 
-def _scales(contact: ExactContact) -> dict[str, float]:
+def case_scales(contact: ExactContact) -> dict[str, float]:
     muN = contact.mu * contact.load
     return {"Fx": muN, "Fy": muN, "Mz": muN * math.sqrt(contact.a * contact.b)}
 
@@ -127,9 +127,9 @@ def exact_values(case: ErrorCase, grid: ExactGrid | None = None
         c33, c23 = C33(case.a_over_b, NU), C23(case.a_over_b, NU)
         return {"C33": (c33, 0.005 * c33), "C32": (c23, 0.005 * c23)}
     contact = case_contact(case)
-    xi, eta, phi = _creepages(case, contact)
+    xi, eta, phi = case_creepages(case, contact)
     r = exact_creep_forces(contact, xi, eta, phi, grid or TABLE_GRID)
-    sc = _scales(contact)
+    sc = case_scales(contact)
     return {q: (float(getattr(r, q)[()]) / sc[q], float(getattr(r, q + "_error")[()]) / sc[q])
             for q in case.quantities}
 
@@ -155,9 +155,9 @@ def fastsim_values(case: ErrorCase) -> dict[str, float]:
         rl = creep_forces(prob, 0.0, small, 0.0)
         return {"C33": float(rs.Mz) / (G * c**3 * small),
                 "C32": -float(rl.Mz) / (G * c**3 * small)}
-    xi, eta, phi = _creepages(case, contact)
+    xi, eta, phi = case_creepages(case, contact)
     r = creep_forces(prob, xi, eta, phi)
-    sc = _scales(contact)
+    sc = case_scales(contact)
     return {q: float(getattr(r, q)) / sc[q] for q in case.quantities}
 
 

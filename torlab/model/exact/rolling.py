@@ -246,7 +246,7 @@ def normalised_creepages(contact: ExactContact, xi: Any = 0.0, eta: Any = 0.0, p
             s * c * C23(g, contact.nu) * np.asarray(phi, float))
 
 
-class _Setup:
+class RollingSetup:
     """The grid, pressure and layer of one grid size, built once for many creepages."""
 
     def __init__(self, contact: ExactContact, n: int, grid: ExactGrid) -> None:
@@ -279,15 +279,15 @@ def solve_point(contact: ExactContact, xi: float, eta: float = 0.0, phi: float =
     """The solution on one grid of ``n`` elements (CONTACT's signs: forces on body 1)."""
     grid = grid or ExactGrid(n=n)
     contact.check()
-    return _Setup(contact, n, grid).solve(xi, eta, phi, None)
+    return RollingSetup(contact, n, grid).solve(xi, eta, phi, None)
 
 
 def _solve_chunk(args: tuple) -> dict[str, np.ndarray]:
     """Solve consecutive points on both grids, each starting from the previous solution."""
     contact, grid, pts, keep = args
-    setups = [_Setup(contact, grid.n, grid)]
+    setups = [RollingSetup(contact, grid.n, grid)]
     if grid.n_coarse > 0:
-        setups.append(_Setup(contact, grid.n_coarse, grid))
+        setups.append(RollingSetup(contact, grid.n_coarse, grid))
     k = len(pts)
     out = {name: np.zeros((len(setups), k)) for name in ("Fx", "Fy", "Mz")}
     out["adh"] = np.zeros(k)
