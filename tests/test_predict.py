@@ -428,3 +428,17 @@ def test_stribeck_curves_of_two_parameter_sets(cli, tmp_path):
     assert "mu_low95" in t and len(t) == 8
     a, b = (t[t["curve"] == k]["mu"].to_numpy() for k in "AB")
     assert np.all(b >= a)  # the stronger layer carries more where the asperities touch
+
+
+def test_lubricated_thermal_scene_without_temperature_coefficients():
+    # a rough lubricated scene with thermal: but temperature coefficients of zero: the
+    # heating cannot change the layer's limits, so the contact temperature is computed once
+    # and the traction is the one of the same scene without thermal:
+    sc = load_scene(SCENES / "optical_paper_a_rough.yaml")
+    d = sc.model_dump(exclude_none=True)
+    cold = mixed_traction_curve(scene_from_dict(d), [0.001, 0.01, 0.03])
+    hot = mixed_traction_curve(scene_from_dict({**d, "thermal": {}}), [0.001, 0.01, 0.03])
+    assert "contact temperature: computed once, no tau-T loop (the temperature coefficients " \
+        "are zero)" in hot.modelled
+    assert np.array_equal(hot.table["mu"].to_numpy(), cold.table["mu"].to_numpy())
+    assert np.all(hot.table["max_temperature_C"] > sc.kinematics.ambient_temperature)

@@ -42,9 +42,9 @@ from __future__ import annotations
 
 import copy
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeAlias
 
 from torlab.errors import TorlabInputError
 
@@ -73,9 +73,26 @@ __all__ = [
 
 PathLike = str | os.PathLike[str]
 
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from torlab.fit.result import FitResult
+    from torlab.fit.retention_params import RemovalFit
+    from torlab.instruments.output import ReducedFolder
+    from torlab.instruments.reduction import Reduction
+    from torlab.model.creep_table import CreepTable
+    from torlab.model.mixed import StribeckPrediction
+    from torlab.model.prediction import TractionPrediction
+    from torlab.model.retention import RetentionPrediction, SweepPrediction
+    from torlab.protocols.runner import RunResult
+    from torlab.scene import Scene
+
+    #: a scene as a user gives it: a scene file, a dict of its sections, or a Scene
+    SceneLike: TypeAlias = PathLike | Mapping[str, Any] | Scene
+
 
 # ------------------------------------------------------------------ reading and reducing
-def read(path: PathLike, instrument: str | None = None, **options: Any) -> tuple[Any, Any]:
+def read(path: PathLike, instrument: str | None = None, **options: Any) -> tuple[pd.DataFrame, Any]:
     """Parse a raw instrument file.
 
     Parameters
@@ -98,7 +115,7 @@ def read(path: PathLike, instrument: str | None = None, **options: Any) -> tuple
     return read_file(path, instrument, **options)
 
 
-def reduce_file(path: PathLike, instrument: str | None = None, **options: Any) -> Any:
+def reduce_file(path: PathLike, instrument: str | None = None, **options: Any) -> Reduction:
     """Reduce one file as ``torlab reduce`` does (the name ``torlab.reduce`` is the package
     of the reductions themselves, :mod:`torlab.reduce`).
 
@@ -127,7 +144,7 @@ def reduce_file(path: PathLike, instrument: str | None = None, **options: Any) -
 
 
 def reduce_files(paths: PathLike | Sequence[PathLike], instrument: str | None = None,
-                 **options: Any) -> list[Any]:
+                 **options: Any) -> list[Reduction]:
     """Reduce files, folders and patterns (``"exports/*.txt"``), each file's instrument
     detected unless given; options as in :func:`reduce_file` (computed once for the batch)."""
     from torlab.instruments import expand_inputs, is_instrument
@@ -141,7 +158,8 @@ def reduce_files(paths: PathLike | Sequence[PathLike], instrument: str | None = 
 def reduce_to_folder(paths: PathLike | Sequence[PathLike], out: PathLike,
                      instrument: str | None = None, *, force: bool = False, xlsx: bool = False,
                      figures: bool = True, formats: Any = None, every_file: bool = False,
-                     what: str = "input", command: str | None = None, **options: Any) -> Any:
+                     what: str = "input", command: str | None = None, **options: Any
+                     ) -> ReducedFolder:
     """Reduce files, folders and patterns and write the results into the folder ``out``, as
     ``torlab reduce`` and ``torlab <instrument> reduce`` do.
 
@@ -184,7 +202,7 @@ def reduce_to_folder(paths: PathLike | Sequence[PathLike], out: PathLike,
 
 
 # ------------------------------------------------------------------ fits
-def fit_hpt(curves: Any, *, compliance: Any = None, sigma: Any = None) -> Any:
+def fit_hpt(curves: Any, *, compliance: Any = None, sigma: Any = None) -> FitResult:
     """The third-body layer ``mu_c1, mu_c2, L_mue, L_mup`` from HPT curves (thesis
     Eqs. 5.24-5.29); several curves (repeats of one product and amount) fitted jointly.
 
@@ -214,7 +232,8 @@ def fit_hpt(curves: Any, *, compliance: Any = None, sigma: Any = None) -> Any:
 
 
 def fit_temperature(curves: Any, temperatures: Any = None, *,
-                    reference_temperature: Any = "25 degC", compliance: Any = None) -> Any:
+                    reference_temperature: Any = "25 degC", compliance: Any = None
+                    ) -> FitResult:
     """Temperature coefficients ``mu_c1_T, mu_c2_T`` (thesis Eqs. 5.26-5.27) from one layer
     fit per HPT run (paths, Reductions, HptResults or FitResults).
 
@@ -245,7 +264,7 @@ def _param_file(path: PathLike) -> dict:
     return doc.data
 
 
-def _scene(scene: Any, params: Any = None) -> Any:
+def _scene(scene: SceneLike, params: Any = None) -> Scene:
     """A Scene from a Scene, a dict or scene/parameter files, with fitted parameters applied."""
     from torlab.fit.result import FitResult
     from torlab.protocols.loader import deep_merge
@@ -287,8 +306,8 @@ def _covariance_blocks(d: dict) -> list:
     return list(c) if isinstance(c, list) else [c]
 
 
-def fit_traction(scene: Any, data: Any, *, fix: dict[str, Any] | None = None,
-                 dry: bool = False) -> Any:
+def fit_traction(scene: SceneLike, data: Any, *, fix: dict[str, Any] | None = None,
+                 dry: bool = False) -> FitResult:
     """The layer from a measured traction curve mu(creepage) through the traction model
     (thesis Eqs. 5.14-5.30; the mixed model for a lubricated scene).
 
@@ -332,7 +351,7 @@ def fit_traction(scene: Any, data: Any, *, fix: dict[str, Any] | None = None,
                               fixed=layer_values(fix or {}), speed=v)
 
 
-def fit_viscosity(data: Any, law: str = "roelands", **options: Any) -> Any:
+def fit_viscosity(data: Any, law: str = "roelands", **options: Any) -> FitResult:
     """A pressure-viscosity law (Barus Eq. 5.39 or Roelands Eq. 5.38) from viscometer data.
 
     Parameters
@@ -371,8 +390,8 @@ def fit_viscosity(data: Any, law: str = "roelands", **options: Any) -> Any:
     return _fit(p, eta, law, **options)
 
 
-def fit_film(data: Any, *, curve: str | None = None, scene: Any = None,
-             min_speed: Any = None) -> Any:
+def fit_film(data: Any, *, curve: str | None = None, scene: SceneLike | None = None,
+             min_speed: Any = None) -> FitResult:
     """The film's speed exponent (Hamrock-Dowson: 0.67, Eq. 5.32) and, with a scene, the
     effective pressure-viscosity coefficient.
 
@@ -416,7 +435,7 @@ def fit_film(data: Any, *, curve: str | None = None, scene: Any = None,
 
 
 # ------------------------------------------------------------------ scenes and predictions
-def load_scene(scene: PathLike, *params: PathLike) -> Any:
+def load_scene(scene: PathLike, *params: PathLike) -> Scene:
     """A validated scene from its YAML file and optional parameter files merged in order
     (``torlab fit`` output ``params.yaml``); all quantities in SI units."""
     from torlab.scene import load_scene as _load
@@ -436,8 +455,8 @@ def _grid(values: Any, kind: str, name: str) -> Any:
     return np.array([to_si(v, kind, where=name) for v in arr], dtype=float)
 
 
-def predict_traction(scene: Any, creepage: Any, *, params: Any = None,
-                     trend_tolerance: float = 0.01) -> Any:
+def predict_traction(scene: SceneLike, creepage: Any, *, params: Any = None,
+                     trend_tolerance: float = 0.01) -> TractionPrediction:
     """Traction curve of a scene (thesis model: Hertz + FASTSIM with the layer, contact
     temperature, EHL film and asperity load sharing where the scene has them).
 
@@ -463,7 +482,8 @@ def predict_traction(scene: Any, creepage: Any, *, params: Any = None,
                     trend_tolerance=trend_tolerance)
 
 
-def predict_stribeck(scene: Any, speed: Any, creepage: Any, *, params: Any = None) -> Any:
+def predict_stribeck(scene: SceneLike, speed: Any, creepage: Any, *, params: Any = None
+                     ) -> StribeckPrediction:
     """Stribeck curve: mu against rolling speed at one creepage, with film thickness,
     film parameter, asperity load share and regime (thesis Eq. 5.47).
 
@@ -496,13 +516,13 @@ def _word_or_si(value: Any, word: str, kind: str, name: str) -> Any:
                    lambda m: TorlabInputError(m, key=name))
 
 
-def fit_removal(tests: Any, layer: Any, *, scene: Any = None, density: Any = None,
+def fit_removal(tests: Any, layer: Any, *, scene: SceneLike | None = None, density: Any = None,
                 amount: Any = None, track_radius: Any = None, application_time: Any = None,
                 step: int | None = None, compliance: Any = None, repeatability: float = 0.0,
                 dry_amount: Any = None, temperature: Any = None,
                 laws: Sequence[str] = ("zero_order", "first_order"), law: str | None = None,
                 transfer: Any = 1.0, skip: Any = "auto", duration: Any = None,
-                above: str = "error") -> Any:
+                above: str = "error") -> RemovalFit:
     """A product's removal law from time tests after application (Paper B) and its HPT amount
     series (Paper C); ``docs/model/retention.md``.
 
@@ -583,7 +603,7 @@ def fit_removal(tests: Any, layer: Any, *, scene: Any = None, density: Any = Non
     return res
 
 
-def _retention_inputs(scene: Any, params: Any) -> tuple[Any, Any]:
+def _retention_inputs(scene: SceneLike, params: Any) -> tuple[Any, Any]:
     """The scene (overlays applied) and the one set of retention parameters among ``params``."""
     from torlab.fit.retention_params import (
         RemovalFit,
@@ -656,13 +676,13 @@ def _window(window: Any) -> tuple[float, float] | None:
     return float(a), float(b)
 
 
-def predict_retention(scene: Any, params: Any, amount: Any, *, creepage: Any = "1 %",
+def predict_retention(scene: SceneLike, params: Any, amount: Any, *, creepage: Any = "1 %",
                       passes: Any = None, time: Any = None, speed: Any = None,
                       band: Any = (0.15, 0.25), band_length: Any = None,
                       track_radius: Any = None, pass_interval: Any = None, density: Any = None,
                       transfer: Any = None, n_draws: int = 200, seed: int = 0,
                       points: int = 501, above: str | None = None, window: Any = None,
-                      retentivity: Any = "band") -> Any:
+                      retentivity: Any = "band") -> RetentionPrediction:
     """The coefficient against axle passes after one application, with 95 % intervals, the
     passes until it enters and leaves the band, and the figures labs report: the effective
     friction level, the retentivity and the fraction of passes in the band
@@ -758,11 +778,11 @@ def predict_retention(scene: Any, params: Any, amount: Any, *, creepage: Any = "
     return pred
 
 
-def predict_sweep(scene: Any, params: Any, amount: Any, *, seconds: Any,
+def predict_sweep(scene: SceneLike, params: Any, amount: Any, *, seconds: Any,
                   creepage: Any = "0:0.05:101", band_length: Any = None, track_radius: Any = None,
                   pass_interval: Any = None, density: Any = None, transfer: Any = None,
                   n_draws: int = 100, seed: int = 0, trend_tolerance: float = 0.01,
-                  above: str | None = None) -> Any:
+                  above: str | None = None) -> SweepPrediction:
     """A traction curve recorded during a slip sweep of ``seconds`` while the product is
     removed, beside the steady curve at the applied amount (thesis H4.1); the verdict says
     whether removal turns the curve positive, with its probability over parameter draws.
@@ -794,8 +814,8 @@ def predict_sweep(scene: Any, params: Any, amount: Any, *, seconds: Any,
 
 
 # ------------------------------------------------------------------ creep forces (vehicle dynamics)
-def predict_creep(scene: Any, creepage: Any, lateral: Any = 0.0, spin: Any = 0.0, *,
-                  params: Any = None) -> Any:
+def predict_creep(scene: SceneLike, creepage: Any, lateral: Any = 0.0, spin: Any = 0.0, *,
+                  params: Any = None) -> TractionPrediction:
     """Creep forces ``Fx, Fy, Mz`` of a dry scene along a creepage curve at one lateral
     creepage and one spin: FASTSIM with the third-body layer in all three creepages
     (Kalker's flexibilities from C11, C22, C23; the Voce limit, Eqs. 5.24-5.29; the contact
@@ -844,9 +864,9 @@ def _amount(value: Any) -> tuple[float, str]:
     return float(value), ""
 
 
-def creep_table(scene: Any, creepage: Any, lateral: Any, spin: Any, *, speed: Any = None,
+def creep_table(scene: SceneLike, creepage: Any, lateral: Any, spin: Any, *, speed: Any = None,
                 params: Any = None, amounts: Any = None, normalised: bool = False,
-                map_fn: Any = None) -> Any:
+                map_fn: Any = None) -> CreepTable:
     """Creep-force table of a dry scene over creepage x lateral x spin (x speed x amount),
     in SI units and Kalker's normalised form, for vehicle-dynamics codes
     (``torlab predict table``).
@@ -903,9 +923,9 @@ def creep_table(scene: Any, creepage: Any, lateral: Any, spin: Any, *, speed: An
                              provenance={"command": "torlab.creep_table"})
 
 
-def fit_polach(scene: Any, creepage: Any = "0:0.05:41", speed: Any = "5 m/s, 20 m/s", *,
+def fit_polach(scene: SceneLike, creepage: Any = "0:0.05:41", speed: Any = "5 m/s, 20 m/s", *,
                lateral: Any = None, spin: Any = None, params: Any = None,
-               draws: int | None = None, seed: int = 0) -> Any:
+               draws: int | None = None, seed: int = 0) -> FitResult:
     """Polach's creep-force parameters ``mu0, A, B, kA, kS`` (Polach 2005; spin of 1999)
     fitted to torlab's creep forces of a dry scene over a creepage and speed range
     (``torlab fit polach``).
@@ -948,7 +968,7 @@ def fit_polach(scene: Any, creepage: Any = "0:0.05:41", speed: Any = "5 m/s, 20 
 
 
 def run_protocol(protocol: PathLike, out: PathLike, *, force: bool = False,
-                 cache: bool = True) -> Any:
+                 cache: bool = True) -> RunResult:
     """Run a YAML test protocol from raw logs to reports (``torlab run``); returns the
     :class:`~torlab.protocols.runner.RunResult` (key numbers in ``summary``)."""
     from torlab.protocols.runner import run_protocol as _run

@@ -17,7 +17,7 @@ that fails writes nothing.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
@@ -44,6 +44,9 @@ from torlab.instruments.measured import (
     traction_data,
     viscosity_data,
 )
+
+if TYPE_CHECKING:
+    from torlab.scene import Scene
 
 app = typer.Typer(help="Fit the model's parameters (third-body layer, temperature coefficients, "
                   "viscosity, film) to reduced measurements, with uncertainties.",
@@ -268,7 +271,7 @@ def traction_cmd(
     console().print(f"wrote {what} to {out}")
 
 
-def _traction_fits(sc: Any, curves: list[tuple[Path, Any, Any, str, Any]], *, joint: bool,
+def _traction_fits(sc: Scene, curves: list[tuple[Path, Any, Any, str, Any]], *, joint: bool,
                    dry: bool, fixed: dict[str, float]
                    ) -> tuple[list[tuple[str, Any]], dict[str, Any]]:
     """One traction fit per curve ``(file, creepage, mu, test, speed)``, or one to all

@@ -38,7 +38,7 @@ degree of freedom less).
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -46,6 +46,9 @@ from torlab.errors import TorlabInputError
 from torlab.fit._noise import linear_least_squares
 from torlab.fit.result import FitResult, student_t
 from torlab.threads import small_problem
+
+if TYPE_CHECKING:
+    from torlab.scene import Scene
 
 __all__ = ["HD_SPEED_EXPONENT", "fit_film_temperature", "fit_film_thickness"]
 
@@ -55,7 +58,7 @@ HD_G_EXPONENT = 0.53
 
 
 @small_problem  # one BLAS thread: small matrices (torlab.threads)
-def fit_film_thickness(speed_m_s: Any, h_m: Any, *, scene: Any = None,
+def fit_film_thickness(speed_m_s: Any, h_m: Any, *, scene: Scene | None = None,
                        min_speed: float | None = None) -> FitResult:
     """Fit the film's speed exponent and (with a scene) the effective alpha.
 
@@ -181,7 +184,7 @@ def fit_film_thickness(speed_m_s: Any, h_m: Any, *, scene: Any = None,
 _ALPHA_REF = 10e-9
 
 
-def _effective_alpha(scene: Any, v: np.ndarray, h: np.ndarray, weights: np.ndarray | None = None
+def _effective_alpha(scene: Scene, v: np.ndarray, h: np.ndarray, weights: np.ndarray | None = None
                      ) -> tuple[float, float, int, np.ndarray]:
     """``alpha`` (1/Pa), the standard error of ``ln alpha``, dof, and the log ratios.
 

@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -49,6 +49,9 @@ from torlab.errors import FitError, TorlabInputError
 from torlab.fit.result import FitResult, covariance_from_jacobian
 from torlab.model.creep import CreepGrid, CreepProblem, creep_forces
 from torlab.model.polach import PolachParams, polach_contact, polach_forces
+
+if TYPE_CHECKING:
+    from torlab.scene import Scene
 
 __all__ = ["NAMES", "N_DRAWS", "fit_polach", "fit_polach_data", "fit_polach_scene",
            "layer_interval_table", "layer_uncertainty", "polach_data"]
@@ -317,7 +320,7 @@ def _not_carried(reason: str, notes: list[str] | None = None, *, draws: int = 0,
             "correlation": {}, "notes": [f"{NOT_CARRIED}: {reason}", *(notes or [])]}
 
 
-def layer_uncertainty(scene: Any, estimate: FitResult, creepage: Any, speed: Any, *,
+def layer_uncertainty(scene: Scene, estimate: FitResult, creepage: Any, speed: Any, *,
                       lateral: Any = None, spin: Any = None, grid: CreepGrid | None = None,
                       draws: int = N_DRAWS, seed: int = 0, ordered: bool = True,
                       problem: CreepProblem | None = None) -> dict[str, Any]:
@@ -417,7 +420,7 @@ def layer_uncertainty(scene: Any, estimate: FitResult, creepage: Any, speed: Any
             "dominant": s["dominant"], "correlation": corr, "notes": notes}
 
 
-def fit_polach_scene(scene: Any, creepage: Any, speed: Any, *, lateral: Any = None,
+def fit_polach_scene(scene: Scene, creepage: Any, speed: Any, *, lateral: Any = None,
                      spin: Any = None, grid: CreepGrid | None = None, draws: int = N_DRAWS,
                      seed: int = 0, source: str = "", ordered: bool = True) -> FitResult:
     """Polach's parameters of a dry scene's product, with the layer's uncertainty.

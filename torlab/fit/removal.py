@@ -53,7 +53,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -69,6 +69,9 @@ from torlab.model.removal import (
     passes_solution,
 )
 from torlab.reduce.time_test import MIN_WINDOW, TimeTest
+
+if TYPE_CHECKING:
+    from torlab.scene import Scene
 
 __all__ = ["check_options", "default_tribometer_scene", "fit_removal"]
 
@@ -140,7 +143,7 @@ class _Prepared:
 _TABLES: dict[tuple, Any] = {}
 
 
-def _table(sc: Any, layer: Any, creepage: float, top: float, per_interval: int) -> Any:
+def _table(sc: Scene, layer: Any, creepage: float, top: float, per_interval: int) -> Any:
     """:func:`~torlab.model.removal.mu_table` with its layer derivatives, cached per layer,
     contact, creepage and range."""
     key = (id(layer), sc.model_dump_json(), creepage, float(f"{top:.6g}"), per_interval)
@@ -154,13 +157,13 @@ def _table(sc: Any, layer: Any, creepage: float, top: float, per_interval: int) 
     return tab
 
 
-def _test_scene(scene: Any, load: float, speed: float) -> Any:
+def _test_scene(scene: Scene, load: float, speed: float) -> Any:
     c = scene.contact.model_copy(update={"load": load})
     k = scene.kinematics.model_copy(update={"speed": speed})
     return scene.model_copy(update={"contact": c, "kinematics": k})
 
 
-def _prepare(tt: TimeTest, scene: Any, layer: Any, *, skip: Any, duration: float | None,
+def _prepare(tt: TimeTest, scene: Scene, layer: Any, *, skip: Any, duration: float | None,
              per_interval: int, max_transfer: float, fit_transfer: bool = False) -> _Prepared:
     from torlab.model.contact import build_contact
     from torlab.reduce.mtm import running_median
@@ -638,7 +641,7 @@ def _nuisance_covariance(theta: np.ndarray, J: np.ndarray, sp: _Spec, preps: lis
     return 0.5 * (out + out.T)
 
 
-def fit_removal(tests: TimeTest | Sequence[TimeTest], layer: Any, scene: Any, *,
+def fit_removal(tests: TimeTest | Sequence[TimeTest], layer: Any, scene: Scene, *,
                 laws: Sequence[str] = ("zero_order", "first_order"), law: str | None = None,
                 transfer: float | str = 1.0, skip: float | str = "auto",
                 duration: float | None = None, per_interval: int = 6,

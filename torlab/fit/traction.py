@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -44,6 +44,9 @@ from torlab.fit._noise import estimate_variance_function
 from torlab.fit.result import FitResult, _scaled_inverse, covariance_from_jacobian
 from torlab.model.layers import LayerLaw, all_params, get_law
 from torlab.threads import small_problem
+
+if TYPE_CHECKING:
+    from torlab.scene import Scene
 
 __all__ = ["fit_layer_traction", "layer_values", "traction_model"]
 
@@ -80,7 +83,7 @@ def layer_values(values: dict[str, Any], where: str = "fix") -> dict[str, float]
     return out
 
 
-def traction_model(scene: Any) -> Any:
+def traction_model(scene: Scene) -> Any:
     """``f(params: dict, creepage) -> mu`` for the scene with the layer replaced by ``params``.
 
     A dry scene calls FASTSIM directly (no table, no summary); a lubricated
@@ -135,7 +138,7 @@ def _check(creepage: Any, mu: Any) -> tuple[np.ndarray, np.ndarray]:
     return xi, y
 
 
-def _start(model: Any, scene: Any, xi: np.ndarray, y: np.ndarray) -> dict[str, float]:
+def _start(model: Any, scene: Scene, xi: np.ndarray, y: np.ndarray) -> dict[str, float]:
     """Data-driven initial guess (module docstring)."""
     a = np.abs(xi)
     ya = np.abs(y) * np.sign(y * xi)  # traction in the creepage's direction
@@ -160,7 +163,7 @@ def _start(model: Any, scene: Any, xi: np.ndarray, y: np.ndarray) -> dict[str, f
     return law.traction_start(mu1, mu2, lme)
 
 
-def speed_model(scene: Any, speed: Any) -> tuple[Any, list[float], np.ndarray]:
+def speed_model(scene: Scene, speed: Any) -> tuple[Any, list[float], np.ndarray]:
     """The traction model of points at their own rolling speeds.
 
     Parameters
@@ -208,7 +211,7 @@ def speed_model(scene: Any, speed: Any) -> tuple[Any, list[float], np.ndarray]:
 
 
 @small_problem  # one BLAS thread: small matrices (torlab.threads)
-def fit_layer_traction(scene: Any, creepage: Any, mu: Any, *, fixed: dict[str, float] | None = None,  # noqa: C901 (each input form, fixed parameter and fallback is a case, said in the result)
+def fit_layer_traction(scene: Scene, creepage: Any, mu: Any, *, fixed: dict[str, float] | None = None,  # noqa: C901 (each input form, fixed parameter and fallback is a case, said in the result)
                        x0: dict[str, float] | None = None, max_nfev: int = 200,
                        speed: Any = None) -> FitResult:
     """Fit the layer parameters to a traction curve with FASTSIM (thesis Eqs. 5.14-5.30).

@@ -52,7 +52,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -63,6 +63,9 @@ from torlab.model.parameters import (
     with_params,
 )
 from torlab.uncertainty import ParameterDistribution, Propagation, propagate
+
+if TYPE_CHECKING:
+    from torlab.scene import Scene
 
 __all__ = ["BAND_COLUMNS", "SceneUncertainty", "add_band_columns", "band_summary",
            "scene_uncertainty", "stribeck_band", "traction_band"]
@@ -87,7 +90,7 @@ class SceneUncertainty:
     has_covariance: bool = False
 
 
-def _used_keys(scene: Any) -> dict[str, str]:
+def _used_keys(scene: Scene) -> dict[str, str]:
     """Scene keys that can change a prediction -> their section."""
     keys: dict[str, str] = {}
     if scene.boundary is not None:
@@ -106,7 +109,7 @@ def _used_keys(scene: Any) -> dict[str, str]:
     return keys
 
 
-def scene_uncertainty(scene: Any) -> SceneUncertainty:
+def scene_uncertainty(scene: Scene) -> SceneUncertainty:
     """Collect the uncertain parameters of a scene (module docstring)."""
     fit = getattr(scene, "fit", None)
     blocks = fit.covariances if fit is not None else []
@@ -161,7 +164,7 @@ def _outputs(table: Any, names: tuple[str, ...]) -> dict[str, np.ndarray]:
     return {k: table[k].to_numpy(dtype=float) for k in names if k in table}
 
 
-def traction_band(scene: Any, creepage: np.ndarray, table: Any, su: SceneUncertainty, *,
+def traction_band(scene: Scene, creepage: np.ndarray, table: Any, su: SceneUncertainty, *,
                   seed: int = 0, **options: Any) -> Propagation:
     """Band of a traction curve (``table`` is the curve at the estimate).
 
@@ -185,7 +188,7 @@ def traction_band(scene: Any, creepage: np.ndarray, table: Any, su: SceneUncerta
     return propagate(model, su.dist, f0=f0, seed=seed, **options)
 
 
-def stribeck_band(scene: Any, speed: np.ndarray, creepage: float, table: Any,
+def stribeck_band(scene: Scene, speed: np.ndarray, creepage: float, table: Any,
                   su: SceneUncertainty, *, seed: int = 0) -> Propagation:
     """Band of a Stribeck curve (``table`` is the curve at the estimate)."""
     from torlab.model.mixed import stribeck_curve
@@ -243,7 +246,7 @@ class _SceneModel:
     creepage), its ``outs`` columns."""
 
     curve: Callable[..., Any]
-    scene: Any
+    scene: Scene
     x: np.ndarray
     args: tuple[Any, ...]
     outs: tuple[str, ...]

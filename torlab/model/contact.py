@@ -12,10 +12,13 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from torlab.model.hertz import ContactPatch, E_star, hertz_approximate, hertz_exact, patch_from_axes
 from torlab.model.kalker import C11, L1, ExtremeContactWarning, combined_G_nu
+
+if TYPE_CHECKING:
+    from torlab.scene import Scene
 
 __all__ = ["ContactModel", "build_contact"]
 
@@ -66,7 +69,7 @@ class ContactModel:
         }
 
 
-def build_contact(scene: Any) -> ContactModel:
+def build_contact(scene: Scene) -> ContactModel:
     """Resolve the contact of a :class:`~torlab.scene.Scene`."""
     c, m = scene.contact, scene.materials
     Es = E_star(m.E1, m.nu1, m.E2, m.nu2)

@@ -117,7 +117,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from functools import cache, lru_cache
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
@@ -126,6 +126,9 @@ from torlab.model.fastsim import FastsimProblem
 from torlab.model.flash import ThermalParams, converge_flash_temperature, flash_temperature_matrix
 from torlab.model.layers import LayerParams
 from torlab.model.strip import G_strip, e_strip, gauss_legendre, interp_uniform
+
+if TYPE_CHECKING:
+    from torlab.scene import Scene
 
 __all__ = [
     "CreepGrid",
@@ -310,7 +313,7 @@ def kalker_weighted_flexibility(prob: CreepProblem, xi: Any, eta: Any, phi: Any)
     return np.where(den > 0, num / np.where(den > 0, den, 1.0), prob.L1)
 
 
-def creep_problem(scene: Any, contact: Any = None) -> CreepProblem:
+def creep_problem(scene: Scene, contact: Any = None) -> CreepProblem:
     """The :class:`CreepProblem` of a (dry) scene: Hertz patch, C11, C22, C23, layer, thermal.
 
     Raises
@@ -344,7 +347,7 @@ def creep_problem(scene: Any, contact: Any = None) -> CreepProblem:
     return CreepProblem.from_fastsim(prob, L2=L2(p.a, c22, contact.G), L3=L3(p.a, p.b, c23, contact.G))
 
 
-def scene_grid(scene: Any) -> CreepGrid:
+def scene_grid(scene: Scene) -> CreepGrid:
     """The creep-force grid of a scene's ``grid:`` section.
 
     The keys mean what they mean for the longitudinal scheme and carry over: ``n``
@@ -357,7 +360,7 @@ def scene_grid(scene: Any) -> CreepGrid:
     return CreepGrid(n=g.n, m=g.m, temperature_nodes=g.temperature_nodes)
 
 
-def predict_creep(scene: Any, creepage: Any, lateral: float = 0.0, spin: float = 0.0) -> Any:
+def predict_creep(scene: Scene, creepage: Any, lateral: float = 0.0, spin: float = 0.0) -> Any:
     """Creep forces of a dry scene along a creepage curve at a lateral creepage and a spin.
 
     Parameters

@@ -39,13 +39,16 @@ import json
 import math
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from torlab.errors import TorlabInputError
 from torlab.model.creep import CreepGrid, CreepProblem, canonical_creepages, creep_forces
 from torlab.model.layers import get_law
+
+if TYPE_CHECKING:
+    from torlab.scene import Scene
 
 __all__ = [
     "CreepTable",
@@ -354,7 +357,7 @@ def _with_speed(p: CreepProblem, v: float) -> CreepProblem:
     return replace(p, speed=v)
 
 
-def scene_creep_table(scene: Any, creepage: Any, lateral: Any, spin: Any, *, speed: Any = None,
+def scene_creep_table(scene: Scene, creepage: Any, lateral: Any, spin: Any, *, speed: Any = None,
                       amounts: Sequence[tuple[float, Any]] | None = None, amount_unit: str = "",
                       normalised: bool = False, map_fn: Any = None,
                       provenance: dict[str, Any] | None = None) -> CreepTable:

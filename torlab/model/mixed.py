@@ -34,11 +34,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from torlab.errors import TorlabInputError
+
+if TYPE_CHECKING:
+    from torlab.scene import Scene
 
 __all__ = ["MixedContact", "StribeckPrediction", "mixed_contact", "mixed_traction_curve",
            "stribeck_curve", "traction_draws"]
@@ -99,7 +102,7 @@ class StribeckPrediction:
     band: Any = None
 
 
-def mixed_contact(scene: Any) -> MixedContact:
+def mixed_contact(scene: Scene) -> MixedContact:
     """Resolve contact, film, asperity and boundary models of a lubricated scene."""
     from torlab.model.asperity import Roughness
     from torlab.model.contact import build_contact
@@ -185,7 +188,7 @@ def _ehl_notes(mu_e: np.ndarray, lub: Any) -> list[str]:
 
 
 def _modelled(mc: MixedContact, regimes: set[str], boundary_done: bool, loop: str) -> list[str]:
-    from torlab.model.prediction import _temperature_note
+    from torlab.model.prediction import temperature_note
 
     c = mc.contact
     lub = mc.lubricant
@@ -209,15 +212,8 @@ def _modelled(mc: MixedContact, regimes: set[str], boundary_done: bool, loop: st
     if loop == "off" and mc.problem is not None and mc.problem.thermal is not None:
         out.append("contact temperature: not needed (no boundary part computed)")
     else:
-        out.append(_temperature_note(loop, _SceneLike(mc)))
+        out.append(temperature_note(loop, mc.problem.layer if mc.problem is not None else None))
     return out
-
-
-class _SceneLike:
-    """Minimal view for :func:`torlab.model.predict._temperature_note`."""
-
-    def __init__(self, mc: MixedContact) -> None:
-        self.boundary = mc.problem.layer if mc.problem is not None else None
 
 
 def _creepages(creepage: Any) -> np.ndarray:
@@ -227,7 +223,7 @@ def _creepages(creepage: Any) -> np.ndarray:
     return xi
 
 
-def _at_scene_speed(scene: Any) -> tuple[MixedContact, Any, float, Any, float, float]:
+def _at_scene_speed(scene: Scene) -> tuple[MixedContact, Any, float, Any, float, float]:
     """The contact, its patch, the speed, the load sharing there, the asperities' share
     and the film thickness of a lubricated scene at its own speed."""
     from torlab.model.loadshare import solve_load_sharing
@@ -241,7 +237,7 @@ def _at_scene_speed(scene: Any) -> tuple[MixedContact, Any, float, Any, float, f
     return mc, p, v, ls, share, float(ls.film_thickness)
 
 
-def mixed_traction_curve(scene: Any, creepage: Any, *, trend_tolerance: float = 0.01,
+def mixed_traction_curve(scene: Scene, creepage: Any, *, trend_tolerance: float = 0.01,
                          as_frame: bool = True):
     """Traction curve of a lubricated scene at the scene's speed (Eq. 5.47).
 
@@ -308,7 +304,7 @@ def mixed_traction_curve(scene: Any, creepage: Any, *, trend_tolerance: float = 
                               summary=summary)
 
 
-def traction_draws(scene: Any, creepage: Any, layers: dict[str, np.ndarray]
+def traction_draws(scene: Scene, creepage: Any, layers: dict[str, np.ndarray]
                    ) -> tuple[dict[str, np.ndarray], list[Any]]:
     """The traction curve of :func:`mixed_traction_curve` for many boundary layers at once.
 
@@ -359,7 +355,7 @@ def traction_draws(scene: Any, creepage: Any, layers: dict[str, np.ndarray]
     out["film_thickness_m"] = np.full((m, xi.size), h)
     return out, errors
 
-def stribeck_curve(scene: Any, speed: Any, creepage: float) -> StribeckPrediction:
+def stribeck_curve(scene: Scene, speed: Any, creepage: float) -> StribeckPrediction:
     """Stribeck curve: ``mu`` against rolling speed at one creepage (Eq. 5.47).
 
     The load sharing is solved for all speeds at once (vectorised bracketed root);

@@ -83,7 +83,7 @@ def predict_traction(scene: Scene, creepage: ArrayLike, *,
     return pred
 
 
-def _attach_band(scene: Any, pred: TractionPrediction, tolerance: float, threshold: float,
+def _attach_band(scene: Scene, pred: TractionPrediction, tolerance: float, threshold: float,
                  seed: int, defer: bool = False) -> Any:
     """The band, its summary and the trend with probabilities (:mod:`torlab.model.bands`).
 

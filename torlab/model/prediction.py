@@ -9,13 +9,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from torlab.model.contact import ContactModel, build_contact
 from torlab.model.fastsim import FastsimGrid, FastsimProblem
 from torlab.model.flash import ThermalParams
+
+if TYPE_CHECKING:
+    from torlab.model.layers import LayerParams
+    from torlab.scene import Scene
 
 __all__ = ["NOT_SATURATED", "TOO_FEW_POINTS", "TREND_CLASSES", "TREND_PROBABILITY",
            "TREND_TOLERANCE", "TractionPrediction",
@@ -55,7 +59,7 @@ class TractionPrediction:
     band: Any = None
 
 
-def fastsim_problem(scene: Any, contact: ContactModel | None = None) -> FastsimProblem:
+def fastsim_problem(scene: Scene, contact: ContactModel | None = None) -> FastsimProblem:
     """The :class:`FastsimProblem` of a scene's boundary part."""
     contact = contact or build_contact(scene)
     layer = scene.boundary.layer
@@ -69,7 +73,7 @@ def fastsim_problem(scene: Any, contact: ContactModel | None = None) -> FastsimP
                           ambient_temperature=scene.kinematics.ambient_temperature, thermal=thermal)
 
 
-def fastsim_grid(scene: Any) -> FastsimGrid:
+def fastsim_grid(scene: Scene) -> FastsimGrid:
     """The FASTSIM grid of a scene's ``grid:`` section."""
     g = scene.grid
     return FastsimGrid(n=g.n, m=g.m, temperature_nodes=g.temperature_nodes)
@@ -262,18 +266,20 @@ def classify_trend(creepage: np.ndarray, mu: np.ndarray, *, saturation: float = 
     return out
 
 
-def _temperature_note(loop: str, scene: Any) -> str:
+def temperature_note(loop: str, layer: LayerParams | None) -> str:
+    """What ``modelled`` says of the contact temperature, from the FASTSIM result's
+    ``temperature_loop`` and the boundary layer's values."""
     if loop == "off":
         return "contact temperature: not modelled (no thermal: section)"
     if loop == "single pass":
-        lay = scene.boundary.layer
+        lay = layer
         why = ("the temperature coefficients are zero"
                if not any(lay.law.temperature_coefficients(lay)) else "the heating changes the limits by less than 1e-6")
         return f"contact temperature: computed once, no tau-T loop ({why})"
     return "contact temperature: coupled to the limits, iterated to convergence"
 
 
-def _summary(scene: Any, contact: ContactModel, modelled: list[str], trend: dict[str, Any],
+def _summary(scene: Scene, contact: ContactModel, modelled: list[str], trend: dict[str, Any],
              table: Any) -> dict[str, Any]:
     from torlab import __version__
     from torlab.model.plausible import result_notes

@@ -49,9 +49,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from torlab.scene import Scene
 
 __all__ = ["RESOLUTION_FACTOR", "TRANSITIONS", "TRANSITION_PROBABILITY", "transition_evidence",
            "transition_speeds"]
@@ -84,7 +87,7 @@ def _speed_for_film(film: Any, h: float, F_ehl: float) -> float:
     return math.exp(brentq(g, a, b, xtol=1e-12, rtol=1e-12))
 
 
-def transition_speeds(scene: Any, *, share_tol: float | None = None) -> dict[str, float | None]:
+def transition_speeds(scene: Scene, *, share_tol: float | None = None) -> dict[str, float | None]:
     """Speeds (m/s) where the regime of :func:`~torlab.model.loadshare.solve_load_sharing`
     changes (module docstring): ``boundary_to_mixed`` and ``mixed_to_full_film``.
 
@@ -119,7 +122,7 @@ class _TransitionModel:
     """``ln v`` of each transition of the scene with the lubricant's parameters replaced
     (picklable: the draws may run on worker processes)."""
 
-    scene: Any
+    scene: Scene
     keys: tuple[str, ...]
 
     def __call__(self, p: dict[str, float]) -> dict[str, np.ndarray]:
@@ -129,7 +132,7 @@ class _TransitionModel:
         return {k: np.asarray(math.log(v[k]) if v.get(k) else math.nan) for k in self.keys}
 
 
-def transition_evidence(scene: Any, speed_range: tuple[float, float] | None = None, *,
+def transition_evidence(scene: Scene, speed_range: tuple[float, float] | None = None, *,
                         threshold: float = TRANSITION_PROBABILITY, seed: int = 0
                         ) -> dict[str, dict[str, Any]]:
     """Each regime transition with its 95 % interval, dominant parameters and verdict.

@@ -56,11 +56,14 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from torlab.errors import TorlabInputError
+
+if TYPE_CHECKING:
+    from torlab.scene import Scene
 
 __all__ = [
     "LAWS",
@@ -189,7 +192,7 @@ def energy_per_pass(mu: Any, load: float, creepage: float, width: float) -> np.n
     return np.abs(np.asarray(mu, dtype=float)) * load * abs(creepage) / width
 
 
-def boundary_scene(scene: Any, temperature_coefficients: tuple[float, float] = (0.0, 0.0)
+def boundary_scene(scene: Scene, temperature_coefficients: tuple[float, float] = (0.0, 0.0)
                    ) -> tuple[Any, list[str]]:
     """The scene without what the retention model does not use, and what was dropped.
 
@@ -217,7 +220,7 @@ def boundary_scene(scene: Any, temperature_coefficients: tuple[float, float] = (
     return (scene.model_copy(update=upd) if upd else scene), notes
 
 
-def mu_of_layers(scene: Any, layers: list[Any], creepage: Any) -> np.ndarray:
+def mu_of_layers(scene: Scene, layers: list[Any], creepage: Any) -> np.ndarray:
     """Boundary coefficient (FASTSIM with the layer, Eq. 5.30) of each layer -> ``(n_layers, n_xi)``.
 
     ``scene``'s contact, kinematics, thermal and grid; the layer replaced by each of
@@ -307,7 +310,7 @@ class MuTable:
         return self.mu[:, :, None] + np.einsum("xcp,xdp->xcd", self.grad, dp)
 
 
-def mu_table(scene: Any, layer: Any, creepage: Any, *, m_top: float | None = None,
+def mu_table(scene: Scene, layer: Any, creepage: Any, *, m_top: float | None = None,
              per_interval: int = 6, gradient: bool = False,
              extra: Any = ()) -> MuTable:
     """Boundary coefficient of ``layer(m)`` on ``scene`` at ``creepage``, tabulated in ``ln m``.

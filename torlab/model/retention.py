@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -48,6 +48,9 @@ from torlab.model.removal import (
     mu_table,
     passes_solution,
 )
+
+if TYPE_CHECKING:
+    from torlab.scene import Scene
 
 __all__ = [
     "BAND_PRESETS",
@@ -291,7 +294,7 @@ def _applied(removal: Any, layer: Any, amount: Any, bnd: Any, n_draws: int, rng:
     return node_draws, rd, tr, m0, how
 
 
-def predict_retention(scene: Any, layer: Any, removal: Any, amount: Any, *, creepage: float,  # noqa: C901 (each input form (file, fit, layer) and option checked where it is read)
+def predict_retention(scene: Scene, layer: Any, removal: Any, amount: Any, *, creepage: float,  # noqa: C901 (each input form (file, fit, layer) and option checked where it is read)
                       track_radius: float | None = None, band_length: float | None = None,
                       density: float | None = None, transfer: float | None = None,
                       passes: Any = None, n_passes: float | None = None, points: int = 501,
@@ -676,7 +679,7 @@ def _interp_table(mu_tab: np.ndarray, x_nodes: np.ndarray, xi_nodes: np.ndarray,
     return col[i, d] * (1.0 - g) + col[i + 1, d] * g
 
 
-def simulate_sweep(scene: Any, layer: Any, removal: Any, amount: Any, *,
+def simulate_sweep(scene: Scene, layer: Any, removal: Any, amount: Any, *,
                    creepage: tuple[float, float] = (0.0, 0.05), seconds: float,
                    track_radius: float | None = None, pass_interval: float | None = None,
                    band_length: float | None = None, density: float | None = None,

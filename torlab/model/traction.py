@@ -32,10 +32,10 @@ from torlab.model.prediction import (
     TREND_TOLERANCE,
     TractionPrediction,
     _summary,
-    _temperature_note,
     classify_trend,
     fastsim_grid,
     fastsim_problem,
+    temperature_note,
 )
 
 if TYPE_CHECKING:
@@ -122,7 +122,7 @@ def dry_traction_curve(scene: Scene, creepage: ArrayLike, *,
                 "boundary friction: FASTSIM with the third-body layer (elastic + Voce)",
                 "EHL film: not modelled (dry scene, no lubricant:)",
                 "asperity load sharing: not modelled (dry scene)"]
-    modelled.append(_temperature_note(res.temperature_loop, scene))
+    modelled.append(temperature_note(res.temperature_loop, prob.layer))
     b = scene.boundary
     # without a temperature effect the layer's curve only rises towards its plateau
     isothermal = scene.thermal is None or (b.mu_c1_T == 0 and b.mu_c2_T == 0)

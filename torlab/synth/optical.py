@@ -30,9 +30,12 @@ import math
 import os
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
-from typing import IO, Any
+from typing import IO, TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from torlab.scene import Scene
 
 __all__ = [
     "PAPER_A_LAYER",
@@ -179,7 +182,7 @@ def demo_truth(test: OpticalTest) -> tuple[MuFn, HFn | None, str]:
 PAPER_A_LAYER = {"mu_c1": 0.20, "mu_c2": 0.26, "L_mue": 0.5e-6, "L_mup": 1.5e-6}
 
 
-def model_truth(test: OpticalTest, scene: Any, *, speeds: Any = None,
+def model_truth(test: OpticalTest, scene: Scene, *, speeds: Any = None,
                 creepages: Any = None) -> tuple[MuFn, HFn | None, str]:
     """The truth of a Tab. 5.2 test from torlab's own model on ``scene`` (Paper A sample data).
 
@@ -266,7 +269,7 @@ def model_truth(test: OpticalTest, scene: Any, *, speeds: Any = None,
                        "from the model (Eq. 5.31)")
 
 
-def _layer_text(scene: Any) -> str:
+def _layer_text(scene: Scene) -> str:
     lay = scene.boundary.layer
     return ", ".join(f"{n} {v * 1e6:g} um" if lay.law.param(n).kind == "length" else f"{n} {v:g}"
                      for n, v in lay.values.items() if n in lay.law.fit_names)

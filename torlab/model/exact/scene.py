@@ -27,12 +27,15 @@ the table.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from torlab.errors import TorlabInputError
 from torlab.model.exact.rolling import ExactContact, ExactGrid, ExactLayer, exact_creep_forces
+
+if TYPE_CHECKING:
+    from torlab.scene import Scene
 
 __all__ = ["LawYield", "exact_contact", "predict_exact", "scene_layer"]
 
@@ -81,7 +84,7 @@ def scene_layer(boundary: Any) -> ExactLayer:
                            f"{', '.join(law.names)})")
 
 
-def exact_contact(scene: Any, contact: Any = None) -> ExactContact:
+def exact_contact(scene: Scene, contact: Any = None) -> ExactContact:
     """The :class:`ExactContact` of a dry scene (module docstring).
 
     Raises
@@ -103,7 +106,7 @@ def exact_contact(scene: Any, contact: Any = None) -> ExactContact:
                         layer=scene_layer(scene.boundary))
 
 
-def predict_exact(scene: Any, creepage: Any, lateral: float = 0.0, spin: float = 0.0,
+def predict_exact(scene: Scene, creepage: Any, lateral: float = 0.0, spin: float = 0.0,
                   grid: ExactGrid | None = None) -> Any:
     """Creep forces of a dry scene by Kalker's exact theory along a creepage curve.
 
