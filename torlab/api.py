@@ -487,7 +487,7 @@ def predict_stribeck(scene: SceneLike, speed: Any, creepage: Any, *, params: Any
     """Stribeck curve: mu against rolling speed at one creepage, with film thickness,
     film parameter, asperity load share and regime (thesis Eq. 5.47).
 
-    ``speed``: ``"10 mm/s:2 m/s:50"`` or numbers (m/s); ``creepage``: ``"2 %"`` or a
+    ``speed``: ``"10 mm/s:2 m/s:50"`` or numbers [m/s]; ``creepage``: ``"2 %"`` or a
     fraction; ``params`` as in :func:`predict_traction`.
     """
     from torlab.model.predict import predict_stribeck as _predict
@@ -879,7 +879,7 @@ def creep_table(scene: SceneLike, creepage: Any, lateral: Any, spin: Any, *, spe
         Axes of longitudinal and lateral creepage: ``"-1 %:1 %:21"``, a list, fractions;
         two points at least, increasing.
     spin
-        Spin axis: ``"-2:2:11"`` (1/m), ``"-2 1/m, 0 1/m, 2 1/m"`` or numbers.
+        Spin axis: ``"-2:2:11"`` [1/m], ``"-2 1/m, 0 1/m, 2 1/m"`` or numbers.
     speed
         Optional speed axis (``"5 m/s, 20 m/s"``): it changes the contact temperature.
     params
@@ -939,7 +939,7 @@ def fit_polach(scene: SceneLike, creepage: Any = "0:0.05:41", speed: Any = "5 m/
     speed
         Rolling speeds of the fit range: ``"5 m/s, 20 m/s"`` or m/s.
     lateral, spin
-        Optional lateral creepages and spins (1/m) added at each creepage and speed.
+        Optional lateral creepages and spins [1/m] added at each creepage and speed.
     params
         Parameter files or FitResults applied over the scene (the product's fit).
     draws

@@ -16,6 +16,13 @@ model needs:
 
 The run without an applied amount (the dry reference, product ``dry``) is the
 layer's ``m -> 0`` limit; every other run is one amount of one product.
+
+References
+----------
+.. [1] Kvarda, D., Galas, R., Omasta, M., Dzimko, M., Krupka, I., Hartl, M. (2022). Shear
+   properties of top-of-rail products in numerical modelling. Proceedings of the
+   Institution of Mechanical Engineers, Part F: Journal of Rail and Rapid Transit.
+   https://doi.org/10.1177/09544097221138374
 """
 
 from __future__ import annotations
@@ -168,12 +175,12 @@ def amount_layer(inputs: Sequence[Any], *, density: float | None = None,
         applied amount of one product, and one run without an applied amount (the dry
         reference).
     density
-        Product density (kg/m^3) for amounts applied as volumes; default the
+        Product density [kg/m^3] for amounts applied as volumes; default the
         runs' ``product_density``.
     dry_amount, repeatability, above
         As :meth:`~torlab.model.amount.AmountLayer.from_fits`.
     temperature, temperature_tolerance
-        Use only runs at this temperature (degC); default every run given (they
+        Use only runs at this temperature [degC]; default every run given (they
         must then be at one temperature).
 
     Returns

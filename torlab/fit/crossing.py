@@ -26,6 +26,13 @@ is called only when that probability reaches :data:`CROSSING_PROBABILITY` (0.9).
 threshold at every amount" and whether the products cross at one applied mass
 (:func:`mass_homogeneity`, thesis H3.2).  The report that draws all this is
 :mod:`torlab.reports.amount`.
+
+References
+----------
+.. [1] Kvarda, D., Galas, R., Omasta, M., Dzimko, M., Krupka, I., Hartl, M. (2022). Shear
+   properties of top-of-rail products in numerical modelling. Proceedings of the
+   Institution of Mechanical Engineers, Part F: Journal of Rail and Rapid Transit.
+   https://doi.org/10.1177/09544097221138374
 """
 
 from __future__ import annotations
@@ -76,7 +83,7 @@ def amount_series(results: list[Any], products: dict[str, Any], *, temperature: 
         The protocol's ``products:`` (name -> :class:`~torlab.protocols.schema.Product`);
         a ``product-condition`` key wins over the plain product name.
     temperature, temperature_tolerance
-        Runs within ``temperature ± tolerance`` (degC) are used; runs without a
+        Runs within ``temperature ± tolerance`` [degC] are used; runs without a
         logged temperature are used too.
     only
         Products (labels) to keep; default all.

@@ -33,6 +33,16 @@ estimated from the residuals (constant plus proportional, maximum likelihood)
 weights the points when a likelihood-ratio test prefers it to constant
 scatter in ``ln h`` (:func:`torlab.fit._noise.linear_least_squares`; one
 degree of freedom less).
+
+References
+----------
+.. [1] Hamrock, B. J., Dowson, D. (1977). Isothermal elastohydrodynamic lubrication of point
+   contacts: Part III - Fully flooded results. Journal of Lubrication Technology 99(2),
+   264-275. https://doi.org/10.1115/1.3453074
+.. [2] Kvarda, D., Galas, R., Omasta, M., Shi, L.-B., Ding, H.-H., Wang, W.-J., Krupka, I.,
+   Hartl, M. (2021). Asperity-based model for prediction of traction in
+   water-contaminated wheel-rail contact. Tribology International 157, 106900.
+   https://doi.org/10.1016/j.triboint.2021.106900
 """
 
 from __future__ import annotations
@@ -65,13 +75,13 @@ def fit_film_thickness(speed_m_s: Any, h_m: Any, *, scene: Scene | None = None,
     Parameters
     ----------
     speed_m_s, h_m
-        Rolling (entrainment) speeds (m/s) and central film thicknesses (m).
+        Rolling (entrainment) speeds [m/s] and central film thicknesses [m].
     scene
         A :class:`~torlab.scene.Scene` with ``contact``, ``materials`` and
         ``lubricant.eta0`` (the viscosity at the test temperature) for the
         effective pressure-viscosity coefficient; None for the exponent only.
     min_speed
-        Use only points at or above this speed (m/s).
+        Use only points at or above this speed [m/s].
 
     Returns
     -------
@@ -186,7 +196,7 @@ _ALPHA_REF = 10e-9
 
 def _effective_alpha(scene: Scene, v: np.ndarray, h: np.ndarray, weights: np.ndarray | None = None
                      ) -> tuple[float, float, int, np.ndarray]:
-    """``alpha`` (1/Pa), the standard error of ``ln alpha``, dof, and the log ratios.
+    """``alpha`` [1/Pa], the standard error of ``ln alpha``, dof, and the log ratios.
 
     ``weights`` are the relative variances of ``ln h`` (the film line's variance
     function): the variance of the mean log ratio is ``s^2 sum(w) / n^2`` with
@@ -227,9 +237,9 @@ def fit_film_temperature(fits: Any, temperatures_C: Any, *,
         :class:`FitResult` of :func:`fit_film_thickness`, one per temperature (at
         least two, at temperatures at least 2 K apart).
     temperatures_C
-        Their temperatures (degC).
+        Their temperatures [degC].
     reference_speed
-        Speed (m/s) at which the films are compared; default the geometric centre of
+        Speed [m/s] at which the films are compared; default the geometric centre of
         the speed range every fit covers.
 
     Returns

@@ -28,6 +28,16 @@ correlated (the layer's strength fluctuates over seconds).
 Fitted on the loading branch (up to the maximum displacement).  Several curves
 of one product are fitted jointly (``joint=True``): the law's parameters are
 shared, each curve keeps its own normal stress and compliance.
+
+References
+----------
+.. [1] Kvarda, D. Experimental investigation and numerical modelling of top of rail
+   products. PhD thesis, Brno University of Technology, Faculty of Mechanical
+   Engineering (the model: section 5.2; no DOI).
+.. [2] Kvarda, D., Galas, R., Omasta, M., Dzimko, M., Krupka, I., Hartl, M. (2022). Shear
+   properties of top-of-rail products in numerical modelling. Proceedings of the
+   Institution of Mechanical Engineers, Part F: Journal of Rail and Rapid Transit.
+   https://doi.org/10.1177/09544097221138374
 """
 
 from __future__ import annotations
@@ -77,13 +87,13 @@ class HptCurve:
     Attributes
     ----------
     u_raw
-        Displacement from the angle (m), rig compliance included.
+        Displacement from the angle [m], rig compliance included.
     tau
-        Shear stress (Pa).
+        Shear stress [Pa].
     sigma
-        Normal stress (Pa), the mean over the loading branch unless given.
+        Normal stress [Pa], the mean over the loading branch unless given.
     compliance
-        ``u_rig(tau)`` (m) or None.
+        ``u_rig(tau)`` [m] or None.
     meta
         Product, amount, temperature, source ...
     """
@@ -99,7 +109,7 @@ def tau_of_raw_displacement(u_raw: np.ndarray, sigma: float, x: Sequence[float],
                             compliance: Callable[[np.ndarray], np.ndarray] | None = None, *,
                             n_elastic: int = 48, n_plastic: int = 320,
                             law: str | LayerLaw | None = None) -> np.ndarray:
-    """Layer-law shear stress (Pa) at the *measured* displacement ``u_raw`` (m).
+    """Layer-law shear stress [Pa] at the *measured* displacement ``u_raw`` [m].
 
     ``x`` are the law's ``fit_names`` values in SI (Voce: ``mu_c1, mu_c2, L_mue,
     L_mup``).  The law (:meth:`~torlab.model.layers.base.LayerLaw.hpt_tau`; Voce:
@@ -327,7 +337,7 @@ def fit_layer_hpt(curves: Any, *, sigma: float | None = None, compliance: Any = 
         with the reduced columns ``shear_stress_Pa``, ``displacement_raw_m``,
         ``displacement_m``, ``normal_stress_Pa``).
     sigma
-        Normal stress (Pa); default: each curve's mean measured normal stress.
+        Normal stress [Pa]; default: each curve's mean measured normal stress.
     compliance
         Rig compliance ``u_rig(tau)`` (a :class:`~torlab.reduce.hpt.RigCompliance`);
         default: the one the reduction subtracted, if any.

@@ -35,6 +35,11 @@ Polach's law.
 Without ``thermal:`` torlab's forces do not depend on speed, while Polach's depend
 on the slip velocity ``s V``: at several speeds the fit then compromises, which the
 residuals show; ``B`` is determined only where the curve falls after its maximum.
+
+References
+----------
+.. [1] Polach, O. (2005). Creep forces in simulations of traction vehicles running on
+   adhesion limit. Wear 258(7-8), 992-1000. https://doi.org/10.1016/j.wear.2004.03.046
 """
 
 from __future__ import annotations
@@ -134,9 +139,9 @@ def fit_polach(problem: CreepProblem, creepage: Any, speed: Any, *, lateral: Any
     creepage
         Longitudinal creepages of the fit range (fractions, >= 3 values).
     speed
-        Rolling speeds (m/s) of the fit range.
+        Rolling speeds [m/s] of the fit range.
     lateral, spin
-        Optional lateral creepages and spins (1/m) added at each creepage and speed
+        Optional lateral creepages and spins [1/m] added at each creepage and speed
         (then ``mu_y`` is fitted too).
     grid
         Resolution of torlab's creep-force scheme.

@@ -46,6 +46,13 @@ effective number of independent points (``n_eff ln(RSS/n) + 2p +
 2p(p+1)/(n_eff - p - 1)``, ``n_eff`` from the noise model of the best-fitting
 law); ``meta["law_selection"]`` lists every candidate with its criterion,
 difference to the best and Akaike weight.
+
+References
+----------
+.. [1] Kvarda, D., Skurka, S., Galas, R., Omasta, M., Shi, L.-B., Ding, H.-H., Wang, W.-J.,
+   Krupka, I., Hartl, M. (2022). The effect of top of rail lubricant composition on
+   adhesion and rheological behaviour. Engineering Science and Technology, an
+   International Journal 35, 101100. https://doi.org/10.1016/j.jestch.2022.101100
 """
 
 from __future__ import annotations
@@ -668,7 +675,7 @@ def fit_removal(tests: TimeTest | Sequence[TimeTest], layer: Any, scene: Scene, 
         Seconds after the application excluded from the fit (the film phase), or
         ``"auto"``.
     duration
-        Fit up to this time after the application (s).
+        Fit up to this time after the application [s].
     per_interval
         Friction-table nodes per interval between tested amounts.
     energy

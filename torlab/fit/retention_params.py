@@ -90,7 +90,7 @@ class RetentionParams:
         The law as a :class:`RemovalFit` (estimate, log-space covariance,
         sensitivity to the layer: :func:`torlab.model.retention.removal_draws`).
     density
-        Product density (kg/m^3) of the time tests, or None.
+        Product density [kg/m^3] of the time tests, or None.
     source
         The file.
     """

@@ -28,6 +28,13 @@ the result says so (``selection="lr"``, the default), or kept with their whole
 uncertainty for the predictions to carry (``selection="none"``).  The lines
 are fitted to the same runs, so their scatter is correlated; the
 covariance written for the predictions includes that correlation.
+
+References
+----------
+.. [1] Kvarda, D., Galas, R., Omasta, M., Dzimko, M., Krupka, I., Hartl, M. (2022). Shear
+   properties of top-of-rail products in numerical modelling. Proceedings of the
+   Institution of Mechanical Engineers, Part F: Journal of Rail and Rapid Transit.
+   https://doi.org/10.1177/09544097221138374
 """
 
 from __future__ import annotations
@@ -64,7 +71,7 @@ def fit_temperature_coefficients(fits_or_curves: Any, temperatures_K: Any = None
         :class:`~torlab.fit.result.FitResult` of ``fit_layer_hpt`` (one per run),
         or HPT curves (:class:`~torlab.reduce.hpt.HptResult`) that are fitted here.
     temperatures_K
-        Test temperatures (K), one per item; default: each fit's
+        Test temperatures [K], one per item; default: each fit's
         ``meta["temperature_C"]`` (from the log header).
     reference_temperature_C
         ``T_ref`` of the intercepts ``mu_c1_Tref``, ``mu_c2_Tref``.

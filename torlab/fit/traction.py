@@ -29,6 +29,13 @@ A log recorded at several rolling speeds (an optical traction test at 0.25-2 m/s
 is fitted with each point at its own speed (``speed=``): in a lubricated contact
 the film, and with it the asperities' share of the load, changes with the speed,
 so one scene speed for every point would fit a different contact.
+
+References
+----------
+.. [1] Kvarda, D., Galas, R., Omasta, M., Shi, L.-B., Ding, H.-H., Wang, W.-J., Krupka, I.,
+   Hartl, M. (2021). Asperity-based model for prediction of traction in
+   water-contaminated wheel-rail contact. Tribology International 157, 106900.
+   https://doi.org/10.1016/j.triboint.2021.106900
 """
 
 from __future__ import annotations

@@ -24,6 +24,19 @@ determine a parameter well (Z from pressures all below 100 MPa, where Roelands
 and Barus hardly differ; a relative standard error above 50 %); fewer points
 than parameters + 1 is an error (no residual degree of freedom for an
 uncertainty).
+
+References
+----------
+.. [1] Roelands, C. J. A. (1966). Correlational aspects of the
+   viscosity-temperature-pressure relationship of lubricating oils. PhD thesis, Delft
+   University of Technology (no DOI).
+.. [2] Barus, C. (1893). Isothermals, isopiestics and isometrics relative to viscosity.
+   American Journal of Science s3-45(266), 87-96.
+   https://doi.org/10.2475/ajs.s3-45.266.87
+.. [3] Kvarda, D., Skurka, S., Galas, R., Omasta, M., Shi, L.-B., Ding, H.-H., Wang, W.-J.,
+   Krupka, I., Hartl, M. (2022). The effect of top of rail lubricant composition on
+   adhesion and rheological behaviour. Engineering Science and Technology, an
+   International Journal 35, 101100. https://doi.org/10.1016/j.jestch.2022.101100
 """
 
 from __future__ import annotations
@@ -74,11 +87,11 @@ class ViscosityFit(FitResult):
     law
         ``"barus"`` or ``"roelands"``.
     eta0, eta0_ci
-        Viscosity at p = 0 (Pa s) and its confidence interval.
+        Viscosity at p = 0 [Pa s] and its confidence interval.
     eta0_source
         ``"fitted"``, ``"given"`` or ``"measured at atmospheric pressure"``.
     alpha, alpha_se, alpha_ci
-        Barus coefficient (1/Pa); for Roelands the equivalent initial slope
+        Barus coefficient [1/Pa]; for Roelands the equivalent initial slope
         ``alpha* = (ln eta0 + 9.67) 5.1e-9 Z`` (:func:`roelands_alpha0`), no se.
     Z, Z_se, Z_ci
         Roelands pressure-viscosity index (Roelands only).
@@ -181,7 +194,7 @@ class ViscosityFit(FitResult):
             temperature_C=temperature_C)
 
     def predict(self, p: np.ndarray | float) -> np.ndarray:
-        """Viscosity (Pa s) of the fitted law at ``p`` (Pa)."""
+        """Viscosity [Pa s] of the fitted law at ``p`` [Pa]."""
         if self.law == "barus":
             return np.exp(log_eta_barus(p, self.eta0, self.alpha))
         return np.exp(log_eta_roelands(p, self.eta0, self.Z))
@@ -305,7 +318,7 @@ def fit_barus(p: Any, eta: Any, *, confidence: float = 0.95,
     Parameters
     ----------
     p, eta
-        Pressures (Pa) and viscosities (Pa s), one per measurement.
+        Pressures [Pa] and viscosities [Pa s], one per measurement.
     confidence
         Level of the Student-t intervals.
     temperature_C
@@ -366,9 +379,9 @@ def fit_roelands(p: Any, eta: Any, *, eta0: float | None = None, fit_eta0: bool 
     Parameters
     ----------
     p, eta
-        Pressures (Pa) and viscosities (Pa s).
+        Pressures [Pa] and viscosities [Pa s].
     eta0
-        Fix ``eta0`` (Pa s) and fit ``Z`` only.
+        Fix ``eta0`` [Pa s] and fit ``Z`` only.
     fit_eta0
         Fit ``eta0`` together with ``Z``.  Default (``None``): fix ``eta0`` at
         the points at atmospheric pressure (p <= 1 MPa) if there are any (their

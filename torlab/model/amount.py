@@ -35,6 +35,13 @@ Amounts at the edges (:func:`parse_amount`, :func:`areal_density`) are
 quantities with a unit: a volume (``"4 uL"``, needs a density), a mass
 (``"4 mg"``) or an areal density (``"200 mg/m^2"``).  A bare number is refused:
 it could be any of the three.
+
+References
+----------
+.. [1] Kvarda, D., Galas, R., Omasta, M., Dzimko, M., Krupka, I., Hartl, M. (2022). Shear
+   properties of top-of-rail products in numerical modelling. Proceedings of the
+   Institution of Mechanical Engineers, Part F: Journal of Rail and Rapid Transit.
+   https://doi.org/10.1177/09544097221138374
 """
 
 from __future__ import annotations
@@ -76,8 +83,8 @@ _RANGE = {"mass_per_area": "amount_areal", "mass": "amount_mass", "volume": "amo
 def parse_amount(value: Any, *, where: str = "amount") -> tuple[float, str]:
     """An amount with its unit -> ``(SI value, kind)``.
 
-    ``kind`` is ``"volume"`` (m^3), ``"mass"`` (kg) or ``"mass_per_area"``
-    (kg/m^2).
+    ``kind`` is ``"volume"`` [m^3], ``"mass"`` [kg] or ``"mass_per_area"``
+    [kg/m^2].
 
     Raises
     ------
@@ -124,7 +131,7 @@ def parse_amount(value: Any, *, where: str = "amount") -> tuple[float, str]:
 
 def areal_density(amount: Any, *, area: float | None = None, density: float | None = None,
                   transfer: float = 1.0, where: str = "amount") -> float:
-    """Areal density (kg/m^2) of an amount spread over ``area``.
+    """Areal density [kg/m^2] of an amount spread over ``area``.
 
     ``m = transfer * mass / area`` with ``mass = volume * density`` for a
     volume; an amount already given per area is multiplied by ``transfer``
@@ -136,11 +143,11 @@ def areal_density(amount: Any, *, area: float | None = None, density: float | No
         A quantity string (``"4 uL"``, ``"4 mg"``, ``"200 mg/m^2"``) or a
         ``(value, kind)`` pair from :func:`parse_amount`.
     area
-        Area the mass is spread over (m^2): the running band of a disc
+        Area the mass is spread over [m^2]: the running band of a disc
         (``2 pi r_track * width``), the rig's contact, a length of rail times
         the band width.
     density
-        Product density (kg/m^3), for a volume.
+        Product density [kg/m^3], for a volume.
     transfer
         Fraction of the applied product that reaches the band, in (0, 1].
 
@@ -262,7 +269,7 @@ class AmountLayer:
     Attributes
     ----------
     amounts
-        Tested areal densities (kg/m^2), increasing, at least two.
+        Tested areal densities [kg/m^2], increasing, at least two.
     params
         ``(n, k)`` fitted parameters of :attr:`law` (its ``fit_names``; Voce: ``mu_c1,
         mu_c2, L_mue, L_mup``, SI) at :attr:`amounts`.
@@ -271,7 +278,7 @@ class AmountLayer:
     dry_params, dry_cov
         The dry fit (the ``m -> 0`` limit) and its covariance.
     dry_amount
-        Anchor of the dry fit (kg/m^2), below ``amounts[0]``.
+        Anchor of the dry fit [kg/m^2], below ``amounts[0]``.
     above
         ``"error"`` or ``"hold"`` above the largest tested amount.
     temperature_coefficients
@@ -384,10 +391,10 @@ class AmountLayer:
         dry
             The dry fit (no product), the ``m -> 0`` limit.
         area
-            Rig contact area the applied amount is spread over (m^2); default the
+            Rig contact area the applied amount is spread over [m^2]; default the
             HPT annulus of thesis 5.1.3 (84.8 mm^2).
         density
-            Product density (kg/m^3) for amounts applied as volumes; default the
+            Product density [kg/m^3] for amounts applied as volumes; default the
             ``product_density`` in a fit's provenance.
         amounts
             The amounts instead of the fits' provenance: quantity strings
@@ -401,7 +408,7 @@ class AmountLayer:
             The law's temperature coefficients for every layer (1/K; Voce:
             ``(mu_c1_T, mu_c2_T)``); default zero.
         temperature_tolerance
-            Largest spread (K) of the fits' test temperatures.
+            Largest spread [K] of the fits' test temperatures.
         repeatability
             Relative run-to-run scatter of the layer parameters between repeated
             HPT runs (e.g. 0.03), added in quadrature to every fit's own standard
@@ -490,17 +497,17 @@ class AmountLayer:
 
     @property
     def m_min(self) -> float:
-        """Smallest tested amount (kg/m^2)."""
+        """Smallest tested amount [kg/m^2]."""
         return float(self.amounts[0])
 
     @property
     def m_max(self) -> float:
-        """Largest tested amount (kg/m^2)."""
+        """Largest tested amount [kg/m^2]."""
         return float(self.amounts[-1])
 
     @property
     def nodes(self) -> np.ndarray:
-        """The interpolation nodes: dry anchor, then the tested amounts (kg/m^2)."""
+        """The interpolation nodes: dry anchor, then the tested amounts [kg/m^2]."""
         return np.exp(self._nodes_x)
 
     def check(self, m: Any, *, where: str = "amount") -> None:
@@ -533,7 +540,7 @@ class AmountLayer:
                           self.params[-1])
 
     def layer(self, m: float) -> LayerParams:
-        """The :class:`~torlab.model.layers.LayerParams` at one areal density ``m`` (kg/m^2)."""
+        """The :class:`~torlab.model.layers.LayerParams` at one areal density ``m`` [kg/m^2]."""
         return self.layer_of(self.params_at(float(m)))
 
     def draw_nodes(self, n: int, rng: np.random.Generator) -> np.ndarray:

@@ -3,8 +3,8 @@
 Thesis 5.2.4 (Eqs. 5.41–5.43) as ``docs/model/thesis-reading.md`` reads it.
 
 * Roughness parameter ``K = psi * beta * gamma`` with ``psi`` the standard
-  deviation of the asperity heights (m), ``beta`` the asperity tip *radius* (m)
-  and ``gamma`` the asperity density (1/m^2).  Tab. 5.1 (Paper A):
+  deviation of the asperity heights [m], ``beta`` the asperity tip *radius* [m]
+  and ``gamma`` the asperity density [1/m^2].  Tab. 5.1 (Paper A):
   8.3 nm x 0.301 mm x 24 200 mm^-2 = 0.0605.
 * Elastic (Greenwood–Williamson) asperity pressure, the dimensionally consistent
   form of Eq. 5.41::
@@ -65,6 +65,15 @@ point, and ``exp(-t^2/4) D`` overflows for t < -53.  torlab therefore uses
 ``F_n`` is finite and non-negative for every finite ``t`` whose value fits in
 a float (``F_n(t) ~ |t|^n`` for t -> -inf, so for ``n = 4`` that is
 t > -1e77); beyond that :class:`FnOverflowError` is raised.  NaN propagates.
+
+References
+----------
+.. [1] Greenwood, J. A., Williamson, J. B. P. (1966). Contact of nominally flat surfaces.
+   Proceedings of the Royal Society A 295(1442), 300-319.
+   https://doi.org/10.1098/rspa.1966.0242
+.. [2] Greenwood, J. A., Tripp, J. H. (1970). The contact of two nominally flat rough
+   surfaces. Proceedings of the Institution of Mechanical Engineers 185(1), 625-633.
+   https://doi.org/10.1243/PIME_PROC_1970_185_069_02
 """
 
 from __future__ import annotations
@@ -569,11 +578,11 @@ def roughness_K(sigma: float, beta: float, gamma: float) -> float:
     Parameters
     ----------
     sigma
-        Asperity height standard deviation ``psi`` (m).
+        Asperity height standard deviation ``psi`` [m].
     beta
-        Asperity tip radius (m).
+        Asperity tip radius [m].
     gamma
-        Asperity density (1/m^2).
+        Asperity density [1/m^2].
     """
     return (_positive(sigma, "roughness.sigma", "m") * _positive(beta, "roughness.beta", "m")
             * _positive(gamma, "roughness.density", "1/m^2"))
@@ -581,7 +590,7 @@ def roughness_K(sigma: float, beta: float, gamma: float) -> float:
 
 def p_a_elastic(h: np.ndarray | float, sigma: float, beta: float, gamma: float,
                 E_star: float) -> np.ndarray:
-    """Elastic (Greenwood–Williamson) asperity pressure, consistent form of Eq. 5.41 (Pa).
+    """Elastic (Greenwood–Williamson) asperity pressure, consistent form of Eq. 5.41 [Pa].
 
     ``p_a = (4/3) K E* sqrt(psi/beta) F_3/2(h/psi)`` with ``K = psi beta gamma``
     (docs/model/thesis-reading.md; why not the printed ``K/2`` and ``sqrt(psi/gamma)``:
@@ -590,11 +599,11 @@ def p_a_elastic(h: np.ndarray | float, sigma: float, beta: float, gamma: float,
     Parameters
     ----------
     h
-        Separation of the mean planes (m), any shape; may be negative.
+        Separation of the mean planes [m], any shape; may be negative.
     sigma, beta, gamma
-        ``psi`` (m), tip radius (m), density (1/m^2).
+        ``psi`` [m], tip radius [m], density [1/m^2].
     E_star
-        Contact modulus ``E*`` (Pa), ``1/E* = (1 - nu1^2)/E1 + (1 - nu2^2)/E2``.
+        Contact modulus ``E*`` [Pa], ``1/E* = (1 - nu1^2)/E1 + (1 - nu2^2)/E2``.
     """
     return Roughness(sigma, beta, gamma, model="elastic").asperity_model(E_star=E_star).pressure(h)
 
@@ -606,11 +615,11 @@ def p_a_plastic(h: np.ndarray | float, sigma: float, beta: float, gamma: float,
     Parameters
     ----------
     h
-        Separation of the mean planes (m), any shape.
+        Separation of the mean planes [m], any shape.
     sigma, beta, gamma
-        ``psi`` (m), tip radius (m), density (1/m^2).
+        ``psi`` [m], tip radius [m], density [1/m^2].
     H
-        Hardness (Pa), about 6 x the yield shear stress (Paper A: 6 GPa).
+        Hardness [Pa], about 6 x the yield shear stress (Paper A: 6 GPa).
     """
     return Roughness(sigma, beta, gamma, model="plastic", hardness=H).asperity_model().pressure(h)
 
@@ -626,9 +635,9 @@ class AsperityModel:
     n
         Order of ``F_n`` (3/2 elastic, 4 plastic).
     coefficient
-        Pressure scale (Pa): ``(4/3) K E* sqrt(psi/beta)`` or ``(2/3) pi^2 H K^2``.
+        Pressure scale [Pa]: ``(4/3) K E* sqrt(psi/beta)`` or ``(2/3) pi^2 H K^2``.
     sigma
-        ``psi`` (m).
+        ``psi`` [m].
     model
         ``"elastic"`` or ``"plastic"``.
     """
@@ -639,7 +648,7 @@ class AsperityModel:
     model: str
 
     def pressure(self, h: np.ndarray | float) -> np.ndarray:
-        """Mean asperity pressure ``p_a(h)`` (Pa), Eq. 5.41/5.42."""
+        """Mean asperity pressure ``p_a(h)`` [Pa], Eq. 5.41/5.42."""
         return self.coefficient * F_n(self.n, np.asarray(h, dtype=float) / self.sigma)
 
     def load(self, h: np.ndarray | float, a: float, b: float) -> np.ndarray:
@@ -658,15 +667,15 @@ class Roughness:
     Attributes
     ----------
     sigma
-        Asperity height standard deviation ``psi`` (m), > 0.
+        Asperity height standard deviation ``psi`` [m], > 0.
     beta
-        Asperity tip radius (m), > 0.
+        Asperity tip radius [m], > 0.
     density
-        Asperity density ``gamma`` (1/m^2), > 0.
+        Asperity density ``gamma`` [1/m^2], > 0.
     model
         ``"elastic"`` (Eq. 5.41) or ``"plastic"`` (Eq. 5.42).
     hardness
-        ``H`` (Pa), required for the plastic model.
+        ``H`` [Pa], required for the plastic model.
     """
 
     sigma: float
@@ -697,7 +706,7 @@ class Roughness:
         Parameters
         ----------
         E_star
-            Contact modulus (Pa), required by the elastic model.
+            Contact modulus [Pa], required by the elastic model.
         """
         if self.model == "elastic":
             if E_star is None:
@@ -720,16 +729,16 @@ def h_star(F: float, a: float, b: float, model: AsperityModel) -> float:
     Parameters
     ----------
     F
-        Normal load (N), > 0.
+        Normal load [N], > 0.
     a, b
-        Contact semi-axes (m).
+        Contact semi-axes [m].
     model
         Asperity pressure law.
 
     Returns
     -------
     float
-        ``h*`` (m).
+        ``h*`` [m].
     """
     F = _positive(F, "contact.load", "N")
     a = _positive(a, "contact.a", "m")

@@ -5,6 +5,14 @@
 with the approximation's error against the exact solution reported),
 ``E*`` (Eq. 5.10), Kalker's combined ``G`` and ``nu``, ``C11`` and ``L1``
 (Eq. 5.17), and the reduced radii.
+
+References
+----------
+.. [1] Hertz, H. (1882). Ueber die Berührung fester elastischer Körper. Journal für die
+   reine und angewandte Mathematik 92, 156-171. https://doi.org/10.1515/crll.1882.92.156
+.. [2] Kalker, J. J. (1990). Three-Dimensional Elastic Bodies in Rolling Contact. Solid
+   Mechanics and its Applications 2, Kluwer, Dordrecht.
+   https://doi.org/10.1007/978-94-015-7889-9
 """
 
 from __future__ import annotations
@@ -36,7 +44,7 @@ class ContactModel:
     C11, L1
         Kalker's coefficient and flexibility ``8a/(3 C11 G)``.
     rx, ry
-        Reduced radii (m), ``inf`` if not given.
+        Reduced radii [m], ``inf`` if not given.
     hertz_check
         Relative differences of the approximate Hertz solution from the exact
         one (``a``, ``b``, ``p0``), when radii are given.

@@ -1,7 +1,7 @@
 """Creep forces in longitudinal creepage, lateral creepage and spin: FASTSIM with the layer.
 
 Vehicle-dynamics codes take a creep-force law in the longitudinal creepage
-``xi``, the lateral creepage ``eta`` and the spin ``phi`` (1/m).  This module
+``xi``, the lateral creepage ``eta`` and the spin ``phi`` [1/m].  This module
 extends the longitudinal boundary model of :mod:`torlab.model.fastsim` (thesis
 5.2.2, Eqs. 5.14-5.30; model-notes section 3) to all three, keeping the
 third-body layer and the contact temperature.
@@ -110,6 +110,18 @@ The numerical scheme
 :func:`torlab.model.reference_solvers.creep_forces_reference` integrates the same model
 without a grid (an ODE per strip with event location, adaptive quadrature across the
 strips) for tests and the benchmark.
+
+References
+----------
+.. [1] Kalker, J. J. (1982). A fast algorithm for the simplified theory of rolling
+   contact. Vehicle System Dynamics 11(1), 1-13. https://doi.org/10.1080/00423118208968684
+.. [2] Kalker, J. J. (1990). Three-Dimensional Elastic Bodies in Rolling Contact. Solid
+   Mechanics and its Applications 2, Kluwer, Dordrecht.
+   https://doi.org/10.1007/978-94-015-7889-9
+.. [3] Kvarda, D., Galas, R., Omasta, M., Dzimko, M., Krupka, I., Hartl, M. (2022). Shear
+   properties of top-of-rail products in numerical modelling. Proceedings of the
+   Institution of Mechanical Engineers, Part F: Journal of Rail and Rapid Transit.
+   https://doi.org/10.1177/09544097221138374
 """
 
 from __future__ import annotations
@@ -193,20 +205,20 @@ class CreepProblem:
     Attributes
     ----------
     a, b
-        Semi-axes (m), ``a`` in the rolling direction.
+        Semi-axes [m], ``a`` in the rolling direction.
     p0
-        Maximum Hertz pressure (Pa).
+        Maximum Hertz pressure [Pa].
     L1, L2, L3
-        Kalker's flexibilities (m/Pa) for longitudinal, lateral creepage and
+        Kalker's flexibilities [m/Pa] for longitudinal, lateral creepage and
         spin; ``L2``/``L3`` may be None when the contact's shape and elastic
         constants are unknown: then only the creepages they do not need can
         be computed.
     layer
         Third-body layer parameters.
     speed
-        Rolling speed (m/s), needed with ``thermal``.
+        Rolling speed [m/s], needed with ``thermal``.
     ambient_temperature
-        ``T_A`` (degC).
+        ``T_A`` [degC].
     thermal
         Flash-temperature model, or None.
     traction_bound
@@ -233,7 +245,7 @@ class CreepProblem:
 
     @property
     def load(self) -> float:
-        """Normal load ``2 pi a b p0 / 3`` (N)."""
+        """Normal load ``2 pi a b p0 / 3`` [N]."""
         return 2.0 * math.pi * self.a * self.b * self.p0 / 3.0
 
     @classmethod
@@ -254,9 +266,9 @@ class CreepResult:
     creepage, lateral, spin
         The creepages as given (fractions; spin in 1/m).
     Fx, Fy
-        Tangential forces (N), positive along positive creepage.
+        Tangential forces [N], positive along positive creepage.
     Mz
-        Spin moment about the contact centre (N m).
+        Spin moment about the contact centre [N m].
     mu_x, mu_y
         ``Fx/N``, ``Fy/N``.
     adhesion_fraction
@@ -264,7 +276,7 @@ class CreepResult:
     max_temperature_C, temperature_iterations, temperature_loop
         As in :class:`~torlab.model.fastsim.BoundaryResult`.
     load
-        Normal load N (N).
+        Normal load N [N].
     notes
         Messages for the user.
     """
@@ -370,7 +382,7 @@ def predict_creep(scene: Scene, creepage: Any, lateral: float = 0.0, spin: float
     creepage
         Longitudinal creepages (fractions).
     lateral, spin
-        Lateral creepage (fraction) and spin (1/m), the same for every point.
+        Lateral creepage (fraction) and spin [1/m], the same for every point.
 
     Returns
     -------
@@ -1202,14 +1214,14 @@ def canonical_creepages(xi: np.ndarray, eta: np.ndarray, phi: np.ndarray
 
 def creep_forces(problem: CreepProblem, creepage: Any, lateral: Any = 0.0, spin: Any = 0.0,
                  grid: CreepGrid | None = None, *, symmetry: bool = True) -> CreepResult:
-    """Creep forces ``Fx, Fy, Mz`` for creepages ``xi``, ``eta`` and spin ``phi`` (1/m).
+    """Creep forces ``Fx, Fy, Mz`` for creepages ``xi``, ``eta`` and spin ``phi`` [1/m].
 
     Parameters
     ----------
     problem
         Contact, flexibilities and layer (:class:`CreepProblem`, :func:`creep_problem`).
     creepage, lateral, spin
-        Longitudinal and lateral creepage (fractions) and spin (1/m); broadcast
+        Longitudinal and lateral creepage (fractions) and spin [1/m]; broadcast
         against each other (vectorised: a whole table is one call).
     grid
         Resolution (default :class:`CreepGrid`).

@@ -2,7 +2,7 @@
 
 :func:`creep_table` evaluates the creep-force model of :mod:`torlab.model.creep`
 on the Cartesian product of a longitudinal-creepage axis, a lateral-creepage axis
-and a spin axis (1/m), optionally times a speed axis (the contact temperature
+and a spin axis [1/m], optionally times a speed axis (the contact temperature
 depends on it) and an amount axis (one scene or parameter set per applied product
 amount).  The result is an :class:`xarray.Dataset` with the forces in SI units
 and in the normalised form of Kalker's book of tables (Kalker 1996, "Book of tables
@@ -193,9 +193,9 @@ def creep_table(problem: CreepProblem | Sequence[tuple[float, CreepProblem]], cr
         The contact and layer (:func:`torlab.model.creep.creep_problem`), or for an
         amount axis a sequence of ``(amount, problem)`` pairs (amounts increasing).
     creepage, lateral, spin
-        Axis values: longitudinal and lateral creepage (fractions), spin (1/m).
+        Axis values: longitudinal and lateral creepage (fractions), spin [1/m].
     speed
-        Optional rolling-speed axis (m/s); it changes only the contact temperature
+        Optional rolling-speed axis [m/s]; it changes only the contact temperature
         (a scene without ``thermal:`` gets a note that the forces do not depend on it).
     amount_unit
         Unit of the amount axis, for the metadata (``"uL"``, ``"mg/m"``...).
@@ -373,7 +373,7 @@ def scene_creep_table(scene: Scene, creepage: Any, lateral: Any, spin: Any, *, s
         Voce's ``mu_c2``; with an amount axis,
         with the first amount's).
     speed
-        Optional speed axis (m/s).
+        Optional speed axis [m/s].
     amounts
         ``(amount, scene)`` pairs for an amount axis (one parameter set per amount).
     amount_unit

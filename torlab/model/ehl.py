@@ -47,6 +47,22 @@ slip: ``mu_EHL`` is returned as long as it is finite in float64, otherwise
 or ``eyring``.  The other integrals use composite Gauss–Legendre quadrature on
 panels graded towards the contact centre (``s = 1``), where an exponential
 viscosity concentrates the integrand.
+
+References
+----------
+.. [1] Hamrock, B. J., Dowson, D. (1977). Isothermal elastohydrodynamic lubrication of point
+   contacts: Part III - Fully flooded results. Journal of Lubrication Technology 99(2),
+   264-275. https://doi.org/10.1115/1.3453074
+.. [2] Roelands, C. J. A. (1966). Correlational aspects of the
+   viscosity-temperature-pressure relationship of lubricating oils. PhD thesis, Delft
+   University of Technology (no DOI).
+.. [3] Barus, C. (1893). Isothermals, isopiestics and isometrics relative to viscosity.
+   American Journal of Science s3-45(266), 87-96.
+   https://doi.org/10.2475/ajs.s3-45.266.87
+.. [4] Kvarda, D., Galas, R., Omasta, M., Shi, L.-B., Ding, H.-H., Wang, W.-J., Krupka, I.,
+   Hartl, M. (2021). Asperity-based model for prediction of traction in
+   water-contaminated wheel-rail contact. Tribology International 157, 106900.
+   https://doi.org/10.1016/j.triboint.2021.106900
 """
 
 from __future__ import annotations
@@ -118,11 +134,11 @@ class Lubricant:
     Attributes
     ----------
     eta0
-        Viscosity at ambient pressure (Pa s), > 0.
+        Viscosity at ambient pressure [Pa s], > 0.
     viscosity
         ``"iso"`` (constant), ``"barus"`` (Eq. 5.39) or ``"roelands"`` (Eq. 5.38).
     alpha
-        Pressure-viscosity coefficient (1/Pa), >= 0: the Barus law, and ``G`` in
+        Pressure-viscosity coefficient [1/Pa], >= 0: the Barus law, and ``G`` in
         the Hamrock–Dowson film formula.  Without ``alpha`` but with ``Z`` the
         film formula uses the Roelands initial slope ``(ln eta0 + 9.67) 5.1e-9 Z``.
     Z
@@ -133,7 +149,7 @@ class Lubricant:
     gamma_L
         Limiting shear stress coefficient (``tau <= gamma_L p``), ``limiting`` only.
     tau0
-        Eyring stress (Pa), ``eyring`` only.
+        Eyring stress [Pa], ``eyring`` only.
     film
         Film formula: ``"iso"`` (Eq. 5.31) or ``"piezo"`` (Eq. 5.32); ``None``
         chooses ``iso`` for ``viscosity: iso`` and ``piezo`` otherwise.
@@ -192,7 +208,7 @@ class Lubricant:
 
     @property
     def film_alpha(self) -> float:
-        """``alpha`` for ``G = alpha E'`` (1/Pa): given, else the Roelands initial slope
+        """``alpha`` for ``G = alpha E'`` [1/Pa]: given, else the Roelands initial slope
         ``(ln eta0 + 9.67) 5.1e-9 Z``; must be > 0 for the piezo-viscous formula."""
         if self.alpha is not None:
             alpha = float(self.alpha)
@@ -207,7 +223,7 @@ class Lubricant:
         return alpha
 
     def log_eta(self, p: np.ndarray | float) -> np.ndarray:
-        """``ln eta(p)`` (Pa s) of the viscosity law (:mod:`torlab.model.viscosity`)."""
+        """``ln eta(p)`` [Pa s] of the viscosity law (:mod:`torlab.model.viscosity`)."""
         return log_eta(p, self.viscosity, self.eta0, alpha=float(self.alpha or 0.0),
                        Z=float(self.Z or 0.0))
 
@@ -257,15 +273,15 @@ def hc_iso(v: np.ndarray | float, F_EHL: np.ndarray | float, E_star: float, rx: 
     Parameters
     ----------
     v
-        Rolling (entrainment) speed (m/s), >= 0.
+        Rolling (entrainment) speed [m/s], >= 0.
     F_EHL
-        Load carried by the film (N), >= 0 (0 gives ``inf`` unless ``v = 0``).
+        Load carried by the film [N], >= 0 (0 gives ``inf`` unless ``v = 0``).
     E_star
-        Contact modulus ``E*`` (Pa); ``E' = 2 E*``.
+        Contact modulus ``E*`` [Pa]; ``E' = 2 E*``.
     rx
-        Reduced radius in the rolling direction (m).
+        Reduced radius in the rolling direction [m].
     eta0
-        Viscosity (Pa s).
+        Viscosity [Pa s].
     """
     U, _, W = ehl_groups(v, F_EHL, E_star, rx, eta0)
     return _hc(np.asarray(5.08), 0.66, U, W, LOAD_EXPONENT["iso"], float(rx))
@@ -284,7 +300,7 @@ def hc_piezo(v: np.ndarray | float, F_EHL: np.ndarray | float, E_star: float, rx
     v, F_EHL, E_star, rx, eta0
         As :func:`hc_iso`.
     alpha
-        Pressure-viscosity coefficient (1/Pa), > 0.
+        Pressure-viscosity coefficient [1/Pa], > 0.
     D
         Ellipticity ``b/a`` (-), > 0.
     """
@@ -307,13 +323,13 @@ class FilmThickness:
     formula
         ``"iso"`` or ``"piezo"``.
     eta0
-        Viscosity (Pa s).
+        Viscosity [Pa s].
     E_star
-        Contact modulus (Pa); ``E' = 2 E*``.
+        Contact modulus [Pa]; ``E' = 2 E*``.
     rx
-        Reduced radius in the rolling direction (m).
+        Reduced radius in the rolling direction [m].
     alpha
-        Pressure-viscosity coefficient for ``G`` (1/Pa), piezo only.
+        Pressure-viscosity coefficient for ``G`` [1/Pa], piezo only.
     D
         Ellipticity ``b/a``, piezo only.
     """
@@ -348,7 +364,7 @@ class FilmThickness:
 
     @property
     def E_prime(self) -> float:
-        """``E' = 2 E*`` (Pa)."""
+        """``E' = 2 E*`` [Pa]."""
         return 2.0 * self.E_star
 
     @property
@@ -361,7 +377,7 @@ class FilmThickness:
         return np.asarray(F, dtype=float) / (self.E_prime * self.rx**2)
 
     def hc(self, v: np.ndarray | float, F_EHL: np.ndarray | float) -> np.ndarray:
-        """Central film thickness (m) at speed ``v`` (m/s) and film load ``F_EHL`` (N)."""
+        """Central film thickness [m] at speed ``v`` [m/s] and film load ``F_EHL`` [N]."""
         if self.formula == "iso":
             return hc_iso(v, F_EHL, self.E_star, self.rx, self.eta0)
         return hc_piezo(v, F_EHL, self.E_star, self.rx, self.eta0, self.alpha, self.D)
@@ -440,7 +456,7 @@ def _overflow_error(what: str) -> NonPhysicalTractionError:
 
 
 def _log_J_newtonian(lub: Lubricant, p0: float) -> float:
-    """``ln int_0^1 eta(p0 s) s ds`` (Pa s)."""
+    """``ln int_0^1 eta(p0 s) s ds`` [Pa s]."""
     ln_eta0 = math.log(lub.eta0)
     if lub.viscosity == "iso":
         return ln_eta0 - math.log(2.0)
@@ -556,13 +572,13 @@ def mu_ehl(w: np.ndarray | float, h: np.ndarray | float, p0: float,
     Parameters
     ----------
     w
-        Rigid slip velocity ``w = x1' - x2'`` (m/s), any shape (a traction
+        Rigid slip velocity ``w = x1' - x2'`` [m/s], any shape (a traction
         curve: ``creepage * v``).
     h
-        Film thickness (m), >= 0, broadcastable with ``w`` (0 with slip: only the
+        Film thickness [m], >= 0, broadcastable with ``w`` (0 with slip: only the
         limiting law gives a finite answer, ``gamma_L``).
     p0
-        Maximum Hertz pressure (Pa) of the contact.
+        Maximum Hertz pressure [Pa] of the contact.
     lubricant
         Viscosity and shear law.
 
@@ -607,9 +623,9 @@ def mu_ehl(w: np.ndarray | float, h: np.ndarray | float, p0: float,
 
 def tau_ehl(p: np.ndarray | float, w: np.ndarray | float, h: np.ndarray | float,
             lubricant: Lubricant) -> np.ndarray:
-    """EHL shear stress at pressure ``p`` (Pa), Eq. 5.37 with the chosen shear law.
+    """EHL shear stress at pressure ``p`` [Pa], Eq. 5.37 with the chosen shear law.
 
-    ``p``, ``w`` (m/s) and ``h`` (m) broadcast; sign of ``w``.  0 where ``p = 0``
+    ``p``, ``w`` [m/s] and ``h`` [m] broadcast; sign of ``w``.  0 where ``p = 0``
     or ``w = 0``.
 
     Raises
@@ -640,15 +656,15 @@ def tau_ehl_field(x: np.ndarray, y: np.ndarray, w: np.ndarray | float, h: np.nda
     Parameters
     ----------
     x, y
-        Coordinates (m), rolling direction and transverse, broadcastable.
+        Coordinates [m], rolling direction and transverse, broadcastable.
     w
-        Rigid slip velocity (m/s), broadcastable.
+        Rigid slip velocity [m/s], broadcastable.
     h
-        Film thickness (m).
+        Film thickness [m].
     a, b
-        Semi-axes (m).
+        Semi-axes [m].
     p0
-        Maximum Hertz pressure (Pa).
+        Maximum Hertz pressure [Pa].
     lubricant
         Viscosity and shear law.
     """

@@ -77,6 +77,21 @@ than 1e-6, no loop is run and the temperature is reported from one pass.
 The points of a call (creepages; with ``speed=``, one speed per point, as in a
 Stribeck curve) iterate together in one array, and each leaves the iteration
 when it has converged: its result does not depend on the other points.
+
+References
+----------
+.. [1] Kvarda, D. Experimental investigation and numerical modelling of top of rail
+   products. PhD thesis, Brno University of Technology, Faculty of Mechanical
+   Engineering (the model: section 5.2; no DOI).
+.. [2] Kvarda, D., Galas, R., Omasta, M., Shi, L.-B., Ding, H.-H., Wang, W.-J., Krupka, I.,
+   Hartl, M. (2021). Asperity-based model for prediction of traction in
+   water-contaminated wheel-rail contact. Tribology International 157, 106900.
+   https://doi.org/10.1016/j.triboint.2021.106900
+.. [3] Kalker, J. J. (1982). A fast algorithm for the simplified theory of rolling
+   contact. Vehicle System Dynamics 11(1), 1-13. https://doi.org/10.1080/00423118208968684
+.. [4] Ertz, M., Knothe, K. (2002). A comparison of analytical and numerical methods for
+   the calculation of temperatures in wheel/rail contact. Wear 253(3-4), 498-508.
+   https://doi.org/10.1016/S0043-1648(02)00120-3
 """
 
 from __future__ import annotations
@@ -151,17 +166,17 @@ class FastsimProblem:
     Attributes
     ----------
     a, b
-        Semi-axes (m), ``a`` in the rolling direction.
+        Semi-axes [m], ``a`` in the rolling direction.
     p0
-        Maximum Hertz pressure (Pa).
+        Maximum Hertz pressure [Pa].
     L1
-        Kalker flexibility ``8a/(3 C11 G)`` (m/Pa), Eq. 5.17.
+        Kalker flexibility ``8a/(3 C11 G)`` [m/Pa], Eq. 5.17.
     layer
         Third-body layer parameters.
     speed
-        Rolling speed v (m/s); needed with ``thermal``.
+        Rolling speed v [m/s]; needed with ``thermal``.
     ambient_temperature
-        ``T_A`` (degC).
+        ``T_A`` [degC].
     thermal
         Flash-temperature model, or None for no temperature.
     """
@@ -177,7 +192,7 @@ class FastsimProblem:
 
     @property
     def load(self) -> float:
-        """Normal load ``2 pi a b p0 / 3`` (N)."""
+        """Normal load ``2 pi a b p0 / 3`` [N]."""
         return 2.0 * math.pi * self.a * self.b * self.p0 / 3.0
 
 
@@ -194,7 +209,7 @@ class BoundaryResult:
     adhesion_fraction
         Fraction of the load-weighted contact that is still elastic (stick).
     max_temperature_C
-        Maximum flash temperature per creepage (degC), None without thermal.
+        Maximum flash temperature per creepage [degC], None without thermal.
     temperature_iterations
         Iterations of the tau-T loop per creepage (0: no loop).
     temperature_loop
@@ -410,7 +425,7 @@ class _Solver:
 
     # -- force ------------------------------------------------------------------------------
     def force(self, th_y: np.ndarray, dT_grid: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-        """Tangential force over the half contact (N) and the adhesion (elastic) load fraction."""
+        """Tangential force over the half contact [N] and the adhesion (elastic) load fraction."""
         prob, lay, g = self.prob, self.lay, self.grid
         aj, Pj, r = self.aj, self.Pj, self.r
         xi = self.xi

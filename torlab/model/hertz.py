@@ -16,6 +16,11 @@ Two solutions are offered:
 
 The pressure is ``p = 3F/(2 pi a b) sqrt(1 - (x/a)^2 - (y/b)^2)`` (Eq. 5.13),
 ``a`` in the rolling direction.
+
+References
+----------
+.. [1] Hertz, H. (1882). Ueber die Berührung fester elastischer Körper. Journal für die
+   reine und angewandte Mathematik 92, 156-171. https://doi.org/10.1515/crll.1882.92.156
 """
 
 from __future__ import annotations
@@ -36,9 +41,9 @@ class ContactPatch:
     Attributes
     ----------
     a, b
-        Semi-axes in the rolling (x) and lateral (y) direction (m).
+        Semi-axes in the rolling (x) and lateral (y) direction [m].
     F
-        Normal load (N).
+        Normal load [N].
     method
         ``approximate``, ``exact`` or ``given`` (semi-axes from the scene).
     """
@@ -50,17 +55,17 @@ class ContactPatch:
 
     @property
     def p0(self) -> float:
-        """Maximum Hertz pressure ``3F / (2 pi a b)`` (Pa), Eq. 5.13 at the centre."""
+        """Maximum Hertz pressure ``3F / (2 pi a b)`` [Pa], Eq. 5.13 at the centre."""
         return 3.0 * self.F / (2.0 * math.pi * self.a * self.b)
 
     @property
     def p_mean(self) -> float:
-        """Mean pressure ``F / (pi a b)`` (Pa)."""
+        """Mean pressure ``F / (pi a b)`` [Pa]."""
         return self.F / (math.pi * self.a * self.b)
 
     @property
     def area(self) -> float:
-        """Contact area ``pi a b`` (m^2)."""
+        """Contact area ``pi a b`` [m^2]."""
         return math.pi * self.a * self.b
 
 
@@ -70,7 +75,7 @@ def E_star(E1: float, nu1: float, E2: float, nu2: float) -> float:
 
 
 def pressure(x: np.ndarray, y: np.ndarray, patch: ContactPatch) -> np.ndarray:
-    """Hertz pressure (Eq. 5.13), zero outside the ellipse (Pa)."""
+    """Hertz pressure (Eq. 5.13), zero outside the ellipse [Pa]."""
     r2 = (np.asarray(x) / patch.a) ** 2 + (np.asarray(y) / patch.b) ** 2
     return patch.p0 * np.sqrt(np.maximum(1.0 - r2, 0.0))
 

@@ -17,6 +17,12 @@ sqrt(ab) C23 phi)``: ``L1 = 8a/(3 C11 G)``, ``L2 = 8a/(3 C22 G)``,
 With two different materials (steel ball on glass) Kalker's combined constants
 are used (``docs/model/thesis-reading.md``): ``2/G = 1/G1 + 1/G2``,
 ``nu = (G/2) (nu1/G1 + nu2/G2)``, ``Gi = Ei / (2 (1 + nu_i))``.
+
+References
+----------
+.. [1] Kalker, J. J. (1990). Three-Dimensional Elastic Bodies in Rolling Contact. Solid
+   Mechanics and its Applications 2, Kluwer, Dordrecht.
+   https://doi.org/10.1007/978-94-015-7889-9
 """
 
 from __future__ import annotations

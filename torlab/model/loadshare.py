@@ -62,6 +62,16 @@ raised.  Used only in ``torlab.bench.loadshare``.
 
 The mixed coefficient (Eqs. 5.47–5.48): :func:`mixed`
 ``mu = (mu_EHL W_EHL + mu_BL W_BL)/W``, ``tau`` likewise.
+
+References
+----------
+.. [1] Greenwood, J. A., Tripp, J. H. (1970). The contact of two nominally flat rough
+   surfaces. Proceedings of the Institution of Mechanical Engineers 185(1), 625-633.
+   https://doi.org/10.1243/PIME_PROC_1970_185_069_02
+.. [2] Kvarda, D., Galas, R., Omasta, M., Shi, L.-B., Ding, H.-H., Wang, W.-J., Krupka, I.,
+   Hartl, M. (2021). Asperity-based model for prediction of traction in
+   water-contaminated wheel-rail contact. Tribology International 157, 106900.
+   https://doi.org/10.1016/j.triboint.2021.106900
 """
 
 from __future__ import annotations
@@ -103,16 +113,16 @@ class LoadShare:
     Attributes
     ----------
     speed
-        Rolling speed ``v`` (m/s).
+        Rolling speed ``v`` [m/s].
     h
-        Separation of the mean planes (m); ``h*`` (possibly < 0) in the
+        Separation of the mean planes [m]; ``h*`` (possibly < 0) in the
         ``"boundary"`` regime at ``v = 0``.
     film_thickness
-        Film thickness (m): ``h`` where the film carries load, else 0.
+        Film thickness [m]: ``h`` where the film carries load, else 0.
     lam
         ``Lambda = h/psi``; ``inf`` for smooth surfaces (write no lambda column then).
     F, F_EHL, F_BL
-        Total, film and asperity load (N); ``F_EHL + F_BL = F`` exactly.
+        Total, film and asperity load [N]; ``F_EHL + F_BL = F`` exactly.
     load_share_asperity
         ``F_BL/F``.
     W, W_EHL, W_BL
@@ -126,7 +136,7 @@ class LoadShare:
     regime
         ``"smooth"``, ``"full_film"``, ``"mixed"`` or ``"boundary"`` (module docstring).
     h_star
-        Separation at which the asperities carry all the load (m); ``nan`` if smooth.
+        Separation at which the asperities carry all the load [m]; ``nan`` if smooth.
     model
         ``"smooth"``, ``"elastic"`` or ``"plastic"``.
     """
@@ -175,11 +185,11 @@ def solve_load_sharing(speed: np.ndarray | float, F: float, a: float, b: float, 
     Parameters
     ----------
     speed
-        Rolling (entrainment) speed(s) ``v`` (m/s), >= 0; scalar or array.
+        Rolling (entrainment) speed(s) ``v`` [m/s], >= 0; scalar or array.
     F
-        Normal load (N), > 0.
+        Normal load [N], > 0.
     a, b
-        Hertz semi-axes (m), ``a`` in the rolling direction.
+        Hertz semi-axes [m], ``a`` in the rolling direction.
     film
         :class:`torlab.model.ehl.FilmThickness` of the contact.
     asperity
@@ -303,7 +313,7 @@ class ThesisLoadShare:
     Attributes
     ----------
     h
-        Last separation (m) (``nan`` if the scheme could not start).
+        Last separation [m] (``nan`` if the scheme could not start).
     converged
         Whether ``eps < tol`` was reached.
     failure

@@ -28,6 +28,16 @@ coefficient at high pressure and slip (thesis 5.2.3; the reason for the
 ``limiting`` and ``eyring`` laws).  Above ``mu_EHL = 0.5`` the prediction says so
 in its notes and recommends ``shear: limiting``; a traction that overflows raises
 :class:`torlab.model.ehl.NonPhysicalTractionError`.
+
+References
+----------
+.. [1] Kvarda, D. Experimental investigation and numerical modelling of top of rail
+   products. PhD thesis, Brno University of Technology, Faculty of Mechanical
+   Engineering (the model: section 5.2; no DOI).
+.. [2] Kvarda, D., Galas, R., Omasta, M., Shi, L.-B., Ding, H.-H., Wang, W.-J., Krupka, I.,
+   Hartl, M. (2021). Asperity-based model for prediction of traction in
+   water-contaminated wheel-rail contact. Tribology International 157, 106900.
+   https://doi.org/10.1016/j.triboint.2021.106900
 """
 
 from __future__ import annotations
@@ -65,7 +75,7 @@ class MixedContact:
 
     @property
     def sigma(self) -> float | None:
-        """Roughness ``psi`` (m), None for smooth surfaces."""
+        """Roughness ``psi`` [m], None for smooth surfaces."""
         return None if self.asperity is None else self.asperity.sigma
 
 
@@ -369,7 +379,7 @@ def stribeck_curve(scene: Scene, speed: Any, creepage: float) -> StribeckPredict
     scene
         A validated scene with ``lubricant:``.
     speed
-        Rolling speeds (m/s), >= 0.
+        Rolling speeds [m/s], >= 0.
     creepage
         Creepage (fraction, SRR/100), any sign.
 

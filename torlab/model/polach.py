@@ -33,6 +33,11 @@ creep-force model share the contact.
 
 Polach's papers do not say which slip velocity enters ``mu`` with spin; torlab uses the
 total creepage ``s_C`` (with the spin increment), which is ``s`` without spin.
+
+References
+----------
+.. [1] Polach, O. (2005). Creep forces in simulations of traction vehicles running on
+   adhesion limit. Wear 258(7-8), 992-1000. https://doi.org/10.1016/j.wear.2004.03.046
 """
 
 from __future__ import annotations
@@ -57,7 +62,7 @@ class PolachParams:
     A
         ``mu_inf / mu0``: friction at infinite slip velocity over ``mu0``.
     B
-        Exponential decrease of friction with the slip velocity (s/m).
+        Exponential decrease of friction with the slip velocity [s/m].
     kA, kS
         Reduction of the initial slope in the adhesion and the slip area.
     """
@@ -71,7 +76,7 @@ class PolachParams:
 
 @dataclass(frozen=True)
 class PolachContact:
-    """The contact Polach's law needs: semi-axes (m), load Q (N), ``G Cij`` (Pa)."""
+    """The contact Polach's law needs: semi-axes [m], load Q [N], ``G Cij`` [Pa]."""
 
     a: float
     b: float
@@ -96,7 +101,7 @@ def polach_contact(problem: Any) -> PolachContact:
 
 def polach_forces(params: PolachParams, contact: PolachContact, creepage: Any, lateral: Any = 0.0,
                   spin: Any = 0.0, speed: Any = 1.0) -> tuple[np.ndarray, np.ndarray]:
-    """``(Fx, Fy)`` of Polach's law (N), torlab's sign; arrays broadcast together.
+    """``(Fx, Fy)`` of Polach's law [N], torlab's sign; arrays broadcast together.
 
     Parameters
     ----------
@@ -105,9 +110,9 @@ def polach_forces(params: PolachParams, contact: PolachContact, creepage: Any, l
     contact
         Semi-axes, load and ``G Cij`` (:func:`polach_contact`).
     creepage, lateral, spin
-        Longitudinal, lateral creepage (fractions), spin (1/m).
+        Longitudinal, lateral creepage (fractions), spin [1/m].
     speed
-        Rolling (vehicle) speed V (m/s) for the slip velocity ``w = s_C V``.
+        Rolling (vehicle) speed V [m/s] for the slip velocity ``w = s_C V``.
     """
     sx, sy, phi, V = np.broadcast_arrays(*(np.asarray(v, dtype=float)
                                            for v in (creepage, lateral, spin, speed)))

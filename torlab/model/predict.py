@@ -14,6 +14,16 @@ error, each stated in its summary:
   95 % intervals (:func:`torlab.model.regimes.transition_evidence`);
 * the **theory error**: the error of the model itself against an exact solution
   (:func:`theory_error`; no model states one yet, and then nothing is added).
+
+References
+----------
+.. [1] Kvarda, D. Experimental investigation and numerical modelling of top of rail
+   products. PhD thesis, Brno University of Technology, Faculty of Mechanical
+   Engineering (the model: section 5.2; no DOI).
+.. [2] Kvarda, D., Galas, R., Omasta, M., Shi, L.-B., Ding, H.-H., Wang, W.-J., Krupka, I.,
+   Hartl, M. (2021). Asperity-based model for prediction of traction in
+   water-contaminated wheel-rail contact. Tribology International 157, 106900.
+   https://doi.org/10.1016/j.triboint.2021.106900
 """
 
 from __future__ import annotations

@@ -43,6 +43,13 @@ sharing and are left out.  What the data cannot resolve is said:
 The verdict ``within the modelled speeds`` / ``outside the modelled speeds`` is
 called when its probability reaches ``threshold``
 (:data:`TRANSITION_PROBABILITY`, 0.9), else ``undetermined``.
+
+References
+----------
+.. [1] Kvarda, D., Galas, R., Omasta, M., Shi, L.-B., Ding, H.-H., Wang, W.-J., Krupka, I.,
+   Hartl, M. (2021). Asperity-based model for prediction of traction in
+   water-contaminated wheel-rail contact. Tribology International 157, 106900.
+   https://doi.org/10.1016/j.triboint.2021.106900
 """
 
 from __future__ import annotations
@@ -88,7 +95,7 @@ def _speed_for_film(film: Any, h: float, F_ehl: float) -> float:
 
 
 def transition_speeds(scene: Scene, *, share_tol: float | None = None) -> dict[str, float | None]:
-    """Speeds (m/s) where the regime of :func:`~torlab.model.loadshare.solve_load_sharing`
+    """Speeds [m/s] where the regime of :func:`~torlab.model.loadshare.solve_load_sharing`
     changes (module docstring): ``boundary_to_mixed`` and ``mixed_to_full_film``.
 
     ``None`` for a transition that does not happen at a positive speed; an empty
@@ -142,7 +149,7 @@ def transition_evidence(scene: Scene, speed_range: tuple[float, float] | None = 
     scene
         A validated lubricated scene (with ``roughness:``; smooth surfaces give ``{}``).
     speed_range
-        The modelled speeds ``(v_min, v_max)`` (m/s) the verdict refers to.
+        The modelled speeds ``(v_min, v_max)`` [m/s] the verdict refers to.
     threshold
         Probability needed to call "within" / "outside the modelled speeds".
     seed

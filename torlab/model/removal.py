@@ -4,7 +4,7 @@ See ``docs/model/retention.md`` for the derivation and the assumptions; in short
 
 State and driving quantity
 --------------------------
-``m`` is the areal density of product in the running band (kg/m^2).  The band
+``m`` is the areal density of product in the running band [kg/m^2].  The band
 is what the contact runs over: width ``w = 2 b`` (the contact's lateral
 extent), on a disc a closed track of length ``2 pi r_track``.  The energy
 dissipated per unit band area drives the removal.  In steady rolling the work
@@ -49,6 +49,17 @@ interpolated monotonically (PCHIP); :class:`MuTable`.  A lubricant film
 (``lubricant:`` of the scene) is not part of this model: the retention model
 follows the boundary regime the contact reaches once the film left by the
 application has gone (Paper B: the recovery after the initial drop).
+
+References
+----------
+.. [1] Kvarda, D., Skurka, S., Galas, R., Omasta, M., Shi, L.-B., Ding, H.-H., Wang, W.-J.,
+   Krupka, I., Hartl, M. (2022). The effect of top of rail lubricant composition on
+   adhesion and rheological behaviour. Engineering Science and Technology, an
+   International Journal 35, 101100. https://doi.org/10.1016/j.jestch.2022.101100
+.. [2] Kvarda, D., Galas, R., Omasta, M., Dzimko, M., Krupka, I., Hartl, M. (2022). Shear
+   properties of top-of-rail products in numerical modelling. Proceedings of the
+   Institution of Mechanical Engineers, Part F: Journal of Rail and Rapid Transit.
+   https://doi.org/10.1177/09544097221138374
 """
 
 from __future__ import annotations
@@ -94,7 +105,7 @@ class RemovalLaw:
     order
         0 (``dm/dE = -k0``) or 1 (``dm/dE = -k1 m``).
     k
-        ``k0`` (kg/J) or ``k1`` (m^2/J), >= 0.
+        ``k0`` [kg/J] or ``k1`` [m^2/J], >= 0.
     spread
         Fraction of the band's product spread out of the track per pass (>= 0).
     """
@@ -142,9 +153,9 @@ class Band:
     Attributes
     ----------
     width
-        Band width ``w`` (m): the contact's lateral extent ``2 b``.
+        Band width ``w`` [m]: the contact's lateral extent ``2 b``.
     track_length
-        Length of a closed track (m), ``2 pi r_track`` on a disc; None on a rail
+        Length of a closed track [m], ``2 pi r_track`` on a disc; None on a rail
         (open track: each pass meets the band once).
     kind
         ``"disc"`` or ``"rail"`` (for reports).
@@ -156,11 +167,11 @@ class Band:
 
     @property
     def area(self) -> float | None:
-        """Area of a closed track (m^2), None on a rail."""
+        """Area of a closed track [m^2], None on a rail."""
         return None if self.track_length is None else self.width * self.track_length
 
     def pass_interval(self, speed: float) -> float | None:
-        """Time between two passes of a band point (s): ``L_track / v``; None on a rail."""
+        """Time between two passes of a band point [s]: ``L_track / v``; None on a rail."""
         if self.track_length is None or speed <= 0:
             return None
         return self.track_length / speed
@@ -184,7 +195,7 @@ def band_of(contact: Any, track_radius: float | None = None) -> Band:
 
 
 def energy_per_pass(mu: Any, load: float, creepage: float, width: float) -> np.ndarray:
-    """Frictional energy per unit band area and pass ``e = mu F |xi| / w`` (J/m^2).
+    """Frictional energy per unit band area and pass ``e = mu F |xi| / w`` [J/m^2].
 
     The creep-force power ``P = mu F |xi| v`` spread over the band swept per unit
     time ``v w`` (module docstring).
@@ -262,7 +273,7 @@ class MuTable:
         ``(n_x, n_xi, k)`` derivatives of ``mu`` by the layer parameters
         (forward differences at the layer's nodes, linear in ``ln m`` between), or None.
     m_max
-        Largest amount of the table (kg/m^2).
+        Largest amount of the table [kg/m^2].
     """
 
     x: np.ndarray
@@ -275,7 +286,7 @@ class MuTable:
 
     @property
     def m_dry(self) -> float:
-        """The dry anchor (kg/m^2): below it ``mu`` is the dry coefficient."""
+        """The dry anchor [kg/m^2]: below it ``mu`` is the dry coefficient."""
         return float(math.exp(self.x[0]))
 
     @property
@@ -292,7 +303,7 @@ class MuTable:
         return PchipInterpolator(self.x, y, axis=0, extrapolate=False)
 
     def __call__(self, m: Any, column: int = 0) -> np.ndarray:
-        """``mu`` at amounts ``m`` (kg/m^2) for one creepage column."""
+        """``mu`` at amounts ``m`` [kg/m^2] for one creepage column."""
         m = np.asarray(m, dtype=float)
         x = np.log(np.clip(m, self.m_dry, self.m_max))
         return self.curve(column)(x)
@@ -540,7 +551,7 @@ def passes_solution(curve: Any, mu_dry: Any, x_dry: float, m0: Any, order: int, 
     x_dry
         ``ln`` of the dry anchor.
     m0
-        Initial amount(s) (kg/m^2), scalar or ``(D,)``.
+        Initial amount(s) [kg/m^2], scalar or ``(D,)``.
     order, k, spread
         The law (``k``, ``spread`` scalars or ``(D,)``).
     c

@@ -27,6 +27,17 @@ coefficient of a drawn layer by linearisation of the boundary model at each
 node), pushed through the same solution; the intervals are quantiles of the
 draws.  The removal fit is conditional on the estimated layer, and the two are
 drawn independently.
+
+References
+----------
+.. [1] Kvarda, D., Skurka, S., Galas, R., Omasta, M., Shi, L.-B., Ding, H.-H., Wang, W.-J.,
+   Krupka, I., Hartl, M. (2022). The effect of top of rail lubricant composition on
+   adhesion and rheological behaviour. Engineering Science and Technology, an
+   International Journal 35, 101100. https://doi.org/10.1016/j.jestch.2022.101100
+.. [2] Kvarda, D., Galas, R., Omasta, M., Dzimko, M., Krupka, I., Hartl, M. (2022). Shear
+   properties of top-of-rail products in numerical modelling. Proceedings of the
+   Institution of Mechanical Engineers, Part F: Journal of Rail and Rapid Transit.
+   https://doi.org/10.1177/09544097221138374
 """
 
 from __future__ import annotations
@@ -243,7 +254,7 @@ class RetentionPrediction:
 
 def _initial_amount(amount: Any, band: Band, *, band_length: float | None,
                     density: float | None, transfer: float) -> tuple[float, str]:
-    """Areal density in the band (kg/m^2) of the applied amount, and how it was obtained."""
+    """Areal density in the band [kg/m^2] of the applied amount, and how it was obtained."""
     from torlab.model.amount import parse_amount
 
     val, kind = amount if isinstance(amount, tuple) else parse_amount(amount)
@@ -281,7 +292,7 @@ def _applied(removal: Any, layer: Any, amount: Any, bnd: Any, n_draws: int, rng:
     -------
     tuple
         ``(node draws or None, removal draws, transfer, areal density in the band
-        (kg/m^2), how it was obtained)``.
+        [kg/m^2], how it was obtained)``.
     """
     node_draws = layer.draw_nodes(n_draws, rng) if n_draws > 0 else None
     rd = removal_draws(removal, n_draws, rng, layer=layer, node_draws=node_draws)
@@ -321,12 +332,12 @@ def predict_retention(scene: Scene, layer: Any, removal: Any, amount: Any, *, cr
     creepage
         Creepage of the passes (fraction).
     track_radius
-        Radius of a disc track (m): a closed track, one pass per revolution;
+        Radius of a disc track [m]: a closed track, one pass per revolution;
         None for a rail (open track, one pass per axle).
     band_length
-        Rail length (m) the applied volume or mass covers.
+        Rail length [m] the applied volume or mass covers.
     density
-        Product density (kg/m^3) for a volume.
+        Product density [kg/m^3] for a volume.
     transfer
         Fraction of the applied product that reaches the band; default the
         removal fit's (fitted or fixed), else 1.
@@ -340,7 +351,7 @@ def predict_retention(scene: Scene, layer: Any, removal: Any, amount: Any, *, cr
     per_interval
         Friction-table nodes per interval between tested amounts.
     pass_interval
-        Time between passes (s) on a rail, for a ``time_s`` column.
+        Time between passes [s] on a rail, for a ``time_s`` column.
     window
         ``(first, last)`` passes of the effective friction level and the fraction of
         passes in the band (:func:`retention_metrics`); default the predicted range.

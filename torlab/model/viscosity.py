@@ -11,6 +11,15 @@ where ``eta`` itself would overflow (a Newtonian film at several GPa).
 
 The Roelands pressure-viscosity coefficient ``alpha* = (ln eta0 + 9.67) * 5.1e-9 * Z``
 is the initial slope of ``ln eta`` against ``p`` (:func:`roelands_alpha0`).
+
+References
+----------
+.. [1] Roelands, C. J. A. (1966). Correlational aspects of the
+   viscosity-temperature-pressure relationship of lubricating oils. PhD thesis, Delft
+   University of Technology (no DOI).
+.. [2] Barus, C. (1893). Isothermals, isopiestics and isometrics relative to viscosity.
+   American Journal of Science s3-45(266), 87-96.
+   https://doi.org/10.2475/ajs.s3-45.266.87
 """
 
 from __future__ import annotations
@@ -67,10 +76,10 @@ def log_eta(p: np.ndarray | float, law: str, eta0: float, alpha: float = 0.0, Z:
 
 
 def eta(p: np.ndarray | float, law: str, eta0: float, alpha: float = 0.0, Z: float = 0.0) -> np.ndarray:
-    """Viscosity (Pa s) for ``law`` in ``{"iso", "barus", "roelands"}``."""
+    """Viscosity [Pa s] for ``law`` in ``{"iso", "barus", "roelands"}``."""
     return np.exp(log_eta(p, law, eta0, alpha, Z))
 
 
 def roelands_alpha0(eta0: float, Z: float) -> float:
-    """Initial pressure-viscosity coefficient of the Roelands law, ``d ln eta / dp`` at p = 0 (1/Pa)."""
+    """Initial pressure-viscosity coefficient of the Roelands law, ``d ln eta / dp`` at p = 0 [1/Pa]."""
     return (np.log(eta0) + ROELANDS_C) * ROELANDS_P0_INV * Z

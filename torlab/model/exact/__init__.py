@@ -6,6 +6,12 @@ normal problem), :mod:`.local` (the friction and layer law of one element),
 :mod:`.solver` (steady rolling and shifts on the grid), :mod:`.rolling` (creep
 forces of a Hertzian contact with their discretisation error).
 ``docs/model/exact.md`` explains the theory, the solver and its accuracy.
+
+References
+----------
+.. [1] Kalker, J. J. (1990). Three-Dimensional Elastic Bodies in Rolling Contact. Solid
+   Mechanics and its Applications 2, Kluwer, Dordrecht.
+   https://doi.org/10.1007/978-94-015-7889-9
 """
 
 from torlab.model.exact.local import LinearYield, VoceYield

@@ -24,9 +24,9 @@ class Grid:
     Attributes
     ----------
     x0, y0
-        Lower corner of the potential contact area (m).
+        Lower corner of the potential contact area [m].
     dx, dy
-        Element size (m).
+        Element size [m].
     mx, my
         Number of elements along x (rolling direction) and y.
     """
@@ -40,17 +40,17 @@ class Grid:
 
     @property
     def x(self) -> np.ndarray:
-        """Element centres along x (m), shape ``(mx,)``."""
+        """Element centres along x [m], shape ``(mx,)``."""
         return self.x0 + (np.arange(self.mx) + 0.5) * self.dx
 
     @property
     def y(self) -> np.ndarray:
-        """Element centres along y (m), shape ``(my,)``."""
+        """Element centres along y [m], shape ``(my,)``."""
         return self.y0 + (np.arange(self.my) + 0.5) * self.dy
 
     @property
     def area(self) -> float:
-        """Element area ``dx dy`` (m^2)."""
+        """Element area ``dx dy`` [m^2]."""
         return self.dx * self.dy
 
     def centres(self) -> tuple[np.ndarray, np.ndarray]:
@@ -71,16 +71,16 @@ def ellipse_grid(a: float, b: float, nx: int, ny: int, margin: int = 0) -> Grid:
 
 def hertz_pressure(grid: Grid, a: float, b: float, load: float, how: str = "average",
                    nodes: int = 12) -> np.ndarray:
-    """Hertz pressure ``p0 sqrt(1 - x^2/a^2 - y^2/b^2)``, ``p0 = 3N/(2 pi a b)``, on the grid (Pa).
+    """Hertz pressure ``p0 sqrt(1 - x^2/a^2 - y^2/b^2)``, ``p0 = 3N/(2 pi a b)``, on the grid [Pa].
 
     Parameters
     ----------
     grid
         The grid.
     a, b
-        Semi-axes (m).
+        Semi-axes [m].
     load
-        Normal load (N).
+        Normal load [N].
     how
         ``average``: the mean over each element (exact in x, Gauss-Legendre in y with
         ``nodes`` points), so that elements the ellipse's edge cuts carry their share

@@ -58,14 +58,14 @@ def coefficients(kx: np.ndarray, ky: np.ndarray, dx: float, dy: float, G: float,
     kx, ky
         Integer offsets (broadcast against each other).
     dx, dy
-        Element size (m).
+        Element size [m].
     G, nu
-        (Combined) shear modulus (Pa) and Poisson ratio.
+        (Combined) shear modulus [Pa] and Poisson ratio.
 
     Returns
     -------
     dict
-        ``xx, xy, yy, nn``: displacement difference (m) per unit traction (Pa) on the
+        ``xx, xy, yy, nn``: displacement difference [m] per unit traction [Pa] on the
         source element.  ``yx = xy`` (the kernel is symmetric).
     """
     X = np.asarray(kx, dtype=float) * dx
@@ -88,7 +88,7 @@ class Influence:
     mx, my
         Elements along x (rolling direction) and y.
     dx, dy
-        Element size (m).
+        Element size [m].
     G, nu
         (Combined) elastic constants.
     extra

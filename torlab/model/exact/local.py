@@ -2,7 +2,7 @@
 
 Every solver of :mod:`torlab.model.exact` applies the same local law.  The slip
 of an element over one step of the scheme, ``sigma`` (a displacement, m), and
-its traction ``p`` (Pa) must satisfy (Kalker 1990, *Three-dimensional elastic
+its traction ``p`` [Pa] must satisfy (Kalker 1990, *Three-dimensional elastic
 bodies in rolling contact*, section 5.2; CONTACT's interfacial layer after Hou,
 Kalousek and Magel 1997):
 
@@ -44,7 +44,7 @@ class YieldLaw(Protocol):
 
     def stress(self, kappa: np.ndarray, c1: np.ndarray, c2: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray]:
-        """``(tau, dtau/dkappa)`` (Pa, Pa/m) at ``kappa`` (m) with the element parameters."""
+        """``(tau, dtau/dkappa)`` (Pa, Pa/m) at ``kappa`` [m] with the element parameters."""
 
     def reaching(self, tau: np.ndarray, c1: np.ndarray, c2: np.ndarray) -> np.ndarray:
         """The plastic deformation at which the yield stress reaches ``tau`` (inf: never)."""
@@ -92,7 +92,7 @@ class LinearYield:
 class VoceYield:
     """Voce's law (thesis Eq. 5.24): ``tau = c1 + (c2 - c1)(1 - exp(-kappa/L_p))``.
 
-    ``c1 = tau_c1``, ``c2 = tau_c2`` per element; ``L_p`` (m) the Voce length
+    ``c1 = tau_c1``, ``c2 = tau_c2`` per element; ``L_p`` [m] the Voce length
     (``0``: the saturation stress at once).
     """
 
@@ -115,7 +115,7 @@ class VoceYield:
 class Projection:
     """:func:`project`'s result for ``n`` elements.
 
-    ``p`` the new tractions ``(n, 2)``; ``lam`` the slip over the step ``(n,)`` (m);
+    ``p`` the new tractions ``(n, 2)``; ``lam`` the slip over the step ``(n,)`` [m];
     ``state`` (:data:`ADHESION`, :data:`SLIP`, :data:`PLASTIC`); ``plastic_lam`` the
     part of ``lam`` that is plastic deformation; ``zhat``, ``fac``, ``radial`` the
     derivative's parts (``dPi = fac (I - zhat zhat') + radial zhat zhat'`` where
@@ -158,13 +158,13 @@ def project(z: np.ndarray, r: np.ndarray, g: np.ndarray, law: YieldLaw | None = 
     Parameters
     ----------
     z
-        ``p - r sigma``, shape ``(n, 2)`` (Pa).
+        ``p - r sigma``, shape ``(n, 2)`` [Pa].
     r
         The positive scale ``(n,)`` (Pa/m).
     g
-        Coulomb bound ``(n,)`` (Pa), ``inf`` where none.
+        Coulomb bound ``(n,)`` [Pa], ``inf`` where none.
     law, kappa0, c1, c2
-        Layer yield law, accumulated plastic deformation before the step (m) and the
+        Layer yield law, accumulated plastic deformation before the step [m] and the
         law's element parameters ``(n,)``; ``law=None``: Coulomb friction only.
     """
     n = z.shape[0]

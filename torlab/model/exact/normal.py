@@ -29,7 +29,7 @@ __all__ = ["hertz_curvatures", "solve_normal"]
 
 
 def hertz_curvatures(a: float, b: float, load: float, G: float, nu: float) -> tuple[float, float]:
-    """Curvatures ``(A, B)`` (1/m) with ``h = A x^2 + B y^2`` that give the semi-axes ``a, b``.
+    """Curvatures ``(A, B)`` [1/m] with ``h = A x^2 + B y^2`` that give the semi-axes ``a, b``.
 
     Quasi-identical bodies: ``E* = G/(1 - nu)`` (the combined modulus of
     ``p = E*/pi`` times the integral of ``u_n``).  With the longer semi-axis ``l``, the
@@ -56,7 +56,7 @@ def hertz_curvatures(a: float, b: float, load: float, G: float, nu: float) -> tu
 
 def solve_normal(grid: Grid, G: float, nu: float, h: np.ndarray, load: float, *,
                  tol: float = 1e-10, max_iter: int = 2000) -> tuple[np.ndarray, float]:
-    """Pressures ``(mx, my)`` (Pa) and approach (m) of the discrete normal problem.
+    """Pressures ``(mx, my)`` [Pa] and approach [m] of the discrete normal problem.
 
     Parameters
     ----------
@@ -65,9 +65,9 @@ def solve_normal(grid: Grid, G: float, nu: float, h: np.ndarray, load: float, *,
     G, nu
         Combined elastic constants.
     h
-        Undeformed distance at the element centres ``(mx, my)`` (m).
+        Undeformed distance at the element centres ``(mx, my)`` [m].
     load
-        Total normal force (N).
+        Total normal force [N].
     tol
         Stop when the relative change of the pressures in a step is below ``tol``.
 

@@ -47,19 +47,19 @@ class ExactLayer:
     Attributes
     ----------
     flexibility
-        Elastic flexibility (m/Pa): a constant ``h/G3`` (CONTACT), or ``None`` with
+        Elastic flexibility [m/Pa]: a constant ``h/G3`` (CONTACT), or ``None`` with
         ``flexibility_pressure``.
     flexibility_pressure
-        ``L_mue`` (m): the thesis's flexibility ``L_mue / p`` (Eq. 5.28), used when
+        ``L_mue`` [m]: the thesis's flexibility ``L_mue / p`` (Eq. 5.28), used when
         ``flexibility`` and ``flexibility_of`` are None.
     flexibility_of
-        A function of the pressure (Pa) giving the flexibility (m/Pa), used when
+        A function of the pressure [Pa] giving the flexibility [m/Pa], used when
         ``flexibility`` is None (a layer law's own).
     law
         The yield law (:class:`~torlab.model.exact.local.LinearYield`,
         :class:`~torlab.model.exact.local.VoceYield`, ...), or None: elastic layer.
     c1, c2
-        The law's parameters as fixed stresses (Pa), or, with ``per_pressure``, as
+        The law's parameters as fixed stresses [Pa], or, with ``per_pressure``, as
         coefficients of the pressure (``tau_c1 = mu_c1 p``, ``tau_c2 = mu_c2 p``).
     per_pressure
         Whether ``c1, c2`` multiply the pressure.
@@ -77,7 +77,7 @@ class ExactLayer:
     name: str = "third-body layer"
 
     def on_grid(self, pn: np.ndarray) -> Layer:
-        """The layer's arrays on a grid with the pressure ``pn`` (Pa)."""
+        """The layer's arrays on a grid with the pressure ``pn`` [Pa]."""
         pos = pn > 0
         if self.flexibility is None and self.flexibility_of is not None:
             flex = np.where(pos, self.flexibility_of(np.where(pos, pn, 1.0)), 0.0)
@@ -100,11 +100,11 @@ class ExactContact:
     Attributes
     ----------
     a, b
-        Semi-axes (m), ``a`` along the rolling direction.
+        Semi-axes [m], ``a`` along the rolling direction.
     load
-        Normal load ``N`` (N).
+        Normal load ``N`` [N].
     G, nu
-        Combined shear modulus (Pa) and Poisson ratio (Kalker's, for two materials).
+        Combined shear modulus [Pa] and Poisson ratio (Kalker's, for two materials).
     mu
         Coefficient of friction; ``inf``: no Coulomb bound (the layer's yield stress
         bounds the traction, or, without a layer law, no slip: the linear theory).
@@ -122,7 +122,7 @@ class ExactContact:
 
     @property
     def p0(self) -> float:
-        """Maximum Hertz pressure ``3N/(2 pi a b)`` (Pa)."""
+        """Maximum Hertz pressure ``3N/(2 pi a b)`` [Pa]."""
         return 3 * self.load / (2 * math.pi * self.a * self.b)
 
     def check(self) -> None:
@@ -177,7 +177,7 @@ class ExactResult:
     creepage, lateral, spin
         The creepages as given (fractions; spin in 1/m).
     Fx, Fy, Mz
-        Forces (N) and spin moment (N m) on the fine grid, torlab's signs.
+        Forces [N] and spin moment [N m] on the fine grid, torlab's signs.
     Fx_error, Fy_error, Mz_error
         Their discretisation errors (Richardson from the two grids; NaN without a
         second grid).
@@ -186,7 +186,7 @@ class ExactResult:
     adhesion_fraction, plastic_fraction
         Fractions of the contact's elements in adhesion and in plastic flow (fine grid).
     load
-        Normal load (N).
+        Normal load [N].
     grid
         The grids used.
     notes
@@ -319,7 +319,7 @@ def exact_creep_forces(contact: ExactContact, creepage: Any, lateral: Any = 0.0,
     contact
         The contact (:class:`ExactContact`).
     creepage, lateral, spin
-        Longitudinal and lateral creepage (fractions) and spin (1/m), broadcast.
+        Longitudinal and lateral creepage (fractions) and spin [1/m], broadcast.
     grid
         The grids (:class:`ExactGrid`).
     chunk

@@ -117,7 +117,7 @@ def predict_exact(scene: Scene, creepage: Any, lateral: float = 0.0, spin: float
     creepage
         Longitudinal creepages (fractions).
     lateral, spin
-        Lateral creepage (fraction) and spin (1/m), the same for every point.
+        Lateral creepage (fraction) and spin [1/m], the same for every point.
     grid
         The two grids (:class:`~torlab.model.exact.rolling.ExactGrid`).
 

@@ -64,12 +64,12 @@ class Layer:
     Attributes
     ----------
     flexibility
-        Elastic flexibility of the layer, ``(mx, my)`` or a scalar (m/Pa): ``h/G3`` in
+        Elastic flexibility of the layer, ``(mx, my)`` or a scalar [m/Pa]: ``h/G3`` in
         CONTACT, ``L_mue/p`` in the thesis (Eq. 5.28).
     law
         Yield law, or None for an elastic layer.
     c1, c2
-        The law's element parameters ``(mx, my)`` or scalars (Pa).
+        The law's element parameters ``(mx, my)`` or scalars [Pa].
     """
 
     flexibility: Any = 0.0
@@ -85,15 +85,15 @@ class Solution:
     Attributes
     ----------
     p
-        Traction on body 1 ``(mx, my, 2)`` (Pa).
+        Traction on body 1 ``(mx, my, 2)`` [Pa].
     sigma
         Slip over the step ``(mx, my, 2)`` (m; zero where sticking).
     state
         Element division ``(mx, my)``: 0 exterior, 1 adhesion, 2 slip, 3 plastic.
     kappa
-        Accumulated plastic deformation after the step ``(mx, my)`` (m).
+        Accumulated plastic deformation after the step ``(mx, my)`` [m].
     plastic
-        Plastic displacement increment of the step ``(mx, my, 2)`` (m).
+        Plastic displacement increment of the step ``(mx, my, 2)`` [m].
     newton, matvecs
         Newton steps and products with the influence matrix.
     residual
@@ -372,14 +372,14 @@ def solve(grid: Grid, G: float, nu: float, pn: np.ndarray, mu: float | np.ndarra
     grid
         The discretisation; in steady rolling the contact rolls in ``+x``.
     G, nu
-        Combined shear modulus (Pa) and Poisson ratio.
+        Combined shear modulus [Pa] and Poisson ratio.
     pn
-        Normal pressure ``(mx, my)`` (Pa); the contact is where ``pn > 0``.
+        Normal pressure ``(mx, my)`` [Pa]; the contact is where ``pn > 0``.
     mu
         Coefficient of friction (scalar or per element); ``inf``: no Coulomb bound
         (with no layer law: no slip, the linear theory).
     W
-        Rigid slip over the step ``(mx, my, 2)`` (m): in steady rolling
+        Rigid slip over the step ``(mx, my, 2)`` [m]: in steady rolling
         ``dx (xi - phi y, eta + phi x)``; in a shift, the rigid shift.
     mode
         ``steady``, ``shift`` or ``transient`` (one step of rolling over ``dx``).
@@ -488,7 +488,7 @@ def solve(grid: Grid, G: float, nu: float, pn: np.ndarray, mu: float | np.ndarra
 
 
 def rigid_slip(grid: Grid, xi: float, eta: float, phi: float, x_spin: float = 0.0) -> np.ndarray:
-    """Steady rolling's rigid slip over one step ``dx (xi - phi y, eta + phi (x + x_spin))`` (m)."""
+    """Steady rolling's rigid slip over one step ``dx (xi - phi y, eta + phi (x + x_spin))`` [m]."""
     X, Y = grid.centres()
     return grid.dx * np.stack([xi - phi * Y, eta + phi * (X + x_spin)], axis=-1)
 
