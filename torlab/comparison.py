@@ -681,7 +681,7 @@ def _items_from_summary(path: Any, label: str | None) -> list[Item]:
         raise TorlabInputError("not a torlab summary.json", path=p)
     items: list[Item] = []
     if isinstance(s.get("retention_metrics"), dict):
-        items.append(Item(label or p.parent.name, _retention_estimates(s["retention_metrics"]),
+        items.append(Item(label or p.parent.name, retention_estimates(s["retention_metrics"]),
                           [str(p)]))
     if isinstance(s.get("protocol"), dict):
         # the items of the run's comparisons (every estimate a section found), then the
@@ -745,7 +745,7 @@ def _item_from_dict(d: Any, label: str | None) -> Item:
     return Item(label or str(d.get("label", "?")), est, list(d.get("sources") or []))
 
 
-def _retention_estimates(m: dict[str, Any]) -> dict[str, Estimate]:
+def retention_estimates(m: dict[str, Any]) -> dict[str, Estimate]:
     """Estimates of a retention prediction's metrics (``summary.json`` ``retention_metrics``)."""
     est = {}
     for q in ("effective_friction", "retentivity", "fraction_in_band"):

@@ -494,9 +494,9 @@ def retention(ctx: RunContext) -> Any:
         pass_interval=pc.pass_interval, n_passes=pc.passes, n_draws=pc.draws, seed=pc.seed,
         window=pc.window, retentivity=pc.retentivity,
         **kw), amount=pc.amount, spec=pc.model_dump(mode="json"), **key)
-    from torlab.comparison import Item, _retention_estimates
+    from torlab.comparison import Item, retention_estimates
 
-    ctx.add_estimates([Item(cfg.product, _retention_estimates(
+    ctx.add_estimates([Item(cfg.product, retention_estimates(
         pred.summary["retention_metrics"]), [f"retention prediction of {cfg.product}"])])
     sweep = None
     if cfg.sweep is not None:
