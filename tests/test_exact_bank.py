@@ -20,7 +20,7 @@ from contact_bank import bank_file, cases, counts, second_row, totals
 from torlab.model.exact.grid import Grid
 from torlab.model.exact.local import LinearYield
 from torlab.model.exact.normal import hertz_curvatures, solve_normal
-from torlab.model.exact.solver import Layer, rigid_slip, solve
+from torlab.model.exact.solver import SLIP, Layer, rigid_slip, solve
 
 ROUNDING = 6e-4  # four printed digits
 
@@ -246,27 +246,114 @@ def test_catt3d_plast_sequence():
     assert np.allclose(got, ref, rtol=1e-3)
 
 
-def test_ertz_temperature_full_sliding():
-    """Ertz-Knothe's full-sliding case: the frictional heat is the same in both programs
-    (every element slides at mu p), the temperature methods differ.  torlab's flash
-    temperature (the thesis's strip solution, half the heat into each body) lies 10 % below
-    CONTACT's: a regression guard on the documented difference, not a validation."""
+# Ertz and Knothe's temperature example: CONTACT rolls it to -x (chi = 180 deg, material
+# enters at small x), torlab's solver to +x: the grid, x, the x-components and the spin are
+# mirrored (CONTACT's spin term at x - dx/6 becomes torlab's at x' + dx/6).
+ERTZ_SPEED, ERTZ_MU = 30.0, 0.3
+
+
+@pytest.fixture(scope="module")
+def ertz():
+    """The example's grid (216 x 45 elements of 0.2 x 0.5 mm, CONTACT's corner at x = -7.90
+    mm, mirrored) and its discrete normal problem (B1 = 0.001015, B3 = 0.0004215 1/mm,
+    100 kN, G = 82 GPa, nu = 0.28), SI units."""
+    bank_file("examples/ertz_temperature.ref_out")
+    g = Grid(x0=-35.30e-3, y0=-11.25e-3, dx=0.2e-3, dy=0.5e-3, mx=216, my=45)
+    X, Y = g.centres()
+    pn = solve_normal(g, 82e9, 0.28, 1.015 * X**2 + 0.4215 * Y**2, 100e3)[0]
+    return g, pn
+
+
+def _ertz_solve(ertz, xi: float, eta: float = 0.0, phi_per_mm: float = 0.0):
+    g, pn = ertz
+    return solve(g, 82e9, 0.28, pn, ERTZ_MU,
+                 rigid_slip(g, -xi, eta, -phi_per_mm * 1e3, x_spin=g.dx / 6))
+
+
+def _bodies(t1: float, t2: float):
+    from torlab.model.exact.temperature import ThermalBody
+
+    return ThermalBody(50.0, 7850.0, 450.0, t1), ThermalBody(50.0, 7850.0, 450.0, t2)
+
+
+def test_ertz_temperature_cases_1_to_3(ertz):
+    """Full sliding at 1 m/s with equal bulk temperatures (case 1), no sliding with the wheel
+    at 150 degC (case 2), both (case 3): CONTACT's printed largest surface temperature with
+    its weight of an element's own heat; the converged temperature (the own element's heat
+    up to its centre) and the thesis's strip solution against the closed-form anchor."""
+    from torlab.model.exact.temperature import surface_temperature
     from torlab.model.fastsim import FastsimProblem, boundary_traction
     from torlab.model.flash import ThermalParams
     from torlab.model.kalker import C11, L1
     from torlab.model.layers import LayerParams
 
-    ref = second_row("examples/ertz_temperature.ref_out", "FN/G")[0]   # ..., PMAX, MAX(T1,T2)
-    tot = totals("examples/ertz_temperature.ref_out")[0]
-    a, b, load, G, nu = 5.88e-3, 10.54e-3, 100e3, 82e9, 0.28
-    prob = FastsimProblem(a=a, b=b, p0=3 * load / (2 * math.pi * a * b),
-                          L1=L1(a, C11(a / b, nu), G), layer=LayerParams(mu_c1=0.3, mu_c2=0.3),
-                          speed=30.0, ambient_temperature=0.0,
+    rows = second_row("examples/ertz_temperature.ref_out", "FN/G")   # ..., PMAX, MAX(T1,T2)
+    power = [float(r.split()[5]) for r in _lines_after("examples/ertz_temperature.ref_out",
+                                                          "FN")]
+    pn = ertz[1]
+    assert int((pn > 0).sum()) == counts("examples/ertz_temperature.ref_out")[0]["NCON"]
+    assert pn.max() / 1e6 == pytest.approx(float(rows[0][4]), rel=ROUNDING)
+    slide, rest = _ertz_solve(ertz, -0.03333), _ertz_solve(ertz, 0.0)
+    assert slide.counts()["slip"] == int((pn > 0).sum()) and rest.counts()["slip"] == 0
+    cold, hot = _bodies(0.0, 0.0), _bodies(0.0, 150.0)
+    for sol, bodies, ref, pw in ((slide, cold, rows[0], power[0]), (rest, hot, rows[1], power[1]),
+                                 (slide, hot, rows[2], power[2])):
+        t = surface_temperature(sol, ERTZ_SPEED, *bodies, own_element="contact")
+        assert t.max_temperature == pytest.approx(float(ref[-1]), rel=ROUNDING)
+        assert t.power == pytest.approx(-pw, rel=ROUNDING, abs=1e-9)
+    # converged: the own element's heat up to its centre (152.3 degC, the local slip's)
+    centre = surface_temperature(slide, ERTZ_SPEED, *cold).max_temperature
+    assert centre == pytest.approx(152.3, abs=0.05)
+    # the rigid slip (mu p times 1 m/s) in place of the solver's: the anchor's value
+    a, b = 5.88e-3, 10.54e-3
+    p0 = 3 * 100e3 / (2 * math.pi * a * b)
+    anchor = 0.5 * 1.23462 * ERTZ_MU * p0 * 1.0 * math.sqrt(a / ERTZ_SPEED) / math.sqrt(
+        50.0 * 7850.0 * 450.0)                                       # 150.30 degC
+    rigid = _rigid(slide, 1.0, ERTZ_SPEED)
+    assert surface_temperature(rigid, ERTZ_SPEED, *cold).max_temperature == pytest.approx(
+        anchor, rel=1e-3)
+    # the thesis's strip solution (FASTSIM's strips, half the heat into each body)
+    prob = FastsimProblem(a=a, b=b, p0=p0, L1=L1(a, C11(a / b, 0.28), 82e9),
+                          layer=LayerParams(mu_c1=0.3, mu_c2=0.3), speed=ERTZ_SPEED,
+                          ambient_temperature=0.0,
                           thermal=ThermalParams(50.0, 7850.0, 450.0, 0.5, "rigid"))
-    r = boundary_traction(prob, 1 / 30)
-    assert float(r.mu[0]) * load == pytest.approx(tot["FX"], rel=1e-3)   # full sliding
-    t_max = float(r.max_temperature_C[0])
-    assert t_max / float(ref[-1]) - 1 == pytest.approx(-0.101, abs=0.005)
+    strip = float(boundary_traction(prob, 1 / 30).max_temperature_C[0])   # 149.9 degC
+    assert strip == pytest.approx(anchor, rel=5e-3)
+
+
+def _rigid(sol, w: float, v: float):
+    """``sol`` with every sliding element's slip replaced by the rigid slip ``w`` [m/s]."""
+    import dataclasses
+
+    sigma = np.zeros_like(sol.sigma)
+    sigma[..., 0] = np.where(sol.state == SLIP, w * sol.grid.dx / v, 0.0)
+    return dataclasses.replace(sol, sigma=sigma)
+
+
+def _lines_after(rel: str, first: str) -> list[str]:
+    lines = bank_file(rel).read_text(encoding="utf-8").splitlines()
+    return [lines[i + 1] for i, line in enumerate(lines) if line.split()[:1] == [first]
+            and "FRIC.POWER" in line]
+
+
+@pytest.mark.slow  # one more tangential solve with partial sliding (about 1 s); cases 1-3 quick
+def test_ertz_temperature_case_4(ertz):
+    """Partial sliding (xi = -0.2 %, eta = 0.1 %, phi = 2e-4 1/mm) with the wheel at 150 degC:
+    CONTACT's forces, element division, frictional power and largest surface temperature."""
+    from torlab.model.exact.temperature import surface_temperature
+
+    ref, cnt = totals("examples/ertz_temperature.ref_out")[3], counts(
+        "examples/ertz_temperature.ref_out")[3]
+    row = second_row("examples/ertz_temperature.ref_out", "FN/G")[3]
+    power = float(_lines_after("examples/ertz_temperature.ref_out", "FN")[3].split()[5])
+    s = _ertz_solve(ertz, -0.002, 0.001, 0.0002)
+    assert -s.Fx == pytest.approx(ref["FX"], rel=ROUNDING)             # mirrored x
+    assert s.Fy == pytest.approx(ref["FY"], rel=ROUNDING)
+    assert -s.Mz * 1e3 == pytest.approx(ref["MZ"], rel=ROUNDING)       # N mm
+    assert (s.counts()["adhesion"], s.counts()["slip"]) == (cnt["NADH"], cnt["NSLIP"])
+    t = surface_temperature(s, ERTZ_SPEED, *_bodies(0.0, 150.0), own_element="contact")
+    assert t.power == pytest.approx(-power, rel=ROUNDING)
+    assert t.max_temperature == pytest.approx(float(row[-1]), rel=ROUNDING)
 
 
 def test_hou_curves_do_not_separate_the_laws():

@@ -4,7 +4,8 @@ Modules: :mod:`.influence` (the half-space's influence coefficients and their FF
 products), :mod:`.grid` (the grid, Hertz's pressure), :mod:`.normal` (the
 normal problem), :mod:`.local` (the friction and layer law of one element),
 :mod:`.solver` (steady rolling and shifts on the grid), :mod:`.rolling` (creep
-forces of a Hertzian contact with their discretisation error).
+forces of a Hertzian contact with their discretisation error), :mod:`.temperature` (the
+surface temperatures of both bodies from a solution's frictional heat).
 ``docs/model/exact.md`` explains the theory, the solver and its accuracy.
 
 References
@@ -24,6 +25,8 @@ from torlab.model.exact.rolling import (
                                         normalised_creepages,
                                         solve_point,
 )
+from torlab.model.exact.temperature import SurfaceTemperature, ThermalBody, surface_temperature
 
-__all__ = ["ExactContact", "ExactGrid", "ExactLayer", "ExactResult", "LinearYield", "VoceYield",
-           "exact_creep_forces", "normalised_creepages", "solve_point"]
+__all__ = ["ExactContact", "ExactGrid", "ExactLayer", "ExactResult", "LinearYield",
+           "SurfaceTemperature", "ThermalBody", "VoceYield", "exact_creep_forces",
+           "normalised_creepages", "solve_point", "surface_temperature"]
