@@ -202,8 +202,9 @@ def reduce_to_folder(paths: PathLike | Sequence[PathLike], out: PathLike,
 
 
 # ------------------------------------------------------------------ fits
-def fit_hpt(curves: Any, *, compliance: Any = None, sigma: Any = None) -> FitResult:
-    """The third-body layer ``mu_c1, mu_c2, L_mue, L_mup`` from HPT curves (thesis
+def fit_hpt(curves: Any, *, compliance: Any = None, sigma: Any = None,
+            law: Any = None) -> FitResult:
+    """The third-body layer from HPT curves (Voce: ``mu_c1, mu_c2, L_mue, L_mup``, thesis
     Eqs. 5.24-5.29); several curves (repeats of one product and amount) fitted jointly.
 
     Parameters
@@ -218,6 +219,10 @@ def fit_hpt(curves: Any, *, compliance: Any = None, sigma: Any = None) -> FitRes
         reduction subtracted).
     sigma
         Normal stress (``"750 MPa"`` or Pa); default: each curve's mean.
+    law
+        The layer law (``"voce"``, the default; ``"linear"``, ``"perfect"``; or ``"auto"``:
+        each fitted, the smallest AICc kept, the comparison in ``meta["law_selection"]``;
+        ``docs/model/layers.md``).
 
     Returns
     -------
@@ -228,7 +233,7 @@ def fit_hpt(curves: Any, *, compliance: Any = None, sigma: Any = None) -> FitRes
     from torlab.units import to_si
 
     s = None if sigma is None else to_si(sigma, "pressure", where="sigma")
-    return fit_layer_hpt(hpt_curves(curves, compliance=compliance, sigma=s))
+    return fit_layer_hpt(hpt_curves(curves, compliance=compliance, sigma=s), law=law)
 
 
 def fit_temperature(curves: Any, temperatures: Any = None, *,

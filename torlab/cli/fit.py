@@ -82,6 +82,10 @@ def write_fit(dest: Any, result: Any, prefix: str = "", title: str | None = None
     dest.write_csv(f"{pre}correlation.csv", corr, allow_missing=tuple(result.names))
     dest.write_csv(f"{pre}fit_data.csv", result.data)
     dest.write_json(f"{pre}summary.json", result.summary())
+    if result.kind == "layer_hpt" and result.meta.get("law_selection"):
+        sel = law_selection_table(result)
+        dest.write_csv(f"{pre}law_selection.csv", sel,
+                       allow_missing=("rss_Pa2", "aicc", "delta_aicc", "note"))
     write_figures(dest, [(f"{pre}fit", plot(result_figure, result, title=title,
                                             model_curve=model_curve))], parse_formats(formats))
     sheet = f"{prefix.replace('/', '_')}_" if prefix else ""
@@ -123,6 +127,17 @@ def write_fits(dest: Any, fits: list[tuple[str, Any]], title: str, *, xlsx: bool
         dest.write_xlsx("tables.xlsx", sheets)
         what += ", tables.xlsx"
     return what
+
+
+def law_selection_table(result: Any) -> Any:
+    """The layer laws a fit compared (``meta["law_selection"]``): one row per law."""
+    import pandas as pd
+
+    return pd.DataFrame([{"law": r["law"], "parameters": r["parameters"], "rss_Pa2": r["rss"],
+                          "aicc": r["aicc"], "delta_aicc": r["delta_aicc"],
+                          "weight": r["weight"], "chosen": r["law"] == result.meta["law"],
+                          "note": r.get("note") or None}
+                         for r in result.meta["law_selection"]])
 
 
 def print_fit(result: Any, title: str) -> None:
@@ -181,34 +196,57 @@ def hpt_cmd(
     compliance: Annotated[str | None, typer.Option(
         help="Rig compliance (curve file or constant such as '0.012 um/MPa'); default: the one "
         "the reduction subtracted.")] = None,
+    law: Annotated[str, typer.Option(
+        "--law", help="Layer law: voce (the thesis's, default), linear (CONTACT's linear "
+        "hardening/softening), perfect (elastic-perfectly plastic), or auto: each fitted and "
+        "the smallest AICc kept (law_selection.csv); a comma-separated list compares those "
+        "(docs/model/layers.md).")] = "voce",
+    resolution: Annotated[str | None, typer.Option(
+        "--resolution", help="With several laws: the shear stress resolution of the data "
+        "(e.g. '2.9 MPa' for a digitised curve); residuals below it count as none in the "
+        "AICc. Default: round-off.")] = None,
     force: ForceOpt = False,
     xlsx: XlsxOpt = False,
     formats: FormatsOpt = None,
 ) -> None:
-    """Layer parameters mu_c1, mu_c2, L_mue, L_mup from HPT curves (thesis Eqs. 5.24-5.29).
+    """Layer parameters from HPT curves: Voce's mu_c1, mu_c2, L_mue, L_mup (thesis
+    Eqs. 5.24-5.29) or another layer law's (--law).
 
     One fit per curve (a sub-folder per curve and fit_summary.csv when there are several)
     or, with --joint, one parameter set: the curves' fits pooled with random effects (REML
     between-run variance, Hartung-Knapp intervals on runs - 1 degrees of freedom), whose
     intervals hold the scatter from run to run; summary.json's random_effects gives each
     parameter's share of its variance within and between runs.
+    With --law auto (or a list) every law is fitted and the one with the smallest AICc
+    kept; the console and law_selection.csv give the comparison.
     """
-    from torlab.fit.layer import fit_layer_hpt, fit_layers_hpt
+    from torlab.fit.layer import fit_layer_hpt, fit_layers_hpt, law_choice
     from torlab.instruments.measured import hpt_curves
     from torlab.outputs import OutputDir
+    from torlab.units import check_range, to_si
 
     files = require_files(inputs, "HPT", keep=is_hpt_input)
     extra: list[Path] = []
     comp = _compliance(compliance, extra)
+    law_choice(law)  # an unknown law: one error line before anything is read
+    res_pa = None if resolution is None else check_range(
+        "stress", to_si(resolution, "pressure", where="--resolution"), where="--resolution")
     curves = hpt_curves(files, compliance=comp)
-    results = [fit_layer_hpt(curves)] if joint or len(curves) == 1 else fit_layers_hpt(curves)
+    results = [fit_layer_hpt(curves, law=law, resolution=res_pa)] if joint or len(curves) == 1 \
+        else fit_layers_hpt(curves, law=law, resolution=res_pa)
     names: list[str] = []
     fits = [(_stem(f, names), r) for f, r in zip(files, results, strict=False)]
     dest = OutputDir(out, force=force, inputs=[*files, *extra], command=command_line())
     with dest:
         what = write_fits(dest, fits, "HPT layer fit", xlsx=xlsx, formats=formats)
     for r in results:
-        print_fit(r, f"HPT layer fit: {r.meta.get('source', '')}")
+        chosen = f" ({r.meta['law']} law)" if r.meta.get("law") else ""
+        print_fit(r, f"HPT layer fit{chosen}: {r.meta.get('source', '')}")
+        if r.meta.get("law_selection"):
+            print_table(law_selection_table(r).drop(columns=["note"]).to_dict("records"),
+                        title=f"Law choice (AICc; {r.meta.get('criterion', '')})",
+                        formats={"rss_Pa2": ".4g", "aicc": ".1f", "delta_aicc": ".1f",
+                                 "weight": ".3f"})
     console().print(f"wrote {what} to {out}")
 
 

@@ -318,7 +318,8 @@ def law_choice(law: Any) -> list[LayerLaw]:
 
 @small_problem  # one BLAS thread: small matrices (torlab.threads)
 def fit_layer_hpt(curves: Any, *, sigma: float | None = None, compliance: Any = None,
-                  joint: bool = True, law: Any = None, between: str = "random") -> FitResult:
+                  joint: bool = True, law: Any = None, between: str = "random",
+                  resolution: float | None = None) -> FitResult:
     """Fit a layer law's parameters to HPT curves (Voce: ``mu_c1, mu_c2, L_mue, L_mup``,
     thesis Eqs. 5.24, 5.26-5.29).
 
@@ -357,6 +358,13 @@ def fit_layer_hpt(curves: Any, *, sigma: float | None = None, compliance: Any = 
         interval of the record, not of the product).  When a curve cannot be fitted
         alone (it never yields) the curves are fitted together and a warning says
         that the scatter is not estimated.
+    resolution
+        With several laws: the stress resolution of the data [Pa] (a digitised curve's
+        reading, a logger's step); a law whose residuals are below it fits as well as the
+        data can tell (its RSS is floored at ``n resolution^2`` in the AICc; where the best
+        law's residuals are below it, they say nothing of the noise's correlation and the
+        points count as independent readings with that error, ``n_eff = n``).  Default:
+        round-off.
 
     Returns
     -------
@@ -384,7 +392,7 @@ def fit_layer_hpt(curves: Any, *, sigma: float | None = None, compliance: Any = 
     if not items:
         raise TorlabInputError("no HPT curve given")
     cs = [hpt_curve(c, sigma=sigma, compliance=compliance) for c in items]
-    together = _fit(cs, laws[0]) if len(laws) == 1 else select_law(cs, laws)
+    together = _fit(cs, laws[0]) if len(laws) == 1 else select_law(cs, laws, resolution=resolution)
     if len(cs) == 1:
         return pool_fits([together])
     if between == "none":
@@ -406,15 +414,17 @@ def fit_layer_hpt(curves: Any, *, sigma: float | None = None, compliance: Any = 
 
 
 def fit_layers_hpt(curves: Any, *, sigma: float | None = None, compliance: Any = None,
-                   law: Any = None) -> list[FitResult]:
+                   law: Any = None, resolution: float | None = None) -> list[FitResult]:
     """One :func:`fit_layer_hpt` per curve (e.g. one run per temperature), in order."""
     items = list(curves) if isinstance(curves, (list, tuple)) else [curves]
     if not items:
         raise TorlabInputError("no HPT curve given")
-    return [fit_layer_hpt(c, sigma=sigma, compliance=compliance, law=law) for c in items]
+    return [fit_layer_hpt(c, sigma=sigma, compliance=compliance, law=law,
+                          resolution=resolution) for c in items]
 
 
-def select_law(cs: list[HptCurve], laws: Sequence[LayerLaw]) -> FitResult:
+def select_law(cs: list[HptCurve], laws: Sequence[LayerLaw], *,
+               resolution: float | None = None) -> FitResult:
     """Fit every law of ``laws`` to the curves and keep the one with the smallest AICc.
 
     As ``torlab fit removal`` chooses its removal law: ``AICc = n_eff ln(RSS/n) + 2k +
@@ -422,7 +432,9 @@ def select_law(cs: list[HptCurve], laws: Sequence[LayerLaw]) -> FitResult:
     fit, ``k`` its number of parameters, ``n`` the points and ``n_eff`` the effective
     number of independent points of the best-fitting law's residuals (the HPT noise is
     correlated along the record, :mod:`torlab.fit._noise`); Akaike weights
-    ``exp(-dAICc/2)`` normalised.  A law whose fit fails is listed with why and left out.
+    ``exp(-dAICc/2)`` normalised.  ``RSS`` is floored at ``n (resolution)^2`` (default
+    ``resolution``: 1e-12 of the stress scale, round-off): residuals below the data's
+    resolution are no evidence.  A law whose fit fails is listed with why and left out.
     The result is the chosen law's :class:`FitResult` with ``meta["law"]``,
     ``meta["law_selection"]`` (one row per law) and ``meta["criterion"]``.
     """
@@ -440,10 +452,15 @@ def select_law(cs: list[HptCurve], laws: Sequence[LayerLaw]) -> FitResult:
     best = min(ok, key=lambda t: rss[t[0].name])[1]
     n = int(best.n_points)
     neff = float(best.meta.get("effective_points", n))
-    # residuals at round-off (a law that reproduces the data exactly) are no evidence
-    # beyond round-off: RSS is floored at n (1e-12 of the stress scale)^2
+    # residuals below the data's resolution (default round-off: a law that reproduces the
+    # data exactly) are no evidence: RSS is floored at n resolution^2
     scale = max(float(np.max(np.abs(best.data["shear_stress_measured_Pa"]))), 1e-300)
-    floor = n * (1e-12 * scale) ** 2
+    res_floor = 1e-12 * scale if resolution is None else float(resolution)
+    floor = n * res_floor ** 2
+    if min(rss.values()) <= floor:
+        # the best law's residuals are below the resolution: they say nothing about the
+        # noise's correlation; the resolution is the noise, point by point
+        neff = float(n)
     rows: list[dict[str, Any]] = []
     for lw, r, why in fits:
         k = len(lw.fit_names)
@@ -466,7 +483,9 @@ def select_law(cs: list[HptCurve], laws: Sequence[LayerLaw]) -> FitResult:
     res.meta["law"] = chosen
     res.meta["law_selection"] = rows
     res.meta["criterion"] = ("AICc on the effective number of independent points "
-                             f"({neff:.1f} of {n}); RSS floored at round-off")
+                             f"({neff:.1f} of {n}); RSS floored at "
+                             + ("round-off" if resolution is None else
+                                f"n ({res_floor / 1e6:.3g} MPa)^2, the data's resolution"))
     return res
 
 

@@ -61,7 +61,8 @@ SELECTION_LEVEL = 0.05
 def fit_temperature_coefficients(fits_or_curves: Any, temperatures_K: Any = None, *,  # noqa: C901 (each selection rule and undetermined coefficient is a case)
                                  reference_temperature_C: float = 25.0,
                                  selection: str = "lr",
-                                 selection_level: float = SELECTION_LEVEL) -> FitResult:
+                                 selection_level: float = SELECTION_LEVEL,
+                                 law: Any = None) -> FitResult:
     """Fit the layer law's temperature coefficients (Voce: ``mu_c1_T`` and ``mu_c2_T``, 1/K)
     from layer fits at several temperatures.
 
@@ -85,6 +86,9 @@ def fit_temperature_coefficients(fits_or_curves: Any, temperatures_K: Any = None
         warnings state the test, the p-value and the decision.
     selection_level
         Significance level of the test (0.05).
+    law
+        The layer law curves are fitted with (:func:`torlab.fit.layer.fit_layer_hpt`;
+        default Voce); ignored for given fits, which must share one law.
 
     Returns
     -------
@@ -112,7 +116,7 @@ def fit_temperature_coefficients(fits_or_curves: Any, temperatures_K: Any = None
         raise TorlabInputError(f"selection must be 'test' (or 'lr') or 'none', not "
                                f"{selection!r}", key="selection")
     items = list(fits_or_curves)
-    fits = [it if isinstance(it, FitResult) else fit_layer_hpt(it) for it in items]
+    fits = [it if isinstance(it, FitResult) else fit_layer_hpt(it, law=law) for it in items]
     laws = {f.meta.get("law") for f in fits}
     if len(laws) > 1:
         raise TorlabInputError(f"the runs were fitted with different layer laws "

@@ -1108,8 +1108,9 @@ def _march_lanes(pts: np.ndarray, telx: np.ndarray, tely: np.ndarray, gp: np.nda
         ux[~nz] = 1.0
     # k = |T|/g (large where g = 0, at the trailing edge); steps of zero length (empty
     # panels) have kh = 0 and beta' = 0: the identity
-    kp = aT / np.maximum(gp, 1e-300)
-    kh = np.minimum(0.5 * (kp[:, 1:] + kp[:, :-1]) * h, 1e8)
+    with np.errstate(over="ignore"):  # g = 0 (a softened layer's zero strength): k = inf
+        kp = aT / np.maximum(gp, 1e-300)
+        kh = np.minimum(0.5 * (kp[:, 1:] + kp[:, :-1]) * h, 1e8)
     dbeta = np.arctan2(ux[:, :-1] * uy[:, 1:] - uy[:, :-1] * ux[:, 1:],
                        ux[:, :-1] * ux[:, 1:] + uy[:, :-1] * uy[:, 1:])
     # chi obeys d chi/dt = -(k sin chi + beta'); with u = tan(chi/2) that is a Riccati

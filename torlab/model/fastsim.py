@@ -454,6 +454,18 @@ class _Solver:
         uni = th_end_graded[..., None] + (math.pi - th_end_graded[..., None]) * np.linspace(0, 1, g.uniform_panels + 1)
         cl = th_y[..., None] + (th_s - th_y)[..., None] * np.linspace(0, 1, g.clamp_panels + 1)
         edges = np.concatenate([cl, thb[..., 1:], uni[..., 1:]], axis=-1)  # (nx, ns, P+1)
+        kinks = lay.law.strip_kinks(lay)
+        if kinks:
+            # where the law's plastic stress kinks (the slip d = c past the limit: same
+            # closed form as the clamp's end), an edge more; the panels stay in order
+            extra = []
+            for c in kinks:
+                qk = (A - C - c) / R
+                th_k = np.where(qk < -1.0, math.pi, np.minimum(phi0 + np.arccos(
+                    np.clip(qk, -1.0, 1.0)), math.pi))
+                extra.append(np.where(np.isfinite(th_k), np.clip(th_k, th_s, math.pi), th_s))
+            edges = np.sort(np.concatenate([edges, np.stack(extra, axis=-1)], axis=-1),
+                            axis=-1)
         lo, hi = edges[..., :-1], edges[..., 1:]
         x, w = gauss_legendre(g.m)
         th = lo[..., None] + (hi - lo)[..., None] * x  # (nx, ns, P, m)

@@ -36,6 +36,15 @@ __all__ = ["boundary_traction_reference", "creep_forces_reference", "naive_creep
 # -------------------------------------------------------------------------------------------
 # grid-free reference (adaptive quadrature of the continuous strip solution)
 # -------------------------------------------------------------------------------------------
+def _crossings(fun: Any, grid: np.ndarray, vals: np.ndarray, level: float) -> list[float]:
+    """The roots of ``fun = level`` (``brentq``) in the grid cells where ``vals`` (``fun`` on
+    ``grid``) crosses it."""
+    from scipy.optimize import brentq
+
+    return [brentq(lambda t: fun(t) - level, grid[i], grid[i + 1], xtol=1e-16, rtol=1e-15)
+            for i in np.flatnonzero((vals[:-1] < level) != (vals[1:] < level))]
+
+
 def boundary_traction_reference(prob: FastsimProblem, creepage: float, *, rtol: float = 1e-10) -> float:  # noqa: C901 (a reference solver spelled out case by case, for clarity over speed)
     """Grid-free reference ``mu_BL`` without temperature, by adaptive quadrature.
 
@@ -102,11 +111,9 @@ def boundary_traction_reference(prob: FastsimProblem, creepage: float, *, rtol: 
         def dfun(th):
             return xi * ay * (1.0 - math.cos(th)) - lay.mu_c1 * (L1 * Py * math.sin(th) + lay.L_mue)
 
-        pts = [thy]
         tg = np.linspace(thy, math.pi, 2001)
         dv = xi * ay * (1.0 - np.cos(tg)) - lay.mu_c1 * (L1 * Py * np.sin(tg) + lay.L_mue)
-        for i in np.flatnonzero((dv[:-1] < 0) != (dv[1:] < 0)):
-            pts.append(brentq(dfun, tg[i], tg[i + 1], xtol=1e-16, rtol=1e-15))
+        pts = [thy, *_crossings(dfun, tg, dv, 0.0)]  # and the clamp's end
         grading = float(lay.law.grading_length(lay))
         if grading > 0:
             Xb = ay * (1.0 - math.cos(pts[-1]))
@@ -114,6 +121,8 @@ def boundary_traction_reference(prob: FastsimProblem, creepage: float, *, rtol: 
             for k in (0.25, 0.5, 1, 2, 4, 8, 16, 32, 64):
                 if Xb + ell * k < 2 * ay:
                     pts.append(math.acos(1.0 - (Xb + ell * k) / ay))
+        for c in lay.law.strip_kinks(lay):  # the law's own kinks, at d = c
+            pts += _crossings(dfun, tg, dv, float(c))
         pts = [*sorted(set(min(max(t, thy), math.pi) for t in pts)), math.pi]
         F_pl = 0.0
         for lo_, hi_ in itertools.pairwise(pts):

@@ -105,15 +105,38 @@ def fit_hpt_layers(ctx: RunContext) -> None:
             ctx.notes.append(f"fits.hpt_layers: {label} has no run at another temperature: its "
                              "temperature coefficients are not measured (the scene's values "
                              "are used as exact)")
-    # the layer fits and the temperature fits do not depend on each other: one map, the
-    # longer temperature fits first, so that no worker waits between them
-    layer_jobs = [({"runs": [ctx.keys[id(r)] for r in at_t]}, ("layer", [r.detail for r in at_t]))
+    # the law is part of a job's key only where it is not the default (the keys of the
+    # default law's fits are as they always were)
+    law = {} if cfg.law == "voce" else {"law": cfg.law}
+    layer_jobs = [({"runs": [ctx.keys[id(r)] for r in at_t], **law},
+                   ("layer", ([r.detail for r in at_t], cfg.law) if law else
+                    [r.detail for r in at_t]))
                   for _, at_t, _ in plan]
-    res = ctx.cached_map(["fit_temperature"] * len(temp_jobs) + ["fit_hpt"] * len(layer_jobs),
-                         _fit_task, [j for _, j in temp_jobs] + layer_jobs,
-                         "fits: HPT layers and temperature coefficients", uses=_FITS_USE)
-    temps = dict(zip([lab for lab, _ in temp_jobs], res[:len(temp_jobs)], strict=True))
-    layers = res[len(temp_jobs):]
+    if cfg.law == "auto" and temp_jobs:
+        # every law is fitted and one chosen per product: its temperature runs are fitted
+        # with the chosen law, after the layer fits
+        layers = ctx.cached_map(["fit_hpt"] * len(layer_jobs), _fit_task, layer_jobs,
+                                "fits: HPT layers", uses=_FITS_USE)
+        chosen = {lab: r.meta.get("law", "voce") for (lab, _, _), r in
+                  zip(plan, layers, strict=True)}
+        temp_jobs = [(lab, ({**key, "law": chosen[lab]}, ("temperature", (*arg[:3],
+                                                                          chosen[lab]))))
+                     for lab, (key, (_, arg)) in temp_jobs]
+        res = ctx.cached_map(["fit_temperature"] * len(temp_jobs), _fit_task,
+                             [j for _, j in temp_jobs], "fits: temperature coefficients",
+                             uses=_FITS_USE)
+        temps = dict(zip([lab for lab, _ in temp_jobs], res, strict=True))
+    else:
+        # the layer fits and the temperature fits do not depend on each other: one map, the
+        # longer temperature fits first, so that no worker waits between them
+        if law:
+            temp_jobs = [(lab, ({**key, **law}, ("temperature", (*arg, cfg.law))))
+                         for lab, (key, (_, arg)) in temp_jobs]
+        res = ctx.cached_map(["fit_temperature"] * len(temp_jobs) + ["fit_hpt"] * len(layer_jobs),
+                             _fit_task, [j for _, j in temp_jobs] + layer_jobs,
+                             "fits: HPT layers and temperature coefficients", uses=_FITS_USE)
+        temps = dict(zip([lab for lab, _ in temp_jobs], res[:len(temp_jobs)], strict=True))
+        layers = res[len(temp_jobs):]
     for (label, _, _), res in zip(plan, layers, strict=True):
         scene_dict = res.to_scene_dict()
         if label in temps:
@@ -122,18 +145,22 @@ def fit_hpt_layers(ctx: RunContext) -> None:
 
 
 def _fit_task(job: tuple[str, Any]) -> Any:
-    """One product's HPT layer fit (``("layer", details)``) or temperature coefficients
-    (``("temperature", (details, temperatures_K, selection))``): an executor task."""
+    """One product's HPT layer fit (``("layer", details)`` or ``("layer", (details,
+    law))``) or temperature coefficients (``("temperature", (details, temperatures_K,
+    selection[, law]))``): an executor task."""
     from torlab.fit.layer import fit_layer_hpt
     from torlab.instruments.measured import hpt_curves
 
     what, arg = job
     if what == "layer":
+        if isinstance(arg, tuple):
+            return fit_layer_hpt(hpt_curves(arg[0]), law=arg[1])
         return fit_layer_hpt(hpt_curves(arg))
     from torlab.fit.temperature import fit_temperature_coefficients
 
-    details, temps_K, selection = arg
-    return fit_temperature_coefficients(hpt_curves(details), temps_K, selection=selection)
+    details, temps_K, selection, *law = arg
+    return fit_temperature_coefficients(hpt_curves(details), temps_K, selection=selection,
+                                        law=law[0] if law else None)
 
 
 def _temperature(ctx: RunContext, label: str, tres: Any, scene_dict: dict[str, Any]) -> None:

@@ -442,6 +442,15 @@ DATA_SECTIONS: tuple[str, ...] = tuple(Data.model_fields)
 
 
 # --------------------------------------------------------------------------- fits
+def _law_choice() -> Any:
+    from torlab.model.layers import LAWS
+
+    return Literal[(*LAWS, "auto")]  # type: ignore[valid-type]
+
+
+_LAW_CHOICE = _law_choice()
+
+
 class HptLayerFit(_Model):
     """``fits.hpt_layers``: the third-body layer of every product from its HPT curves.
 
@@ -450,10 +459,14 @@ class HptLayerFit(_Model):
     (:func:`torlab.fit.layer.fit_layer_hpt`); with ``temperature_coefficients``
     the runs of the same amount at other temperatures give ``mu_c1_T``,
     ``mu_c2_T`` (:func:`torlab.fit.temperature.fit_temperature_coefficients`).
-    The results are parameter sets named ``hpt:<product>``.
+    The results are parameter sets named ``hpt:<product>``.  ``law`` is the layer law
+    fitted (:mod:`torlab.model.layers`; default ``voce``), or ``auto``: every law, the
+    one with the smallest AICc kept per product (its temperature runs then fitted with
+    that law).
     """
 
     amounts: Annotated[list[Amount], BeforeValidator(_listify)] = Field(min_length=1)
+    law: _LAW_CHOICE = "voce"  # type: ignore[valid-type]
     temperature: Temperature = 25.0
     temperature_tolerance: Annotated[float, _q("temperature_difference",
                                                "temperature_difference")] = Field(default=2.0, gt=0)

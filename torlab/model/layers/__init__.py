@@ -18,6 +18,8 @@ from typing import Any
 import numpy as np
 
 from torlab.model.layers.base import LayerLaw, Param
+from torlab.model.layers.linear import LINEAR
+from torlab.model.layers.perfect import PERFECT
 from torlab.model.layers.voce import VOCE
 
 __all__ = ["DEFAULT_LAW", "LAWS", "LayerLaw", "LayerParams", "Param", "all_params",
@@ -26,6 +28,8 @@ __all__ = ["DEFAULT_LAW", "LAWS", "LayerLaw", "LayerParams", "Param", "all_param
 #: every layer law, by name; the first is the default (a scene without ``law:``)
 LAWS: dict[str, LayerLaw] = {law.name: law for law in (
     VOCE,
+    LINEAR,
+    PERFECT,
 )}
 DEFAULT_LAW = next(iter(LAWS))
 

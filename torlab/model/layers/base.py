@@ -222,6 +222,11 @@ class LayerLaw:
         (isothermal, scalars): the grid-free references integrate with them."""
         raise NotImplementedError
 
+    def strip_kinks(self, lay: LayerParams) -> list[Any]:
+        """Slips past the limit [m] where :meth:`strip_plastic` has a kink (NaN where a
+        layer has none): FASTSIM puts a panel edge there.  None by default."""
+        return []
+
     def grading_length(self, lay: LayerParams) -> Any:
         """Length [m] over which the plastic stress changes fastest after the limit (the
         FASTSIM panels are graded with it); 0 when the branch has none."""
@@ -266,6 +271,11 @@ class LayerLaw:
     def hardening_modulus(self, lay: LayerParams, p: Any, kappa: Any, dT: Any = 0.0
                           ) -> np.ndarray:
         """``d tau_c / d kappa`` [Pa/m] (negative: softening)."""
+        raise NotImplementedError
+
+    def plastic_reach(self, lay: LayerParams, p: Any, tau: Any, dT: Any = 0.0) -> np.ndarray:
+        """The smallest accumulated plastic slip ``kappa >= 0`` [m] at which the yield stress
+        reaches ``tau`` [Pa] (``inf`` where it never does)."""
         raise NotImplementedError
 
     def return_map(self, lay: LayerParams, p: Any, tau_trial: Any, kappa: Any,

@@ -274,6 +274,22 @@ class Voce(LayerLaw):
         raise ConvergenceError("Voce layer: the plastic slip of a contact element did not "
                                "converge in 100 steps")
 
+    def plastic_reach(self, lay: LayerParams, p: Any, tau: Any, dT: Any = 0.0) -> np.ndarray:
+        """Closed form: the Voce curve reaches ``tau`` at the slip past the limit
+        ``s = -L_mup ln(1 - (tau - t1)/(t2 - t1))``, of which ``(tau - t1) L_e`` is elastic."""
+        p = np.asarray(p, dtype=float)
+        tau = np.asarray(tau, dtype=float)
+        t1 = lay.mu_c1 * p * np.exp(lay.mu_c1_T * np.asarray(dT))
+        t2 = lay.mu_c2 * p * np.exp(lay.mu_c2_T * np.asarray(dT))
+        Le = lay.L_mue / np.where(p > 0, p, np.inf)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            frac = (tau - t1) / (t2 - t1)
+            if lay.L_mup > 0:
+                k = -lay.L_mup * np.log1p(-frac) - (tau - t1) * Le
+            else:
+                k = np.where(frac == 1.0, 0.0, np.inf)
+        return np.where((frac >= 0) & (frac < 1) & np.isfinite(k) & (k >= 0), k, np.inf)
+
     def hardening_modulus(self, lay: LayerParams, p: Any, kappa: Any, dT: Any = 0.0
                           ) -> np.ndarray:
         p = np.asarray(p, dtype=float)
