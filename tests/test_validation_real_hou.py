@@ -147,13 +147,18 @@ def test_h1_h2_h3_h4_the_law_each_curve_prefers_and_contacts_inputs(fitted, row)
 @pytest.mark.slow  # 40 readings x four fits of four curves (about a minute)
 def test_hou_intervals_over_the_readings_contain_the_estimates(fitted):
     """The page's ranges: 2.5-97.5 % over readings within the round values' resolution; each
-    contains the fit of the round values, and every reading of a sloped curve prefers the
-    linear law."""
+    contains the fit of the round values; every reading of clay and sand prefers the linear
+    law, of magnetite perfect plasticity, while MoS2's readings divide between the two."""
     for powder, f in fitted.items():
         iv = hou_intervals(f["points"], 40, seed=1)
         for k, v in f["summary"]["params"].items():
             lo, hi = iv["ranges"][f["summary"]["meta"]["law"]][k]
             assert lo <= v <= hi or math.isclose(v, lo, rel_tol=1e-6) or \
                 math.isclose(v, hi, rel_tol=1e-6), (powder, k, v, lo, hi)
-        if powder != "magnetite":
-            assert iv["chosen"]["linear"] == 40
+        chosen = iv["chosen"]
+        if powder in ("clay", "sand"):
+            assert chosen["linear"] == 40
+        elif powder == "magnetite":
+            assert chosen["perfect"] == 40
+        else:
+            assert chosen["linear"] >= 5 and chosen["perfect"] >= 5, chosen
