@@ -1,7 +1,7 @@
 """Is product A better than product B? Differences with their intervals and probabilities.
 
 Two or more products, compositions or conditions are compared on each quantity they share
-(the layer's ``mu_c1``, ``mu_c2``, temperature coefficients, a crossing amount, retention
+(the layer's ``mu_c1``, ``mu_c2`` -- every layer law's parameters -- temperature coefficients, a crossing amount, retention
 figures, time-test levels, a film's speed exponent ...).  Every quantity of every item is
 an :class:`Estimate`: a value with its standard error and degrees of freedom, and what its
 interval holds (one record, or several runs pooled with their scatter).  Items that share a
@@ -64,17 +64,31 @@ class QuantitySpec:
         return self.shown_unit or self.unit
 
 
+def _layer_quantities() -> dict[str, QuantitySpec]:
+    """The layer laws' parameters (:mod:`torlab.model.layers`): lengths shown in µm,
+    temperature coefficients per 1000 K, positive ones compared as ratios; and the
+    temperature fit's coefficients at the reference temperature."""
+    from torlab.model.layers import all_params
+
+    out: dict[str, QuantitySpec] = {}
+    for n, p in all_params().items():
+        if p.kind == "length":
+            out[n] = QuantitySpec(p.symbol, p.unit, log=p.positive, factor=1e6, shown_unit="µm")
+        elif p.temperature_of is not None:
+            out[n] = QuantitySpec(p.symbol, p.unit, factor=1e3, shown_unit="1/(1000 K)")
+        else:
+            out[n] = QuantitySpec(p.symbol, p.unit, log=p.positive)
+    for p in all_params().values():
+        if p.temperature_of is not None:
+            base = all_params()[p.temperature_of]
+            out[f"{base.name}_Tref"] = QuantitySpec(f"{base.symbol}(Tref)", base.unit, log=True)
+    return out
+
+
 #: the quantities torlab compares, by name: symbol, SI unit, scale, default direction,
 #: display factor and unit
 QUANTITIES: dict[str, QuantitySpec] = {
-    "mu_c1": QuantitySpec("μc1", "-", log=True),
-    "mu_c2": QuantitySpec("μc2", "-", log=True),
-    "L_mue": QuantitySpec("Lμe", "m", log=True, factor=1e6, shown_unit="µm"),
-    "L_mup": QuantitySpec("Lμp", "m", log=True, factor=1e6, shown_unit="µm"),
-    "mu_c1_T": QuantitySpec("μc1,T", "1/K", factor=1e3, shown_unit="1/(1000 K)"),
-    "mu_c2_T": QuantitySpec("μc2,T", "1/K", factor=1e3, shown_unit="1/(1000 K)"),
-    "mu_c1_Tref": QuantitySpec("μc1(Tref)", "-", log=True),
-    "mu_c2_Tref": QuantitySpec("μc2(Tref)", "-", log=True),
+    **_layer_quantities(),
     "speed_exponent": QuantitySpec("film speed exponent", "-"),
     "film_prefactor": QuantitySpec("film prefactor", "m", log=True, factor=1e9,
                                    shown_unit="nm"),
@@ -491,8 +505,8 @@ def compare(items: list[Item], *, reference: str | None = None,
 # items from what a lab has: fit objects, parameter files, results folders, time tests
 # ---------------------------------------------------------------------------------------------
 #: parameters of a fit that are compared (the others, e.g. a logistic's shape, are not)
-FIT_QUANTITIES = ("mu_c1", "mu_c2", "L_mue", "L_mup", "mu_c1_T", "mu_c2_T", "mu_c1_Tref",
-                  "mu_c2_Tref", "speed_exponent", "film_prefactor", "alpha", "eta0", "Z")
+FIT_QUANTITIES = (*_layer_quantities(), "speed_exponent", "film_prefactor", "alpha", "eta0",
+                  "Z")
 
 
 def _runs(meta: dict[str, Any]) -> int:
