@@ -122,13 +122,14 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
     # first use, which is no import statement), the value codec, small helpers
     ("base", ("torlab", "torlab.errors", "torlab._stats", "torlab._suggest", "torlab.progress",
               "torlab.threads", "torlab.codec", "torlab._unit_table")),
+    # the layer laws' registry: each law's parameters, units, ranges and stress formulas,
+    # which the scene contract validates its boundary: section against and the comparisons
+    # name their quantities by (numpy and the errors only)
+    ("laws", ("torlab.model.layers",)),
     # units at the edges, safe files and result folders, the executor, YAML, uncertainty
     ("io", ("torlab.units", "torlab.files", "torlab.parallel", "torlab.grids", "torlab.yamlio",
             "torlab.outputs", "torlab.uncertainty", "torlab.random_effects",
             "torlab.comparison")),
-    # the layer laws' registry: each law's parameters, units, ranges and stress formulas,
-    # which the scene contract validates its boundary: section against (numpy only)
-    ("laws", ("torlab.model.layers",)),
     ("inputs", ("torlab.scene", "torlab.parsers")),        # the scene contract, raw files
     ("model", ("torlab.model",)),                          # the physics
     ("reduce", ("torlab.reduce",)),                        # raw channels -> quantities

@@ -563,6 +563,13 @@ def _layer_params() -> dict[str, Any]:
     return all_params()
 
 
+def _range(fields: dict[str, Any]) -> Any:
+    """The :class:`~torlab.units.Range` a layer law declares for its own parameter."""
+    from torlab.units import Range
+
+    return Range(**fields)
+
+
 #: scene key -> plausible-range quantity of torlab.units.RANGES (docs/scenes.md), or the
 #: :class:`~torlab.units.Range` a layer law declares for its own parameter
 SCENE_RANGES: dict[tuple[str, str], Any] = {
@@ -575,7 +582,8 @@ SCENE_RANGES: dict[tuple[str, str], Any] = {
     ("thermal", "heat_capacity"): "heat_capacity",
     ("thermal", "tolerance"): "temperature_difference",
     # the layer laws' parameters with a plausible range (torlab.model.layers), in order
-    **{("boundary", n): prm.range for n, prm in _layer_params().items() if prm.range},
+    **{("boundary", n): prm.range if isinstance(prm.range, str) else _range(prm.range)
+       for n, prm in _layer_params().items() if prm.range},
     ("lubricant", "eta0"): "viscosity", ("lubricant", "alpha"): "pressure_viscosity",
     ("lubricant", "tau0"): "stress",
     ("roughness", "sigma"): "roughness", ("roughness", "beta"): "asperity_radius",

@@ -58,7 +58,8 @@ class Param:
     ge, le
         Hard limits of the scene schema (None: none).
     range
-        Plausible-range quantity of :data:`torlab.units.RANGES` checked on a scene value
+        Plausible range checked on a scene value: a quantity of :data:`torlab.units.RANGES`,
+        or the fields of a :class:`torlab.units.Range` for a quantity of the law's own
         (None: the hard limits only).
     fit
         ``(lower, upper)`` bounds of the HPT fit, in units of ``scale``; None: not
@@ -85,7 +86,7 @@ class Param:
     default: float | None = None
     ge: float | None = None
     le: float | None = None
-    range: str | None = None
+    range: str | dict[str, Any] | None = None
     fit: tuple[float, float] | None = None
     traction: tuple[float, float] | None = None
     scale: float = 1.0

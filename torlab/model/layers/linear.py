@@ -32,7 +32,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from torlab.model.layers.base import L_MUE, MU_C1, MU_C1_T, LayerLaw, Param
-from torlab.units import Range
 
 if TYPE_CHECKING:
     from torlab.model.layers import LayerParams
@@ -42,8 +41,9 @@ __all__ = ["LINEAR", "Linear"]
 K_MU = Param("k_mu", "inverse_length", "1/m", "kμ",
              "hardening rate: the layer's friction coefficient grows by k_mu per metre of slip "
              "past the elastic limit (negative: softening)",
-             range=Range("inverse_length", -1e9, 1e9, -1e5, 1e5,
-                         "a layer hardening rate (k_mu)", low_open=False, display="1/mm"),
+             range={"kind": "inverse_length", "low": -1e9, "high": 1e9, "usual_low": -1e5,
+                    "usual_high": 1e5, "what": "a layer hardening rate (k_mu)",
+                    "low_open": False, "display": "1/mm"},
              fit=(-1e3, 1e3), scale=1e3, column="_per_m")
 
 
