@@ -511,3 +511,50 @@ def test_a_protocol_fits_the_law_it_names(tmp_path):
 
     params = load_yaml(tmp_path / "out" / "fits" / "hpt_OFM1.yaml").data
     assert params["boundary"]["law"] == "linear"
+
+
+@pytest.mark.parametrize("law", [n for n in LAWS if n != "voce"])
+def test_predictions_of_a_scene_with_another_law(law):
+    """A dry scene with another law: the traction curve (with the contact temperature), the
+    creep forces with spin, and what they say they modelled."""
+    from torlab.model.creep import predict_creep
+    from torlab.model.predict import predict_traction
+    from torlab.scene import boundary_of, scene_from_dict
+
+    base = {"contact": {"load": "20 kN", "a": "3.7 mm", "b": "3.3 mm"},
+            "materials": {"E1": "210 GPa", "nu1": 0.28, "E2": "210 GPa", "nu2": 0.28},
+            "kinematics": {"speed": "10 m/s"}, "thermal": {}}
+    lay = CASES[law].replace(mu_c1_T=-1e-3)
+    sc = scene_from_dict({**base, "boundary": boundary_of(lay).model_dump()})
+    assert sc.boundary.layer == lay
+    t = predict_traction(sc, np.linspace(-0.05, 0.05, 11))
+    assert np.all(np.isfinite(t.table["mu"])) and t.table["mu"].iloc[-1] > 0
+    assert any(lay.law.short in m for m in t.modelled)
+    assert t.summary["boundary"]["law"] == law
+    c = predict_creep(sc.model_copy(update={"thermal": None}), [1e-3, 1e-2], lateral=1e-3,
+                      spin=0.5)
+    assert np.all(np.isfinite(c.table["mu"]))
+    assert any(lay.law.limit_text in m for m in c.modelled)
+
+
+def test_a_linear_layer_fitted_to_hpt_predicts_with_its_band(tmp_path):
+    """fit hpt --law linear writes a parameter file with the law and its covariance;
+    predict traction with it draws the band over the linear law's parameters."""
+    from torlab.fit.layer import fit_layer_hpt
+    from torlab.model.predict import predict_traction
+    from torlab.scene import load_scene
+    from torlab.yamlio import dump_yaml
+
+    res = fit_layer_hpt(_virtual_run(LayerParams(law="linear", mu_c1=0.14, L_mue=8e-6,
+                                                 k_mu=300.0), 14), law="linear")
+    params = tmp_path / "params.yaml"
+    res.to_params(params)
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(dump_yaml({
+        "contact": {"load": "20 kN", "a": "3.7 mm", "b": "3.3 mm"},
+        "materials": {"E1": "210 GPa", "nu1": 0.28, "E2": "210 GPa", "nu2": 0.28},
+        "boundary": {"mu_c1": 0.3, "mu_c2": 0.45, "L_mue": "10 um", "L_mup": "20 um"}}))
+    sc = load_scene(scene, params)
+    assert sc.boundary.law == "linear" and sc.boundary.k_mu == pytest.approx(res.params["k_mu"])
+    t = predict_traction(sc, [0.002, 0.01, 0.03]).table
+    assert np.all(t["mu_low95"] < t["mu"]) and np.all(t["mu"] < t["mu_high95"])

@@ -405,7 +405,8 @@ def predict_creep(scene: Scene, creepage: Any, lateral: float = 0.0, spin: float
             "iterated": "contact temperature: coupled to the limits, iterated to convergence"}
     modelled = [f"Hertz contact ({contact.patch.method})",
                 "boundary friction: FASTSIM with the third-body layer in longitudinal creepage, "
-                "lateral creepage and spin (Kalker's three flexibilities; Voce limit)",
+                "lateral creepage and spin (Kalker's three flexibilities; "
+                f"{prob.layer.law.limit_text})",
                 "EHL film: not modelled (dry scene, no lubricant:)",
                 loop[r.temperature_loop]]
     trend = classify_trend(xi, r.mu_x)

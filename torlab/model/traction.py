@@ -119,15 +119,17 @@ def dry_traction_curve(scene: Scene, creepage: ArrayLike, *,
 
         table = pd.DataFrame(table)
     modelled = [f"Hertz contact ({contact.patch.method})",
-                "boundary friction: FASTSIM with the third-body layer (elastic + Voce)",
+                "boundary friction: FASTSIM with the third-body layer (elastic + "
+                f"{scene.boundary.layer.law.short})",
                 "EHL film: not modelled (dry scene, no lubricant:)",
                 "asperity load sharing: not modelled (dry scene)"]
     modelled.append(temperature_note(res.temperature_loop, prob.layer))
-    b = scene.boundary
-    # without a temperature effect the layer's curve only rises towards its plateau
-    isothermal = scene.thermal is None or (b.mu_c1_T == 0 and b.mu_c2_T == 0)
+    lay = scene.boundary.layer
+    # without a temperature effect the layer's curve only rises towards its plateau, unless
+    # the layer softens
+    isothermal = scene.thermal is None or not any(lay.law.temperature_coefficients(lay))
     trend = classify_trend(xi, res.mu, tolerance=trend_tolerance,
-                           rises_only=isothermal and b.mu_c1 <= b.mu_c2)
+                           rises_only=isothermal and not lay.law.softens(lay))
     summary = _summary(scene, contact, modelled, trend, table)
     if res.temperature_iterations is not None:
         summary["temperature_iterations_max"] = int(np.max(res.temperature_iterations))

@@ -138,6 +138,8 @@ class LayerLaw:
     params: tuple[Param, ...] = ()
     #: the plastic limit in a few words ("Voce limit"), for model descriptions
     limit_text: str = ""
+    #: the plastic branch in a word or two ("Voce"), for the lists of what was modelled
+    short: str = ""
     #: the parameter :meth:`reference_mu` returns, for table attributes
     reference_name: str = "mu_c1"
 
@@ -237,6 +239,11 @@ class LayerLaw:
         """Whether the plastic stress depends on the slip past the limit (False: it stays
         at ``tau_c1`` and the solvers skip the clamped zone)."""
         return True
+
+    def softens(self, lay: LayerParams) -> bool:
+        """Whether the layer's strength falls after the elastic limit (its traction curve
+        can then fall where the contact saturates)."""
+        return False
 
     def reference_mu(self, lay: LayerParams) -> Any:
         """The coefficient that scales the law's traction (normalised tables use

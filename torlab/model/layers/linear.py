@@ -55,6 +55,7 @@ class Linear(LayerLaw):
     reference = "CONTACT user guide, interfacial layer (TAU_C0, K_TAU); Hou et al. (1997)"
     params = (MU_C1, L_MUE, K_MU, MU_C1_T)
     limit_text = "linearly hardening limit"
+    short = "linear hardening"
 
     # -- HPT ----------------------------------------------------------------------------------
     def hpt_plastic(self, s: np.ndarray, sigma: float, lay: LayerParams) -> np.ndarray:
@@ -108,6 +109,9 @@ class Linear(LayerLaw):
 
     def hardens(self, lay: LayerParams) -> bool:
         return bool(np.any(lay.k_mu != 0))
+
+    def softens(self, lay: LayerParams) -> bool:
+        return bool(np.any(lay.k_mu < 0))
 
     # -- elements -----------------------------------------------------------------------------
     def _k_plastic(self, lay: LayerParams) -> float:

@@ -33,6 +33,7 @@ class Perfect(LayerLaw):
     reference = "CONTACT user guide, interfacial layer with K_TAU = 0"
     params = (MU_C1, L_MUE, MU_C1_T)
     limit_text = "perfectly plastic limit"
+    short = "perfectly plastic"
 
     def hpt_plastic(self, s: np.ndarray, sigma: float, lay: LayerParams) -> np.ndarray:
         return np.full(np.shape(s), lay.mu_c1 * sigma)

@@ -50,6 +50,7 @@ class Voce(LayerLaw):
     reference = "thesis Eqs. 5.24, 5.26-5.29; Voce (1948)"
     params = (MU_C1, MU_C2, L_MUE, L_MUP, MU_C1_T, MU_C2_T)
     limit_text = "Voce limit"
+    short = "Voce"
     reference_name = "mu_c2"
 
     # -- HPT ----------------------------------------------------------------------------------
@@ -184,6 +185,9 @@ class Voce(LayerLaw):
 
     def hardens(self, lay: LayerParams) -> bool:
         return not (lay.mu_c2 == lay.mu_c1 and lay.mu_c1_T == lay.mu_c2_T)
+
+    def softens(self, lay: LayerParams) -> bool:
+        return bool(np.any(lay.mu_c2 < lay.mu_c1))
 
     def reference_mu(self, lay: LayerParams) -> Any:
         return lay.mu_c2
