@@ -82,12 +82,12 @@ def load_yaml_text(text: str, path: str | os.PathLike[str] | None = None) -> Yam
     # marks as the pure-Python one, about ten times faster
     safe = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
     try:
-        _check_nesting(yaml.parse(text, Loader=safe), spath)
+        aliases = _check_nesting(yaml.parse(text, Loader=safe), spath)
         loader = safe(text)
         try:
             node = loader.get_single_node()
             if node is not None:
-                _check_expansion(node, spath)
+                _check_expansion(node, spath, aliases)
                 lines = LineMap()
                 lines.lines[()] = node.start_mark.line + 1
                 _walk(node, (), lines, spath)
@@ -109,12 +109,16 @@ def load_yaml_text(text: str, path: str | os.PathLike[str] | None = None) -> Yam
     return YamlDoc(data=data, lines=lines, path=spath)
 
 
-def _check_nesting(events: Any, spath: str | None) -> None:
-    """Refuse text nested deeper than :data:`MAX_DEPTH` before it is composed (recursively)."""
+def _check_nesting(events: Any, spath: str | None) -> bool:
+    """Refuse text nested deeper than :data:`MAX_DEPTH` before it is composed (recursively).
+    Returns whether the text has an alias."""
     import yaml
 
     depth = 0
+    aliases = False
     for ev in events:
+        if isinstance(ev, yaml.AliasEvent):
+            aliases = True
         if isinstance(ev, yaml.CollectionStartEvent):
             depth += 1
             if depth > MAX_DEPTH:
@@ -122,9 +126,10 @@ def _check_nesting(events: Any, spath: str | None) -> None:
                                        line=ev.start_mark.line + 1)
         elif isinstance(ev, yaml.CollectionEndEvent):
             depth -= 1
+    return aliases
 
 
-def _check_expansion(root: Any, spath: str | None) -> None:
+def _check_expansion(root: Any, spath: str | None, aliases: bool = True) -> None:
     """Size and depth of the document with every alias expanded, each node visited once.
 
     Iterative post-order over the node graph (aliases share nodes); a node met
@@ -145,6 +150,11 @@ def _check_expansion(root: Any, spath: str | None) -> None:
             depth[k] = 1 + max((depth[id(c)] for c in kids), default=0)
             active.discard(k)
             if size[k] > MAX_NODES:
+                if not aliases:
+                    raise TorlabInputError(
+                        f"more than {MAX_NODES} values in one YAML file; torlab reads scenes, "
+                        "protocols and parameter files up to that many (put long data in a "
+                        "data file)", path=spath, line=node.start_mark.line + 1)
                 raise TorlabInputError(
                     f"YAML expands to more than {MAX_NODES} values through its aliases "
                     "(&anchor/*alias); write the values out or use fewer aliases", path=spath,

@@ -209,7 +209,7 @@ def _prepare(tt: TimeTest, scene: Scene, layer: Any, *, skip: Any, duration: flo
 
     E = cumulative_trapezoid(power, t, initial=0.0) / area
     N = cumulative_trapezoid(speed, t, initial=0.0) / band.track_length
-    notes: list[str] = []
+    notes: list[str] = [f"{tt.label}: {nt}" for nt in tt.notes]
     curve = table.curve(0)
     if skip == "auto":
         dt = float(np.median(np.diff(t)))
@@ -743,8 +743,15 @@ def fit_removal(tests: TimeTest | Sequence[TimeTest], layer: Any, scene: Scene, 
     theta = f["theta"]
     G, cov_L = _layer_sensitivity(theta, f["jac"], sp, preps, 1.0 if fit_tr else float(transfer),
                                   energy, layer)
-    cov_layer = G @ cov_L @ G.T
-    cov_t = f["cov"] + cov_layer
+    with np.errstate(all="ignore"):
+        cov_layer = G @ cov_L @ G.T
+        cov_t = f["cov"] + cov_layer
+    if not np.all(np.isfinite(cov_t)):
+        names = ", ".join(p.test.label for p in preps)
+        raise TorlabInputError(
+            f"the time test(s) {names} do not determine the {chosen} removal law: its "
+            "uncertainty is not finite (a record that ends before the friction shows the "
+            "removal, or a fit window of too few samples?)", key="tests")
     vals = np.exp(theta)
     D = np.diag(vals)
     cov = D @ cov_t @ D

@@ -187,16 +187,12 @@ def _prefix_scale(unit: str, kind: str) -> float | None:
 
 
 def read_head(path: str | os.PathLike[str]) -> str:
-    """The first :data:`HEAD_BYTES` of a file as text (UTF-8, else Windows-1252), for
-    ``detect``."""
-    with open(path, "rb") as f:
-        raw = f.read(HEAD_BYTES)
-    for enc in ("utf-8-sig", "cp1252"):
-        try:
-            return raw.decode(enc)
-        except UnicodeDecodeError:
-            continue
-    return raw.decode("utf-8", errors="replace")  # pragma: no cover - cp1252 decodes most bytes
+    """The first :data:`HEAD_BYTES` of a file as text, for ``detect``: as the parsers read
+    it (:func:`torlab.parsers._table.head_text`: UTF-8, else Windows-1252; UTF-16 by its
+    byte-order mark; every line end one ``\\n``)."""
+    from torlab.parsers._table import head_text
+
+    return head_text(path, HEAD_BYTES)
 
 
 def convert_options(spec: Mapping[str, Option], options: Mapping[str, Any], owner: str

@@ -113,8 +113,11 @@ def transition_speeds(scene: Scene, *, share_tol: float | None = None) -> dict[s
     A = mc.asperity.coefficient * math.pi * p.a * p.b / F
     n, psi = mc.asperity.n, mc.asperity.sigma
     out: dict[str, float | None] = {}
-    t_f = float(F_n_inverse(n, np.array([tol / A]))[0])
-    out["mixed_to_full_film"] = _speed_for_film(mc.film, t_f * psi, F * (1.0 - tol))
+    if A * float(F_n(n, 0.0)) <= tol:  # the asperities never carry a share of the load
+        out["mixed_to_full_film"] = None  # (a very soft surface): full film at every speed
+    else:
+        t_f = float(F_n_inverse(n, np.array([tol / A]))[0])
+        out["mixed_to_full_film"] = _speed_for_film(mc.film, t_f * psi, F * (1.0 - tol))
     if A * float(F_n(n, 0.0)) > 1.0 - tol:
         t_b = float(F_n_inverse(n, np.array([(1.0 - tol) / A]))[0])
         out["boundary_to_mixed"] = _speed_for_film(mc.film, t_b * psi, F * tol) \
@@ -197,7 +200,9 @@ def transition_evidence(scene: Scene, speed_range: tuple[float, float] | None = 
         if v is None:
             e.update(status="none", notes=[
                 "the asperities carry the whole load only at v = 0: no boundary regime at a "
-                "positive speed"])
+                "positive speed" if key == "boundary_to_mixed" else
+                "the asperities carry less than the mixed regime's share of the load even in "
+                "contact (a very soft surface): full film at every positive speed"])
             out[key] = e
             continue
         if why:

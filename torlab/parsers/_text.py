@@ -1,63 +1,45 @@
-"""Shared low-level helpers of the instrument parsers.
+"""Shared helpers of the instrument parsers, over the reader layer
+:mod:`torlab.parsers._table` (encodings, line ends, size bound, rows and cells).
 
 * :func:`read_text` reads a path or buffer as text (UTF-8 with or without BOM,
-  falling back to Windows-1252, which PCS software sometimes writes), with
-  CRLF/LF line ends normalised, and returns a display name for messages.
-* :func:`parse_numeric_rows` turns delimited text rows into a float array,
-  fast (pandas' C parser) when the rows are clean and, when they are not,
-  re-scans them to report the first bad line exactly (truncated row, text in a
-  number column, wrong field count, NaN).
+  falling back to Windows-1252, which PCS software sometimes writes; UTF-16 with its
+  BOM), with every line end normalised, and returns a display name for messages.
+* :func:`parse_numeric_rows` turns delimited text rows held in memory into a float
+  array, with the reader layer's rules (the field count of every row, one error naming
+  the file, line and column of the first bad cell).
+* The ``torlab-*`` log header: :func:`read_log_header`, :func:`parse_log_columns`,
+  :func:`header_key` and the value helpers.
 """
 
 from __future__ import annotations
 
-import io
-import math
 import os
 import re
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
-from pathlib import Path
 from typing import IO, Any
 
 import numpy as np
 
 from torlab.errors import TorlabInputError
+from torlab.parsers._table import (  # the one reader layer; number_field re-exported
+    MAX_TEXT_BYTES,
+    RowSpec,
+    TextFile,
+    number_field,
+    parse_rows,
+)
 
-# ASCII digits only: float() also reads the digits of other scripts ('\u0664'), pandas does not
-_NUMBER_FIELD = re.compile(r"[+-]?(?:(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|inf(?:inity)?|nan)",
-                           re.IGNORECASE | re.ASCII)
-
-__all__ = ["LogMetadata", "PathOrBuffer", "detect_delimiter", "header_key", "number_field",
-           "parse_log_columns", "parse_numeric_rows", "read_log_header", "read_text",
-           "refuse_below_absolute_zero", "sign_value", "split_unit"]
+__all__ = ["MAX_TEXT_BYTES", "LogMetadata", "PathOrBuffer", "detect_delimiter", "header_key",
+           "number_field", "parse_log_columns", "parse_numeric_rows", "read_log_header",
+           "read_text", "refuse_below_absolute_zero", "sign_value", "split_unit"]
 
 PathOrBuffer = str | os.PathLike[str] | IO[str] | IO[bytes]
 
-#: largest text input read (bytes); a path must be a regular file (no FIFO or device)
-MAX_TEXT_BYTES = 1 << 30
-
-
-def number_field(f: str, *, path: Any, line: int, column: str, shown: str | None = None
-                 ) -> float:
-    """One field of a data row as a finite number; the error names the file, line and column.
-
-    Only plain decimal numbers are taken (``float()`` alone would accept ``'1_0'``
-    or surrounding control characters); ``nan`` and ``inf`` are refused.
-    """
-    shown = f if shown is None else shown
-    if not _NUMBER_FIELD.fullmatch(f):
-        raise TorlabInputError(f"{shown!r} is not a number", path=path, line=line,
-                               key=f"column {column!r}")
-    v = float(f)
-    if not math.isfinite(v):
-        raise TorlabInputError(f"{shown!r} is not a finite number", path=path, line=line,
-                               key=f"column {column!r}")
-    return v
-
 
 def read_text(src: PathOrBuffer, *, name: str | None = None) -> tuple[str, str]:
-    """Read ``src`` (path, text buffer or bytes buffer) as text.
+    """Read ``src`` (path, text buffer or bytes buffer) as text
+    (:class:`torlab.parsers._table.TextFile`: encodings, line ends, size bound).
 
     Returns
     -------
@@ -69,38 +51,11 @@ def read_text(src: PathOrBuffer, *, name: str | None = None) -> tuple[str, str]:
     ------
     TorlabInputError
         File missing, a folder, not a regular file (a FIFO or ``/dev/zero``
-        would block or never end), larger than :data:`MAX_TEXT_BYTES`, or
-        unreadable.
+        would block or never end), larger than :data:`MAX_TEXT_BYTES` (said
+        before reading it), binary, or unreadable.
     """
-    if isinstance(src, (str, os.PathLike)):
-        from torlab.files import open_regular
-
-        p = Path(src)
-        display = name or str(p)
-        try:
-            with open_regular(p) as f:
-                raw = f.read(MAX_TEXT_BYTES + 1)
-        except TorlabInputError as e:
-            raise TorlabInputError(e.message, path=display) from None
-        except OSError as e:
-            raise TorlabInputError(f"cannot read ({e.strerror})", path=display) from None
-        if len(raw) > MAX_TEXT_BYTES:
-            raise TorlabInputError(f"larger than {MAX_TEXT_BYTES >> 20} MiB; torlab reads "
-                                   "instrument logs up to that size", path=display)
-    else:
-        display = name or getattr(src, "name", None) or "<buffer>"
-        raw = src.read()
-    if isinstance(raw, bytes):
-        if b"\x00" in raw[:4096]:
-            raise TorlabInputError("binary file, expected text", path=display)
-        try:
-            text = raw.decode("utf-8-sig")
-        except UnicodeDecodeError:
-            text = raw.decode("cp1252", errors="replace")
-    else:
-        text = raw.removeprefix("\ufeff")
-    text = text.replace("\r\n", "\n").replace("\r", "\n")
-    return text, str(display)
+    with TextFile(src, name=name) as tf:
+        return tf.read_text(), tf.display
 
 
 def split_unit(header: str) -> tuple[str, str]:
@@ -134,7 +89,8 @@ def parse_numeric_rows(
     use: Sequence[int] | None = None,
     allow_empty: Sequence[bool] | None = None,
 ) -> np.ndarray:
-    """Parse delimited numeric rows into an ``(n_rows, n_used)`` float array.
+    """Parse delimited numeric rows into an ``(n_rows, n_used)`` float array
+    (:func:`torlab.parsers._table.parse_rows`).
 
     Parameters
     ----------
@@ -158,70 +114,16 @@ def parse_numeric_rows(
     ------
     TorlabInputError
         Naming the file, the 1-based line and the column, for the first bad
-        field: wrong number of fields (a truncated row), text in a number
-        column, NaN or infinity, a blank line between rows.
+        field: another number of fields than the header's (a truncated row, a
+        decimal comma), text in a number column, NaN or infinity, a blank line
+        between rows.
     """
-    ncol = len(columns)
-    use = list(range(ncol)) if use is None else list(use)
-    allow_empty = [False] * len(use) if allow_empty is None else list(allow_empty)
     n = len(lines)
     while n and not lines[n - 1].strip():
         n -= 1
-    lines = lines[:n]
-    if n == 0:
-        return np.empty((0, len(use)))
-    body = "\n".join(lines)
-    arr = None
-    try:
-        import pandas as pd
-
-        df = pd.read_csv(io.StringIO(body), sep=delimiter, decimal=decimal, header=None,
-                         names=list(range(ncol)), usecols=use, dtype=float, engine="c",
-                         skip_blank_lines=False, na_filter=True, keep_default_na=False,
-                         na_values=[""])
-        arr = df[use].to_numpy(dtype=float)
-        if arr.shape[0] != n:
-            arr = None
-    except Exception:  # any parser complaint: the exact scan below names the line
-        arr = None
-    if arr is not None:
-        bad_nan = ~np.isfinite(arr)
-        if allow_empty and any(allow_empty):
-            bad_nan &= ~(np.isnan(arr) & np.asarray(allow_empty)[None, :])
-        # pandas pads a short (truncated) row with NaN: with no empty field allowed the
-        # NaN check catches it, otherwise count the fields
-        if not bad_nan.any() and (not any(allow_empty) or _field_counts_ok(lines, delimiter, ncol)):
-            return arr
-    _scan_for_error(lines, first_line_no, columns, path=path, delimiter=delimiter,
-                    decimal=decimal, use=use, allow_empty=allow_empty)
-    raise AssertionError("unreachable: scan found no error")  # pragma: no cover
-
-
-def _field_counts_ok(lines: Sequence[str], delimiter: str, ncol: int) -> bool:
-    return all(line.count(delimiter) == ncol - 1 for line in lines)
-
-
-def _scan_for_error(lines: Sequence[str], first_line_no: int, columns: Sequence[str], *,
-                    path: str, delimiter: str, decimal: str, use: Sequence[int],
-                    allow_empty: Sequence[bool]) -> None:
-    ncol = len(columns)
-    for i, line in enumerate(lines):
-        ln = first_line_no + i
-        if not line.strip():
-            raise TorlabInputError("blank line between data rows", path=path, line=ln)
-        fields = line.split(delimiter)
-        if len(fields) != ncol:
-            hint = " (truncated row?)" if len(fields) < ncol else ""
-            raise TorlabInputError(f"expected {ncol} fields separated by {delimiter!r}, found "
-                                   f"{len(fields)}{hint}", path=path, line=ln)
-        for j, ae in zip(use, allow_empty, strict=True):
-            f = fields[j].strip(" \t")
-            if not f:
-                if ae:
-                    continue
-                raise TorlabInputError("empty value", path=path, line=ln, key=f"column {columns[j]!r}")
-            number_field(f.replace(decimal, ".") if decimal != "." else f, path=path,
-                         line=ln, column=columns[j], shown=f)  # raises on the bad field
+    spec = RowSpec(list(columns), list(range(len(columns))) if use is None else list(use), path,
+                   delimiter=delimiter, decimal=decimal, allow_empty=allow_empty)
+    return parse_rows(list(lines[:n]), first_line_no, spec)
 
 
 def as_path_str(p: Any) -> str:

@@ -44,7 +44,6 @@ from torlab.parsers._text import (
     PathOrBuffer,
     detect_delimiter,
     header_key,
-    parse_numeric_rows,
     read_log_header,
     read_text,
     refuse_below_absolute_zero,
@@ -248,18 +247,49 @@ def read_hpt_map(path: PathOrBuffer) -> dict[str, Any]:
     meta = d.get("metadata") or {}
     if not isinstance(meta, dict):
         raise doc.error(("metadata",), "must be a mapping of header keys to values")
+    delimiter, decimal, header_line, skip = _map_layout(doc, d)
     return {
         "path": doc.path or "<map>",
-        "delimiter": str(d.get("delimiter", ",")).replace("\\t", "\t").replace("tab", "\t"),
-        "decimal": str(d.get("decimal", ".")),
-        "header_line": d.get("header_line"),
-        "skip": int(d.get("skip_lines_after_header", 0) or 0),
+        "delimiter": delimiter,
+        "decimal": decimal,
+        "header_line": header_line,
+        "skip": skip,
         "columns": out_cols,
         "metadata": {str(k): (str(v), doc.lines.line(("metadata", k))) for k, v in meta.items()},
     }
 
 
-def read_hpt(src: PathOrBuffer, mapping: PathOrBuffer | dict[str, Any] | None = None, *,  # noqa: C901 (one pass over a vendor header: each key is a branch)
+def _map_layout(doc: Any, d: dict[str, Any]) -> tuple[str, str, int | None, int]:
+    """A column map's delimiter, decimal mark, header line and lines skipped, checked: an
+    error naming the map's line for one that cannot be meant."""
+    delimiter = d.get("delimiter", ",")
+    if not isinstance(delimiter, str):
+        raise doc.error(("delimiter",), "must be one character in quotes (e.g. ';' or '\\t')")
+    delimiter = {"\\t": "\t", "tab": "\t"}.get(delimiter, delimiter)
+    if len(delimiter) != 1 or delimiter in "0123456789.+-eE\"\r\n#":
+        raise doc.error(("delimiter",), f"must be one character that cannot be part of a "
+                        f"number (e.g. ';', ',' or '\\t'), got {delimiter!r}")
+    decimal = d.get("decimal", ".")
+    if decimal not in (".", ","):
+        raise doc.error(("decimal",), f"must be '.' or ',', got {decimal!r}")
+    if decimal == delimiter:
+        raise doc.error(("decimal",), f"the decimal mark {decimal!r} cannot also be the "
+                        "delimiter")
+    header_line = d.get("header_line")
+    if header_line is not None and (not isinstance(header_line, int)
+                                    or isinstance(header_line, bool) or header_line < 1):
+        raise doc.error(("header_line",), f"must be a whole number >= 1 (the line of the "
+                        f"column names), got {header_line!r}")
+    skip = d.get("skip_lines_after_header", 0)
+    if skip is None:
+        skip = 0
+    if not isinstance(skip, int) or isinstance(skip, bool) or skip < 0:
+        raise doc.error(("skip_lines_after_header",), f"must be a whole number >= 0 (lines "
+                        f"between the column names and the first row), got {skip!r}")
+    return delimiter, decimal, header_line, skip
+
+
+def read_hpt(src: PathOrBuffer, mapping: PathOrBuffer | dict[str, Any] | None = None, *,
              name: str | None = None) -> tuple[Any, HptMetadata]:
     """Read an HPT raw log.
 
@@ -288,61 +318,65 @@ def read_hpt(src: PathOrBuffer, mapping: PathOrBuffer | dict[str, Any] | None = 
         row, text in a number column, zero or negative load, angle or time
         going backwards.
     """
-    import pandas as pd
+    try:
+        return _read_hpt(src, mapping, name=name)
+    except MemoryError:
+        from torlab.parsers._table import memory_error
 
-    text, display = read_text(src, name=name)
-    lines = text.split("\n")
-    meta = HptMetadata(source=display)
-    if not text.strip():
-        raise TorlabInputError("file is empty", path=display)
+        raise memory_error(src, name) from None
+
+
+def _read_hpt(src: PathOrBuffer, mapping: PathOrBuffer | dict[str, Any] | None, *,
+              name: str | None) -> tuple[Any, HptMetadata]:
+    from torlab.parsers._table import RowSpec, TextFile, read_columns
+
     if mapping is not None and not isinstance(mapping, dict):
         mapping = read_hpt_map(mapping)
-
-    if mapping is None:
-        header_idx, delimiter, decimal, skip = _read_native_header(lines, meta, display)
-        colspecs = None
-    else:
-        header_idx, delimiter, decimal, skip = _locate_mapped_header(lines, mapping, display)
-        colspecs = mapping["columns"]
-        for k, (v, ln) in mapping["metadata"].items():
-            _set_meta(meta, k, v, path=mapping["path"], line=ln, source="column-map metadata")
-
-    header_line_no = header_idx + 1
-    header = lines[header_idx]
-    fields = header.split(delimiter)
-    if len(fields) == 1:
-        other = detect_delimiter(header, [d for d in (",", "\t", ";", "|") if d != delimiter])
-        if other is not None:
-            raise TorlabInputError(
-                f"columns are separated by {other!r}, expected {delimiter!r}"
-                + (" (set 'delimiter' in the column map)" if mapping else
-                   " (torlab-hpt logs are comma-separated; use --map for other layouts)"),
-                path=display, line=header_line_no)
-    use_idx, si_names, scales, offsets = _resolve_columns(
-        fields, colspecs, meta, display, header_line_no, mapping)
-
-    first = header_idx + 1 + skip
-    body = lines[first:]
-    # trailing comment lines (e.g. '# end of run') are allowed
-    while body and (not body[-1].strip() or body[-1].lstrip().startswith("#")):
-        body.pop()
-    if not body:
-        raise TorlabInputError("no data rows after the column header", path=display,
-                               line=header_line_no)
-    names = [f.strip() for f in fields]
-    arr = parse_numeric_rows(body, first + 1, names, path=display, delimiter=delimiter,
-                             decimal=decimal, use=use_idx)
-    data = {}
-    for j, (si, sc, off) in enumerate(zip(si_names, scales, offsets, strict=True)):
-        data[si] = arr[:, j] * sc + off
-    df = pd.DataFrame(data)
-    df["line"] = np.arange(first + 1, first + 1 + len(df))
-    if "arm_force_N" in df:
+    with TextFile(src, name=name) as tf:
+        display = tf.display
+        meta = HptMetadata(source=display)
+        lines, header_idx, delimiter, decimal, skip, colspecs = _header(tf, mapping, meta)
+        header_line_no = header_idx + 1
+        header = lines[header_idx]
+        fields = header.split(delimiter)
+        if len(fields) == 1:
+            other = detect_delimiter(header, [d for d in (",", "\t", ";", "|") if d != delimiter])
+            if other is not None:
+                raise TorlabInputError(
+                    f"columns are separated by {other!r}, expected {delimiter!r}"
+                    + (" (set 'delimiter' in the column map)" if mapping else
+                       " (torlab-hpt logs are comma-separated; use --map for other layouts)"),
+                    path=display, line=header_line_no)
+        use_idx, si_names, scales, offsets = _resolve_columns(
+            fields, colspecs, meta, display, header_line_no, mapping)
+        first = header_line_no + 1 + skip  # file line of the first data row
+        spec = RowSpec([f.strip() for f in fields], use_idx, display, delimiter=delimiter,
+                       decimal=decimal, scales=scales, offsets=offsets,
+                       units=[split_unit(fields[j])[1] for j in use_idx],
+                       hint=" (declare decimal: ',' in a column map)" if mapping else
+                       " (torlab-hpt logs use '.')")
+        try:
+            cols = read_columns(tf, first, spec)
+        except TorlabInputError as e:
+            if skip and e.message.startswith("no data rows"):
+                raise TorlabInputError(f"no data rows after the column header and the {skip} "
+                                       "lines skipped after it (skip_lines_after_header)",
+                                       path=display, line=header_line_no) from None
+            raise
+    data = dict(zip(si_names, cols, strict=True))
+    if "arm_force_N" in data:
         if meta.arm_length is None:
             raise TorlabInputError("the log has an arm_force column but no 'arm_length' header "
                                    "(torque = arm force x arm length)", path=display)
-        if "torque_N_m" not in df:
-            df["torque_N_m"] = df["arm_force_N"] * meta.arm_length
+        arm = data.pop("arm_force_N")
+        if "torque_N_m" not in data:
+            arm *= meta.arm_length  # in place: a long log's column is not copied
+            data["torque_N_m"] = arm
+    n = len(cols[0])
+    data["line"] = np.arange(first, first + n)
+    import pandas as pd
+
+    df = pd.DataFrame(data, copy=False)
     for req in ("r1", "r2"):
         if getattr(meta, req) is None:
             raise TorlabInputError(f"missing header key {req!r} (annulus radius, e.g. "
@@ -354,6 +388,29 @@ def read_hpt(src: PathOrBuffer, mapping: PathOrBuffer | dict[str, Any] | None = 
     _check_rows(df, meta, display)
     refuse_below_absolute_zero(df, display)
     return df, meta
+
+
+def _header(tf: Any, mapping: dict[str, Any] | None, meta: HptMetadata
+            ) -> tuple[list[str], int, str, str, int, dict[str, Any] | None]:
+    """The lines up to the column header, its index, the delimiter, decimal mark, lines
+    skipped after it and the map's columns (None for a torlab-hpt log)."""
+    display = tf.display
+    if mapping is None:
+        lines = tf.head(lambda ln, s: ln > 1 and bool(s.strip())
+                        and not s.lstrip().startswith("#"))
+    elif mapping["header_line"] is not None:
+        lines = tf.head(lambda ln, s: ln >= mapping["header_line"])
+    else:
+        lines = tf.head(lambda ln, s: bool(s.strip()) and not s.lstrip().startswith("#"))
+    if not any(s.strip() for s in lines):
+        raise TorlabInputError("file is empty", path=display)
+    if mapping is None:
+        header_idx, delimiter, decimal, skip = _read_native_header(lines, meta, display)
+        return lines, header_idx, delimiter, decimal, skip, None
+    header_idx, delimiter, decimal, skip = _locate_mapped_header(lines, mapping, display)
+    for k, (v, ln) in mapping["metadata"].items():
+        _set_meta(meta, k, v, path=mapping["path"], line=ln, source="column-map metadata")
+    return lines, header_idx, delimiter, decimal, skip, mapping["columns"]
 
 
 def _read_native_header(lines: list[str], meta: HptMetadata, display: str) -> tuple[int, str, str, int]:
@@ -368,8 +425,10 @@ def _locate_mapped_header(lines: list[str], mapping: dict[str, Any], display: st
     hl = mapping["header_line"]
     if hl is not None:
         idx = int(hl) - 1
-        if idx < 0 or idx >= len(lines):
-            raise TorlabInputError(f"header_line {hl} is beyond the end of the file", path=display)
+        if idx >= len(lines):
+            raise TorlabInputError(f"header_line {hl} is beyond the end of the file "
+                                   f"({len(lines)} lines)", path=display,
+                                   key="header_line")
     else:
         idx = next((i for i, s in enumerate(lines) if s.strip() and not s.lstrip().startswith("#")), None)
         if idx is None:

@@ -22,9 +22,10 @@ without it must give set-point columns (``ball_speed_set``,
 Logs are long (30 minutes at 1 kHz = 1.8 M rows), so the reader works in
 chunks: :func:`iter_optical_chunks` yields validated SI chunks with bounded
 memory (the reduction in :mod:`torlab.reduce.optical` consumes them), and
-:func:`read_optical` concatenates them for small logs.  A byte-level pass
-first checks the field count of every row (a truncated row is an error, not a
-row of missing values) and finds trailing blank or ``#`` lines.
+:func:`read_optical` concatenates them for small logs.  The rows are read by the
+reader layer (:mod:`torlab.parsers._table`): every row's field count is checked
+before the first chunk (a truncated row is an error, not a row of missing values),
+line ends are the same for the header and the data.
 """
 
 from __future__ import annotations
@@ -40,15 +41,14 @@ from typing import Any
 import numpy as np
 
 from torlab.errors import TorlabInputError
+from torlab.parsers._table import RowSpec, TextFile, iter_column_blocks
 from torlab.parsers._text import (
-    _NUMBER_FIELD,
     LogMetadata,
     PathOrBuffer,
     choice_value,
     header_key,
     parse_log_columns,
     read_log_header,
-    read_text,
     sign_value,
 )
 
@@ -140,17 +140,15 @@ class OpticalSource:
 
     meta: OpticalMetadata
     path: str | None
-    blob: bytes | None  # the text of a buffer, UTF-8 encoded
+    blob: bytes | None  # the bytes of a buffer
     header_line: int  # 1-based line of the column header
-    ncol: int
-    use: list[int]
     names: list[str]  # SI names of the used columns
-    scales: list[float]
-    offsets: list[float]
-    may_be_empty: list[bool]
-    cells: list[str]
-    data_offset: int  # byte (path) or char (text) offset of the first data line
-    data_end: int  # offset after the last data row (trailing blank and '#' lines excluded)
+    spec: RowSpec  # the data rows (torlab.parsers._table)
+
+    def open(self) -> TextFile:
+        """The log as a :class:`~torlab.parsers._table.TextFile`."""
+        src: Any = self.path if self.path is not None else io.BytesIO(self.blob or b"")
+        return TextFile(src, name=self.meta.source)
 
 
 def _set_meta(meta: OpticalMetadata, key: str, value: str, path: str, line: int) -> None:
@@ -181,7 +179,7 @@ _HEADER_RANGES = {"ball_radius": "ball_radius", "temperature": "temperature",
                   "lubricant_viscosity": "viscosity"}
 
 
-def open_optical(src: PathOrBuffer, *, name: str | None = None) -> OpticalSource:  # noqa: C901 (each way the rig writes its log is a case)
+def open_optical(src: PathOrBuffer, *, name: str | None = None) -> OpticalSource:
     """Read the header of a ``torlab-optical`` log and check its rows' field counts.
 
     Returns
@@ -199,42 +197,25 @@ def open_optical(src: PathOrBuffer, *, name: str | None = None) -> OpticalSource
     from torlab.units import parse_unit_factor
 
     path: str | None = None
-    text: str | None = None
+    blob: bytes | None = None
     if isinstance(src, (str, os.PathLike)):
         path = os.fspath(src)
-        display = name or path
-        try:
-            size = os.path.getsize(path)
-        except FileNotFoundError:
-            raise TorlabInputError("file not found", path=display) from None
-        except OSError as e:
-            raise TorlabInputError(f"cannot read ({e.strerror})", path=display) from None
-        if os.path.isdir(path):
-            raise TorlabInputError("is a folder, expected a file", path=display)
-        from torlab.files import open_regular
-
-        try:
-            with open_regular(path) as f:
-                head = f.read(min(size, 1 << 16))
-        except TorlabInputError as e:
-            raise TorlabInputError(e.message, path=display) from None
-        if b"\x00" in head[:4096]:
-            raise TorlabInputError("binary file, expected text", path=display)
-        head_text, _ = read_text(io.BytesIO(head), name=display)
-        if not head_text.strip():
-            raise TorlabInputError("file is empty", path=display)
-        hlines = head_text.split("\n")
+        tf = TextFile(path, name=name)
     else:
-        text, display = read_text(src, name=name)
-        if not text.strip():
-            raise TorlabInputError("file is empty", path=display)
-        hlines = text.split("\n")
+        raw = src.read()
+        blob = raw.encode("utf-8", "surrogatepass") if isinstance(raw, str) else raw
+        tf = TextFile(io.BytesIO(blob), name=name or getattr(src, "name", None))
+    with tf:
+        display = tf.display
+        hlines = tf.head(lambda ln, s: ln > 1 and bool(s.strip())
+                         and not s.lstrip().startswith("#"))
+    if not any(s.strip() for s in hlines):
+        raise TorlabInputError("file is empty", path=display)
     meta = OpticalMetadata(source=display)
     meta.format_version, hi = read_log_header(
         hlines, FORMAT_ID, FORMAT_VERSION, display,
         lambda k, v, ln: _set_meta(meta, k, v, display, ln),
-        hint=" (PCS EHD2 exports are read too)",
-        stop=len(hlines) - (0 if text is not None else 1))
+        hint=" (PCS EHD2 exports are read too)")
     header_line = hi + 1
     header = hlines[hi]
     cells = header.split(",")
@@ -255,7 +236,7 @@ def open_optical(src: PathOrBuffer, *, name: str | None = None) -> OpticalSource
     if "torque" in found and meta.ball_radius is None:
         raise TorlabInputError("a torque column needs the 'ball_radius' header (mu = torque / "
                                "(ball radius x load))", path=display, line=header_line)
-    use, names, scales, offsets, empty = [], [], [], [], []
+    use, names, scales, offsets, empty, units = [], [], [], [], [], []
     for nm, (j, unit) in sorted(found.items(), key=lambda kv: kv[1][0]):
         kind, si, may_empty = COLUMNS[nm]
         sc, off = parse_unit_factor(unit, kind, where=f"column {nm!r}", path=display,
@@ -265,96 +246,12 @@ def open_optical(src: PathOrBuffer, *, name: str | None = None) -> OpticalSource
         scales.append(sc)
         offsets.append(off)
         empty.append(may_empty)
+        units.append(unit)
         meta.columns[si] = cells[j].strip()
-    ncol = len(cells)
-    blob = None if text is None else text.encode("utf-8")
-    with _open_binary(path, blob) as f:
-        offset, end = _data_range(f, header_line, display)
-    if end <= offset:
-        raise TorlabInputError("no data rows after the column header", path=display,
-                               line=header_line)
-    return OpticalSource(meta=meta, path=path, blob=blob, header_line=header_line, ncol=ncol,
-                         use=use, names=names, scales=scales, offsets=offsets, may_be_empty=empty,
-                         cells=[c.strip() for c in cells], data_offset=offset, data_end=end)
-
-
-def _trailing(tail: bytes) -> int:
-    """Bytes at the end of ``tail`` taken by trailing blank and '#' lines."""
-    lines = tail.split(b"\n")
-    n = len(tail)
-    cut = n
-    # the part after the last newline, then whole lines backwards
-    for k in range(len(lines) - 1, -1, -1):
-        ln = lines[k]
-        s = ln.strip()
-        if s == b"" or s.startswith(b"#"):
-            cut -= len(ln) + (1 if k < len(lines) - 1 else 0)
-            continue
-        break
-    return n - max(cut, 0)
-
-
-def _open_binary(path: str | None, blob: bytes | None) -> Any:
-    return open(path, "rb") if path is not None else io.BytesIO(blob or b"")
-
-
-def _data_range(f: Any, header_line: int, display: str) -> tuple[int, int]:
-    """Byte offsets of the first data row and of the end of the last one."""
-    for _ in range(header_line):
-        if not f.readline():
-            raise TorlabInputError("no data rows after the column header", path=display,
-                                   line=header_line)
-    offset = f.tell()
-    size = f.seek(0, os.SEEK_END)
-    tail_len = min(size - offset, 1 << 16)
-    f.seek(size - tail_len)
-    tail = f.read(tail_len)
-    return offset, size - _trailing(tail)
-
-
-class _CountingReader(io.RawIOBase):
-    """Reads ``[start, end)`` of a binary stream and counts the commas it hands out."""
-
-    def __init__(self, f: Any, start: int, end: int) -> None:
-        self.f = f
-        self.f.seek(start)
-        self.left = end - start
-        self.commas = 0
-
-    def readable(self) -> bool:
-        return True
-
-    def read(self, n: int = -1) -> bytes:
-        if self.left <= 0:
-            return b""
-        n = self.left if n is None or n < 0 else min(n, self.left)
-        data = self.f.read(n)
-        self.left -= len(data)
-        self.commas += data.count(b",")
-        return data
-
-    def readinto(self, b: Any) -> int:
-        data = self.read(len(b))
-        b[: len(data)] = data
-        return len(data)
-
-
-def _find_bad_field_count(f: Any, first_line: int, n_rows: int, ncol: int, display: str,
-                          cells: list[str]) -> None:
-    for i in range(n_rows):
-        line = f.readline()
-        if not line:
-            break
-        line = line.rstrip("\r\n")
-        k = line.count(",") + 1
-        if k != ncol:
-            if not line.strip():
-                raise TorlabInputError("blank line between data rows", path=display,
-                                       line=first_line + i)
-            hint = " (truncated row?)" if k < ncol else ""
-            raise TorlabInputError(f"expected {ncol} fields separated by ',', found {k}{hint}",
-                                   path=display, line=first_line + i)
-    raise TorlabInputError("the rows do not have the header's number of fields", path=display)
+    spec = RowSpec([c.strip() for c in cells], use, display, allow_empty=empty, scales=scales,
+                   offsets=offsets, units=units, hint=" (torlab-optical logs use '.')")
+    return OpticalSource(meta=meta, path=path, blob=blob, header_line=header_line, names=names,
+                         spec=spec)
 
 
 def iter_optical_chunks(src: OpticalSource, chunksize: int = 250_000) -> Iterator[Any]:
@@ -378,81 +275,30 @@ def iter_optical_chunks(src: OpticalSource, chunksize: int = 250_000) -> Iterato
 
 def iter_optical_arrays(src: OpticalSource, chunksize: int = 250_000) -> Iterator[dict[str, Any]]:
     """As :func:`iter_optical_chunks`, yielding dicts of numpy arrays (no DataFrame)."""
-    import pandas as pd
-
     display = src.meta.source
-    first_line = src.header_line + 1
-    raw = _open_binary(src.path, src.blob)
-    counter = _CountingReader(raw, src.data_offset, src.data_end)
-    try:
-        reader = pd.read_csv(
-            io.BufferedReader(counter, buffer_size=1 << 20), sep=",", header=None,
-            names=list(range(src.ncol)), usecols=src.use,
-            dtype=dict.fromkeys(src.use, np.float64), engine="c", chunksize=chunksize,
-            skip_blank_lines=False, keep_default_na=False, na_values=[""], quoting=3,
-            encoding="utf-8", encoding_errors="replace")
-        done = 0
-        t_prev = -math.inf
-        while True:
-            try:
-                chunk = next(reader)
-            except StopIteration:
-                break
-            except Exception:  # text in a number column, too many fields: find the exact line
-                _rescan(src, done, chunksize)
-                raise TorlabInputError("unreadable rows", path=display,
-                                       line=first_line + done) from None
-            n = len(chunk)
-            first = first_line + done
-            out: dict[str, Any] = {}
-            for k, j in enumerate(src.use):
-                v = chunk[j].to_numpy(dtype=np.float64)
-                _validate_column(v, k, src, first)
-                if src.scales[k] != 1.0 or src.offsets[k] != 0.0:
-                    v = v * src.scales[k] + src.offsets[k]
-                out[src.names[k]] = v
-            t = out["time_s"]
-            if t[0] <= t_prev or (n > 1 and not (t[1:] > t[:-1]).all()):
-                d = np.diff(t, prepend=t_prev)
-                i = int(np.argmax(d <= 0))
-                raise TorlabInputError("time does not increase", path=display, line=first + i,
-                                       key="time")
-            t_prev = float(t[-1])
-            out["line"] = np.arange(first, first + n)
-            done += n
-            yield out
-        if counter.commas != done * (src.ncol - 1):
-            _field_count_error(src, done)
-    finally:
-        raw.close()
+    t_prev = -math.inf
+    with src.open() as tf:
+        for first, cols in iter_column_blocks(tf, src.header_line + 1, src.spec):
+            n_block = len(cols[0])
+            for s0 in range(0, n_block, chunksize):
+                n = min(chunksize, n_block - s0)
+                out = {nm: v[s0: s0 + n] for nm, v in zip(src.names, cols, strict=True)}
+                first_row = first + s0
+                for nm in src.names:
+                    _validate_column(out[nm], nm, first_row, display)
+                t = out["time_s"]
+                if t[0] <= t_prev or (n > 1 and not (t[1:] > t[:-1]).all()):
+                    d = np.diff(t, prepend=t_prev)
+                    i = int(np.argmax(d <= 0))
+                    raise TorlabInputError("time does not increase", path=display,
+                                           line=first_row + i, key="time")
+                t_prev = float(t[-1])
+                out["line"] = np.arange(first_row, first_row + n)
+                yield out
 
 
-def _field_count_error(src: OpticalSource, n_rows: int) -> None:
-    """A row has the wrong number of fields somewhere: name it (raises)."""
-    f = io.TextIOWrapper(_open_binary(src.path, src.blob), encoding="utf-8", errors="replace",
-                         newline=None)
-    try:
-        for _ in range(src.header_line):
-            f.readline()
-        _find_bad_field_count(f, src.header_line + 1, n_rows, src.ncol, src.meta.source,
-                              src.cells)
-    finally:
-        f.close()
-
-
-def _validate_column(v: np.ndarray, k: int, src: OpticalSource, first: int) -> None:
-    """Finite values (NaN allowed where the column may be empty) and per-column rules."""
-    display = src.meta.source
-    cell = src.cells[src.use[k]]
-    name = src.names[k]
-    if not np.isfinite(v).all():
-        bad = ~np.isfinite(v)
-        if src.may_be_empty[k]:
-            bad &= ~np.isnan(v)
-        if bad.any():
-            i = int(np.argmax(bad))
-            msg = "empty value" if np.isnan(v[i]) else f"{v[i]:g} is not a finite number"
-            raise TorlabInputError(msg, path=display, line=first + i, key=f"column {cell!r}")
+def _validate_column(v: np.ndarray, name: str, first: int, display: str) -> None:
+    """The per-column rules (finite values and empty cells: the reader layer)."""
     if name == "normal_load_N":
         if not (v > 0).all():
             i = int(np.argmax(~(v > 0)))
@@ -476,38 +322,6 @@ def _validate_column(v: np.ndarray, k: int, src: OpticalSource, first: int) -> N
             i = int(np.argmax(badc))
             raise TorlabInputError(f"condition must be a whole number >= 0, got {v[i]:g}",
                                    path=display, line=first + i, key="condition")
-
-
-def _rescan(src: OpticalSource, done: int, chunksize: int) -> None:
-    """Find the first bad field among the rows of the failed chunk (raises)."""
-    first = src.header_line + 1 + done
-    f = io.TextIOWrapper(_open_binary(src.path, src.blob), encoding="utf-8", errors="replace",
-                         newline=None)
-    try:
-        for _ in range(src.header_line + done):
-            f.readline()
-        for i in range(chunksize):
-            row = f.readline()
-            if not row:
-                break
-            fields = row.rstrip("\r\n").split(",")
-            if len(fields) != src.ncol:
-                raise TorlabInputError(f"expected {src.ncol} fields separated by ',', found "
-                                       f"{len(fields)}", path=src.meta.source, line=first + i)
-            for k, j in enumerate(src.use):
-                s = fields[j].strip(" \t")
-                if not s and src.may_be_empty[k]:
-                    continue
-                if not _NUMBER_FIELD.fullmatch(s):
-                    raise TorlabInputError(f"{s!r} is not a number" if s else "empty value",
-                                           path=src.meta.source, line=first + i,
-                                           key=f"column {src.cells[j]!r}")
-                v = float(s)
-                if not math.isfinite(v):
-                    raise TorlabInputError(f"{s!r} is not a finite number", path=src.meta.source,
-                                           line=first + i, key=f"column {src.cells[j]!r}")
-    finally:
-        f.close()
 
 
 def read_optical(src: PathOrBuffer, *, name: str | None = None) -> tuple[Any, OpticalMetadata]:

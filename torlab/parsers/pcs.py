@@ -63,8 +63,6 @@ blank line between data rows, a bad date or duration.
 
 from __future__ import annotations
 
-import csv
-import io
 import math
 import re
 from dataclasses import asdict, dataclass, field
@@ -76,7 +74,6 @@ import numpy as np
 from torlab.errors import TorlabInputError
 from torlab.parsers._text import (
     PathOrBuffer,
-    number_field,
     read_text,
     refuse_below_absolute_zero,
     split_unit,
@@ -247,7 +244,6 @@ _HEATING = re.compile(r"Controlling temperature to\s*(?P<T>[+-]?\d+(?:\.\d*)?)\s
                       r"(?:\s+using the\s+(?P<probe>\w+)\s+probe)?(?:\s+for\s+(?P<d>[\d:]+))?",
                       re.IGNORECASE)
 _NUMERIC_START = re.compile(r"^\s*[+-]?(?:\d|\.\d)")
-_NOT_NUMBER_CHARS = re.compile(r"[^0-9eE+\-.\t\n ]")
 
 
 @dataclass
@@ -388,6 +384,14 @@ class PcsMetadata:
                 return s
         raise TorlabInputError(f"no step {number} (steps: {_ranges([s.number for s in self.steps])})",
                                path=self.source)
+
+    @property
+    def unfinished_step(self) -> PcsStep | None:
+        """The step the test stopped in when the export has no end line (a crash or a copy
+        cut off) or its end line does not say it completed normally; None otherwise."""
+        if not self.steps or self.completed_normally:
+            return None
+        return self.steps[-1]
 
     def data_steps(self, type: str | None = None) -> list[PcsStep]:
         """Steps with data rows, optionally of one normalised type."""
@@ -581,6 +585,13 @@ def read_pcs(src: PathOrBuffer, *, instrument: str | None = None,
     if expected is not None and expected != len(meta.steps):
         meta.warnings.append(f"the header says {expected} steps completed, the file has "
                              f"{len(meta.steps)}")
+    last = meta.unfinished_step
+    if last is not None:
+        how = ("has no end line ('All steps completed, test completed normally at ...')"
+               if meta.completed_at is None else f"ends with {meta.end_text!r}")
+        meta.warnings.append(f"the export {how}: the test stopped during step {last.number} "
+                             f"(lines {last.first_line}-{last.last_line}), whose record is cut "
+                             "short")
     nums = [s.number for s in meta.steps]
     if len(set(nums)) != len(nums):
         meta.warnings.append("step numbers repeat; use the 'line' column to tell the steps apart")
@@ -651,8 +662,11 @@ def _split(lines: list[str], meta: PcsMetadata, path: str) -> list[_Block]:  # n
         s = lines[i].strip()
         m = _STEP.match(s)
         if not m:  # only reached after a table ends: end line or stray text
+            _second_run(s, meta, path, i + 1)
             i += 1
             continue
+        if meta.completed_at is not None:
+            _second_run(s, meta, path, i + 1, after_end=True)
         step = PcsStep(number=int(m.group("n")), first_line=i + 1, last_line=i + 1)
         if m.group("desc"):
             step.description = m.group("desc")
@@ -683,6 +697,7 @@ def _split(lines: list[str], meta: PcsMetadata, path: str) -> list[_Block]:  # n
                 continue
             if _STEP.match(s):
                 break
+            _second_run(s, meta, path, ln)
             if blk.header_cells is not None:  # data rows
                 blk.data.append(raw)
                 step.last_line = ln
@@ -714,6 +729,7 @@ def _split(lines: list[str], meta: PcsMetadata, path: str) -> list[_Block]:  # n
             blank_at = i  # 1-based line of the blank line that ended the table is i
             while i < n and not _STEP.match(lines[i].strip()):
                 s = lines[i].strip()
+                _second_run(s, meta, path, i + 1)
                 if s:
                     if _NUMERIC_START.match(s):
                         raise TorlabInputError(
@@ -727,6 +743,18 @@ def _split(lines: list[str], meta: PcsMetadata, path: str) -> list[_Block]:  # n
                         step.last_line = i + 1
                 i += 1
     return blocks
+
+
+def _second_run(s: str, meta: PcsMetadata, path: str, ln: int, *, after_end: bool = False
+                ) -> None:
+    """A line that starts another export (its first line, its 'Test started at', or a step
+    after the end line) inside the steps: two runs in one file are refused, so that their
+    steps are never reduced as one run."""
+    if after_end or _FIRST_LINE.match(s) or s.lower().startswith("test started at"):
+        what = "a step after the end line" if after_end else repr(s[:40])
+        raise TorlabInputError(f"a second run starts here ({what}): this file holds two "
+                               "exports one after the other; split it into one file per run",
+                               path=path, line=ln)
 
 
 def _header_line(s: str, meta: PcsMetadata, path: str, ln: int) -> None:
@@ -928,12 +956,18 @@ def _tables(blocks: list[_Block], meta: PcsMetadata, path: str) -> Any:
 
 
 def _decimals(values: list[str]) -> int:
+    """Decimal places the values are printed to: digits after the point less the exponent
+    (``1.23E-03`` has 5: a resolution of 1e-5)."""
     d = 0
     for v in values:
-        v = v.strip()
-        if "." in v:
-            d = max(d, len(v) - v.index(".") - 1)
+        m = _PRINTED.fullmatch(v.strip())
+        if m:
+            exp = int(m.group("exp") or 0)
+            d = max(d, len(m.group("frac") or "") - exp)
     return d
+
+
+_PRINTED = re.compile(r"[+-]?\d*(?:\.(?P<frac>\d*))?(?:[eE](?P<exp>[+-]?\d+))?")
 
 
 def _group_frame(hblocks: list[_Block], meta: PcsMetadata, path: str) -> Any:  # noqa: C901 (each column group the PCS software writes is a case)
@@ -1040,42 +1074,15 @@ def _group_frame(hblocks: list[_Block], meta: PcsMetadata, path: str) -> Any:  #
 
 
 def _parse_rows(data: list[str], line_nos: np.ndarray, ncol: int, use: list[int],
-                cells: list[str], path: str, *, exact: bool) -> np.ndarray:
-    """Float array (n_rows, len(use)); empty fields are NaN; exact errors with the line."""
-    import pandas as pd
+                cells: list[str], path: str, *, exact: bool = False) -> np.ndarray:
+    """Float array (n_rows, len(use)); empty fields are NaN; errors name the line and column
+    (:func:`torlab.parsers._table.parse_rows`: every row has the header's field count)."""
+    from torlab.parsers._table import RowSpec, parse_rows
 
-    body = "\n".join(data)
-    if not exact and body.count("\t") == len(data) * (ncol - 1) \
-            and not _NOT_NUMBER_CHARS.search(body):
-        try:
-            df = pd.read_csv(io.StringIO(body), sep="\t", header=None, names=list(range(ncol)),
-                             usecols=use, dtype=float, engine="c", skip_blank_lines=False,
-                             keep_default_na=False, na_values=[""], quoting=csv.QUOTE_NONE)
-            arr = df[use].to_numpy(dtype=float)
-            if arr.shape[0] == len(data) and not np.isinf(arr).any():
-                return arr
-        except Exception:  # any complaint: the exact scan below names the line
-            pass
-    return _scan_rows(data, line_nos, ncol, use, cells, path)
-
-
-def _scan_rows(data: list[str], line_nos: np.ndarray, ncol: int, use: list[int],
-               cells: list[str], path: str) -> np.ndarray:
-    out = np.full((len(data), len(use)), np.nan)
-    for i, row in enumerate(data):
-        ln = int(line_nos[i])
-        fields = row.split("\t")
-        if len(fields) != ncol:
-            hint = " (truncated row?)" if len(fields) < ncol else ""
-            raise TorlabInputError(f"expected {ncol} tab-separated fields like the column header, "
-                                   f"found {len(fields)}{hint}", path=path, line=ln)
-        for k, j in enumerate(use):
-            f = fields[j].strip(" ")
-            if not f:
-                continue
-            out[i, k] = number_field(f, path=path, line=ln,
-                                     column=cells[j].strip() or f"column {j + 1}")
-    return out
+    spec = RowSpec([c.strip() or f"column {j + 1}" for j, c in enumerate(cells)], use, path,
+                   delimiter="\t", allow_empty=[True] * len(use),
+                   hint=" (PCS exports use '.')")
+    return parse_rows(data, line_nos, spec)
 
 
 # ---------------------------------------------------------------------- coefficient sign

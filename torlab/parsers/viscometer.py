@@ -42,9 +42,7 @@ from torlab.parsers._text import (
     choice_value,
     header_key,
     parse_log_columns,
-    parse_numeric_rows,
     read_log_header,
-    read_text,
     refuse_below_absolute_zero,
     sign_value,
 )
@@ -215,48 +213,53 @@ def read_viscometer(src: PathOrBuffer, *, name: str | None = None) -> tuple[Any,
     """
     import pandas as pd
 
+    from torlab.parsers._table import RowSpec, TextFile, read_columns
     from torlab.units import parse_unit_factor
 
-    text, display = read_text(src, name=name)
-    if not text.strip():
-        raise TorlabInputError("file is empty", path=display)
-    lines = text.split("\n")
-    meta = ViscometerMetadata(source=display)
-    meta.format_version, hi = read_log_header(
-        lines, FORMAT_ID, FORMAT_VERSION, display,
-        lambda k, v, ln: _set_meta(meta, k, v, display, ln))
-    for req in ("liquid_density", "body_density"):
-        if getattr(meta, req) is None:
-            raise TorlabInputError(f"missing header key {req!r} (e.g. '# {req}: "
-                                   f"{'960' if req == 'liquid_density' else '7850'} kg/m^3')",
-                                   path=display)
-    if meta.body_density <= meta.liquid_density:  # type: ignore[operator]
-        raise TorlabInputError("the body must be denser than the liquid (body_density > "
-                               "liquid_density)", path=display, line=meta.lines.get("body_density"))
-    header_line = hi + 1
-    header = lines[hi]
-    cells = header.split(",")
-    found = parse_log_columns(header, COLUMNS, display, header_line)
-    for nm, (_, _, req) in COLUMNS.items():
-        if req and nm not in found:
-            raise TorlabInputError(f"missing column {nm!r}", path=display, line=header_line)
-    body = lines[hi + 1:]
-    while body and (not body[-1].strip() or body[-1].lstrip().startswith("#")):
-        body.pop()
-    if not body:
-        raise TorlabInputError("no data rows after the column header", path=display,
-                               line=header_line)
-    use = [j for j, _ in found.values()]
-    names = [c.strip() for c in cells]
-    arr = parse_numeric_rows(body, header_line + 1, names, path=display, use=use)
+    with TextFile(src, name=name) as tf:
+        display = tf.display
+        lines = tf.head(lambda ln, s: ln > 1 and bool(s.strip())
+                        and not s.lstrip().startswith("#"))
+        if not any(s.strip() for s in lines):
+            raise TorlabInputError("file is empty", path=display)
+        meta = ViscometerMetadata(source=display)
+        meta.format_version, hi = read_log_header(
+            lines, FORMAT_ID, FORMAT_VERSION, display,
+            lambda k, v, ln: _set_meta(meta, k, v, display, ln))
+        for req in ("liquid_density", "body_density"):
+            if getattr(meta, req) is None:
+                raise TorlabInputError(f"missing header key {req!r} (e.g. '# {req}: "
+                                       f"{'960' if req == 'liquid_density' else '7850'} kg/m^3')",
+                                       path=display)
+        if meta.body_density <= meta.liquid_density:  # type: ignore[operator]
+            raise TorlabInputError("the body must be denser than the liquid (body_density > "
+                                   "liquid_density)", path=display,
+                                   line=meta.lines.get("body_density"))
+        header_line = hi + 1
+        header = lines[hi]
+        cells = header.split(",")
+        found = parse_log_columns(header, COLUMNS, display, header_line)
+        for nm, (_, _, req) in COLUMNS.items():
+            if req and nm not in found:
+                raise TorlabInputError(f"missing column {nm!r}", path=display, line=header_line)
+        use, scales, offsets, units = [], [], [], []
+        for nm, (j, unit) in found.items():
+            kind = COLUMNS[nm][0]
+            sc, off = parse_unit_factor(unit, kind, where=f"column {nm!r}", path=display,
+                                        line=header_line) if unit else (1.0, 0.0)
+            use.append(j)
+            scales.append(sc)
+            offsets.append(off)
+            units.append(unit)
+        spec = RowSpec([c.strip() for c in cells], use, display, scales=scales,
+                       offsets=offsets, units=units, hint=" (torlab-visc logs use '.')")
+        arrs = read_columns(tf, header_line + 1, spec)
     data: dict[str, np.ndarray] = {}
-    for k, (nm, (j, unit)) in enumerate(found.items()):
-        kind, si, _ = COLUMNS[nm]
-        sc, off = parse_unit_factor(unit, kind, where=f"column {nm!r}", path=display,
-                                    line=header_line) if unit else (1.0, 0.0)
-        data[si] = arr[:, k] * sc + off
+    for k, (nm, (j, _)) in enumerate(found.items()):
+        si = COLUMNS[nm][1]
+        data[si] = arrs[k]
         meta.columns[si] = cells[j].strip()
-    df = pd.DataFrame(data)
+    df = pd.DataFrame(data, copy=False)
     line_no = np.arange(header_line + 1, header_line + 1 + len(df))
     df["line"] = line_no
     if meta.position_sign != 1.0:

@@ -92,34 +92,42 @@ class RigCompliance:
         ``path``).  A protocol names it as written in the protocol, so that its
         results carry no path of the machine they were computed on.
         """
-        from torlab.parsers._text import parse_numeric_rows, read_text, split_unit
+        from torlab.parsers._table import RowSpec, TextFile, read_columns
+        from torlab.parsers._text import split_unit
         from torlab.units import parse_unit_factor
 
-        text, display = read_text(path)
-        if text.lstrip().startswith("# torlab-hpt"):
-            from torlab.parsers.hpt import read_hpt
+        with TextFile(path) as tf:
+            display = tf.display
+            head = tf.head(lambda ln, s: bool(s.strip()) and not s.lstrip().startswith("#"))
+            if next((s for s in head if s.strip()), "").lstrip().startswith("# torlab-hpt"):
+                tf.close()
+                from torlab.parsers.hpt import read_hpt
 
-            df, meta = read_hpt(path)
-            res = reduce_hpt(df, meta)
-            tau, u = res.data["shear_stress_Pa"].to_numpy(), res.data["displacement_m"].to_numpy()
-        else:
-            lines = [ln for ln in text.split("\n") if ln.strip() and not ln.lstrip().startswith("#")]
-            if len(lines) < 3:
-                raise TorlabInputError("a compliance curve needs a header and at least two rows",
-                                       path=display)
-            header = [split_unit(h) for h in lines[0].split(",")]
-            names = [h[0] for h in header]
-            if "shear_stress" not in names or "displacement" not in names:
-                raise TorlabInputError("compliance CSV needs columns 'shear_stress [unit]' and "
-                                       "'displacement [unit]'", path=display, line=1)
-            first_line = text.split("\n").index(lines[0]) + 2
-            arr = parse_numeric_rows(lines[1:], first_line, [h[0] for h in header], path=display)
-            it, iu = names.index("shear_stress"), names.index("displacement")
-            st, _ = parse_unit_factor(header[it][1] or "Pa", "pressure", where="shear_stress",
-                                      path=display, line=1)
-            su, _ = parse_unit_factor(header[iu][1] or "m", "length", where="displacement",
-                                      path=display, line=1)
-            tau, u = arr[:, it] * st, arr[:, iu] * su
+                df, meta = read_hpt(path)
+                res = reduce_hpt(df, meta)
+                tau = res.data["shear_stress_Pa"].to_numpy()
+                u = res.data["displacement_m"].to_numpy()
+            else:
+                if not head or not head[-1].strip() or head[-1].lstrip().startswith("#"):
+                    raise TorlabInputError("a compliance curve needs a header and at least two "
+                                           "rows", path=display)
+                hl = len(head)
+                header = [split_unit(h) for h in head[-1].split(",")]
+                names = [h[0] for h in header]
+                if "shear_stress" not in names or "displacement" not in names:
+                    raise TorlabInputError("compliance CSV needs columns 'shear_stress [unit]' "
+                                           "and 'displacement [unit]'", path=display, line=hl)
+                it, iu = names.index("shear_stress"), names.index("displacement")
+                st, _ = parse_unit_factor(header[it][1] or "Pa", "pressure",
+                                          where="shear_stress", path=display, line=hl)
+                su, _ = parse_unit_factor(header[iu][1] or "m", "length", where="displacement",
+                                          path=display, line=hl)
+                spec = RowSpec(names, [it, iu], display, scales=[st, su],
+                               units=[header[it][1] or "Pa", header[iu][1] or "m"])
+                tau, u = read_columns(tf, hl + 1, spec)
+                if len(tau) < 2:
+                    raise TorlabInputError("a compliance curve needs a header and at least two "
+                                           "rows", path=display)
         # loading branch: up to the maximum shear stress, with tau strictly increasing
         k = int(np.argmax(tau))
         tau, u = tau[: k + 1], u[: k + 1]
@@ -284,6 +292,16 @@ def reduce_hpt(
         The requested angle column is missing, the window is not positive, or
         the run has no displacement.
     """
+    try:
+        return _reduce_hpt(df, meta, window=window, source=source, compliance=compliance)
+    except MemoryError:
+        from torlab.parsers._table import memory_error
+
+        raise memory_error(meta.source, what="reduce") from None
+
+
+def _reduce_hpt(df: Any, meta: HptMetadata, *, window: float, source: str,
+                compliance: RigCompliance | None) -> HptResult:
     import pandas as pd
 
     path = meta.source
@@ -302,7 +320,8 @@ def reduce_hpt(
     if col not in df:
         raise TorlabInputError(f"the log has no {source} angle column", path=path)
     theta = df[col].to_numpy(dtype=float)
-    u_raw = re * (theta - theta[0])
+    u_raw = theta - theta[0]
+    u_raw *= re
     F = df["normal_force_N"].to_numpy(dtype=float)
     M = df["torque_N_m"].to_numpy(dtype=float)
     sigma = F / S
@@ -313,7 +332,7 @@ def reduce_hpt(
     u = u_raw - compliance(tau) if compliance is not None else u_raw
     if not np.any(u_raw > 0):
         raise TorlabInputError("the angle never increases: no displacement to reduce", path=path)
-    out = pd.DataFrame({
+    cols = {
         "time_s": df["time_s"].to_numpy(),
         "normal_force_N": F,
         "torque_N_m": M,
@@ -322,10 +341,13 @@ def reduce_hpt(
         "friction": f,
         "displacement_raw_m": u_raw,
         "displacement_m": u,
-    })
+    }
     if "heater_temperature_C" in df:
-        out["heater_temperature_C"] = df["heater_temperature_C"].to_numpy()
-    out["line"] = df["line"].to_numpy()
+        cols["heater_temperature_C"] = df["heater_temperature_C"].to_numpy()
+    cols["line"] = df["line"].to_numpy()
+    # the log's columns are shared, not copied: a long log's reduction needs only the
+    # memory of the new columns
+    out = pd.DataFrame(cols, copy=False)
     fm, fs, n = window_mean(u, f, window)
     tm, _, _ = window_mean(u, tau, window)
     desc = ""

@@ -560,6 +560,14 @@ def reduce_pcs(df: Any, meta: PcsMetadata, *, time_tests: bool = True,  # noqa: 
                                            and not application_marked(st, meta)):
             plain_timed.append(st.number)
             continue
+        if st is meta.unfinished_step and time_test_options.get("duration") is None:
+            raise TorlabInputError(
+                f"step {st.number}: the test stopped during this time test (the export "
+                f"{'has no end line' if meta.completed_at is None else 'ends ' + repr(meta.end_text)}"
+                f"), so its record is shorter than the test and would be analysed as a "
+                f"finished one; give --duration up to the recorded "
+                f"{np.nanmax(sub['step_time_s'].to_numpy(dtype=float)):.0f} s to analyse the "
+                "part recorded", path=meta.source, line=st.last_line)
         tt = _time_test(meta, st, sub["step_time_s"].to_numpy(dtype=float), m, time_test_options)
         if tt is not None:
             tts.append(tt)

@@ -617,7 +617,7 @@ def reduce_ehd2(df: Any, meta: Any, *, test: str | None = None, sym_rel: float =
     if "srr" not in points:
         points["srr"] = 0.0
     points = points.loc[points["rolling_speed_m_s"].notna()].reset_index(drop=True)
-    warnings = []
+    warnings = list(meta.warnings)  # the export's own (zero loads, a test that stopped ...)
     if src:
         warnings.append(f"traction coefficient from {src}")
     kind, how = classify_test(points, meta.lubricant, given=test)

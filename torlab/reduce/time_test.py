@@ -104,20 +104,30 @@ def _detect_application(t: np.ndarray, mu: np.ndarray, label: str, min_drop: flo
 def time_test(t: Any, mu: Any, *, amount: Any, load: Any, speed: Any, creepage: Any,
               track_radius: float, application_time: float | None = None,
               density: float | None = None, label: str = "time test",
-              min_drop: float = DEFAULT_MIN_DROP) -> TimeTest:
+              min_drop: float = DEFAULT_MIN_DROP, lines: Any = None) -> TimeTest:
     """A :class:`TimeTest` from arrays (SI units; amount as a quantity with its unit).
+
+    Samples whose load is zero or negative (an unloaded moment, or a broken load cell) have
+    no coefficient: they are dropped, and a note says how many (with their ``lines`` in
+    the file, where given).
 
     Raises
     ------
     TorlabInputError
         Too few samples, non-increasing time, an amount without unit or negative,
-        no application marker (not given and no drop found), non-positive load,
-        speed, slide-roll ratio or track radius.
+        no application marker (not given and no drop found), non-positive load in every
+        sample, non-positive speed, slide-roll ratio or track radius.
     """
     t = np.asarray(t, dtype=float)
     mu = np.abs(np.asarray(mu, dtype=float))
-    ok = np.isfinite(t) & np.isfinite(mu)
-    n_bad = int(np.size(ok) - np.count_nonzero(ok))
+    n_all = int(np.size(t))
+    w = _per_sample(load, n_all, "load", label) if np.ndim(load) else None
+    unloaded = np.zeros(n_all, dtype=bool) if w is None else ~(w > 0)
+    if unloaded.all():
+        raise TorlabInputError("load must be positive (it is zero or negative in every sample)",
+                               path=label, key="load")
+    ok = np.isfinite(t) & np.isfinite(mu) & ~unloaded
+    n_bad = int(np.size(ok) - np.count_nonzero(ok | unloaded))
     t, mu = t[ok], mu[ok]
     if t.size < MIN_WINDOW + 5:
         raise TorlabInputError(f"a time test needs at least {MIN_WINDOW + 5} samples with a "
@@ -154,6 +164,13 @@ def time_test(t: Any, mu: Any, *, amount: Any, load: Any, speed: Any, creepage: 
             raise TorlabInputError(f"application time {t_app:g} s is outside the record "
                                    f"({t[0]:g}-{t[-1]:g} s)", path=label, key="application_time")
     notes = [f"{n_bad} samples without a coefficient dropped"] if n_bad else []
+    if unloaded.any():
+        where = ""
+        if lines is not None:
+            ln = np.asarray(lines)[unloaded]
+            where = f" (lines {ln.min()}-{ln.max()})" if len(ln) > 1 else f" (line {ln[0]})"
+        notes.append(f"{int(unloaded.sum())} samples with a load of zero or less{where} dropped: "
+                     "a coefficient needs a load")
     return TimeTest(label=label, t=t, mu=mu, application_time=t_app, application_source=src,
                     amount=amt, amount_text=amount if isinstance(amount, str) else
                     f"{amt[0]:g} ({amt[1]})", load=load_a, speed=speed_a, creepage=xi_a,
@@ -190,10 +207,12 @@ def read_time_test(path: str | Path, *, step: int | None = None,
     else:
         t, mu, args = _from_csv(path, step, amount, track_radius)
         amount_text, label = None, path.name
+    notes = args.pop("notes", [])
     res = time_test(t, mu, amount=amount, application_time=application_time, density=density,
                     track_radius=float(track_radius), label=label, min_drop=min_drop, **args)
     if amount_text is not None:
         res.amount_text = amount_text
+    res.notes += notes
     return res
 
 
@@ -248,7 +267,13 @@ def _from_pcs(path: Path, step: int | None, amount: Any, track_radius: float | N
             raise TorlabInputError("no disc track radius in the file: give it (--track-radius "
                                    "'21 mm'; track_radius= in Python)", path=str(path),
                                    key="track_radius")
+    notes = []
+    if st is meta.unfinished_step:
+        notes.append(f"the test stopped during step {st.number} (the export "
+                     f"{'has no end line' if meta.completed_at is None else 'ends ' + repr(meta.end_text)}"
+                     f"): fitted over the {np.nanmax(t):.0f} s recorded")
     args = dict(load=sub["ball_load_N"].ffill().bfill().to_numpy(dtype=float),
+                lines=sub["line"].to_numpy(), notes=notes,
                 speed=sub["rolling_speed_m_s"].ffill().bfill().to_numpy(dtype=float),
                 creepage=sub["srr"].ffill().bfill().to_numpy(dtype=float))
     return t, mu, args, amount, amount_text, track_radius, f"{path.name} step {st.number}"

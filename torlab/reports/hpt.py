@@ -35,13 +35,14 @@ def hpt_figure(results: Sequence[Any], title: str = "") -> Any:
     n = len(results)
     for i, r in enumerate(results):
         d = r.data
-        u_um = d["displacement_m"].to_numpy() * 1e6
+        u = d["displacement_m"].to_numpy()
         color = cmap(i / (n - 1)) if n > 1 else PALETTE[0]
         label = r.meta.label
         cols = pixel_columns(ax1)  # a long log: the points its pixel columns can show
-        ax1.plot(*decimate(u_um, d["shear_stress_Pa"].to_numpy() / 1e6, cols), lw=1.0,
-                 color=color, label=label)
-        ax2.plot(*decimate(u_um, d["friction"].to_numpy(), cols), lw=1.0, color=color)
+        x, y = decimate(u, d["shear_stress_Pa"].to_numpy(), cols)  # in SI, scaled once thin
+        ax1.plot(x * 1e6, y / 1e6, lw=1.0, color=color, label=label)
+        x, y = decimate(u, d["friction"].to_numpy(), cols)
+        ax2.plot(x * 1e6, y, lw=1.0, color=color)
         umax = r.u_max_m * 1e6
         ax2.axvspan(umax - r.window_m * 1e6, umax, color=color, alpha=min(0.08, 0.5 / n), lw=0)
         ax2.plot([umax - r.window_m * 1e6, umax], [r.f_window, r.f_window], color=color,

@@ -397,36 +397,86 @@ def decimate(x: Any, y: Any, columns: int, *, log_x: bool = False) -> tuple[Any,
     columns = int(columns)
     if columns < 1 or n <= 4 * columns:
         return xa, ya
-    with np.errstate(divide="ignore", invalid="ignore"):
-        xs = np.log10(np.where(xa > 0, xa, np.nan)) if log_x else xa
-    ok = np.isfinite(xs) & np.isfinite(ya)
-    xf = xs[ok]
-    if xf.size < 2:
+    # a long line is read in slices (a few MB of temporaries, not a dozen copies of it)
+    inc = dec = True
+    prev = lo = hi = math.nan
+    nfin = 0
+    for s in range(0, n, _SLICE):
+        xs, ok = _finite_x(xa[s:s + _SLICE], ya[s:s + _SLICE], log_x)
+        xf = xs[ok]
+        if not xf.size:
+            continue
+        step = np.diff(xf, prepend=prev if prev == prev else xf[0])
+        inc = inc and bool(np.all(step >= 0))
+        dec = dec and bool(np.all(step <= 0))
+        prev = float(xf[-1])
+        lo, hi = float(np.fmin(lo, xf.min())), float(np.fmax(hi, xf.max()))
+        nfin += xf.size
+    if nfin < 2 or not (inc or dec) or not hi > lo:
         return xa, ya
-    step = np.diff(xf)
-    if not (np.all(step >= 0) or np.all(step <= 0)):
-        return xa, ya
-    lo, hi = float(xf.min()), float(xf.max())
-    if not hi > lo:
-        return xa, ya
-    b = np.zeros(n, dtype=np.int64)
-    b[ok] = np.minimum(((xs[ok] - lo) / (hi - lo) * columns).astype(np.int64), columns - 1)
-    # a segment: consecutive finite points in one bin; every non-finite point is its own
-    run = np.cumsum(~ok)
-    key = np.where(ok, run * (columns + 1) + b, -1 - np.arange(n))
-    starts = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
-    ends = np.r_[starts[1:], n] - 1
-    seg = np.repeat(np.arange(starts.size), np.diff(np.r_[starts, n]))
-    yv = np.where(ok, ya, np.nan)
-    idx = np.arange(n)
-    keep = [starts, ends]
-    for reduce in (np.fmin, np.fmax):
-        ext = reduce.reduceat(yv, starts)
-        hit = ok & (yv == ext[seg])
-        first = np.minimum.reduceat(np.where(hit, idx, n), starts)
-        keep.append(first[first < n])
+    keep: list[Any] = []
+    s, run0 = 0, 0
+    while s < n:
+        e, w = min(s + _SLICE, n), _SLICE // 8
+        while True:  # end the slice where a segment starts, so none is cut in two
+            stop = min(e + w, n)
+            key, ok, runs = _keys(xa[s:stop], ya[s:stop], log_x, lo, hi, columns, run0, s)
+            if e >= n:
+                cut = n - s
+                break
+            change = np.flatnonzero(key[e - s:] != key[e - s - 1:-1])
+            if change.size:
+                cut = e - s + int(change[0])
+                break
+            if stop >= n:
+                cut = n - s
+                break
+            w *= 2
+        key, ok = key[:cut], ok[:cut]
+        starts = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+        ends = np.r_[starts[1:], cut] - 1
+        seg = np.repeat(np.arange(starts.size), np.diff(np.r_[starts, cut]))
+        yv = np.where(ok, ya[s:s + cut], np.nan)
+        idx = np.arange(cut)
+        keep += [starts + s, ends + s]
+        for reduce in (np.fmin, np.fmax):
+            ext = reduce.reduceat(yv, starts)
+            hit = ok & (yv == ext[seg])
+            first = np.minimum.reduceat(np.where(hit, idx, cut), starts)
+            keep.append(first[first < cut] + s)
+        run0 = int(runs[cut - 1])
+        s += cut
     sel = np.unique(np.concatenate(keep))
     return xa[sel], ya[sel]
+
+
+#: points of a long line handled at a time by :func:`decimate`
+_SLICE = 1 << 18
+
+
+def _finite_x(x: Any, y: Any, log_x: bool) -> tuple[Any, Any]:
+    """The binned x (log10 for ``log_x``) and which points are finite."""
+    import numpy as np
+
+    with np.errstate(divide="ignore", invalid="ignore"):
+        xs = np.log10(np.where(x > 0, x, np.nan)) if log_x else x
+    return xs, np.isfinite(xs) & np.isfinite(y)
+
+
+def _keys(x: Any, y: Any, log_x: bool, lo: float, hi: float, columns: int, run0: int,
+          offset: int) -> tuple[Any, Any, Any]:
+    """Segment keys of a slice of a line starting at point ``offset``: consecutive finite
+    points in one bin share a key, every non-finite point has its own; ``run0`` counts the
+    non-finite points before the slice.  Returns the keys, the finite mask and the running
+    count of non-finite points."""
+    import numpy as np
+
+    xs, ok = _finite_x(x, y, log_x)
+    b = np.zeros(x.size, dtype=np.int64)
+    b[ok] = np.minimum(((xs[ok] - lo) / (hi - lo) * columns).astype(np.int64), columns - 1)
+    runs = run0 + np.cumsum(~ok)
+    key = np.where(ok, runs * (columns + 1) + b, -1 - offset - np.arange(x.size))
+    return key, ok, runs
 
 
 def finite(values: Any) -> bool:

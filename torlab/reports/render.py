@@ -30,8 +30,10 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+import re
 import sys
 import time
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -175,8 +177,54 @@ def render(fig: Any, fmt: str, dpi: float | None = None) -> bytes:
         kw["metadata"] = {"Date": None}
     elif fmt == "png":  # zlib level 3: a third faster than the default 6, files ~20 % larger
         kw["pil_kwargs"] = {"compress_level": 3}
-    fig.savefig(buf, format=fmt, dpi=dpi or STYLE["savefig.dpi"], **kw)
+    with one_glyph_warning():
+        fig.savefig(buf, format=fmt, dpi=dpi or STYLE["savefig.dpi"], **kw)
     return buf.getvalue()
+
+
+_GLYPH_DEPTH = [0]
+
+
+@contextmanager
+def one_glyph_warning() -> Iterator[None]:
+    """Inside: matplotlib's warnings about characters its font lacks are gathered into one
+    warning (:func:`_glyph_warnings`); nested uses gather into the outermost."""
+    if _GLYPH_DEPTH[0]:
+        yield
+        return
+    _GLYPH_DEPTH[0] += 1
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            yield
+    finally:
+        _GLYPH_DEPTH[0] -= 1
+    _glyph_warnings(caught)
+
+
+_GLYPH = re.compile(r"Glyph (\d+) .*missing from font\(s\) (.+?)\.?$")
+
+
+def _glyph_warnings(caught: Sequence[Any]) -> None:
+    """matplotlib warns once per character its font cannot draw ("Glyph 28070 missing from
+    font(s) DejaVu Sans"): these become one warning naming the characters; any other
+    warning is passed on as it was."""
+    missing: dict[str, None] = {}
+    font = ""
+    for w in caught:
+        m = _GLYPH.match(str(w.message))
+        if m:
+            missing[chr(int(m.group(1)))] = None
+            font = m.group(2)
+            continue
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    if missing:
+        from torlab.errors import TorlabWarning
+
+        chars = "".join(missing)
+        warnings.warn(TorlabWarning(f"figures: {len(chars)} character(s) of the labels are not "
+                                    f"in the font {font} and are drawn as boxes: {chars}"),
+                      stacklevel=3)
 
 
 def prepare_drawing() -> None:
@@ -223,11 +271,12 @@ def early_drawing(enabled: bool = True, jobs: int | None = None,
 def draw_task(task: tuple[Plot, tuple[str, ...], float | None]) -> dict[str, bytes]:
     """Draw one figure and render it in each format (a task for the executor)."""
     p, formats, dpi = task
-    fig = p.draw()
-    try:
-        return {f: render(fig, f, dpi) for f in formats}
-    finally:
-        _close(fig)
+    with one_glyph_warning():
+        fig = p.draw()
+        try:
+            return {f: render(fig, f, dpi) for f in formats}
+        finally:
+            _close(fig)
 
 
 def _close(fig: Any) -> None:
