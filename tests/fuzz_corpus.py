@@ -23,6 +23,7 @@ import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data"
@@ -50,6 +51,8 @@ class Case:
     #: text its error line (or, when ok, its console output or warnings) must hold
     expect: str | None = None
     expect_in: str = ""
+    expect_not_in: str = ""  # a text its output must not hold (a false note)
+    slow: bool = False  # a whole fit or run: in the whole corpus only, not the quick sample
 
     @property
     def name(self) -> str:
@@ -383,7 +386,7 @@ def build_corpus(seed: int = 20240613) -> list[Case]:
         cases.append(Case("fit_removal", "-", special, special=special, extra=layer_files))
     cases += _more_commands(seed, src, removal)
     cases += _trios_cases(seed, src)
-    cases += reported_cases()
+    cases += reported_cases(layer_files)
     return cases
 
 
@@ -391,22 +394,159 @@ def build_corpus(seed: int = 20240613) -> list[Case]:
 VICTIM = b"precious\n"
 
 
-def reported_cases() -> list[Case]:
+def reported_cases(layer_files: dict[str, bytes] | None = None) -> list[Case]:
     """The reported problems, each with the outcome it must have (``Case.expect``).
 
     Environment cases plant files next to OUT before the command runs (``extra`` key
     ``__plant__``); every case's run checks that ``victim.txt`` in the work folder, when
-    there is one, still holds :data:`VICTIM` (:func:`run_case`).
+    there is one, still holds :data:`VICTIM` (:func:`run_case`).  Their exact numbers are
+    tested in ``tests/test_misread_inputs.py``, ``tests/test_reader_layer.py`` and
+    ``tests/test_output_links.py``.
     """
-    hpt = (SAMPLE / "hpt" / "hpt_OFM1_4uL_25C.txt").read_bytes()
+    hpt_raw = (SAMPLE / "hpt" / "hpt_OFM1_4uL_25C.txt").read_bytes()
     out: list[Case] = []
+
+    def case(reader: str, source: str, mutation: str, data: bytes, expect: str, text: str = "",
+             **kw: Any) -> None:
+        out.append(Case(reader, source, mutation, data, expect=expect, expect_in=text, **kw))
+
+    # no write outside OUT, through any link planted next to it
     for plant, text in (("lock_symlink", "lock file"), ("lock_dangling", "lock file"),
                         ("lock_hardlink", "lock file"), ("lock_fifo", "lock file"),
                         ("out_symlink", "symbolic link")):
-        out.append(Case("hpt", "hpt_OFM1_4uL_25C", f"planted_{plant}", hpt,
-                        extra={"__plant__": plant.encode()}, expect="input_error",
-                        expect_in=text))
+        case("hpt", "hpt_OFM1_4uL_25C", f"planted_{plant}", hpt_raw, "input_error", text,
+             extra={"__plant__": plant.encode()})
+    # one field more or fewer, a decimal comma, a decimal point where a comma is declared
+    hpt, visc = _text_lines(hpt_raw), _text_lines((SAMPLE / "visc" / "visc_ester_25C.txt")
+                                                  .read_bytes())
+    visc[62] = "5.00,3,4196,0.07,25.04"
+    case("visc", "visc_ester_25C", "decimal_comma_line_63", _join(visc), "input_error",
+         ":63: expected 4 fields separated by ',' like the column header, found 5")
+    for mut, row in (("extra_field", hpt[29] + ",5"), ("missing_field", hpt[29].rsplit(",", 1)[0])):
+        h2 = list(hpt)
+        h2[29] = row
+        case("hpt", "hpt_OFM1_4uL_25C", mut, _join(h2), "input_error", ":30: expected 5 fields")
+    comp = _text_lines((SAMPLE / "hpt_paper_b" / "rig_compliance.csv").read_bytes())
+    i = next(k for k, t in enumerate(comp) if t.startswith("170.0,"))
+    comp[i] = comp[i].replace("170.0,2.", "170.0,2,")
+    case("hpt_compliance", "rig_compliance.csv", "decimal_comma", hpt_raw, "input_error",
+         f"comp.csv:{i + 1}: expected 2 fields", extra={"comp.csv": _join(comp)})
+    rig = HPT_MAP_CSV.decode()
+    case("hpt_map", "rig2.yaml", "csv_extra_field", HPT_MAP.encode(), "input_error",
+         "rig2.csv:6: expected 5 fields",
+         extra={"__csv__": rig.replace("2,0;63", "2,0;63;7", 1).encode()})
+    case("hpt_map", "rig2.yaml", "csv_point_in_decimal_comma_file", HPT_MAP.encode(),
+         "input_error", "'409.00' has a decimal point",
+         extra={"__csv__": rig.replace("4,0;", "409.00;", 1).encode()})
+    case("hpt_map", "rig2.yaml", "as_written_decimal_comma", HPT_MAP.encode(), "ok")
+    for key, value, text in (("delimiter", '""', "delimiter: must be one character"),
+                             ("header_line", "x", "header_line: must be a whole number"),
+                             ("skip_lines_after_header", "x", "skip_lines_after_header: must"),
+                             ("skip_lines_after_header", "1e9", "skip_lines_after_header: must"),
+                             ("skip_lines_after_header", "-300", "skip_lines_after_header: must"),
+                             ("skip_lines_after_header", "1000000000", "skipped after it")):
+        m = re.sub(rf"(?m)^{key}:.*$", f"{key}: {value}", HPT_MAP)
+        case("hpt_map", "rig2.yaml", f"{key}={value}", m.encode(), "input_error", text)
+    # line ends and encodings
+    opt = (SAMPLE / "optical" / "film_thickness_smooth.csv").read_bytes()
+    head, _, body = opt.partition(b"\ntime")
+    for name, end in (("header_cr_cr_lf", b"\r\r\n"), ("header_lone_cr", b"\r")):
+        case("optical", "film_thickness_smooth", name,
+             head.replace(b"\n", end) + end + b"time" + body, "ok")
+    text = hpt_raw.decode("utf-8")
+    case("hpt", "hpt_OFM1_4uL_25C", "utf16_bom", text.replace("\n", "\r\n").encode("utf-16"),
+         "ok")
+    mtm = (SAMPLE / "mtm" / "mtm_TOR-A_5uL.txt").read_bytes()
+    case("pcs", "mtm_TOR-A_5uL", "utf16_bom", mtm.decode("utf-8").encode("utf-16"), "ok")
+    strib = _text_lines((SAMPLE / "optical" / "stribeck_smooth.csv").read_bytes())
+    case("optical", "stribeck_smooth", "header_line_70kB",
+         _join([*strib[:2], "# x_long: " + "n" * 70_000, *strib[2:]]), "ok")
+    h = next(k for k, t in enumerate(strib) if t.startswith("time"))
+    cells = strib[h + 5].split(",")
+    film, load = list(strib), list(strib)
+    film[h + 5] = ",".join([*cells[:-1], "   "])
+    load[h + 5] = ",".join([*cells[:4], "   ", *cells[5:]])
+    case("optical", "stribeck_smooth", "spaces_in_film_cell", _join(film), "ok")
+    case("optical", "stribeck_smooth", "spaces_in_load_cell", _join(load), "input_error",
+         f":{h + 6}: column 'normal_load [N]': a cell of spaces")
+    # runs cut off, two runs in one file
+    tt = (SAMPLE / "retention" / "mtm_retention_1uL.txt").read_bytes()
+    tl = _text_lines(tt)
+    end = next(k for k, t in enumerate(tl) if "completed normally" in t)
+    crashed = _join(tl[: end - 300])
+    case("pcs", "mtm_retention_1uL", "cut_off_time_test", crashed, "input_error",
+         "the test stopped during this time test", args=("--after-application",))
+    case("pcs", "mtm_retention_1uL", "cut_off_time_test_duration", crashed, "ok",
+         "the test stopped during step 1", args=("--after-application", "--duration", "10 min"))
+    ehd2 = _text_lines((DATA / "pcs" / "ehd2_quirks.txt").read_bytes())
+    two = _join(ehd2 + ehd2)
+    for reader in ("ehd2", "pcs"):
+        case(reader, "ehd2_quirks.txt", "two_runs", two, "input_error",
+             f":{len(ehd2) + 1}: a second run starts here")
+    # numbers out of reach, loads of zero
+    hh = next(k for k, t in enumerate(hpt) if t.startswith("time"))
+    big = [",".join([f"{1e308:.6e}", *t.split(",")[1:]]) if k > hh and t else t
+           for k, t in enumerate(hpt)]
+    case("hpt", "hpt_OFM1_4uL_25C", "time_column_1e308", _join(big), "input_error",
+         "too large to be a measurement")
+    ml = _text_lines(mtm)
+    mh = next(k for k, t in enumerate(ml) if t.startswith("Step Time"))
+    j = ml[mh].split("\t").index("Ball Load (N)")
+    m308, m0 = list(ml), list(tl)
+    for k in range(mh + 1, len(ml)):
+        c = ml[k].split("\t")
+        if len(c) > j:
+            c[j] = "1.0e308"
+            m308[k] = "\t".join(c)
+    case("pcs", "mtm_TOR-A_5uL", "ball_load_1e308", _join(m308), "input_error",
+         "column 'Ball Load (N)': 1.0e308 is too large")
+    th = next(k for k, t in enumerate(tl) if t.startswith("Step Time"))
+    tj = tl[th].split("\t").index("Ball Load (N)")
+    for k in range(th + 1, th + 40):
+        c = tl[k].split("\t")
+        c[tj] = "0"
+        m0[k] = "\t".join(c)
+    case("fit_removal", "mtm_retention_1uL", "ball_load_0_in_39_rows", _join(m0), "ok",
+         "39 samples with a load of zero or less", slow=True,
+         extra=dict(layer_files if layer_files is not None else retention_sources()[0]))
+    # PCS numbers in exponent notation: no false "appears twice"
+    q = []
+    for t in _text_lines((DATA / "pcs" / "mtm_quirks.txt").read_bytes()):
+        c = t.split("\t")
+        if len(c) > 30 and c[0][:1].isdigit():
+            v = float(c[1]) * 1.004
+            c[1], c[34] = f"{v:.1E}", f"{v:.5f}"
+            t = "\t".join(c)
+        q.append(t)
+    case("pcs", "mtm_quirks.txt", "exponent_notation", _join(q), "ok",
+         expect_not_in="appears twice")
+    # scenes and YAML
+    rough = (SCENES / "optical_paper_a_rough.yaml").read_bytes()
+    case("scene_stribeck", "optical_paper_a_rough.yaml", "hardness_1e-6_MPa",
+         rough.replace(b"hardness: 6 GPa", b"hardness: 1e-6 MPa"), "ok")
+    pb = (SCENES / "mtm_paper_b.yaml").read_bytes()
+    case("scene_stribeck", "mtm_paper_b.yaml", "roelands_eta0_below_eta_inf",
+         pb.replace(b"eta0: 65 mPa*s", b"eta0: 0.01 mPa*s"), "input_error",
+         "lubricant: eta0: the Roelands law (Z) needs eta0 above")
+    case("scene", "wheel_rail_tab54.yaml", "list_of_100001_values",
+         (SCENES / "wheel_rail_tab54.yaml").read_bytes() + b"\nx_list: [" + b"1, " * 100_001
+         + b"1]\n", "input_error", "more than 100000 values in one YAML file")
+    # a log over the size bound: refused before it is read
+    case("hpt", "-", "over_1_GiB_sparse", b"", "input_error", "larger than 1024 MiB",
+         extra={"__sparse__": b"1"})
     return out
+
+
+def _text_lines(raw: bytes) -> list[str]:
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        text = raw.decode("cp1252")
+    return text.replace("\r\n", "\n").split("\n")
+
+
+def _join(lines: list[str]) -> bytes:
+    return "\n".join(lines).encode("utf-8")
 
 
 def _plant(what: str, work: Path) -> None:
@@ -588,8 +728,14 @@ def command(case: Case, work: Path) -> list[str]:
     """The CLI arguments of a case (its input placed in ``work``), with ``case.args``
     replacing the value of an option the command already gives (or added)."""
     args = _command(case, work)
-    if case.args:
-        opt, value = case.args
+    rest = list(case.args)
+    while rest:  # options with a value ("--x", "1"), or flags (starting "--", no value)
+        opt = rest.pop(0)
+        if not rest or rest[0].startswith("--"):
+            if opt not in args:
+                args.append(opt)
+            continue
+        value = rest.pop(0)
         if opt in args:
             i = args.index(opt)
             args[i + 1] = value
@@ -611,6 +757,11 @@ def _command(case: Case, work: Path) -> list[str]:
     p = _place(case, work)
     if "__plant__" in case.extra:
         _plant(case.extra["__plant__"].decode(), work)
+    if "__sparse__" in case.extra:
+        from torlab.parsers._table import MAX_TEXT_BYTES
+
+        with open(p, "wb") as f:  # no disk used
+            f.truncate(MAX_TEXT_BYTES + 1)
     out = str(work / "out")
     r = case.reader
     if r == "hpt":
@@ -665,9 +816,12 @@ def _command(case: Case, work: Path) -> list[str]:
                 "50000 mg/m^2", "--pass-interval", "2 s", "--creepage", "0:0.05:6", "-o", out]
     if r == "reduce_as":
         return ["reduce", str(p), "-o", out]
+    if r == "hpt_compliance":
+        (comp,) = _companions(case, work)
+        return ["hpt", "reduce", str(p), "--compliance", str(comp), "-o", out]
     if r == "hpt_map":
         csv = work / "rig2.csv"
-        csv.write_bytes(HPT_MAP_CSV)
+        csv.write_bytes(case.extra.get("__csv__", HPT_MAP_CSV))
         return ["hpt", "reduce", str(csv), "--map", str(p), "-o", out]
     if r == "protocol":
         product = case.extra.get("__product__")
@@ -737,8 +891,9 @@ def run_case(case: Case, work: Path, runner: object, plots: bool = True) -> Outc
         return Outcome(case, code, "input_error" if code == 2 else "numerical_error",
                        first[0][:200], hidden)
     if code == 0:
-        warned = [ln for ln in err.splitlines() if ln.startswith("warning: ")]
-        return Outcome(case, code, "ok", " | ".join(warned)[:600], hidden)
+        said = [ln for ln in (err + "\n" + out).splitlines()
+                if ln.startswith(("warning: ", "note"))]
+        return Outcome(case, code, "ok", " | ".join(said)[:2000], hidden)
     return Outcome(case, code, "bug", f"exit code {code}", hidden)
 
 

@@ -163,9 +163,11 @@ class TextFile:
         self.close()
 
     # -- lines ------------------------------------------------------------------
-    def blocks(self, block: int = BLOCK_BYTES) -> Iterator[bytes]:
-        """The file in blocks of whole lines, each line ended by ``\\n`` (every line end
-        normalised; one added at the end)."""
+    def blocks(self, block: int | None = None) -> Iterator[bytes]:
+        """The file in blocks of whole lines (about ``block`` bytes, default
+        :data:`BLOCK_BYTES`), each line ended by ``\\n`` (every line end normalised; one
+        added at the end)."""
+        block = block or BLOCK_BYTES
         self._f.seek(self._start)
         held = b""  # CRs at the end of a read: their LF may come with the next one
         parts: list[bytes] = []  # the start of a line that is longer than a block
