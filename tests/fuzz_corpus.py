@@ -531,6 +531,20 @@ def reported_cases(layer_files: dict[str, bytes] | None = None) -> list[Case]:
     case("scene", "wheel_rail_tab54.yaml", "list_of_100001_values",
          (SCENES / "wheel_rail_tab54.yaml").read_bytes() + b"\nx_list: [" + b"1, " * 100_001
          + b"1]\n", "input_error", "more than 100000 values in one YAML file")
+    # protocol results that would overwrite each other: refused before any work
+    two = ("version: 1\nname: days\ndata:\n  hpt:\n    files:\n{files}reports:\n"
+           "  amount: {{curve: interpolation}}\n")
+    case("protocol_files", "two_days.yaml", "one_file_name_in_two_folders",
+         two.format(files="      - day1/hpt.txt\n      - day2/hpt.txt\n").encode(),
+         "input_error", "have one name ('hpt')")
+    case("protocol_files", "two_days.yaml", "labels_run_1_and_run/1",
+         two.format(files="      - {path: day1/hpt.txt, label: run 1}\n"
+                          "      - {path: day2/hpt.txt, label: run/1}\n").encode(),
+         "input_error", "('run_1')")
+    scene = (SCENES / "wheel_rail_tab54.yaml").read_bytes()
+    case("protocol", "small.yaml", "products_OFM 1_and_OFM_1", PROTOCOL.encode(), "input_error",
+         "would write one parameter file (fits/hpt_OFM_1.yaml)", slow=True,
+         extra={"scene.yaml": scene, "__products__": b"OFM 1|OFM_1"})
     # a log over the size bound: refused before it is read
     case("hpt", "-", "over_1_GiB_sparse", b"", "input_error", "larger than 1024 MiB",
          extra={"__sparse__": b"1"})
@@ -704,6 +718,7 @@ def _alarm(signum: int, frame: object) -> None:
 def _place(case: Case, work: Path) -> Path:
     """Write the case's input into ``work`` and return its path."""
     suffix = {"scene": ".yaml", "scene_stribeck": ".yaml", "protocol": ".yaml", "hpt_map": ".yaml",
+              "protocol_files": ".yaml",
               "predict_retention": ".yaml", "optical": ".csv", "fit_visc": ".csv",
               "fit_polach": ".yaml", "predict_table": ".yaml", "predict_creep": ".yaml",
               "predict_sweep": ".yaml", "fit_traction": ".csv"}.get(case.reader, ".txt")
@@ -823,12 +838,22 @@ def _command(case: Case, work: Path) -> list[str]:
         csv = work / "rig2.csv"
         csv.write_bytes(case.extra.get("__csv__", HPT_MAP_CSV))
         return ["hpt", "reduce", str(csv), "--map", str(p), "-o", out]
+    if r == "protocol_files":  # the same HPT log as day1/hpt.txt and day2/hpt.txt
+        for d in ("day1", "day2"):
+            (work / d).mkdir()
+            (work / d / "hpt.txt").write_bytes((SAMPLE / "hpt" / "hpt_OFM1_4uL_25C.txt")
+                                               .read_bytes())
+        return ["run", str(p), "-o", out]
     if r == "protocol":
         product = case.extra.get("__product__")
-        for f in sorted((SAMPLE / "hpt").glob("hpt_OFM1_*uL_25C.txt"))[:4]:
+        products = case.extra.get("__products__", b"").split(b"|") if \
+            "__products__" in case.extra else []
+        for k, f in enumerate(sorted((SAMPLE / "hpt").glob("hpt_OFM1_*uL_25C.txt"))[:4]):
             b = f.read_bytes()
             if product is not None:
                 b = b.replace(b"# product: OFM1", b"# product: " + product)
+            if products:  # one product per file, in turn
+                b = b.replace(b"# product: OFM1", b"# product: " + products[k % len(products)])
             (work / f.name).write_bytes(b)
         for k, v in case.extra.items():
             if not k.startswith("__"):

@@ -402,7 +402,7 @@ def test_an_unwritable_home_prints_nothing_from_matplotlib(tmp_path):
 # ------------------------------------------------------------------ time tests for the fit
 def test_time_test_rows_without_load_are_dropped_and_said(tmp_path):
     from torlab.errors import TorlabInputError
-    from torlab.fit.removal import read_time_test
+    from torlab.reduce.time_test import read_time_test
 
     lines = _lines(TT)
     h = next(k for k, s in enumerate(lines) if s.startswith("Step Time"))
@@ -429,7 +429,7 @@ def test_time_test_rows_without_load_are_dropped_and_said(tmp_path):
 
 
 def test_a_time_test_cut_off_is_fitted_as_recorded_and_says_so(tmp_path):
-    from torlab.fit.removal import read_time_test
+    from torlab.reduce.time_test import read_time_test
 
     tt = read_time_test(_crashed(tmp_path), density=930.0)
     whole = read_time_test(TT, density=930.0)

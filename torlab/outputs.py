@@ -538,6 +538,7 @@ class OutputDir:
         self.inputs = [Path(p) for p in inputs]
         self.keep = list(keep)
         self.files: list[str] = []
+        self._written: dict[str, str] = {}  # names written by the write_* methods (casefolded)
         self.notes: list[str] = []
         #: seconds spent writing files (for a command's honest time split)
         self.io_seconds = 0.0
@@ -707,6 +708,15 @@ class OutputDir:
         """A new file ``name`` in staging, open for writing: any file of that name (a hard
         link to a carried-over file) is unlinked first; never opened through a link."""
         rel = self._rel(name)
+        key = rel.as_posix().casefold()  # one name on a file system that ignores case too
+        if rel.as_posix() != MANIFEST:
+            if key in self._written:
+                raise OutputExistsError(
+                    f"two results of this run would be written to one file, "
+                    f"{self._written[key]}{'' if self._written[key] == rel.as_posix() else ' / ' + rel.as_posix()}"
+                    " (two inputs, labels or products that make the same file name); nothing "
+                    "was written", path=self.target)
+            self._written[key] = rel.as_posix()
         d = self._folder_of(rel)
         try:
             with contextlib.suppress(FileNotFoundError):

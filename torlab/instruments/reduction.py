@@ -88,16 +88,19 @@ class Reduction:
     optional: dict[str, tuple[str, ...]] = field(default_factory=dict)
     files: dict[str, Any] = field(default_factory=dict)
     detected: str = ""
+    #: the name of the results where the file's own name is not unique among the files
+    #: reduced together (a protocol names two ``export.txt`` by their labels)
+    name: str = ""
 
     @property
     def label(self) -> str:
-        """File name."""
-        return Path(self.source).name
+        """File name (or :attr:`name`)."""
+        return self.name or Path(self.source).name
 
     @property
     def stem(self) -> str:
-        """File name without its extension (the output prefix)."""
-        return Path(self.source).stem
+        """File name without its extension, or :attr:`name` (the output prefix)."""
+        return self.name or Path(self.source).stem
 
     def table(self, name: str) -> Any:
         """The table ``name``; a clear error naming the tables there are."""

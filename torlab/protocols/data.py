@@ -61,8 +61,11 @@ def reduce_data(ctx: RunContext) -> None:
                               [(pt, (inst.name, f, prepared, section)) for pt, f in
                                zip(parts, files, strict=True)], f"{section}: reducing files",
                               uses=(), short=True)  # no optimiser, no matplotlib: loaded meanwhile
-        for red, pt in zip(reds, parts, strict=True):
+        names = ctx.lp.result_names.get(section, {})
+        for red, pt, f in zip(reds, parts, files, strict=True):
             ctx.keys[id(red)] = ctx.cache.key(section, **pt)
+            if names.get(f, f.stem) != f.stem:  # two files of one name: named by labels
+                red.name = names[f]
         ctx.reductions[section] = reds
         write = getattr(inst.impl(), "write_section", None)
         labelled = ctx.labelled(section)

@@ -55,7 +55,28 @@ def _hpt_groups(ctx: RunContext, cfg: Any) -> dict[str, list[Any]]:
     if not groups:
         raise TorlabInputError("fits.hpt_layers: no HPT run of the listed products",
                                key="fits.hpt_layers.products")
+    _distinct_file_names(groups)
     return groups
+
+
+def _distinct_file_names(groups: dict[str, list[Any]]) -> None:
+    """Refuse, before any fit, two products whose parameter files would be one
+    (``OFM 1`` and ``OFM_1`` both make ``fits/hpt_OFM_1.yaml``): one product's file would
+    silently carry the other's layer."""
+    from torlab.files import safe_name
+    from torlab.protocols.loader import name_key
+
+    seen: dict[str, str] = {}
+    for label in sorted(groups):
+        k = name_key(f"hpt_{label}")
+        if k in seen:
+            r = groups[label][0]
+            raise TorlabInputError(
+                f"products {seen[k]!r} and {label!r} would write one parameter file "
+                f"(fits/{safe_name(f'hpt_{label}')}.yaml) and one figure: name them so that "
+                "they differ in letters or digits", path=r.meta.source,
+                line=r.meta.lines.get("product") or None, key="product")
+        seen[k] = label
 
 
 def _amount_ok(cfg: Any, m: Any) -> bool:

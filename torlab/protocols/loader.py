@@ -44,6 +44,8 @@ class LoadedProtocol:
     path: Path | None
     base: Path
     scenes: dict[tuple[Path, ...], dict[str, Any]] = field(default_factory=dict)
+    #: data section -> file -> the name of its results (:func:`_result_names`)
+    result_names: dict[str, dict[Path, str]] = field(default_factory=dict)
 
     def data_files(self, section: str) -> list[Path]:
         """Files of ``data.<section>`` (in protocol order, no duplicates)."""
@@ -148,7 +150,7 @@ def _validate(doc: Any, path: Path | None, base: Path | None = None) -> LoadedPr
         problems = [_problem(doc, err, data) for err in ve.errors()]
         raise ValidationErrors(_sorted(problems)) from None
     lp = LoadedProtocol(protocol=proto, path=path, base=base)
-    problems = _cross_check(lp, doc)
+    problems = _cross_check(lp, doc) + _result_names(lp, doc)
     if problems:
         raise ValidationErrors(_sorted(problems))
     return lp
@@ -380,6 +382,114 @@ class _CrossCheck:
         self._scene((*kp, "scene"), idp.scene)
         if "hpt:*" in idp.params:
             self.err((*kp, "params"), "hpt:* makes one curve per product; name one product here")
+
+
+def name_key(text: str) -> str:
+    """The file name user text becomes (:func:`torlab.files.safe_name`), casefolded: two
+    texts with one key would write one file (on a file system that ignores case too)."""
+    from torlab.files import safe_name
+
+    return safe_name(text).casefold()
+
+
+def _result_names(lp: LoadedProtocol, doc: Any) -> list[TorlabInputError]:
+    """Give every data file the name of its results, before any work; refuse two that
+    would write one file.
+
+    A file's results (``data/<section>/<name>_<table>.csv``, its entries of the summary)
+    are named by its file name without extension; where files of a section share that
+    name (``day1/export.txt``, ``day2/export.txt``), by their labels, which they then
+    need.  The labels of a section (a file's label, else its name) name its rows and
+    figures (``time_test_<label>.png``): no two may make one file name.  The names of the
+    fitted parameter sets (``fits/traction_<name>.yaml``) likewise.
+    """
+    from torlab.files import safe_name
+    from torlab.protocols.schema import DATA_SECTIONS
+
+    problems: list[TorlabInputError] = []
+    p = lp.protocol
+    for sec in DATA_SECTIONS:
+        d = getattr(p.data, sec)
+        if d is None:
+            continue
+        entry: dict[Path, int] = {}
+        label: dict[Path, str] = {}
+        for i, e in enumerate(d.files):
+            for f in e.resolved:
+                entry.setdefault(f, i)
+                if e.label:
+                    label[f] = e.label
+        files = list(entry)
+        by_stem: dict[str, list[Path]] = {}
+        for f in files:
+            by_stem.setdefault(name_key(f.stem), []).append(f)
+        names: dict[Path, str] = {}
+        for f in files:
+            shared = [g for g in by_stem[name_key(f.stem)] if g != f]
+            if not shared:
+                names[f] = f.stem
+            elif f in label:
+                names[f] = safe_name(label[f])
+            elif f == [g for g in by_stem[name_key(f.stem)] if g not in label][-1]:
+                shared = [g for g in by_stem[name_key(f.stem)] if g != f]  # said once
+                problems.append(doc.error(
+                    ("data", sec, "files", entry[f]),
+                    f"{_shown(f, lp.base)} and {_shown(shared[0], lp.base)} have one name "
+                    f"({f.stem!r}): their results (data/{sec}/{f.stem}_*.csv) would overwrite "
+                    "each other; give each a label ({path: ..., label: ...})"))
+        seen: dict[str, Path] = {}
+        for f, n in names.items():
+            k = n.casefold()
+            if k in seen:
+                problems.append(doc.error(
+                    ("data", sec, "files", entry[f]),
+                    f"{_shown(f, lp.base)} and {_shown(seen[k], lp.base)} would write one "
+                    f"result name ({n!r}); give them labels that differ"))
+            seen.setdefault(k, f)
+        shown: dict[str, tuple[Path, str]] = {}
+        for f in files:
+            text = label.get(f) or f.stem
+            k = name_key(text)
+            if k in shown and shown[k][0] != f and (f in label or shown[k][0] in label):
+                other = shown[k][1]
+                problems.append(doc.error(
+                    ("data", sec, "files", entry[f]),
+                    f"label {text!r} makes the same file name ({safe_name(text)!r}) as "
+                    f"{other!r}: their figures and rows would be one; give labels that differ"
+                    if text != other else f"label {text!r} is used twice"))
+            shown.setdefault(k, (f, text))
+        lp.result_names[sec] = names
+    f = p.fits
+    for section, items in (("traction_layers", f.traction_layers), ("lubricants", f.lubricants)):
+        keys: dict[str, str] = {}
+        for i, x in enumerate(items):
+            k = name_key(x.name)
+            if k in keys and keys[k] != x.name:
+                problems.append(doc.error(
+                    ("fits", section, i, "name"),
+                    f"name {x.name!r} makes the same file name ({safe_name(x.name)!r}) as "
+                    f"{keys[k]!r}: their fits would be written to one file"))
+            keys.setdefault(k, x.name)
+    if p.reports.stribeck is not None:
+        keys = {}
+        for i, c in enumerate(p.reports.stribeck.curves):
+            if "{set}" in c.label:
+                continue  # one per product: the products' names are checked with the fits
+            k = name_key(c.label)
+            if k in keys:
+                problems.append(doc.error(
+                    ("reports", "stribeck", "curves", i, "label"),
+                    f"label {c.label!r} makes the same figure name (stribeck_"
+                    f"{safe_name(c.label)}) as {keys[k]!r}; give labels that differ"))
+            keys.setdefault(k, c.label)
+    return problems
+
+
+def _shown(f: Path, base: Path) -> str:
+    try:
+        return f.relative_to(base).as_posix()
+    except ValueError:
+        return str(f)
 
 
 def _scene_dict(files: tuple[Path, ...]) -> dict[str, Any]:

@@ -377,7 +377,11 @@ def film_ratio(measured: Any, model: Any) -> dict[str, Any] | None:
 
 
 def _safe(s: str) -> str:
-    return "".join(c if c.isalnum() or c in "-_." else "_" for c in s)
+    """A figure-name part made from a label (:func:`torlab.files.safe_name`: at most 80
+    characters; the protocol checks before the run that labels make different names)."""
+    from torlab.files import safe_name
+
+    return safe_name(s)
 
 
 # ------------------------------------------------------------------------------ figures

@@ -228,7 +228,11 @@ def _repeats_sentence(rep: dict[str, Any] | None, band: tuple[float, float],
 
 
 def _safe(s: str) -> str:
-    return "".join(c if c.isalnum() or c in "-_." else "_" for c in s)
+    """A figure-name part made from a label (:func:`torlab.files.safe_name`: at most 80
+    characters; the protocol checks before the run that labels make different names)."""
+    from torlab.files import safe_name
+
+    return safe_name(s)
 
 
 def _iv(r: dict[str, Any], key: str, fmt: str) -> str:
