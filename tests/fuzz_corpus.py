@@ -545,6 +545,11 @@ def reported_cases(layer_files: dict[str, bytes] | None = None) -> list[Case]:
     case("protocol", "small.yaml", "products_OFM 1_and_OFM_1", PROTOCOL.encode(), "input_error",
          "would write one parameter file (fits/hpt_OFM_1.yaml)", slow=True,
          extra={"scene.yaml": scene, "__products__": b"OFM 1|OFM_1"})
+    # cache keys that cannot be trusted: not used, said, nothing reused; a FIFO never hangs
+    for kind, text in (("readable", "can be read or written by others"),
+                       ("zeros", "is not random"), ("fifo", "not a regular file")):
+        case("protocol", "small.yaml", f"cache_key_{kind}", PROTOCOL.encode(), "ok",
+             text, slow=True, extra={"scene.yaml": scene, "__key__": kind.encode()})
     # a log over the size bound: refused before it is read
     case("hpt", "-", "over_1_GiB_sparse", b"", "input_error", "larger than 1024 MiB",
          extra={"__sparse__": b"1"})
@@ -561,6 +566,24 @@ def _text_lines(raw: bytes) -> list[str]:
 
 def _join(lines: list[str]) -> bytes:
     return "\n".join(lines).encode("utf-8")
+
+
+def _plant_key(kind: str, work: Path) -> Path:
+    """A configuration folder whose cache key cannot be trusted (``kind``)."""
+    d = work / "config"
+    d.mkdir(mode=0o700)
+    key = d / "cache-key"
+    if kind == "readable":
+        key.write_text("ab" * 8 + "".join(f"{i:02x}" for i in range(24)) + "\n")
+        key.chmod(0o644)
+    elif kind == "zeros":
+        key.write_text("00" * 32 + "\n")
+        key.chmod(0o600)
+    elif kind == "fifo":
+        os.mkfifo(key)
+    else:
+        raise ValueError(kind)
+    return d
 
 
 def _plant(what: str, work: Path) -> None:
@@ -879,6 +902,9 @@ def run_case(case: Case, work: Path, runner: object, plots: bool = True) -> Outc
     args = command(case, work)
     if not plots and (tuple(args[:2]) in _PLOTTING or args[0] == "reduce"):
         args.append("--no-plot")
+    env_before = os.environ.get("TORLAB_CONFIG_DIR")
+    if "__key__" in case.extra:  # a cache key someone else can use, in a folder of its own
+        os.environ["TORLAB_CONFIG_DIR"] = str(_plant_key(case.extra["__key__"].decode(), work))
     old = signal.signal(signal.SIGALRM, _alarm)
     signal.alarm(TIME_LIMIT)
     try:
@@ -888,6 +914,11 @@ def run_case(case: Case, work: Path, runner: object, plots: bool = True) -> Outc
     finally:
         signal.alarm(0)
         signal.signal(signal.SIGALRM, old)
+        if "__key__" in case.extra:
+            if env_before is None:
+                os.environ.pop("TORLAB_CONFIG_DIR", None)
+            else:
+                os.environ["TORLAB_CONFIG_DIR"] = env_before
     hidden = len(_STATE.get("hidden_warnings", []))
     out = res.output or ""
     err = getattr(res, "stderr", "") or ""

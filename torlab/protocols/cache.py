@@ -22,7 +22,9 @@ folder may come from someone else, so an entry is
   entry written by another user or machine, or edited, fails the check and is
   recomputed -- so a crafted ``.cache`` can neither run code nor feed wrong
   numbers into a report.  Without a writable configuration folder the key lives
-  only for one process (entries are then never reused across runs).
+  only for one process (entries are then never reused across runs); so it does, with
+  one warning, when the key file cannot be trusted (:func:`_load_key`: a link, another
+  user's or a world-readable file, a FIFO, a damaged or constant key).
 
 An entry is ``torlab-cache 2 <hmac>\n<JSON tree>\n<array bytes>`` (the JSON line is
 padded with spaces so that the arrays start at a multiple of 8 bytes).  Version 1
@@ -67,45 +69,123 @@ T = TypeVar("T")
 def cache_key_file() -> Path:
     """Where the cache's HMAC key is kept: ``$TORLAB_CONFIG_DIR``, else the user's
     configuration folder (``$XDG_CONFIG_HOME/torlab`` or ``~/.config/torlab``;
-    ``%APPDATA%\\torlab`` on Windows), file ``cache-key``."""
+    ``%APPDATA%\\torlab`` on Windows), file ``cache-key``.  A relative
+    ``$TORLAB_CONFIG_DIR`` or ``$XDG_CONFIG_HOME`` is ignored (the XDG rule: a relative
+    path would put the key under whatever folder torlab runs in)."""
     env = os.environ.get("TORLAB_CONFIG_DIR")
-    if env:
+    if env and os.path.isabs(env):
         base = Path(env)
     elif sys.platform == "win32" and os.environ.get("APPDATA"):
         base = Path(os.environ["APPDATA"]) / "torlab"
     else:
         xdg = os.environ.get("XDG_CONFIG_HOME")
-        base = (Path(xdg) if xdg else Path.home() / ".config") / "torlab"
+        base = (Path(xdg) if xdg and os.path.isabs(xdg) else Path.home() / ".config") / "torlab"
     return base / "cache-key"
 
 
 _PROCESS_KEY = secrets.token_bytes(32)
+#: the key's length (bytes); torlab writes it as 64 hexadecimal digits and a newline
+KEY_BYTES = 32
+
+
+class _Untrusted(Exception):
+    """The key file exists but may not be used (the reason is the message)."""
 
 
 def _load_key() -> tuple[bytes, bool]:
-    """``(key, persistent)``: the user's key (created on first use) or a per-process one."""
+    """``(key, persistent)``: the user's key (created on first use) or a per-process one.
+
+    A key file is used only when it can be trusted: a regular file (not a link, FIFO or
+    folder), the user's own, readable and writable by the user alone (mode 0600), in a
+    folder no one else may write to, holding :data:`KEY_BYTES` random bytes as
+    hexadecimal digits (not a constant such as all zeros).  Otherwise the run uses a key
+    of its own (nothing is reused across runs, the documented fallback) and says why in
+    one warning; a file that is there is never overwritten.
+    """
+    import warnings
+
+    from torlab.errors import TorlabWarning
+
+    for env in ("TORLAB_CONFIG_DIR", "XDG_CONFIG_HOME"):
+        v = os.environ.get(env)
+        if v and not os.path.isabs(v):
+            warnings.warn(TorlabWarning(f"{env}={v!r} is a relative path and is ignored (the "
+                                        "cache key would depend on the folder torlab runs in)"),
+                          stacklevel=3)
     p = cache_key_file()
     for _ in range(2):
         try:
-            with open(p, "rb") as f:
-                key = bytes.fromhex(f.read(200).decode("ascii").strip())
-            if len(key) >= 16:
-                return key, True
-            return _PROCESS_KEY, False  # damaged: do not trust, do not overwrite silently
+            return _read_key(p), True
         except FileNotFoundError:
             pass
-        except (OSError, ValueError, UnicodeDecodeError):
+        except _Untrusted as e:
+            warnings.warn(TorlabWarning(f"{e}; this run uses a key of its own, so nothing in "
+                                        "OUT/.cache is reused (remove the file: torlab makes a "
+                                        "new one)", path=p), stacklevel=3)
             return _PROCESS_KEY, False
         try:
-            p.parent.mkdir(parents=True, exist_ok=True)
-            fd = os.open(p, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+            p.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
+            fd = os.open(p, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0),
+                         0o600)
         except FileExistsError:
-            continue  # another process created it just now: read theirs
+            continue  # another process created it just now (or a link is there): read it
         except OSError:
-            return _PROCESS_KEY, False
+            return _PROCESS_KEY, False  # no configuration folder: the key lasts this run
         with os.fdopen(fd, "w", encoding="ascii") as f:
-            f.write(secrets.token_hex(32) + "\n")
+            f.write(secrets.token_hex(KEY_BYTES) + "\n")
     return _PROCESS_KEY, False
+
+
+def _read_key(p: Path) -> bytes:
+    """The key in ``p`` if it can be trusted (see :func:`_load_key`); raises
+    FileNotFoundError or :class:`_Untrusted`."""
+    import stat
+
+    flags = os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0)
+    try:
+        fd = os.open(p, flags)  # a FIFO opens at once (and is refused below): no hang
+    except FileNotFoundError:
+        raise
+    except OSError as e:
+        import errno
+
+        if e.errno == errno.ELOOP:
+            raise _Untrusted("the cache key is a symbolic link (it could be anyone's file)") \
+                from None
+        raise _Untrusted(f"the cache key cannot be read ({e.strerror})") from None
+    try:
+        st = os.fstat(fd)
+        if stat.S_ISDIR(st.st_mode):
+            raise _Untrusted("the cache key is a folder, not a file")
+        if not stat.S_ISREG(st.st_mode):
+            raise _Untrusted("the cache key is not a regular file (a FIFO, device or socket)")
+        if hasattr(os, "geteuid") and st.st_uid != os.geteuid():
+            raise _Untrusted(f"the cache key belongs to another user (uid {st.st_uid})")
+        if os.name == "posix" and st.st_mode & 0o077:
+            raise _Untrusted(f"the cache key can be read or written by others (mode "
+                             f"{stat.S_IMODE(st.st_mode):04o}, must be 0600): anyone who read "
+                             "it can sign cache entries")
+        if os.name == "posix":
+            dst = os.stat(p.parent)
+            if dst.st_mode & 0o022 or (hasattr(os, "geteuid") and dst.st_uid != os.geteuid()):
+                raise _Untrusted(f"the cache key's folder can be written by others (mode "
+                                 f"{stat.S_IMODE(dst.st_mode):04o}, owner uid {dst.st_uid}): "
+                                 "anyone could put a key of their own there")
+        raw = os.read(fd, 4 * KEY_BYTES + 8)
+    finally:
+        os.close(fd)
+    text = raw.decode("ascii", "replace").strip()
+    try:
+        key = bytes.fromhex(text)
+    except ValueError:
+        key = b""
+    if len(key) != KEY_BYTES:
+        what = "empty" if not text else f"not {2 * KEY_BYTES} hexadecimal digits"
+        raise _Untrusted(f"the cache key is damaged ({what})")
+    if len(set(key)) < 8:
+        raise _Untrusted(f"the cache key is not random ({len(set(key))} distinct byte values "
+                         f"in {KEY_BYTES}, e.g. all zeros)")
+    return key
 
 
 # ------------------------------------------------------------------------------ the cache
