@@ -413,7 +413,7 @@ def reported_cases(layer_files: dict[str, bytes] | None = None) -> list[Case]:
     # no write outside OUT, through any link planted next to it
     for plant, text in (("lock_symlink", "lock file"), ("lock_dangling", "lock file"),
                         ("lock_hardlink", "lock file"), ("lock_fifo", "lock file"),
-                        ("out_symlink", "symbolic link")):
+                        ("out_symlink", "symbolic link"), ("out_read_only", "is read-only")):
         case("hpt", "hpt_OFM1_4uL_25C", f"planted_{plant}", hpt_raw, "input_error", text,
              extra={"__plant__": plant.encode()})
     # one field more or fewer, a decimal comma, a decimal point where a comma is declared
@@ -599,6 +599,9 @@ def _plant(what: str, work: Path) -> None:
         os.link(victim, lock)
     elif what == "lock_fifo":
         os.mkfifo(lock)
+    elif what == "out_read_only":  # replaced even with --force once
+        (work / "out").mkdir()
+        (work / "out").chmod(0o555)
     elif what == "out_symlink":
         (work / "elsewhere").mkdir()
         (work / "out").symlink_to(work / "elsewhere", target_is_directory=True)

@@ -152,3 +152,46 @@ def test_lock_of_a_finished_run_is_removed_but_a_lock_put_in_its_place_is_not(tm
     lock.write_text("other\n")
     d.abort()
     assert lock.read_text() == "other\n"
+
+
+# ------------------------------------------------------------------ the folder's own mode
+def test_force_never_replaces_a_read_only_output_folder(cli, tmp_path):
+    out = tmp_path / "out"
+    assert cli("hpt", "reduce", HPT_LOG, "-o", out, "--no-plot").exit_code == 0
+    before = sorted(p.name for p in out.iterdir())
+    out.chmod(0o555)
+    try:
+        r = cli("hpt", "reduce", HPT_LOG, "-o", out, "--force", "--no-plot")
+        assert r.exit_code == 2
+        (line,) = error_lines(r)
+        assert line == (f"error: {out}: the output folder is read-only (mode 0555); make it "
+                        "writable (chmod u+w) or choose another -o")
+        assert sorted(p.name for p in out.iterdir()) == before
+        assert stat.S_IMODE(out.stat().st_mode) == 0o555
+    finally:
+        out.chmod(0o755)
+
+
+@pytest.mark.parametrize("umask", [0o022, 0o027, 0o077])
+def test_results_get_the_umask_or_the_mode_of_the_folder_they_replace(tmp_path, umask):
+    from torlab.outputs import OutputDir
+
+    old = os.umask(umask)
+    try:
+        with OutputDir(tmp_path / "new") as d:
+            d.write_text("sub/a.txt", "1")
+        assert stat.S_IMODE((tmp_path / "new").stat().st_mode) == 0o777 & ~umask
+        assert stat.S_IMODE((tmp_path / "new" / "sub").stat().st_mode) == 0o777 & ~umask
+        assert stat.S_IMODE((tmp_path / "new" / "sub" / "a.txt").stat().st_mode) == \
+            0o666 & ~umask
+        mine = tmp_path / "mine"
+        mine.mkdir()
+        mine.chmod(0o751)  # a folder the user made beforehand keeps its mode
+        with OutputDir(mine) as d:
+            d.write_text("a.txt", "1")
+        assert stat.S_IMODE(mine.stat().st_mode) == 0o751
+        with OutputDir(mine, force=True) as d:  # and so do results replacing results
+            d.write_text("a.txt", "2")
+        assert stat.S_IMODE(mine.stat().st_mode) == 0o751
+    finally:
+        os.umask(old)

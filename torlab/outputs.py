@@ -589,6 +589,10 @@ class OutputDir:
         self._check_kind(t)
         if not os.path.lexists(self._real):
             return
+        mode = stat.S_IMODE(os.lstat(self._real).st_mode)
+        if os.name == "posix" and not mode & stat.S_IWUSR:  # also when root could write it
+            raise OutputWriteError(f"the output folder is read-only (mode {mode:04o}); make it "
+                                   "writable (chmod u+w) or choose another -o", path=t)
         try:
             empty = next(self._real.iterdir(), None) is None
         except OSError as e:
@@ -838,6 +842,14 @@ class OutputDir:
         now = self._parent.lstat(t.name)
         if now is not None and stat.S_ISLNK(now.st_mode):
             raise _link_error("the output folder", None, self.target)
+        # private (0700) while it was written; the results get the mode of the folder they
+        # replace (one the user made), or a new folder's mode under the umask
+        mode = stat.S_IMODE(now.st_mode) if now is not None else 0o777 & ~_umask()
+        assert self._stage is not None
+        if self._stage.fd is not None:
+            os.fchmod(self._stage.fd, mode)
+        else:
+            os.chmod(st, mode)
         if now is None:
             self._parent.rename(st.name, t.name)
             self._close_stage()
@@ -918,6 +930,21 @@ class OutputDir:
             self.commit()
         else:
             self.abort()
+
+
+def _umask() -> int:
+    """The process's umask (from ``/proc`` where there is one: setting it to read it back
+    would change it for a moment for every thread)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    m = os.umask(0o022)
+    os.umask(m)
+    return m
 
 
 def _write_file(fd: int, data: bytes) -> None:
