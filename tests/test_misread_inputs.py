@@ -355,6 +355,10 @@ def test_a_very_soft_roughness_is_full_film_at_every_speed(cli, tmp_path):
 
 
 def test_roelands_eta0_below_eta_inf_names_the_scene_line(cli, tmp_path):
+    from torlab import scene
+    from torlab.model import viscosity
+
+    assert scene.ROELANDS_C == viscosity.ROELANDS_C
     scene = tmp_path / "roe.yaml"
     text = (ROOT / "protocols" / "scenes" / "mtm_paper_b.yaml").read_text()
     scene.write_text(text.replace("eta0: 65 mPa*s", "eta0: 0.01 mPa*s"))

@@ -37,6 +37,7 @@ __all__ = [
     "atomic_write_bytes",
     "atomic_write_text",
     "open_regular",
+    "plain_name",
     "safe_name",
     "sha256_file",
     "sha256_file_cached",
@@ -142,6 +143,18 @@ def safe_name(text: str, *, max_len: int = 80) -> str:
     folder; an empty result becomes ``_``.
     """
     s = _UNSAFE.sub("_", str(text)).strip("._") or "_"
+    return s[:max_len]
+
+
+_PLAIN = re.compile(r"[^A-Za-z0-9._-]+")
+
+
+def plain_name(text: str, *, max_len: int = 80) -> str:
+    """A file-name part made from a label that a report links to as it is: letters,
+    digits, ``.``, ``_`` and ``-`` only (nothing Markdown or HTML would escape), other
+    runs of characters ``_``, at most ``max_len`` characters (a label of any length makes
+    a name a file system takes)."""
+    s = _PLAIN.sub("_", str(text)).strip("._") or "_"
     return s[:max_len]
 
 

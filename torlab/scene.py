@@ -287,6 +287,12 @@ else:
                               Discriminator(_law_of)]
 
 
+#: -ln(eta_inf / 1 Pa s) of the Roelands law (Eq. 5.38), as torlab.model.viscosity has it
+#: (the scene is read below the models, so the number is written here too; a test keeps
+#: the two equal)
+ROELANDS_C = 9.67
+
+
 class Lubricant(_Section):
     """``lubricant:``: viscosity law, film formula and EHL shear law (thesis 5.2.3).
 
@@ -326,13 +332,11 @@ class Lubricant(_Section):
             raise ValueError("viscosity: barus needs alpha (e.g. '15 1/GPa')")
         if self.viscosity == "roelands" and self.Z is None:
             raise ValueError("viscosity: roelands needs Z (e.g. 0.6)")
-        if self.Z is not None:
-            from torlab.model.viscosity import ROELANDS_C
-
-            if math.log(self.eta0) + ROELANDS_C <= 0:  # Eq. 5.38 with eta0 at or below eta_inf
-                raise ValueError(f"eta0: the Roelands law (Z) needs eta0 above its eta_inf "
-                                 f"{math.exp(-ROELANDS_C) * 1e3:.3g} mPa*s, got "
-                                 f"{self.eta0 * 1e3:.3g} mPa*s")
+        if self.Z is not None and math.log(self.eta0) + ROELANDS_C <= 0:
+            # Eq. 5.38 with eta0 at or below eta_inf
+            raise ValueError(f"eta0: the Roelands law (Z) needs eta0 above its eta_inf "
+                             f"{math.exp(-ROELANDS_C) * 1e3:.3g} mPa*s, got "
+                             f"{self.eta0 * 1e3:.3g} mPa*s")
         if self.film_law == "piezo" and self.alpha is None and self.Z is None:
             raise ValueError("film: piezo (Hamrock-Dowson) needs alpha or Z for G = alpha E'")
         if self.shear == "limiting" and self.gamma_L is None:

@@ -384,12 +384,13 @@ class _CrossCheck:
             self.err((*kp, "params"), "hpt:* makes one curve per product; name one product here")
 
 
-def name_key(text: str) -> str:
-    """The file name user text becomes (:func:`torlab.files.safe_name`), casefolded: two
-    texts with one key would write one file (on a file system that ignores case too)."""
-    from torlab.files import safe_name
+def name_key(text: str, *, plain: bool = False) -> str:
+    """The file name user text becomes (:func:`torlab.files.safe_name`; with ``plain``
+    :func:`torlab.files.plain_name`, which labels of figures use), casefolded: two texts
+    with one key would write one file (on a file system that ignores case too)."""
+    from torlab.files import plain_name, safe_name
 
-    return safe_name(text).casefold()
+    return (plain_name(text) if plain else safe_name(text)).casefold()
 
 
 def _result_names(lp: LoadedProtocol, doc: Any) -> list[TorlabInputError]:
@@ -401,88 +402,101 @@ def _result_names(lp: LoadedProtocol, doc: Any) -> list[TorlabInputError]:
     name (``day1/export.txt``, ``day2/export.txt``), by their labels, which they then
     need.  The labels of a section (a file's label, else its name) name its rows and
     figures (``time_test_<label>.png``): no two may make one file name.  The names of the
-    fitted parameter sets (``fits/traction_<name>.yaml``) likewise.
+    fitted parameter sets (``fits/traction_<name>.yaml``) and the Stribeck curves' labels
+    likewise.
     """
-    from torlab.files import safe_name
     from torlab.protocols.schema import DATA_SECTIONS
 
     problems: list[TorlabInputError] = []
     p = lp.protocol
     for sec in DATA_SECTIONS:
         d = getattr(p.data, sec)
-        if d is None:
-            continue
-        entry: dict[Path, int] = {}
-        label: dict[Path, str] = {}
-        for i, e in enumerate(d.files):
-            for f in e.resolved:
-                entry.setdefault(f, i)
-                if e.label:
-                    label[f] = e.label
-        files = list(entry)
-        by_stem: dict[str, list[Path]] = {}
-        for f in files:
-            by_stem.setdefault(name_key(f.stem), []).append(f)
-        names: dict[Path, str] = {}
-        for f in files:
-            shared = [g for g in by_stem[name_key(f.stem)] if g != f]
-            if not shared:
-                names[f] = f.stem
-            elif f in label:
-                names[f] = safe_name(label[f])
-            elif f == [g for g in by_stem[name_key(f.stem)] if g not in label][-1]:
-                shared = [g for g in by_stem[name_key(f.stem)] if g != f]  # said once
-                problems.append(doc.error(
-                    ("data", sec, "files", entry[f]),
-                    f"{_shown(f, lp.base)} and {_shown(shared[0], lp.base)} have one name "
-                    f"({f.stem!r}): their results (data/{sec}/{f.stem}_*.csv) would overwrite "
-                    "each other; give each a label ({path: ..., label: ...})"))
-        seen: dict[str, Path] = {}
-        for f, n in names.items():
-            k = n.casefold()
-            if k in seen:
-                problems.append(doc.error(
-                    ("data", sec, "files", entry[f]),
-                    f"{_shown(f, lp.base)} and {_shown(seen[k], lp.base)} would write one "
-                    f"result name ({n!r}); give them labels that differ"))
-            seen.setdefault(k, f)
-        shown: dict[str, tuple[Path, str]] = {}
-        for f in files:
-            text = label.get(f) or f.stem
-            k = name_key(text)
-            if k in shown and shown[k][0] != f and (f in label or shown[k][0] in label):
-                other = shown[k][1]
-                problems.append(doc.error(
-                    ("data", sec, "files", entry[f]),
-                    f"label {text!r} makes the same file name ({safe_name(text)!r}) as "
-                    f"{other!r}: their figures and rows would be one; give labels that differ"
-                    if text != other else f"label {text!r} is used twice"))
-            shown.setdefault(k, (f, text))
-        lp.result_names[sec] = names
+        if d is not None:
+            lp.result_names[sec] = _data_names(lp, doc, sec, d, problems)
     f = p.fits
     for section, items in (("traction_layers", f.traction_layers), ("lubricants", f.lubricants)):
-        keys: dict[str, str] = {}
-        for i, x in enumerate(items):
-            k = name_key(x.name)
-            if k in keys and keys[k] != x.name:
-                problems.append(doc.error(
-                    ("fits", section, i, "name"),
-                    f"name {x.name!r} makes the same file name ({safe_name(x.name)!r}) as "
-                    f"{keys[k]!r}: their fits would be written to one file"))
-            keys.setdefault(k, x.name)
-    if p.reports.stribeck is not None:
-        keys = {}
-        for i, c in enumerate(p.reports.stribeck.curves):
-            if "{set}" in c.label:
-                continue  # one per product: the products' names are checked with the fits
-            k = name_key(c.label)
-            if k in keys:
-                problems.append(doc.error(
-                    ("reports", "stribeck", "curves", i, "label"),
-                    f"label {c.label!r} makes the same figure name (stribeck_"
-                    f"{safe_name(c.label)}) as {keys[k]!r}; give labels that differ"))
-            keys.setdefault(k, c.label)
+        _distinct(doc, [(("fits", section, i, "name"), x.name) for i, x in enumerate(items)],
+                  "their fits would be written to one file", problems, twice=False)
+    if p.reports.stribeck is not None:  # a label with {set} is one per product (see fits)
+        _distinct(doc, [(("reports", "stribeck", "curves", i, "label"), c.label)
+                        for i, c in enumerate(p.reports.stribeck.curves) if "{set}" not in c.label],
+                  "their figures (stribeck_<label>) would be one", problems, plain=True)
     return problems
+
+
+def _distinct(doc: Any, named: list[tuple[tuple[Any, ...], str]], what: str,
+              problems: list[TorlabInputError], *, plain: bool = False,
+              twice: bool = True) -> None:
+    """Names (at their key paths) that make one file name: one problem for each later one
+    (a name given twice too, unless ``twice`` is False: said elsewhere)."""
+    from torlab.files import plain_name, safe_name
+
+    seen: dict[str, str] = {}
+    for keypath, text in named:
+        k = name_key(text, plain=plain)
+        if k in seen and (twice or seen[k] != text):
+            made = plain_name(text) if plain else safe_name(text)
+            problems.append(doc.error(keypath, f"{text!r} is used twice: {what}"
+                                      if seen[k] == text else
+                                      f"{text!r} makes the same file name ({made!r}) as "
+                                      f"{seen[k]!r}: {what}; make them differ"))
+        seen.setdefault(k, text)
+
+
+def _data_names(lp: LoadedProtocol, doc: Any, sec: str, d: Any,
+                problems: list[TorlabInputError]) -> dict[Path, str]:
+    """The result names of ``data.<sec>``'s files (see :func:`_result_names`)."""
+    from torlab.files import plain_name
+
+    entry: dict[Path, int] = {}
+    label: dict[Path, str] = {}
+    for i, e in enumerate(d.files):
+        for f in e.resolved:
+            entry.setdefault(f, i)
+            if e.label:
+                label[f] = e.label
+    by_stem: dict[str, list[Path]] = {}
+    for f in entry:
+        by_stem.setdefault(name_key(f.stem), []).append(f)
+    names: dict[Path, str] = {}
+    for f in entry:
+        group = by_stem[name_key(f.stem)]
+        if len(group) == 1:
+            names[f] = f.stem
+        elif f in label:
+            names[f] = plain_name(label[f])
+        elif f == [g for g in group if g not in label][-1]:  # said once, at the last
+            other = next(g for g in group if g != f)
+            problems.append(doc.error(
+                ("data", sec, "files", entry[f]),
+                f"{_shown(f, lp.base)} and {_shown(other, lp.base)} have one name ({f.stem!r}): "
+                f"their results (data/{sec}/{f.stem}_*.csv) would overwrite each other; give "
+                "each a label ({path: ..., label: ...})"))
+    taken: dict[str, Path] = {}
+    for f, n in names.items():
+        k = n.casefold()
+        if k in taken:
+            g = taken[k]
+            problems.append(doc.error(
+                ("data", sec, "files", entry[f]),
+                f"{_shown(f, lp.base)} ({label.get(f, 'no label')!r}) and {_shown(g, lp.base)} "
+                f"({label.get(g, 'no label')!r}) would write one result name ({n!r}) in "
+                f"data/{sec}/; give labels that differ"))
+        taken.setdefault(k, f)
+    # labels name rows and figures; a file without one is named by its file name
+    texts = [(f, label.get(f) or f.stem) for f in entry]
+    seen: dict[str, tuple[Path, str]] = {}
+    for f, text in texts:
+        k = name_key(text, plain=True)
+        if k in seen and (f in label or seen[k][0] in label):
+            other = seen[k][1]
+            problems.append(doc.error(
+                ("data", sec, "files", entry[f]),
+                f"label {text!r} is used twice" if text == other else
+                f"label {text!r} makes the same file name ({plain_name(text)!r}) as "
+                f"{other!r}: their figures and rows would be one; give labels that differ"))
+        seen.setdefault(k, (f, text))
+    return names
 
 
 def _shown(f: Path, base: Path) -> str:

@@ -377,11 +377,11 @@ def film_ratio(measured: Any, model: Any) -> dict[str, Any] | None:
 
 
 def _safe(s: str) -> str:
-    """A figure-name part made from a label (:func:`torlab.files.safe_name`: at most 80
+    """A figure-name part made from a label (:func:`torlab.files.plain_name`: at most 80
     characters; the protocol checks before the run that labels make different names)."""
-    from torlab.files import safe_name
+    from torlab.files import plain_name
 
-    return safe_name(s)
+    return plain_name(s)
 
 
 # ------------------------------------------------------------------------------ figures

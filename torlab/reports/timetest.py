@@ -228,11 +228,11 @@ def _repeats_sentence(rep: dict[str, Any] | None, band: tuple[float, float],
 
 
 def _safe(s: str) -> str:
-    """A figure-name part made from a label (:func:`torlab.files.safe_name`: at most 80
+    """A figure-name part made from a label (:func:`torlab.files.plain_name`: at most 80
     characters; the protocol checks before the run that labels make different names)."""
-    from torlab.files import safe_name
+    from torlab.files import plain_name
 
-    return safe_name(s)
+    return plain_name(s)
 
 
 def _iv(r: dict[str, Any], key: str, fmt: str) -> str:
