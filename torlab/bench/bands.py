@@ -33,6 +33,7 @@ import io
 import numpy as np
 
 from torlab.bench import BenchRow, median_time
+from torlab.model.layers import get_law
 
 __all__ = ["run"]
 
@@ -97,7 +98,7 @@ def _draw_cases() -> list[tuple[str, object, object, dict, str]]:
     cases = []
     # the Paper A rough ball in water with a dry-fit-like layer covariance
     d = load_scene(scenes / "optical_paper_a_rough.yaml").model_dump(exclude_none=True)
-    names = ["mu_c1", "mu_c2", "L_mue", "L_mup"]
+    names = list(get_law("voce").fit_names)
     vals = [d["boundary"][k] for k in names]
     sd = np.array([0.1, 0.05, 0.3, 0.3]) * np.array(vals)
     corr = np.array([[1, 0.5, 0.9, 0.8], [0.5, 1, 0.4, 0.6], [0.9, 0.4, 1, 0.7],
@@ -114,7 +115,7 @@ def _draw_cases() -> list[tuple[str, object, object, dict, str]]:
     # Tab. 5.4 with the flash temperature and temperature coefficients
     d = load_scene(scenes / "wheel_rail_tab54.yaml").model_dump(exclude_none=True)
     d["boundary"].update(mu_c1_T=-8e-4, mu_c2_T=-4e-4)
-    names = ["mu_c1", "mu_c2", "L_mue", "L_mup", "mu_c1_T", "mu_c2_T"]
+    names = list(get_law("voce").names)
     vals = [d["boundary"][k] for k in names]
     cov = np.diag((np.array([0.05, 0.05, 0.3, 0.3, 0.5, 0.7]) * np.abs(vals)) ** 2)
     d["fit"] = {"kind": "bench", "covariance": {"names": names, "values": vals,

@@ -12,11 +12,12 @@ import time
 import numpy as np
 
 from torlab.bench import BenchRow
+from torlab.model.layers import get_law
 
 __all__ = ["run"]
 
 
-NAMES = ("mu_c1", "mu_c2", "L_mue", "L_mup")
+NAMES = get_law("voce").fit_names  # the benchmark fits Voce's layer
 
 
 def _fit_stats(fits, truth: dict[str, float]) -> dict[str, list[float]]:
