@@ -253,3 +253,119 @@ def test_an_unbounded_interval_reaches_the_summary_as_null():
     assert json.loads(s)["meta"]["model_selection"]["L_mue"]["ci95"] == [0.0, None]
     assert res.provenance()["model_selection"]["L_mue"]["ci95"][1] is None
     assert "unbounded" in res.report()
+
+
+# ------------------------------------------------- one fit for the CLI, the API, protocols
+@pytest.fixture(scope="module")
+def two_speed_log(tmp_path_factory):
+    """A virtual optical traction log at 0.1 and 0.5 m/s (8 SRRs each) on the lubricated
+    Paper A contact, generated from the mixed model with SPEED_TRUTH at each set speed."""
+    from torlab.synth.optical import OpticalCondition, OpticalRig, OpticalTest, write_optical_log
+
+    sc, xi, v = _two_speeds()
+    from torlab.fit.traction import speed_model
+
+    grid = np.linspace(0.0, 0.06, 31)
+    tab = {s: speed_model(sc, np.full(grid.size, s))[0](SPEED_TRUTH, grid) for s in (0.1, 0.5)}
+
+    def mu_fn(U, srr):
+        U, srr = np.asarray(U, dtype=float), np.asarray(srr, dtype=float)
+        near = np.where(np.abs(U - 0.1) < np.abs(U - 0.5), 0.1, 0.5)
+        a = np.abs(srr)
+        return np.sign(srr) * np.where(near == 0.1, np.interp(a, grid, tab[0.1]),
+                                       np.interp(a, grid, tab[0.5]))
+
+    conds = tuple(OpticalCondition(float(u), float(s), 90.1, 6.0) for u, s in zip(v, xi))
+    test = OpticalTest("two speeds", "traction", "rough", "water", conds)
+    path = tmp_path_factory.mktemp("two_speeds") / "two.csv"
+    write_optical_log(path, test, mu_fn, rig=OpticalRig(sample_rate_hz=50.0), seed=5)
+    return path
+
+
+def _protocol(tmp_path, log):
+    p = tmp_path / "two_speeds.yaml"
+    p.write_text(f"""\
+version: 1
+name: two_speeds
+data:
+  optical:
+    files: [{log.as_posix()}]
+fits:
+  traction_layers:
+    - name: wet
+      measured: {log.as_posix()}
+      scene: {SCENE.as_posix()}
+reports:
+  traction:
+    creepage: {{from: 0, to: 0.05, points: 6}}
+    curves:
+      - label: water, fitted layer
+        scene: {SCENE.as_posix()}
+        params: ["traction:wet"]
+        speeds: measured
+        measured: {log.as_posix()}
+""")
+    return p
+
+
+def test_traction_data_gives_every_point_its_speed(two_speed_log):
+    """A log at two rolling speeds: traction_data (the one reader of a traction test for
+    the CLI, the API and protocols) gives each point the speed it was measured at, from the
+    file and from its reduction alike."""
+    from torlab.instruments import reduce_file
+    from torlab.instruments.measured import traction_data
+
+    log = two_speed_log
+    d = traction_data(log)
+    assert d.test == "traction" and d.creepage.size == d.speed.size == 16
+    np.testing.assert_allclose(np.sort(np.unique(np.round(d.speed, 3))), [0.1, 0.5])
+    # each point's speed is its condition's: the slow curve's points at 0.1 m/s
+    _, xi, v = _two_speeds()
+    for s in (0.1, 0.5):
+        np.testing.assert_allclose(np.sort(d.creepage[np.isclose(d.speed, s, rtol=0.05)]),
+                                   xi[v == s], atol=1.5e-3)
+    r = traction_data(reduce_file(log))
+    for a, b in zip(d[:2] + (d.speed,), r[:2] + (r.speed,), strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_a_protocol_hands_the_fit_every_points_speed(tmp_path, monkeypatch, two_speed_log):
+    """fits.traction_layers fits a multi-speed log as ``torlab fit traction`` does: the
+    lubricated scene, each point at its own speed (not the median speed for all). The fit
+    itself is stopped once called (its result on this log: the slow test below)."""
+    import torlab.fit.traction as ft
+    from torlab.protocols.runner import run_protocol
+
+    class Called(Exception):
+        pass
+
+    seen = {}
+
+    def spy(scene, creepage, mu, *, fixed=None, speed=None, **_):
+        seen.update(scene=scene, creepage=creepage, speed=speed)
+        raise Called
+
+    monkeypatch.setattr(ft, "fit_layer_traction", spy)
+    with pytest.raises(Called):
+        run_protocol(_protocol(tmp_path, two_speed_log), tmp_path / "out", cache=False)
+    assert seen["scene"].lubricant is not None
+    assert seen["speed"] is not None and seen["speed"].size == seen["creepage"].size == 16
+    np.testing.assert_allclose(np.sort(np.unique(np.round(seen["speed"], 3))), [0.1, 0.5])
+
+
+@pytest.mark.slow  # two mixed-model fits of a two-speed log (about 5 s); the hand-over: above
+def test_a_protocol_fits_a_multi_speed_log_as_the_api_does(tmp_path, two_speed_log):
+    """The protocol's traction:wet set is the API's fit of the same file, number for
+    number, and holds the generating mu_c2 in its interval."""
+    import torlab
+    from torlab.protocols.runner import run_protocol
+
+    log = two_speed_log
+    run = run_protocol(_protocol(tmp_path, log), tmp_path / "out", cache=False)
+    api = torlab.fit_traction(SCENE, log)
+    assert api.meta["speeds_m_s"] == pytest.approx([0.1, 0.5], rel=0.02)
+    lo, hi = api.ci95["mu_c2"]
+    assert lo <= SPEED_TRUTH["mu_c2"] <= hi
+    got = run.summary["fits"]["traction:wet"]
+    for n in SPEED_TRUTH:
+        assert got["params"][n] == pytest.approx(api.params[n], rel=1e-12), n

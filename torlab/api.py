@@ -316,17 +316,23 @@ def fit_traction(scene: SceneLike, data: Any, *, fix: dict[str, Any] | None = No
     """The layer from a measured traction curve mu(creepage) through the traction model
     (thesis Eqs. 5.14-5.30; the mixed model for a lubricated scene).
 
+    The same fit as ``torlab fit traction`` and protocols' ``fits.traction_layers``
+    (:func:`torlab.fit.traction.fit_traction_test`): the points of a log at several
+    rolling speeds each at its own speed, a dry test in the scene without its lubricant.
+
     Parameters
     ----------
     scene
         Scene file, dict or Scene of the test contact.
     data
         A file (an instrument file with a traction curve, or a CSV with
-        ``creepage``/``srr`` and ``mu``), a :class:`Reduction`, or ``(creepage, mu)``.
+        ``creepage``/``srr``, ``mu`` and optionally ``speed_m_s``), a
+        :class:`Reduction`, or ``(creepage, mu)`` (at the scene's speed).
     fix
         Parameters held fixed: ``{"L_mup": "20 um"}``.
     dry
-        Ignore the scene's lubricant and roughness (a dry test).
+        Ignore the scene's lubricant and roughness (a dry test; automatic for an
+        optical log of test ``dry_traction``).
 
     Returns
     -------
@@ -334,26 +340,16 @@ def fit_traction(scene: SceneLike, data: Any, *, fix: dict[str, Any] | None = No
     """
     import numpy as np
 
-    from torlab.fit.traction import fit_layer_traction, layer_values
+    from torlab.fit.traction import fit_traction_test, layer_values
+    from torlab.instruments.measured import TractionData, traction_data
     from torlab.instruments.reduction import Reduction
 
-    sc = _scene(scene)
-    if dry:
-        sc = sc.model_copy(update={"lubricant": None, "roughness": None})
-    if isinstance(data, (str, os.PathLike)):
-        from torlab.instruments.measured import traction_data
-
-        xi, mu, _, v = traction_data(Path(data))
-    elif isinstance(data, Reduction):
-        cs = data.traction_curves()
-        xi, mu = np.concatenate([c.x for c in cs]), np.concatenate([c.y for c in cs])
-        v = np.concatenate([np.full(np.size(c.x), float(c.speed_m_s)) for c in cs]) \
-            if cs and all(c.speed_m_s is not None for c in cs) else None
+    if isinstance(data, (str, os.PathLike, Reduction)):
+        points = traction_data(data)
     else:
         xi, mu = data
-        v = None
-    return fit_layer_traction(sc, np.asarray(xi, dtype=float), np.asarray(mu, dtype=float),
-                              fixed=layer_values(fix or {}), speed=v)
+        points = TractionData(np.asarray(xi, dtype=float), np.asarray(mu, dtype=float), "", None)
+    return fit_traction_test(_scene(scene), points, dry=dry, fixed=layer_values(fix or {}))
 
 
 def fit_viscosity(data: Any, law: str = "roelands", **options: Any) -> FitResult:

@@ -312,14 +312,15 @@ def traction_cmd(
 def _traction_fits(sc: Scene, curves: list[tuple[Path, Any, Any, str, Any]], *, joint: bool,
                    dry: bool, fixed: dict[str, float]
                    ) -> tuple[list[tuple[str, Any]], dict[str, Any]]:
-    """One traction fit per curve ``(file, creepage, mu, test, speed)``, or one to all
-    (``joint``); each with its dense model curve (one speed).  A dry test is fitted in the
-    scene without its lubricant and roughness; the points of a log at several speeds each
-    at its own speed."""
+    """One traction fit per curve ``(file, creepage, mu, test, speed)``
+    (:func:`torlab.fit.traction.fit_traction_test`: a dry test in the scene without its
+    lubricant and roughness, the points of a log at several speeds each at its own
+    speed), pooled with their scatter (``joint``); each with its dense model curve (one
+    speed)."""
     import numpy as np
 
     from torlab.errors import TorlabInputError
-    from torlab.fit.traction import fit_layer_traction, traction_model
+    from torlab.fit.traction import fit_traction_test, tested_contact, traction_model
 
     is_dry = [dry or c[3] == "dry_traction" for c in curves]
     if joint and len(set(is_dry)) > 1:
@@ -333,20 +334,15 @@ def _traction_fits(sc: Scene, curves: list[tuple[Path, Any, Any, str, Any]], *, 
                         "(Hertz + FASTSIM + layer)")
     names: list[str] = []
     fits, model_curves = [], {}
-    for group in [[c] for c in curves]:
-        dry_group = is_dry[curves.index(group[0])]
-        scg = sc.model_copy(update={"lubricant": None, "roughness": None}) \
-            if dry_group and lubricated else sc
-        xi = np.concatenate([c[1] for c in group])
-        v = np.concatenate([c[4] for c in group]) if all(c[4] is not None for c in group) \
-            else None
-        res = fit_layer_traction(scg, xi, np.concatenate([c[2] for c in group]), fixed=fixed,
-                                 speed=v)
-        res.meta["source"] = ", ".join(c[0].name for c in group)
-        name = _stem(group[0][0], names)
+    for f, *data in curves:
+        res = fit_traction_test(sc, data, dry=dry, fixed=fixed)
+        res.meta["source"] = f.name
+        name = _stem(f, names)
         if len(res.meta.get("speeds_m_s", [])) <= 1:  # one speed: the model as a dense curve
+            xi = np.asarray(data[0], dtype=float)
             dense = np.linspace(float(np.min(xi)), float(np.max(xi)), 201)
-            model_curves[name] = (dense, traction_model(scg)(res.params, dense))
+            model_curves[name] = (dense, traction_model(tested_contact(sc, data[2], dry=dry))(
+                res.params, dense))
         fits.append((name, res))
     if joint and len(fits) > 1:  # repeats: each curve's fit, pooled with their scatter
         return _pooled(fits), {}

@@ -55,7 +55,8 @@ from torlab.threads import small_problem
 if TYPE_CHECKING:
     from torlab.scene import Scene
 
-__all__ = ["fit_layer_traction", "layer_values", "traction_model"]
+__all__ = ["fit_layer_traction", "fit_traction_test", "layer_values", "tested_contact",
+           "traction_model"]
 
 #: the parameters of the default (Voce) law; a scene with another law fits that law's
 NAMES = get_law().fit_names
@@ -398,6 +399,49 @@ def fit_layer_traction(scene: Scene, creepage: Any, mu: Any, *, fixed: dict[str,
         ms.update({n: {"decision": "not determined (ended on a bound): no band until fixed"}
                    for n in at_bound})
     return res
+
+
+def tested_contact(scene: Any, test: str = "", *, dry: bool = False) -> Any:
+    """The contact a traction test was run in: ``scene`` itself, or, for a dry test
+    (``dry``, or an optical log of test ``dry_traction``), the scene without its
+    ``lubricant:`` and ``roughness:`` (Hertz + FASTSIM + layer)."""
+    if (dry or test == "dry_traction") and (scene.lubricant is not None
+                                            or scene.roughness is not None):
+        return scene.model_copy(update={"lubricant": None, "roughness": None})
+    return scene
+
+
+def fit_traction_test(scene: Any, data: Any, *, dry: bool = False,
+                      fixed: dict[str, float] | None = None) -> FitResult:
+    """The layer from one measured traction test, as every caller fits it.
+
+    ``torlab fit traction``, :func:`torlab.fit_traction` and protocols'
+    ``fits.traction_layers`` all come here: the test's contact
+    (:func:`tested_contact`) and every point at its own rolling speed
+    (:func:`fit_layer_traction` with ``speed=``; thesis Eqs. 5.14-5.30, the mixed
+    model Eq. 5.47 for a lubricated contact).
+
+    Parameters
+    ----------
+    scene
+        The test contact (a validated :class:`~torlab.scene.Scene`).
+    data
+        ``(creepage, mu, test, speed)``
+        (:class:`torlab.instruments.measured.TractionData`): creepage [-], coefficient
+        [-], the test type ('' or ``dry_traction``) and each point's rolling speed
+        [m/s] or None (the scene's speed for all).
+    dry
+        Ignore the scene's lubricant and roughness (a dry test).
+    fixed
+        Parameters held fixed [SI].
+
+    Returns
+    -------
+    FitResult
+    """
+    xi, mu, test, speed = data
+    return fit_layer_traction(tested_contact(scene, test, dry=dry), np.asarray(xi, dtype=float),
+                              np.asarray(mu, dtype=float), fixed=fixed, speed=speed)
 
 
 def _covariance(J: np.ndarray, r: np.ndarray, k: int) -> np.ndarray:

@@ -8,11 +8,12 @@ instrument recognises is read as a CSV with the columns the fit needs.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from torlab.errors import TorlabInputError
 
 __all__ = [
+    "TractionData",
     "detected",
     "film_data",
     "hpt_curves",
@@ -133,29 +134,62 @@ def is_hpt_input(path: Path) -> bool:
         return b"shear_stress_Pa" in f.read(2000).split(b"\n", 1)[0]
 
 
-def traction_data(path: Path) -> tuple[Any, Any, str, Any]:
-    """Creepage, coefficient, test type and rolling speed of a measured traction curve: an
-    instrument file (its folded traction curves, every speed) or a CSV with creepage (or
-    srr), mu and optionally speed_m_s (or rolling_speed_m_s).  The speed is one value per
-    point [m/s], or None where the file does not give it."""
+class TractionData(NamedTuple):
+    """A measured traction test as the traction fit takes it: every point's creepage
+    [-], coefficient [-] and rolling speed [m/s] (None where the source does not give
+    it), and the test type (``dry_traction`` for a dry optical test, else '')."""
+
+    creepage: Any
+    mu: Any
+    test: str
+    speed: Any
+
+
+def traction_data(source: Any) -> TractionData:
+    """The traction test of a file or reduction: its folded traction curves, every speed.
+
+    The one place that turns what a user hands a traction fit into the fit's points
+    (``torlab fit traction``, :func:`torlab.fit_traction`, protocols'
+    ``fits.traction_layers``).
+
+    Parameters
+    ----------
+    source
+        An instrument file (reduced on the fly), a
+        :class:`~torlab.instruments.reduction.Reduction`, or a CSV with creepage (or
+        srr), mu (or traction_coefficient) and optionally speed_m_s (or
+        rolling_speed_m_s).
+
+    Returns
+    -------
+    TractionData
+        The speed is one value per point [m/s], or None where the source does not
+        give it (a CSV without a speed column, a curve without a rolling speed).
+    """
     import numpy as np
 
-    if detected(path):
+    from torlab.instruments.reduction import Reduction
+
+    if isinstance(source, Reduction):
+        red = source
+    elif detected(Path(source)):
         from torlab.instruments import reduce_file
 
-        red = reduce_file(path)
-        curves = red.traction_curves()
-        test = getattr(red.detail, "test", "")
-        v = None
-        if curves and all(c.speed_m_s is not None for c in curves):
-            v = np.concatenate([np.full(np.size(c.x), float(c.speed_m_s)) for c in curves])
-        return (np.concatenate([c.x for c in curves]), np.concatenate([c.y for c in curves]),
-                test, v)
-    df, (xc, yc) = read_csv(path, (("creepage", "srr"), ("mu", "traction_coefficient")),
-                             "a traction curve")
-    vc = next((c for c in ("speed_m_s", "rolling_speed_m_s") if c in df), None)
-    return (numbers(df, xc, path), numbers(df, yc, path), "",
-            None if vc is None else numbers(df, vc, path))
+        red = reduce_file(Path(source))
+    else:
+        path = Path(source)
+        df, (xc, yc) = read_csv(path, (("creepage", "srr"), ("mu", "traction_coefficient")),
+                                 "a traction curve")
+        vc = next((c for c in ("speed_m_s", "rolling_speed_m_s") if c in df), None)
+        return TractionData(numbers(df, xc, path), numbers(df, yc, path), "",
+                            None if vc is None else numbers(df, vc, path))
+    curves = red.traction_curves()
+    v = None
+    if curves and all(c.speed_m_s is not None for c in curves):
+        v = np.concatenate([np.full(np.size(c.x), float(c.speed_m_s)) for c in curves])
+    return TractionData(np.concatenate([np.asarray(c.x, dtype=float) for c in curves]),
+                        np.concatenate([np.asarray(c.y, dtype=float) for c in curves]),
+                        str(getattr(red.detail, "test", "") or ""), v)
 
 
 def film_data(path: Path) -> list[tuple[str, Any, Any, float | None]]:

@@ -5,9 +5,9 @@
   (:func:`torlab.fit.layer.fit_layer_hpt`, several runs fitted jointly), and
   the temperature coefficients from its runs at other temperatures
   (:func:`torlab.fit.temperature.fit_temperature_coefficients`) -> ``hpt:<product>``;
-* ``fits.traction_layers``: the layer from a measured traction curve through
-  the traction model (:func:`torlab.fit.traction.fit_layer_traction`) ->
-  ``traction:<name>``;
+* ``fits.traction_layers``: the layer from a measured traction test, fitted as
+  ``torlab fit traction`` fits it (:func:`torlab.fit.traction.fit_traction_test`)
+  -> ``traction:<name>``;
 * ``fits.lubricants``: a viscosity law from viscometer falls
   (:func:`torlab.fit.viscosity.fit_viscosity`) -> ``lubricant:<name>``.
 
@@ -17,15 +17,12 @@ Every fit is cached on the cache keys of the reductions it uses.
 from __future__ import annotations
 
 import math
-from pathlib import Path
 from typing import Any
-
-import numpy as np
 
 from torlab.errors import TorlabInputError
 from torlab.protocols.context import RunContext, add_covariance
 
-__all__ = ["fit_all", "measured_traction"]
+__all__ = ["fit_all"]
 
 #: what the fit tasks use of the run's prepared modules (:meth:`torlab.parallel.Executor.map`):
 #: the optimiser and the fits' own modules, not matplotlib (loaded meanwhile, for the figures)
@@ -196,32 +193,25 @@ def _temperature(ctx: RunContext, label: str, tres: Any, scene_dict: dict[str, A
     ctx.add_fit(f"hpt-T:{label}", tres, tres.to_scene_dict(), keep_set=False)
 
 
-def measured_traction(ctx: RunContext, path: Path) -> list[Any]:
-    """The traction curves of a protocol data file (folded; one per speed or step)."""
-    return ctx.reduction(path).traction_curves()
-
-
 def fit_traction_layer(ctx: RunContext, t: Any) -> None:
-    """``traction:<name>``: the layer from a measured traction curve."""
-    from torlab.fit.traction import fit_layer_traction
-    from torlab.protocols.loader import deep_merge
+    """``traction:<name>``: the layer from a measured traction test, fitted as ``torlab fit
+    traction`` fits it (:func:`torlab.fit.traction.fit_traction_test`: every point at its
+    own rolling speed, a dry test without the scene's lubricant)."""
+    from torlab.fit.traction import fit_traction_test
+    from torlab.instruments.measured import traction_data
     from torlab.scene import scene_from_dict
 
-    curves = measured_traction(ctx, t.measured.resolved)
+    data = traction_data(ctx.reduction(t.measured.resolved))
     files = tuple(x.resolved for x in t.scene)
-    xi = np.concatenate([c.x for c in curves])
-    mu = np.concatenate([c.y for c in curves])
-    speeds = [c.speed_m_s for c in curves if c.speed_m_s is not None]
 
     def compute() -> Any:
-        sd = deep_merge({}, ctx.lp.scenes[files])
-        if speeds:
-            sd.setdefault("kinematics", {})["speed"] = float(np.median(speeds))
-        return fit_layer_traction(scene_from_dict(sd), xi, mu)
+        return fit_traction_test(scene_from_dict(ctx.lp.scenes[files]), data)
 
     res = ctx.cache.get_or_compute("fit_traction", compute,
                                    measured=ctx.sha(t.measured.resolved),
-                                   scene=ctx.lp.scenes[files], xi=xi, mu=mu)
+                                   scene=ctx.lp.scenes[files], xi=data.creepage, mu=data.mu,
+                                   test=data.test,
+                                   speed=data.speed)
     ctx.add_fit(f"traction:{t.name}", res, res.to_scene_dict())
 
 
