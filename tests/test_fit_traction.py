@@ -275,7 +275,7 @@ def two_speed_log(tmp_path_factory):
         return np.sign(srr) * np.where(near == 0.1, np.interp(a, grid, tab[0.1]),
                                        np.interp(a, grid, tab[0.5]))
 
-    conds = tuple(OpticalCondition(float(u), float(s), 90.1, 6.0) for u, s in zip(v, xi))
+    conds = tuple(OpticalCondition(float(u), float(s), 90.1, 6.0) for u, s in zip(v, xi, strict=True))
     test = OpticalTest("two speeds", "traction", "rough", "water", conds)
     path = tmp_path_factory.mktemp("two_speeds") / "two.csv"
     write_optical_log(path, test, mu_fn, rig=OpticalRig(sample_rate_hz=50.0), seed=5)
@@ -325,7 +325,7 @@ def test_traction_data_gives_every_point_its_speed(two_speed_log):
         np.testing.assert_allclose(np.sort(d.creepage[np.isclose(d.speed, s, rtol=0.05)]),
                                    xi[v == s], atol=1.5e-3)
     r = traction_data(reduce_file(log))
-    for a, b in zip(d[:2] + (d.speed,), r[:2] + (r.speed,), strict=True):
+    for a, b in zip((*d[:2], d.speed), (*r[:2], r.speed), strict=True):
         np.testing.assert_array_equal(a, b)
 
 

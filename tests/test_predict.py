@@ -360,6 +360,56 @@ def test_an_isothermal_layer_still_rising_is_not_saturated_not_positive():
         "too few points"
 
 
+def _rising_tab54(**update):
+    """The Tab. 5.4 contact, isothermal, with a 30 um Voce length: still rising after 2.5 %."""
+    scene = load_scene(ROOT / "protocols" / "scenes" / "wheel_rail_tab54.yaml")
+    b = scene.boundary.model_copy(update={"mu_c1": 0.14, "mu_c2": 0.23, "L_mue": 8e-6,
+                                          "L_mup": 30e-6, **update})
+    return scene, scene.model_copy(update={"boundary": b, "thermal": None})
+
+
+def test_every_models_curve_classifies_its_trend_with_the_same_rule():
+    """The dry traction curve and the creep forces (FASTSIM in three creepages) call one
+    classification (torlab.model.prediction.scene_trend): the Tab. 5.4 contact with a 30 um
+    Voce length still rises after saturation in both, and both say 'not saturated in this
+    range' (an isothermal hardening layer), not 'positive'.  With a softening layer
+    (mu_c1 > mu_c2) or a temperature effect the rule does not apply; a lubricated scene's
+    film can make the curve rise."""
+    from torlab.model.creep import predict_creep
+    from torlab.model.prediction import rises_only
+    from torlab.model.traction import traction_curve
+
+    scene, sc = _rising_tab54()
+    xi = np.linspace(0.0, 0.05, 11)
+    for how, pred in (("dry", traction_curve(sc, xi)), ("creep", predict_creep(sc, xi))):
+        t = pred.trend
+        raw = classify_trend(pred.table["creepage"].to_numpy(), pred.table["mu"].to_numpy())
+        assert raw["trend"] == "positive", how  # the curve alone rises
+        assert t["trend"] == "not saturated in this range" and t["rises_only"], how
+    b = sc.boundary
+    assert rises_only(sc)
+    assert not rises_only(_rising_tab54(mu_c1=0.25)[1])  # softening: a peak, then a fall
+    hot = scene.model_copy(update={"boundary": b.model_copy(update={"mu_c2_T": -1e-3})})
+    assert not rises_only(hot)  # thermal: the heating can make it rise or fall
+    assert rises_only(hot, temperature=False)  # a model without the temperature
+    assert not rises_only(load_scene(ROOT / "protocols" / "scenes" /
+                                     "optical_paper_a_rough.yaml"))
+
+
+@pytest.mark.slow  # the exact solver along a curve (3 s); the same rule, quick: the test above
+def test_the_exact_solvers_curve_classifies_its_trend_with_the_same_rule():
+    """predict_exact (isothermal: the layer's limits at the ambient temperature even with
+    thermal:) applies the isothermal rule; a softening layer does not."""
+    from torlab.model.exact.scene import ExactGrid, predict_exact
+
+    xi = np.linspace(0.0, 0.05, 11)
+    scene, _ = _rising_tab54()
+    t = predict_exact(scene, xi, grid=ExactGrid(n=8)).trend  # with its thermal: section
+    assert t["rises_only"] and "isothermal" in t["note"] and t["trend"] != "positive"
+    t = predict_exact(_rising_tab54(mu_c1=0.25)[1], xi, grid=ExactGrid(n=8)).trend
+    assert not t.get("rises_only")
+
+
 def test_classify_trend_sparse_and_folded_curves():
     # measured SRR steps of an optical traction test: flat tanh plateau, one point in the tail
     srr = np.array([0.005, 0.01, 0.02, 0.03, 0.05, 0.1])

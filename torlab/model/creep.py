@@ -392,7 +392,7 @@ def predict_creep(scene: Scene, creepage: Any, lateral: float = 0.0, spin: float
         (``max_temperature_C`` with ``thermal:``).
     """
     from torlab.model.contact import build_contact
-    from torlab.model.prediction import TractionPrediction, classify_trend
+    from torlab.model.prediction import TractionPrediction, scene_trend
 
     xi = np.atleast_1d(np.asarray(creepage, dtype=float))
     contact = build_contact(scene)
@@ -409,7 +409,7 @@ def predict_creep(scene: Scene, creepage: Any, lateral: float = 0.0, spin: float
                 f"{prob.layer.law.limit_text})",
                 "EHL film: not modelled (dry scene, no lubricant:)",
                 loop[r.temperature_loop]]
-    trend = classify_trend(xi, r.mu_x)
+    trend = scene_trend(scene, xi, r.mu_x)
     from torlab import __version__
 
     summary = {"torlab_version": __version__, "scene": scene.name, "contact": contact.summary(),

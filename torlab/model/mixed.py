@@ -269,7 +269,7 @@ def mixed_traction_curve(scene: Scene, creepage: Any, *, trend_tolerance: float 
         ``as_frame=False``).
     """
     from torlab.model.ehl import mu_ehl
-    from torlab.model.prediction import TractionPrediction, _summary, classify_trend
+    from torlab.model.prediction import TractionPrediction, _summary, scene_trend
 
     xi = _creepages(creepage)
     mc, p, v, ls, share, h = _at_scene_speed(scene)
@@ -300,7 +300,7 @@ def mixed_traction_curve(scene: Scene, creepage: Any, *, trend_tolerance: float 
 
         table = pd.DataFrame(table)
     modelled = _modelled(mc, {str(ls.regime)}, bl is not None, loop)
-    trend = classify_trend(xi, mu, tolerance=trend_tolerance)
+    trend = scene_trend(scene, xi, mu, tolerance=trend_tolerance)
     summary = _summary(scene, mc.contact, modelled, trend, table)
     notes = _ehl_notes(np.asarray(mu_e) if mu_e is not None else np.array([]), mc.lubricant)
     summary["notes"] = summary["notes"] + notes

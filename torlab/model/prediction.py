@@ -23,7 +23,7 @@ if TYPE_CHECKING:
 
 __all__ = ["NOT_SATURATED", "TOO_FEW_POINTS", "TREND_CLASSES", "TREND_PROBABILITY",
            "TREND_TOLERANCE", "TractionPrediction",
-           "classify_trend", "fastsim_grid", "fastsim_problem"]
+           "classify_trend", "fastsim_grid", "fastsim_problem", "rises_only", "scene_trend"]
 
 
 @dataclass
@@ -264,6 +264,59 @@ def classify_trend(creepage: np.ndarray, mu: np.ndarray, *, saturation: float = 
             if out[k] == "positive":
                 out[k] = NOT_SATURATED
     return out
+
+
+def rises_only(scene: Any, *, temperature: bool | None = None) -> bool:
+    """Whether the scene's modelled traction curve can only approach its plateau from below.
+
+    True for a dry contact whose layer does not soften (its law's ``softens``: the strength
+    never falls after the elastic limit; for Voce ``mu_c1 <= mu_c2``, Eqs. 5.26-5.29) and
+    whose limits do not change with the contact's temperature in the
+    model (no ``thermal:``, both temperature coefficients 0, or a model that does not
+    compute the temperature).  Such a curve still rising after its saturation point has
+    not saturated in the range (thesis H4.1); it is not positive.  A lubricated contact
+    is not: the film's shear grows with the sliding speed.
+
+    Parameters
+    ----------
+    scene
+        The validated scene.
+    temperature
+        Whether the model computes the contact temperature (None: it does when the scene
+        has ``thermal:``; the exact solver does not).
+    """
+    b = scene.boundary
+    if b is None or scene.lubricant is not None:
+        return False
+    lay, law = b.layer, b.layer.law
+    heats = scene.thermal is not None if temperature is None else bool(temperature)
+    if heats and any(np.any(np.asarray(c) != 0) for c in law.temperature_coefficients(lay)):
+        return False
+    return not law.softens(lay)
+
+
+def scene_trend(scene: Any, creepage: np.ndarray, mu: np.ndarray, *,
+                temperature: bool | None = None, **options: Any) -> dict[str, Any]:
+    """The trend after saturation of a modelled curve of ``scene`` (thesis H4.1): the one
+    classification every model's prediction uses (the dry and mixed traction curves, the
+    creep forces, the exact solver): :func:`classify_trend` with ``rises_only`` from
+    :func:`rises_only`, so an isothermal layer's rise is ``not saturated in this range``
+    in every one of them.
+
+    Parameters
+    ----------
+    scene
+        The scene the curve was modelled for.
+    creepage, mu
+        The curve.
+    temperature
+        Whether the model computes the contact temperature (:func:`rises_only`).
+    options
+        :func:`classify_trend`'s keywords (``tolerance``, ``threshold``,
+        ``uncertainty`` ...).
+    """
+    return classify_trend(creepage, mu, rises_only=rises_only(scene, temperature=temperature),
+                          **options)
 
 
 def temperature_note(loop: str, layer: LayerParams | None) -> str:

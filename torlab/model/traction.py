@@ -10,7 +10,8 @@
   load sharing, FASTSIM only where the asperities carry load).
 
 The trend after saturation (thesis H4.1) is classified on the curve alone
-(:func:`~torlab.model.prediction.classify_trend`).  The prediction with its band, the
+(:func:`~torlab.model.prediction.scene_trend`, as for every model's curve: an isothermal
+layer's rise is 'not saturated in this range').  The prediction with its band, the
 trend's probabilities and what else is known of its error is
 :func:`torlab.model.predict.predict_traction`, which calls this.
 
@@ -32,9 +33,9 @@ from torlab.model.prediction import (
     TREND_TOLERANCE,
     TractionPrediction,
     _summary,
-    classify_trend,
     fastsim_grid,
     fastsim_problem,
+    scene_trend,
     temperature_note,
 )
 
@@ -124,12 +125,7 @@ def dry_traction_curve(scene: Scene, creepage: ArrayLike, *,
                 "EHL film: not modelled (dry scene, no lubricant:)",
                 "asperity load sharing: not modelled (dry scene)"]
     modelled.append(temperature_note(res.temperature_loop, prob.layer))
-    lay = scene.boundary.layer
-    # without a temperature effect the layer's curve only rises towards its plateau, unless
-    # the layer softens
-    isothermal = scene.thermal is None or not any(lay.law.temperature_coefficients(lay))
-    trend = classify_trend(xi, res.mu, tolerance=trend_tolerance,
-                           rises_only=isothermal and not lay.law.softens(lay))
+    trend = scene_trend(scene, xi, res.mu, tolerance=trend_tolerance)
     summary = _summary(scene, contact, modelled, trend, table)
     if res.temperature_iterations is not None:
         summary["temperature_iterations_max"] = int(np.max(res.temperature_iterations))

@@ -131,7 +131,7 @@ def predict_exact(scene: Scene, creepage: Any, lateral: float = 0.0, spin: float
     """
     from torlab import __version__
     from torlab.model.contact import build_contact
-    from torlab.model.prediction import TractionPrediction, classify_trend
+    from torlab.model.prediction import TractionPrediction, scene_trend
 
     xi = np.atleast_1d(np.asarray(creepage, dtype=float))
     contact = build_contact(scene)
@@ -146,7 +146,7 @@ def predict_exact(scene: Scene, creepage: Any, lateral: float = 0.0, spin: float
                else "contact temperature: not modelled (no thermal: section)")
     modelled = [f"Hertz contact ({contact.patch.method})", *r.notes,
                 "EHL film: not modelled (dry scene, no lubricant:)", thermal]
-    trend = classify_trend(xi, r.mu_x)
+    trend = scene_trend(scene, xi, r.mu_x, temperature=False)  # isothermal solver
     summary = {"torlab_version": __version__, "scene": scene.name, "method": "exact",
                "contact": contact.summary(), "modelled": modelled, "notes": list(contact.notes),
                "lateral": float(lateral), "spin_1_m": float(spin),
