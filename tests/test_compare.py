@@ -109,6 +109,44 @@ def test_compare_command_on_fit_folders(tmp_path, cli):
     assert r.exit_code == 2 and "--better" in r.output
 
 
+def test_compare_reads_time_tests_from_raw_exports_and_reduced_tables(tmp_path, cli):
+    """MTM time tests compared directly: a PCS export and the *_timed.csv that 'torlab mtm
+    reduce' writes of it give the same figures and intervals (one reading, through the
+    registry); 'torlab compare' on two raw exports states the differences of the four
+    figures, and the generating differences (sample_data/mtm/truth.yaml, the noise-free
+    curves' figures) lie inside their intervals; a file that is no time test is refused."""
+    import pandas as pd
+
+    import torlab
+    from tests.conftest import ROOT
+    from torlab.yamlio import load_yaml
+
+    mtm = ROOT / "sample_data" / "mtm"
+    r = cli("mtm", "reduce", mtm / "mtm_base_5uL.txt", "-o", tmp_path / "red")
+    assert r.exit_code == 0, r.output
+    opts = {"replicates": 60, "duration": "20 min"}
+    (raw,) = torlab.time_test_items(mtm / "mtm_base_5uL.txt", "base", **opts)
+    (red,) = torlab.time_test_items(tmp_path / "red" / "mtm_base_5uL_timed.csv", "base", **opts)
+    assert set(raw.estimates) == {"minimum", "recovery_time_s", "mean_after_recovery",
+                                  "time_below_threshold_s"}
+    for q, e in raw.estimates.items():
+        assert (e.value, e.se) == (red.estimates[q].value, red.estimates[q].se), q
+    r = cli("compare", f"base={mtm / 'mtm_base_5uL.txt'}",
+            f"Al2O3={mtm / 'mtm_base-Al2O3_5uL.txt'}", "-o", tmp_path / "out",
+            "--time-test", "replicates=60", "--time-test", "duration=20 min")
+    assert r.exit_code == 0, r.output
+    rows = pd.read_csv(tmp_path / "out" / "compare.csv").set_index("quantity")
+    truth = {run["file"]: run["truth"] for run in load_yaml(mtm / "truth.yaml").data["runs"]}
+    a, b = truth["mtm_base-Al2O3_5uL.txt"], truth["mtm_base_5uL.txt"]
+    for q, key in (("minimum", "minimum"), ("recovery_time_s", "recovery_time_s"),
+                   ("time_below_threshold_s", "time_below_threshold_s")):
+        d = a[key] - b[key]
+        assert rows.loc[q, "ci95_low"] <= d <= rows.loc[q, "ci95_high"], (q, d)
+    r = cli("compare", f"x={mtm / 'mtm_base_5uL.txt'}", f"y={mtm / 'README.md'}", "-o",
+            tmp_path / "o2")
+    assert r.exit_code == 2 and "README.md" in r.output
+
+
 def test_protocol_compare_section_needs_known_items(tmp_path):
     from torlab.protocols.schema import Reports
 

@@ -47,6 +47,7 @@ _LAZY = {
     "predict_sweep": "torlab.api",
     "run_protocol": "torlab.api",
     "compare": "torlab.api",
+    "time_test_items": "torlab.api",
     "FitResult": "torlab.fit.result",
     "Reduction": "torlab.instruments.reduction",
     "REGISTRY": "torlab.instruments",

@@ -69,6 +69,7 @@ __all__ = [
     "reduce_files",
     "reduce_to_folder",
     "run_protocol",
+    "time_test_items",
 ]
 
 PathLike = str | os.PathLike[str]
@@ -977,10 +978,74 @@ def run_protocol(protocol: PathLike, out: PathLike, *, force: bool = False,
     return _run(protocol, out, force=force, cache=cache, command="torlab.run_protocol")
 
 
+def _is_time_test_file(path: Path) -> bool:
+    """A PCS export or a ``*_timed.csv`` (not a parameter file, summary or folder)."""
+    from torlab.instruments.measured import is_time_test_input
+
+    return path.is_file() and path.suffix.lower() not in (".yaml", ".yml", ".json") \
+        and is_time_test_input(path)
+
+
+def time_test_items(source: Any, label: str | None = None, *,
+                    band: tuple[float, float] = (0.15, 0.25), replicates: int = 200,
+                    seed: int = 0, **options: Any) -> list[Any]:
+    """Comparison items of MTM time tests after application: each test's minimum, time to
+    recover, mean after recovery and time below the threshold, with the intervals of its
+    record (:func:`torlab.reduce.time_test_uncertainty.time_test_uncertainty`), as a
+    protocol's ``reports.compare`` has them.
+
+    Parameters
+    ----------
+    source
+        A PCS export, its :class:`Reduction`, or the ``*_timed.csv`` of ``torlab mtm
+        reduce`` (:func:`torlab.instruments.measured.time_test_records`).
+    label
+        The item's name (default the file's stem, with the step when it holds several
+        time tests).  Tests under one label are repeats of one item.
+    band, replicates, seed
+        The optimal band of the "in band" verdict, the block bootstrap's replicates and
+        seed.
+    options
+        The time-test options of ``torlab mtm reduce`` (``threshold``, ``smooth``,
+        ``tail``, ``duration`` ...; quantities with units or SI numbers).
+
+    Returns
+    -------
+    list of :class:`torlab.comparison.Item`
+    """
+    from torlab.comparison import items_from_time_tests
+    from torlab.instruments.measured import time_test_records
+    from torlab.instruments.reduction import Reduction
+    from torlab.reduce.time_test_uncertainty import time_test_uncertainty
+
+    opts = _time_test_options(options)
+    recs = time_test_records(source, **opts)
+    src = source.source if isinstance(source, Reduction) else os.fspath(source)
+    stem = Path(src).stem
+    keep = {k: v for k, v in opts.items() if k not in ("family", "after_application",
+                                                       "application_time")}
+    evidence, results, labels = {}, {}, {}
+    for r in recs:
+        key = (stem, r.step)
+        results[key] = r.result
+        labels[key] = label or (stem if len(recs) == 1 else f"{stem} step {r.step}")
+        evidence[key] = time_test_uncertainty(r.t, r.mu, r.result, keep, band=tuple(band),
+                                              replicates=replicates, seed=seed)
+    return items_from_time_tests(evidence, results, labels)
+
+
+def _time_test_options(options: dict[str, Any]) -> dict[str, Any]:
+    """The pcs instrument's time-test options, checked and in SI (``"20 min"`` -> 1200)."""
+    from torlab.instruments import convert_options
+
+    return {k: v for k, v in convert_options("pcs", options).items() if v is not None}
+
+
 # ------------------------------------------------------------------ is A better than B?
 def compare(items: Any, *, reference: str | None = None, quantities: Any = None,
             better: dict[str, str] | None = None, pairs: str = "reference",
-            probability: float = 0.9, confidence: float = 0.95, seed: int = 0) -> Any:
+            probability: float = 0.9, confidence: float = 0.95, seed: int = 0,
+            time_tests: dict[str, Any] | None = None) -> Any:
     """Compare products, compositions or conditions on every quantity they share: the
     difference (a ratio for positive quantities) with its interval, P(A higher) and, with a
     stated direction, P(A better), and with more than two items a ranking with
@@ -992,8 +1057,10 @@ def compare(items: Any, *, reference: str | None = None, quantities: Any = None,
         ``{label: thing or [things]}`` or a list of things (or ``(label, thing)`` pairs).
         A thing is a :class:`~torlab.fit.result.FitResult`, a parameter file
         (``params.yaml``), a results folder (``torlab fit``, ``torlab predict retention``,
-        ``torlab run``) or a :class:`~torlab.comparison.Item`.  Things under one label
-        are repeats: pooled with random effects before the comparison.
+        ``torlab run``), an MTM time test (a PCS export, its :class:`Reduction` or the
+        ``*_timed.csv`` of ``torlab mtm reduce``: :func:`time_test_items`) or a
+        :class:`~torlab.comparison.Item`.  Things under one label are repeats: pooled
+        with random effects before the comparison.
     reference
         The label the others are compared against (default the first).
     quantities
@@ -1004,6 +1071,10 @@ def compare(items: Any, *, reference: str | None = None, quantities: Any = None,
         ``"reference"`` or ``"all"``.
     probability, confidence, seed
         Probability a verdict needs, the intervals' confidence, the rankings' seed.
+    time_tests
+        Options of the time tests read here (:func:`time_test_items`: the
+        ``torlab mtm reduce`` options such as ``threshold``, ``duration``, and ``band``,
+        ``replicates``).
 
     Returns
     -------
@@ -1014,6 +1085,7 @@ def compare(items: Any, *, reference: str | None = None, quantities: Any = None,
     from torlab.comparison import Item, item_from_fit, items_from_path
     from torlab.comparison import compare as _compare
     from torlab.fit.result import FitResult
+    from torlab.instruments.reduction import Reduction
 
     def load(thing: Any, label: str | None) -> list[Any]:
         if isinstance(thing, Item):
@@ -1021,10 +1093,13 @@ def compare(items: Any, *, reference: str | None = None, quantities: Any = None,
                                                       thing.notes)]
         if isinstance(thing, FitResult):
             return [item_from_fit(thing, label)]
+        if isinstance(thing, Reduction) or (isinstance(thing, (str, os.PathLike))
+                                            and _is_time_test_file(Path(thing))):
+            return time_test_items(thing, label, **(time_tests or {}))
         if isinstance(thing, (str, os.PathLike)):
             return items_from_path(thing, label)
         raise TorlabInputError(f"cannot compare a {type(thing).__name__}: give fit results, "
-                               "parameter files or results folders", key="items")
+                               "parameter files, results folders or time tests", key="items")
 
     found: list[Any] = []
     if isinstance(items, dict):

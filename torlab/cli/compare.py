@@ -59,12 +59,38 @@ def _better(items: list[str]) -> dict[str, str]:
     return out
 
 
+def _time_test_options(items: list[str]) -> dict[str, Any]:
+    """``--time-test KEY=VALUE`` options: the time-test options of 'torlab mtm reduce'
+    (units allowed), ``replicates`` (a whole number) and ``band`` (``LOW:HIGH``)."""
+    from torlab.errors import TorlabInputError
+
+    out: dict[str, Any] = {}
+    for it in items:
+        k, sep, v = (x.strip() for x in it.partition("="))
+        if not sep or not k or not v:
+            raise TorlabInputError(f"{it!r}: write KEY=VALUE, e.g. 'duration=20 min'",
+                                   key="--time-test")
+        try:
+            if k == "replicates":
+                out[k] = int(v)
+            elif k == "band":
+                lo, hi = (float(x) for x in v.split(":"))
+                out[k] = (lo, hi)
+            else:
+                out[k] = v
+        except ValueError:
+            raise TorlabInputError(f"{it!r}: replicates is a whole number, band LOW:HIGH "
+                                   "(e.g. 0.15:0.25)", key="--time-test") from None
+    return out
+
+
 def compare_cmd(
     items: Annotated[list[str], typer.Argument(
         help="What to compare, each [LABEL=]PATH: a parameter file (params.yaml), a results "
-        "folder of 'torlab fit', 'torlab predict retention' or 'torlab run'. A label given "
-        "to several paths makes them repeats of one item (pooled with their scatter); "
-        "without a label an item is named by its product or folder.")],
+        "folder of 'torlab fit', 'torlab predict retention' or 'torlab run', or an MTM time "
+        "test (a PCS export or the *_timed.csv of 'torlab mtm reduce'). A label given to "
+        "several paths makes them repeats of one item (pooled with their scatter); without "
+        "a label an item is named by its product, folder or file.")],
     out: OutOpt,
     reference: Annotated[str | None, typer.Option(help="The item the others are compared "
                                                   "against (default the first).")] = None,
@@ -79,6 +105,10 @@ def compare_cmd(
         "better) and the verdict are then stated for it.")] = None,
     probability: Annotated[float, typer.Option(min=0.5, max=0.999, help="Probability a "
                                                "verdict needs.")] = 0.9,
+    time_test: Annotated[list[str] | None, typer.Option(
+        "--time-test", help="An option of the time tests read here, KEY=VALUE (repeatable): "
+        "those of 'torlab mtm reduce' ('duration=20 min', 'threshold=0.15', 'tail=120 s' "
+        "...), 'replicates=200' (block bootstrap) and 'band=0.15:0.25'.")] = None,
     force: ForceOpt = False,
     xlsx: XlsxOpt = False,
     formats: FormatsOpt = None,
@@ -91,6 +121,12 @@ def compare_cmd(
     Writes compare.csv (one row per comparison), values.csv (each item's values and
     intervals, what they hold), ranking.csv (more than two items), compare.png (the
     differences with their intervals and the line of no difference) and summary.json.
+
+    An MTM time test is read through the instrument registry (a PCS export's time tests
+    after application, or a *_timed.csv): its minimum, time to recover, mean after
+    recovery and time below the threshold, each with the interval of its record
+    (docs/uncertainty.md says what one record resolves); tests under one label are
+    repeats, pooled with the scatter between them.
     """
     from torlab.api import compare
     from torlab.outputs import OutputDir
@@ -100,7 +136,7 @@ def compare_cmd(
     things: list[Any] = [(lab, p) for lab, ps in labelled.items() for p in ps] + plain
     res = compare(things, reference=reference, quantities=quantity or None,
                   better=_better(better or []), pairs="all" if all_pairs else "reference",
-                  probability=probability)
+                  probability=probability, time_tests=_time_test_options(time_test or []))
     dest = OutputDir(out, force=force, inputs=inputs, command=command_line())
     with dest:
         names = write_compare(dest, res, title="", formats=formats, xlsx=xlsx)

@@ -13,6 +13,7 @@ from typing import Any, NamedTuple
 from torlab.errors import TorlabInputError
 
 __all__ = [
+    "TimeTestRecord",
     "TractionData",
     "detected",
     "film_data",
@@ -24,6 +25,7 @@ __all__ = [
     "loads",
     "numbers",
     "read_csv",
+    "time_test_records",
     "traction_data",
     "viscosity_data",
 ]
@@ -221,6 +223,83 @@ def is_time_test_input(path: Path) -> bool:
 
     with open_regular(path) as fh:
         return b"step_time_s" in fh.read(2000).split(b"\n", 1)[0]
+
+
+class TimeTestRecord(NamedTuple):
+    """One time test after application: its step, record (step time [s], coefficient [-])
+    and figures (:class:`torlab.reduce.mtm.TimeTestResult`)."""
+
+    step: int
+    t: Any
+    mu: Any
+    result: Any
+
+
+def time_test_records(source: Any, **options: Any) -> list[TimeTestRecord]:
+    """The time tests after application of a PCS export, its reduction, or the
+    ``*_timed.csv`` of ``torlab mtm reduce``, each with the record its figures were read
+    from.
+
+    A PCS export is reduced by the registry (its timed steps marked as time tests after
+    application; ``after_application=True`` takes every timed step); a ``*_timed.csv``
+    (``step_time_s``, ``traction_coefficient``, optionally ``step``) is one time test per
+    step.  ``options`` are the time-test options of ``torlab mtm reduce`` (``threshold``,
+    ``smooth``, ``tail``, ``duration`` ...), in SI.
+
+    Raises
+    ------
+    TorlabInputError
+        A file that is neither, or that holds no time test.
+    """
+    from torlab.instruments.reduction import Reduction
+
+    if isinstance(source, Reduction):
+        red = source
+    elif detected(Path(source)) == "pcs":
+        from torlab.instruments import reduce_file
+
+        red = reduce_file(Path(source), **options)
+    else:
+        return _timed_csv_records(Path(source), options)
+    d = getattr(red.detail, "curves", {}).get("timed")
+    out = []
+    for tt in getattr(red.detail, "time_tests", []):
+        if d is None:
+            break
+        sel = d["step"].to_numpy() == tt.step
+        out.append(TimeTestRecord(int(tt.step),
+                                  d.loc[sel, "step_time_s"].to_numpy(dtype=float),
+                                  d.loc[sel, "traction_coefficient"].to_numpy(dtype=float), tt))
+    if not out:
+        raise TorlabInputError("no time test after application in this file (a timed step "
+                               "marked 'time test after application'; after_application="
+                               "True takes every timed step)", path=red.source)
+    return out
+
+
+def _timed_csv_records(path: Path, options: dict[str, Any]) -> list[TimeTestRecord]:
+    """The time tests of a ``*_timed.csv``: one per step."""
+    import numpy as np
+
+    from torlab.reduce.mtm import time_test_metrics
+
+    df, (tc, mc) = read_csv(path, (("step_time_s",), ("traction_coefficient",)),
+                             "a time test ('torlab mtm reduce' *_timed.csv: step_time_s, "
+                             "traction_coefficient)")
+    t, mu = numbers(df, tc, path, finite=False), numbers(df, mc, path, finite=False)
+    steps = numbers(df, "step", path).astype(int) if "step" in df else np.ones(t.size, int)
+    keep = {k: v for k, v in options.items() if k not in ("family", "after_application")}
+    out = []
+    for st in np.unique(steps):
+        sel = steps == st
+        try:
+            res = time_test_metrics(t[sel], mu[sel], label=path.name, step=int(st), **keep)
+        except TorlabInputError as e:
+            if e.key is not None:
+                raise
+            raise TorlabInputError(f"step {int(st)}: {e.message}", path=path) from None
+        out.append(TimeTestRecord(int(st), t[sel], mu[sel], res))
+    return out
 
 
 #: suffixes of parameter files (an HPT layer fit's ``params.yaml``)
