@@ -241,3 +241,68 @@ def test_cli_synth_hpt_paper_b(cli, tmp_path):
     r = cli("synth", "hpt", "--campaign", "paper_x", "-o", tmp_path / "x")
     assert r.exit_code == 2 and "--campaign" in r.output
 
+
+def _amount_series(repeats: int, run_sd: float, seed: int = 0):
+    """Two products, five amounts, ``repeats`` runs each: logistic f in ln amount with a
+    run-to-run scatter ``run_sd``."""
+    import pandas as pd
+
+    from torlab.fit.crossing import logistic
+
+    rng = np.random.default_rng(seed)
+    rows = []
+    for prod, c in (("A", math.log(4.0)), ("B", math.log(8.0))):
+        for a in (1.0, 2.0, 4.0, 8.0, 16.0, 32.0):
+            for _ in range(repeats):
+                f = float(logistic(np.log(a), 0.08, 0.30, 2.0, c)) + run_sd * rng.standard_normal()
+                rows.append({"product": prod, "file": f"{prod}_{a}.txt", "applied_amount": a,
+                             "applied_amount_unit": "uL", "amount_kind": "volume",
+                             "density_kg_m3": 900.0, "mass_mg": a * 0.9, "f": f,
+                             "f_sd": 0.01, "temperature_C": 25.0, "product_type": "liquid",
+                             "product_label": prod})
+    return pd.DataFrame(rows)
+
+
+def test_amount_intervals_say_what_one_run_per_amount_cannot_resolve():
+    """One run per amount: the crossing intervals rest on the scatter about the logistic
+    curves, and the result says that it holds the run-to-run scatter and each run's noise
+    together, which one run per amount cannot tell apart."""
+    from torlab.fit.crossing import amount_statistics, fit_crossings
+
+    series = _amount_series(1, 0.005)
+    fits = fit_crossings(series, threshold=0.15, band=(0.15, 0.25))
+    sc = fits[0].meta["scatter"]
+    assert sc["basis"] == "residuals" and sc["dof_repeats"] == 0
+    r = np.concatenate([cf.data["residual"].to_numpy() for cf in fits])
+    assert sc["sd"] == pytest.approx(math.sqrt(r @ r / (r.size - 8)), rel=1e-12)
+    assert "one run per amount" in sc["holds"] and "cannot tell" in sc["holds"]
+    st = amount_statistics(series, fits, threshold=0.15, confidence=0.95)
+    assert st["scatter"]["holds"] == sc["holds"]
+
+
+def test_amount_repeats_are_pooled_with_random_effects():
+    """Two runs at every amount: the repeats' one-way REML scatter is the pooled
+    within-amount variance (by hand), and the crossing intervals and the status evidence use
+    the larger of it and the scatter about the logistic curves, on its degrees of
+    freedom."""
+    from torlab.fit.crossing import fit_crossings
+
+    series = _amount_series(2, 0.01, seed=3)
+    g = series.groupby(["product", "applied_amount"])["f"]
+    ss = float(((series["f"] - g.transform("mean")) ** 2).sum())
+    dof = int((g.count() - 1).sum())
+    fits = fit_crossings(series, threshold=0.15, band=(0.15, 0.25))
+    sc = fits[0].meta["scatter"]
+    assert sc["repeated_amounts"] == 12 and sc["dof_repeats"] == dof == 12
+    assert sc["sd_repeats"] == pytest.approx(math.sqrt(ss / dof), rel=1e-9)
+    assert "runs repeat 12 amounts" in sc["holds"]
+    assert sc["sd"] == max(sc["sd_repeats"], sc["sd_residual"])
+    assert sc["basis"] == ("repeats" if sc["sd_repeats"] > sc["sd_residual"] else "residuals")
+    for cf in fits:  # the intervals rest on that scatter and its degrees of freedom
+        if cf.cov is not None:
+            assert cf.dof == sc["dof"]
+    # the evidence of "above/below at every amount" uses the same scatter
+    from torlab.fit.crossing import amount_statistics
+
+    st = amount_statistics(series, fits, threshold=0.15, confidence=0.95)
+    assert st["pooled"] == [sc["sd"], sc["dof"]]

@@ -57,6 +57,7 @@ __all__ = [
     "logistic_band",
     "mass_factor",
     "mass_homogeneity",
+    "run_scatter",
 ]
 
 MG = 1e-6  # kg per mg
@@ -392,8 +393,78 @@ def fit_crossings(series: Any, *, threshold: float, band: tuple[float, float],
             cf.notes.append(f"{prod}: fewer than 5 amounts, crossing by interpolation")
             cf.method = "interpolation"
         fits.append(_finish(cf, x, f, a, lin, threshold, band))
-    _intervals(fits, jacs, ss, dof, threshold, confidence, series, probability)
-    return [CrossingFit.of(cf) for cf in fits]
+    sc = run_scatter(series, ss, dof, [cf.product for cf in fits if cf.product in jacs])
+    _intervals(fits, jacs, sc["sd"] ** 2 * sc["dof"] if sc["dof"] else ss, sc["dof"] or dof,
+               threshold, confidence, series, probability)
+    out = [CrossingFit.of(cf) for cf in fits]
+    for r in out:
+        r.meta["scatter"] = sc
+    return out
+
+
+def run_scatter(series: Any, ss: float, dof: int, products: list[str]) -> dict[str, Any]:
+    """What the crossing intervals hold: the scatter of one run's f about its product's
+    curve, from the residuals about the logistic curves or, where runs repeat an amount,
+    from the repeats (one-way random effects, :func:`torlab.random_effects.one_way`).
+
+    Each amount of a Paper C series is one HPT run, and a run's f differs from the
+    product's curve by the run-to-run scatter (a new sample, a new application) and by the
+    run's own noise over its window.  With one run per amount the residuals about the
+    fitted curves hold both together (and any misfit of the logistic shape), and nothing
+    in the data separates them.  Runs that repeat an amount measure the scatter of one
+    run about its amount's mean without the curve (REML, the pooled within-amount
+    variance on ``sum (n - 1)`` degrees of freedom); the intervals then use the larger of
+    the two variances (never below what the repeats show), with its degrees of freedom.
+
+    Parameters
+    ----------
+    series
+        The amount series (:func:`amount_series`).
+    ss, dof
+        Residual sum of squares and degrees of freedom of the logistic fits, pooled.
+    products
+        The products with a logistic fit (whose residuals ``ss`` holds).
+
+    Returns
+    -------
+    dict
+        ``sd``, ``dof`` (the scatter the intervals use; NaN / 0 without either),
+        ``basis`` (``residuals`` or ``repeats``), ``sd_residual``, ``dof_residual``,
+        ``sd_repeats``, ``dof_repeats``, ``repeated_amounts`` (amounts with two or more
+        runs, over the products) and ``holds`` (the sentence the reports print).
+    """
+    from torlab.random_effects import one_way
+
+    sd_res = math.sqrt(ss / dof) if dof > 0 else _NAN
+    sel = series["product"].isin(products) if len(series) else series.index == -1
+    sub = series[sel]
+    rep = one_way(sub["f"].to_numpy(dtype=float),
+                  [f"{p}|{a!r}" for p, a in zip(sub["product"], sub["applied_amount"],
+                                                strict=True)]) if len(sub) else {"dof": 0}
+    sd_rep, dof_rep = float(rep.get("sd_test", _NAN)), int(rep.get("dof", 0))
+    out = {"sd_residual": sd_res, "dof_residual": int(dof), "sd_repeats": sd_rep,
+           "dof_repeats": dof_rep, "repeated_amounts": int(rep.get("n_compositions", 0))}
+    if dof_rep > 0 and (not math.isfinite(sd_res) or sd_rep > sd_res):
+        out.update(sd=sd_rep, dof=dof_rep, basis="repeats")
+    else:
+        out.update(sd=sd_res, dof=int(dof) if math.isfinite(sd_res) else 0, basis="residuals")
+    if dof_rep > 0:
+        out["holds"] = (
+            f"runs repeat {out['repeated_amounts']} amounts: the scatter of one run about its "
+            f"amount's mean is {sd_rep:.3g} ({dof_rep} degrees of freedom, one-way random "
+            f"effects), the scatter about the logistic curves {sd_res:.3g} ({dof} degrees of "
+            f"freedom); the intervals use the larger ({out['basis']}). Either holds the "
+            "run-to-run scatter and each run's own noise together: a run's own noise over its "
+            "window is not separated from it")
+    else:
+        out["holds"] = (
+            "one run per amount: the intervals hold the scatter of the runs about the "
+            f"products' logistic curves ({sd_res:.3g}, pooled over the products, {dof} "
+            "degrees of freedom), which is the run-to-run scatter and each run's own noise "
+            "together, plus any misfit of the logistic shape; with one run per amount the data "
+            "cannot tell these apart (repeated runs at an amount would measure the run-to-run "
+            "scatter)")
+    return out
 
 
 def _finish(cf: _Crossing, x: np.ndarray, f: np.ndarray, a: np.ndarray, lin: float,
@@ -465,7 +536,11 @@ def _intervals(fits: list[_Crossing], jacs: dict[str, Any], ss: float, dof: int,
 
 
 def _pooled_scatter(fits: list[CrossingFit]) -> tuple[float, int]:
-    """Run-to-run scatter of f pooled over the products' logistic fits: (sd, dof)."""
+    """Run-to-run scatter of f pooled over the products' logistic fits: (sd, dof) of
+    :func:`run_scatter` (the repeats' where they show more)."""
+    sc = next((cf.meta.get("scatter") for cf in fits if cf.meta.get("scatter")), None)
+    if sc is not None:
+        return (sc["sd"], sc["dof"]) if sc["dof"] > 0 else (_NAN, 0)
     ss, dof = 0.0, 0
     for cf in fits:
         if cf.method == "logistic" and cf.data is not None and cf.cov is not None:
@@ -575,7 +650,8 @@ def amount_statistics(series: Any, fits: list[CrossingFit], *, threshold: float,
         ``status``: product -> ``{p_status, status_verdict}`` (:func:`_status_evidence`);
         ``t_quantile``: Student t quantile of ``confidence`` on the pooled degrees of
         freedom (NaN without them); ``mass_homogeneity``: :func:`mass_homogeneity` of the
-        crossing masses (None with fewer than two).
+        crossing masses (None with fewer than two); ``scatter``: what the intervals hold
+        (:func:`run_scatter`; None without a logistic fit).
     """
     from torlab._stats import t_ppf  # scipy.stats.t.ppf, without its import
 
@@ -585,8 +661,9 @@ def amount_statistics(series: Any, fits: list[CrossingFit], *, threshold: float,
     tq = float(t_ppf(0.5 + confidence / 2, pooled[1])) if pooled[1] > 0 else _NAN
     rows = [crossing_row(series, cf) for cf in fits]
     same = mass_homogeneity(rows, tq) if math.isfinite(tq) else None
+    sc = next((cf.meta.get("scatter") for cf in fits if cf.meta.get("scatter")), None)
     return {"pooled": [pooled[0], pooled[1]], "status": status, "t_quantile": tq,
-            "mass_homogeneity": same}
+            "mass_homogeneity": same, "scatter": sc}
 
 
 def logistic_band(x: np.ndarray, cf: CrossingFit) -> tuple[np.ndarray, np.ndarray] | None:

@@ -85,11 +85,11 @@ def amount(ctx: RunContext) -> Any:
                 series, fits, threshold=cfg.threshold, confidence=cfg.confidence,
                 probability=cfg.probability), series=digest, options=opts)
     if fits:
-        ctx.add_estimates(_crossing_items(series, fits))
+        ctx.add_estimates(_crossing_items(series, fits, (stats or {}).get("scatter")))
     return amount_section(series, cfg, fits, stats)
 
 
-def _crossing_items(series: Any, fits: list[Any]) -> list[Any]:
+def _crossing_items(series: Any, fits: list[Any], scatter: Any = None) -> list[Any]:
     """Each product's crossing as an applied mass (comparable across liquids and solids)."""
     import math
 
@@ -102,11 +102,12 @@ def _crossing_items(series: Any, fits: list[Any]) -> list[Any]:
         vals = (cf.crossing * mf, cf.crossing_low * mf, cf.crossing_high * mf)
         if not all(math.isfinite(v) and v > 0 for v in vals):
             continue
+        holds = scatter["holds"] if scatter else (
+            "the scatter of the runs about the products' logistic curves, pooled over the "
+            "products")
         out.append(Item(cf.product, {"crossing_mass": Estimate.from_interval(
-            *vals, max(int(cf.dof), 1), log=True, runs=int(cf.n_points),
-            holds="the scatter of the runs about the products' logistic curves, pooled over "
-                  "the products (one run per amount: run-to-run scatter and each run's own "
-                  "noise together)")}, [f"amount series of {cf.product}"]))
+            *vals, max(int(cf.dof), 1), log=True, runs=int(cf.n_points), holds=holds)},
+            [f"amount series of {cf.product}"]))
     return out
 
 

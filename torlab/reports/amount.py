@@ -106,6 +106,9 @@ def amount_section(series: Any, cfg: Any, fits: list[CrossingFit] | None,
         "Mass basis: volumes times the product density (protocol products: or the log's "
         "product_density); solids as applied.",
     ]
+    sc = stats.get("scatter")
+    if sc:
+        paragraphs.append(f"What the crossing intervals hold: {sc['holds']}.")
     for r in rows:
         if r["status"] != "crosses" or not math.isfinite(r["crossing_amount"]):
             ev = ""
@@ -167,6 +170,8 @@ def amount_section(series: Any, cfg: Any, fits: list[CrossingFit] | None,
         "curve": cfg.curve, "confidence": cfg.confidence, "probability": prob,
         "n_runs": len(series), "products": key,
         "pooled_scatter": {"sd": pooled[0], "dof": pooled[1]},
+        "scatter": None if not sc else {k: (None if isinstance(v, float) and not math.isfinite(v)
+                                            else v) for k, v in sc.items()},
         "mass_homogeneity": same,
         "f_by_run": _f_by_run(series),
     }
