@@ -141,3 +141,41 @@ def test_measured_retention_figures_of_a_known_record():
     assert d["retentivity"]["value"] == pytest.approx(867, abs=15)
     never = measured_retention(N, np.full(N.size, 0.2), band=(0.15, 0.25), replicates=20)
     assert never["retentivity"]["value"] is None and never["fraction_in_band"]["value"] == 1.0
+
+
+@pytest.mark.slow  # a coverage sweep: 200 simulated records, each bootstrapped (about 1 min)
+def test_single_record_intervals_hold_the_noise_free_figures():
+    """The minimum, time to recover and time below 0.15 of one record (the Paper B base
+    medium's generator, torlab.synth.mtm, a 20 s fluctuation under white noise): over 200
+    seeds their 95 % intervals hold the noise-free curve's figures (true_figures, closed
+    forms) in the shares docs/uncertainty.md states (98.5, 92 and 90 % with 200
+    replicates), within three binomial standard deviations.  The minimum read from a noisy
+    record is biased low by more than its own scatter, so an interval centred on it would
+    miss; the bias correction is what holds it."""
+    import dataclasses
+
+    from torlab.reduce.mtm import time_test_metrics
+    from torlab.reduce.time_test_uncertainty import time_test_uncertainty
+    from torlab.synth.mtm import paper_b_time_tests, simulate_time_test, true_figures
+
+    opts = {"threshold": 0.15, "recovery_fraction": 0.9, "smooth": 10.0, "tail": 120.0,
+            "duration": 1200.0}
+    spec0 = paper_b_time_tests()[0]
+    truth = true_figures(spec0)
+    hits = {"minimum": 0, "recovery_time": 0, "time_below_threshold": 0}
+    errors = []
+    n = 200
+    for s in range(n):
+        spec = dataclasses.replace(spec0, seed=10_000 + s)
+        ch = simulate_time_test(spec)
+        res = time_test_metrics(ch["t"], ch["mu"], **opts)
+        ev = time_test_uncertainty(ch["t"], ch["mu"], res, opts, replicates=100, seed=s)
+        for k, key in (("minimum", "minimum"), ("recovery_time", "recovery_time_s"),
+                       ("time_below_threshold", "time_below_threshold_s")):
+            hits[k] += ev[f"{k}_low95"] <= truth[key] <= ev[f"{k}_high95"]
+        errors.append(res.minimum - truth["minimum"])
+    cover = {k: v / n for k, v in hits.items()}
+    assert cover["minimum"] >= 0.985 - 3 * math.sqrt(0.985 * 0.015 / n), cover
+    assert cover["recovery_time"] >= 0.92 - 3 * math.sqrt(0.92 * 0.08 / n), cover
+    assert cover["time_below_threshold"] >= 0.90 - 3 * math.sqrt(0.90 * 0.10 / n), cover
+    assert np.mean(errors) < -np.std(errors)  # the record's minimum: biased low

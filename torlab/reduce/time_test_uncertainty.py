@@ -24,7 +24,7 @@ determines them:
   median bias against the background's own figure).  The fraction of replicates
   that recover is the probability that the record shows a recovery.  Over 200
   simulated records per composition the minimum's interval holds the true value in
-  over 95 % of them, the crossings' in about 70-90 % (docs/uncertainty.md): a 20 s
+  93-100 % of them, the crossings' in 77-97 % (docs/uncertainty.md): a 20 s
   fluctuation moves a crossing by tens of seconds and one record holds too few of
   its periods to say by how much; the basis says so.
 
@@ -204,8 +204,8 @@ BOOTSTRAP_BASIS = (
     "the record's own noise (block bootstrap of the residuals about its 120 s running "
     "median, intervals corrected for the estimator's bias); from one record the time to "
     "recover and the time below the threshold are resolved only roughly: their 95 % "
-    "intervals held the true value in about 70-90 % of simulated records (the minimum's in "
-    "over 95 %), because a slow fluctuation of the friction moves the crossings by tens of "
+    "intervals held the true value in 77-97 % of simulated records (the minimum's in "
+    "93-100 %), because a slow fluctuation of the friction moves the crossings by tens of "
     "seconds and one record holds few of its periods; repeated tests measure it")
 
 
