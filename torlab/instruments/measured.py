@@ -139,12 +139,16 @@ def is_hpt_input(path: Path) -> bool:
 class TractionData(NamedTuple):
     """A measured traction test as the traction fit takes it: every point's creepage
     [-], coefficient [-] and rolling speed [m/s] (None where the source does not give
-    it), and the test type (``dry_traction`` for a dry optical test, else '')."""
+    it), and the test type (``dry_traction`` for a dry optical test, else '').
 
-    creepage: Any
-    mu: Any
+    The fields are typed ``object`` (arrays of floats in practice): a named tuple's
+    annotations are resolved in the namespace of :mod:`collections`, where no typing name is
+    defined."""
+
+    creepage: object
+    mu: object
     test: str
-    speed: Any
+    speed: object
 
 
 def traction_data(source: Any) -> TractionData:
@@ -230,9 +234,9 @@ class TimeTestRecord(NamedTuple):
     and figures (:class:`torlab.reduce.mtm.TimeTestResult`)."""
 
     step: int
-    t: Any
-    mu: Any
-    result: Any
+    t: object
+    mu: object
+    result: object
 
 
 def time_test_records(source: Any, **options: Any) -> list[TimeTestRecord]:
@@ -282,11 +286,11 @@ def _timed_csv_records(path: Path, options: dict[str, Any]) -> list[TimeTestReco
     import numpy as np
 
     from torlab.reduce.mtm import time_test_metrics
+    from torlab.reduce.time_test import read_timed_csv
 
-    df, (tc, mc) = read_csv(path, (("step_time_s",), ("traction_coefficient",)),
-                             "a time test ('torlab mtm reduce' *_timed.csv: step_time_s, "
-                             "traction_coefficient)")
-    t, mu = numbers(df, tc, path, finite=False), numbers(df, mc, path, finite=False)
+    df = read_timed_csv(path)
+    t = numbers(df, "step_time_s", path, finite=False)
+    mu = numbers(df, "traction_coefficient", path, finite=False)
     steps = numbers(df, "step", path).astype(int) if "step" in df else np.ones(t.size, int)
     keep = {k: v for k, v in options.items() if k not in ("family", "after_application")}
     out = []

@@ -9,6 +9,7 @@ The runner (:mod:`torlab.protocols.runner`) only sequences; the stages
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -143,12 +144,18 @@ class RunContext:
         self.dest.write_text(f"fits/{safe_name(name.replace(':', '_'))}.yaml",
                              dump_yaml(finite(res.to_yaml_dict())))
 
-    def add_estimates(self, items: list[Any]) -> None:
+    def add_estimates(self, items: list[Any] | Callable[[], list[Any]]) -> None:
         """Add items' estimates (:class:`torlab.comparison.Item`) for ``reports.compare``;
         an item's quantities from several sections (a product's layer and its crossing)
-        join under its label."""
+        join under its label.  ``items`` may be a callable that builds them: it is called
+        only when the protocol compares anything (a re-run without ``reports.compare`` then
+        loads no statistics module for estimates it never uses)."""
         from torlab.comparison import Item
 
+        if callable(items):
+            if not self.p.reports.compare:
+                return
+            items = items()
         for it in items:
             have = self.compare_items.setdefault(it.label, Item(it.label))
             have.estimates.update(it.estimates)

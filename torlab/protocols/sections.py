@@ -85,7 +85,7 @@ def amount(ctx: RunContext) -> Any:
                 series, fits, threshold=cfg.threshold, confidence=cfg.confidence,
                 probability=cfg.probability), series=digest, options=opts)
     if fits:
-        ctx.add_estimates(_crossing_items(series, fits, (stats or {}).get("scatter")))
+        ctx.add_estimates(lambda: _crossing_items(series, fits, (stats or {}).get("scatter")))
     return amount_section(series, cfg, fits, stats)
 
 
@@ -158,7 +158,7 @@ def time_test(ctx: RunContext) -> Any:
     evidence = _time_test_evidence(ctx, cfg)
     repeats = _time_test_repeats(ctx, cfg, evidence) if evidence else None
     if evidence:
-        ctx.add_estimates(_time_test_items(ctx, cfg, evidence, repeats))
+        ctx.add_estimates(lambda: _time_test_items(ctx, cfg, evidence, repeats))
     return time_test_section([(lab, r.detail) for lab, r in ctx.labelled("mtm")], cfg, model,
                              evidence, repeats)
 
@@ -497,7 +497,7 @@ def retention(ctx: RunContext) -> Any:
         **kw), amount=pc.amount, spec=pc.model_dump(mode="json"), **key)
     from torlab.comparison import Item, retention_estimates
 
-    ctx.add_estimates([Item(cfg.product, retention_estimates(
+    ctx.add_estimates(lambda: [Item(cfg.product, retention_estimates(
         pred.summary["retention_metrics"]), [f"retention prediction of {cfg.product}"])])
     sweep = None
     if cfg.sweep is not None:

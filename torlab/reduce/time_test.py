@@ -24,7 +24,8 @@ import numpy as np
 from torlab.errors import TorlabInputError
 from torlab.model.amount import parse_amount
 
-__all__ = ["DEFAULT_MIN_DROP", "MIN_WINDOW", "TimeTest", "read_time_test", "time_test"]
+__all__ = ["DEFAULT_MIN_DROP", "MIN_WINDOW", "TimeTest", "read_time_test", "read_timed_csv",
+           "time_test"]
 
 
 #: fewest samples in a test's fit window
@@ -279,25 +280,45 @@ def _from_pcs(path: Path, step: int | None, amount: Any, track_radius: float | N
     return t, mu, args, amount, amount_text, track_radius, f"{path.name} step {st.number}"
 
 
-def _from_csv(path: Path, step: int | None, amount: Any, track_radius: float | None
-              ) -> tuple[Any, Any, dict[str, Any]]:
-    """A ``*_timed.csv`` of ``torlab mtm reduce``: time [s], coefficient, load [N], rolling
-    speed [m/s] and slide-roll ratio per sample (the amount and the track radius must be
-    given)."""
+def read_timed_csv(path: str | Path, need: tuple[str, ...] = ()) -> Any:
+    """The ``*_timed.csv`` of ``torlab mtm reduce``: its table, with ``step_time_s`` [s] and
+    ``traction_coefficient`` [-] and the columns ``need`` (the one reader of that table: the
+    removal fit's time tests, the comparisons' time tests).
+
+    Raises
+    ------
+    TorlabInputError
+        Not a readable CSV, or a column missing (named, with a hint where a column has no
+        unit in its name).
+    """
     import pandas as pd
 
+    from torlab.files import open_regular
+
     try:
-        df = pd.read_csv(path)
+        with open_regular(path) as fh:  # a regular file only: no FIFO or device is waited on
+            df = pd.read_csv(fh)
+    except TorlabInputError:
+        raise
     except Exception as e:  # pandas raises many classes for malformed CSV
         raise TorlabInputError(f"not a readable CSV ({type(e).__name__})", path=str(path)) \
             from None
-    need = ("step_time_s", "traction_coefficient", "srr", "rolling_speed_m_s", "ball_load_N")
-    miss = [c for c in need if c not in df.columns]
+    cols = ("step_time_s", "traction_coefficient", *need)
+    miss = [c for c in cols if c not in df.columns]
     if miss:
         bare = [c for c in df.columns if c in ("time", "mu", "load", "speed", "t")]
         why = (f" (column(s) {', '.join(bare)} have no unit in their name)" if bare else "")
         raise TorlabInputError(f"missing column(s) {', '.join(miss)}{why}; expected the "
                                "*_timed.csv of 'torlab mtm reduce'", path=str(path))
+    return df
+
+
+def _from_csv(path: Path, step: int | None, amount: Any, track_radius: float | None
+              ) -> tuple[Any, Any, dict[str, Any]]:
+    """A ``*_timed.csv`` of ``torlab mtm reduce``: time [s], coefficient, load [N], rolling
+    speed [m/s] and slide-roll ratio per sample (the amount and the track radius must be
+    given)."""
+    df = read_timed_csv(path, ("srr", "rolling_speed_m_s", "ball_load_N"))
     if step is not None and "step" in df:
         df = df[df["step"] == step]
     mu = df["traction_coefficient"].to_numpy(dtype=float)
