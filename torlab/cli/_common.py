@@ -39,7 +39,7 @@ ForceOpt = Annotated[bool, typer.Option("--force", help="Replace torlab's earlie
                                         "the output folder.")]
 XlsxOpt = Annotated[bool, typer.Option("--xlsx", help="Also write tables.xlsx: every table as a "
                                        "sheet of one Excel workbook (needs openpyxl: pip install "
-                                       "'torlab[xlsx]').")]
+                                       "'torlab\\[xlsx]').")]  # \\[: rich would read [xlsx] as markup
 FormatsOpt = Annotated[str | None, typer.Option(
     "--formats", metavar="FORMATS", help="Figure formats, comma-separated: png (default), svg, "
     "pdf; e.g. 'png,svg'.")]
