@@ -213,7 +213,7 @@ def test_cli_fit_traction_then_predict_with_band(cli, tmp_path):
     s = json.loads((tmp_path / "pred" / "summary.json").read_text())
     assert s["band"]["method"] in ("linear", "sampling")
     assert s["band"]["dominant"]["mu"], s["band"]
-    assert "95 % band from the fit's covariance" in r.output and "dominated by" in r.output
+    assert "95 % band from the fit's covariance" in r.output and "shares of its variance" in r.output
     tr = s["trend_after_saturation"]
     assert set(tr) >= {"trend", "saturation_creepage", "trend_from_creepage", "probabilities"}
     assert (tmp_path / "pred" / "traction.png").exists()

@@ -243,3 +243,12 @@ def test_joint_fit_title_fits_in_the_figure():
     fig.canvas.draw()
     tb = fig.axes[0].title.get_window_extent(fig.canvas.get_renderer())
     assert 0 <= tb.x0 and tb.x1 <= fig.bbox.width
+    # the legend: each file's points once, the model once (it listed "measured 0-3" and
+    # "model 0-3", four lines of one model); the title in symbols
+    labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert sum(lab.startswith("model") for lab in labels) == 1
+    assert all(any(f.name in lab for lab in labels) for f in files)
+    assert "μc1 = " in fig.axes[0].get_title() and "mu_c1" not in fig.axes[0].get_title()
+    from figure_checks import figure_problems
+
+    assert figure_problems(fig, file_names=tuple(f.name for f in files)) == []

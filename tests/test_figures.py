@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from figure_checks import figure_problems
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = ROOT / "protocols" / "scenes" / "wheel_rail_tab54.yaml"
@@ -67,6 +68,7 @@ def assert_publishable(fig, *, file_names=()):
         assert lb.x1 <= fw + 1, "legend cut off"
         if getattr(lg, "_torlab_outside", False):
             assert lb.x0 >= ab.x1, "legend over the data"
+    assert figure_problems(fig, file_names=tuple(file_names)) == []
 
 
 def _draw(p):
@@ -169,23 +171,45 @@ def amount_inputs():
     return series, fits, cfg
 
 
-def test_amount_figure_error_bars_band_colours_and_microlitres(amount_inputs):
+def test_amount_figure_error_bars_band_colours_and_one_unit_per_axis(amount_inputs):
+    """Liquids (µL) and the solid (mg) in panels of their own, each axis in one unit; every
+    product's f with its sd, the fitted curves' bands, distinct colours, plain amounts; each
+    crossing on its own row of the strip below, with its interval (drawn on the threshold
+    line the crossings lay on top of each other)."""
+    from matplotlib.container import ErrorbarContainer
+
     from torlab.reports.amount import amount_figure
+    from torlab.reports.plotting import finish
     from torlab.reports.render import plot
 
     series, fits, cfg = amount_inputs
     fig = _draw(plot(amount_figure, series, fits, cfg, mass=False))
-    assert_publishable(fig)
-    (ax,) = fig.axes
-    assert "µL" in ax.get_xlabel() and "mg" in ax.get_xlabel()
-    bars = _errorbars(ax)
+    assert figure_problems(fig) == []
+    panels = [ax for ax in fig.axes if ax.get_ylabel().startswith("friction")]
+    strips = [ax for ax in fig.axes if ax not in panels and ax.get_visible()]
+    assert len(panels) == 2 and len(strips) == 2
+    assert [s.get_xlabel() for s in strips] == ["applied volume V (µL)", "applied mass m (mg)"]
+    bars = [c for ax in panels for c in _errorbars(ax)]
     assert len(bars) >= 3                              # every product's measured f with its sd
-    assert len(_bands(ax)) == sum(cf.cov is not None for cf in fits)  # fitted curves' bands
-    colours = {c.lines[0].get_color() for c in bars if c.get_label() in {"OFM1 (µL)",
-                                                                         "OFM2 (µL)", "SFM (mg)"}}
-    assert len(colours) == 3
-    ticks = [t.get_text() for t in ax.get_xticklabels()]
+    assert sum(len(_bands(ax)) for ax in panels) == sum(cf.cov is not None for cf in fits)
+    colours = {c.lines[0].get_color() for c in bars}
+    assert len(colours) == len(fits)
+    ticks = [t.get_text() for t in strips[0].get_xticklabels()]
     assert "16" in ticks and "1" in ticks             # plain amounts, not 10^0, 10^1
+    # the strip: one row per product, a crossing where the product crosses, at its value
+    crossing = {cf.product: cf for cf in fits}
+    for st in strips:
+        rows = [t.get_text() for t in st.get_yticklabels()]
+        marks = [c for c in st.containers if isinstance(c, ErrorbarContainer)]
+        crossed = [r for r in rows if not r.endswith("no crossing")]
+        assert len(marks) == len(crossed) >= 1
+        for c in marks:
+            y = round(float(c.lines[0].get_ydata()[0]))
+            assert c.lines[0].get_xdata()[0] == pytest.approx(crossing[rows[y]].crossing)
+    # the mass figure: one panel (every product in mg)
+    fig = finish(plot(amount_figure, series, fits, cfg, mass=True).draw())
+    assert figure_problems(fig) == []
+    assert [ax.get_xlabel() for ax in fig.axes if ax.get_xlabel()] == ["applied mass m (mg)"]
 
 
 def test_fit_figure_titles_in_words():
@@ -270,3 +294,104 @@ def test_reduction_figures_declared_and_drawn():
         assert_publishable(fig, file_names=("stribeck_rough.csv",))
         assert _errorbars(fig.axes[0])     # each point's spread over its averaging window
     pd.testing.assert_index_equal(pd.Index(sorted(figs)), pd.Index(sorted(plots)))
+
+
+# ------------------------------------------------------------------------------ the checks
+def test_figure_checks_find_each_defect():
+    """tests/figure_checks.py finds each defect it names in a figure made to have them, and
+    none in the same figure made right."""
+    from torlab.reports.plotting import band, finish, legend, subplots
+
+    def make(bad):
+        fig, ax = subplots()
+        x = np.linspace(1, 16, 20)
+        ax.plot(x, 0.3 - 0.01 * x, label="OFM1")
+        ax.plot(x, 0.25 - 0.01 * x, label="OFM1" if bad else "OFM2")
+        ax.errorbar([4.0], [0.2], yerr=[0.01], fmt="o", ms=6, capsize=2 if bad else 4,
+                    label="measured")
+        if bad:  # a pale colour at low opacity
+            ax.fill_between(x, 0.1, 0.12, color="#F0E442", alpha=0.12, lw=0)
+        else:  # torlab's band: made dark enough (band_style)
+            band(ax, x, 0.1, 0.12, color="#F0E442")
+        ax.set_xlabel("applied amount (mg or µL)" if bad else "applied volume V (µL)")
+        ax.set_ylabel("friction coefficient f (–)")
+        ax.set_title("Layer: mu_c1 = 0.15, μc1,T = −5×10⁻⁴" if bad else
+                     "Layer: μc1 = 0.15, μc1,T = −5×10⁻⁴ 1/K")
+        if bad:
+            ax.text(8.0, 0.22, "an annotation on the data")
+            fig.text(0.5, 1.05, "a text above the figure")
+        legend(ax)
+        return finish(fig)
+
+    found = "\n".join(figure_problems(make(True)))
+    for what in ("legend repeats ['OFM1']", "caps of 'measured'", "nearly invisible",
+                 "more than one unit (mg or µL)", "parameter names ['mu_c1']",
+                 "μc1,T has no unit", "lies on the line", "runs off the figure"):
+        assert what in found, what
+    assert figure_problems(make(False)) == []
+
+
+def test_parameter_text_symbols_and_units():
+    """Figures write the thesis's symbols with units, from the layer laws' registry and the
+    fits' unit table: μc1 (not mu_c1), Lμe in µm, the temperature coefficients in 1/K."""
+    from torlab.reports.plotting import number, param_label, param_text
+
+    assert param_text("mu_c1", 0.14622) == "μc1 = 0.1462"
+    assert param_text("L_mue", 8.31e-6) == "Lμe = 8.31 µm"
+    assert param_text("mu_c2_T", -3.944e-4) == "μc2,T = −3.944×10⁻⁴ 1/K"
+    assert param_text("mu_c1_Tref", 0.1469) == "μc1(T_ref) = 0.1469"
+    assert param_text("alpha", 1.9e-8, si="1/Pa") == "α = 19 1/GPa"
+    assert param_text("k1", 9.83e-7, 3, si="m^2/J") == "k1 = 9.83×10⁻⁷ m²/J"
+    assert param_label("L_mup") == "Lμp (µm)" and param_label("mu_c2") == "μc2 (–)"
+    assert number(-0.002525) == "−0.002525" and number(123456.0, 3) == "1.23×10⁵"
+
+
+def test_time_test_figure_marks_in_the_legend_with_intervals():
+    """The time test's marks are explained in the legend (the key written over the plotting
+    area lay on the trace) and carry the 95 % intervals of the evidence."""
+    from torlab.api import reduce_file
+    from torlab.reports.mtm import time_test_figure
+    from torlab.reports.render import plot
+
+    red = reduce_file(ROOT / "sample_data" / "mtm" / "mtm_TOR-A_5uL.txt")
+    d = red.detail
+    ev = {t.step: {"minimum_low95": t.minimum - 0.005, "minimum_high95": t.minimum + 0.007,
+                   "recovery_time_low95": t.recovery_time_s - 20.0,
+                   "recovery_time_high95": t.recovery_time_s + 30.0,
+                   "mean_after_recovery_low95": t.mean_after_recovery - 0.003,
+                   "mean_after_recovery_high95": t.mean_after_recovery + 0.003}
+          for t in d.time_tests}
+    fig = _draw(plot(time_test_figure, d, d.time_tests, ev))
+    assert_publishable(fig, file_names=(d.label,))
+    (ax,) = fig.axes
+    assert not ax.texts
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert "minimum (95 % interval)" in labels and "recovery (95 % interval)" in labels
+    t = d.time_tests[0]
+    (bar,) = [c for c in ax.containers if len(c.lines[0].get_xdata())
+              and c.lines[0].get_marker() == "o"]
+    seg = bar.lines[2][0].get_segments()[0]
+    assert seg[0][1] == pytest.approx(ev[t.step]["minimum_low95"])
+    assert seg[1][1] == pytest.approx(ev[t.step]["minimum_high95"])
+
+
+@pytest.mark.parametrize("n", [15, pytest.param(96, marks=pytest.mark.slow)])  # 96: 14 facets
+def test_traction_figure_of_a_large_campaign_in_facets(n):
+    """Many curves: facets of at most PER_PANEL curves, each with its own legend and colours,
+    every entry inside the figure (one legend of 96 was cut off after 24)."""
+    from types import SimpleNamespace
+
+    from torlab.reports.render import plot
+    from torlab.reports.traction import PER_PANEL, TractionCurve, traction_report_figure
+
+    x = np.linspace(0, 0.05, 11)
+    curves = [TractionCurve(f"product {k} (Tab. 5.4)", "measured",
+                            pd.DataFrame({"creepage": x, "mu": 0.3 * np.tanh(80 * x) * (1 + k / 200),
+                                          "mu_sd": np.full(x.size, 0.004)}), {}, "file")
+              for k in range(n)]
+    fig = _draw(plot(traction_report_figure, curves, SimpleNamespace(band=(0.15, 0.25))))
+    assert figure_problems(fig) == []
+    legends = [ax.get_legend() for ax in fig.axes if ax.get_legend() is not None]
+    assert len(legends) == -(-n // PER_PANEL)
+    shown = [t.get_text() for lg in legends for t in lg.get_texts()]
+    assert sorted(x for x in shown if x.startswith("product")) == sorted(c.label for c in curves)

@@ -56,14 +56,15 @@ model is sampled.  ``k + 3`` evaluations for the linear band of a model with
 Contributions
 -------------
 ``contributions[output][name]`` is the parameter's share of the output's
-variance, its covariances with the other parameters split evenly:
-``S_j = g_j (C g)_j / var`` with ``g`` the output's gradient (linear method);
-in the sampling method ``g`` is the slope of the multiple linear regression of
-the output on the drawn parameters, so the shares add up to the part of the
-variance that is linear in the parameters (``R^2 <= 1``).  The shares add up
-to 1 in the linear method; a negative share means the parameter's correlation
-with the others partly cancels their effect (a fit that determines a
-combination of parameters better than each one).
+variance: its Shapley effect (:func:`shapley_shares`) -- the variance it explains,
+``var(E[y | theta_u + j]) - var(E[y | theta_u])``, averaged over the orders in which
+the parameters are added -- for the output linearised in the parameters, ``y = g^T
+theta``, with ``g`` the output's gradient (linear method) or the slopes of the
+multiple linear regression of the output on the drawn parameters (sampling method).
+The shares are never negative and add up to 1 in the linear method, to the part
+of the variance that is linear in the parameters (``R^2 <= 1``) when sampled.
+Strongly correlated parameters (a fit that determines a combination of them better
+than each one) share the variance they explain together.
 
 Degrees of freedom
 ------------------
@@ -102,6 +103,7 @@ __all__ = [
     "PendingSampling",
     "Propagation",
     "propagate",
+    "shapley_shares",
 ]
 
 #: default two-sided confidence of a band
@@ -324,10 +326,11 @@ class Propagation:
     def dominant(self, output: str | None = None, *, min_share: float = 0.1) -> list[tuple[str, float]]:
         """Parameters that dominate the band of ``output``, largest first.
 
-        The share of a parameter is its contribution averaged over the output's
-        points, weighted by their variance (so the widest part of the band counts
-        most); parameters below ``min_share`` are left out.  Shares below zero
-        (a parameter that offsets others through its correlation) never dominate.
+        The share of a parameter is its contribution (its Shapley effect,
+        :func:`shapley_shares`) averaged over the output's points, weighted by their
+        variance (so the widest part of the band counts most); parameters below
+        ``min_share`` are left out.  The shares of all parameters add up to
+        :meth:`explained` (at most 1).
         """
         key = self._key(output)
         var = np.nan_to_num(np.asarray(self.sd[key], dtype=float) ** 2)
@@ -340,6 +343,18 @@ class Propagation:
             if share >= min_share:
                 out.append((n, share))
         return sorted(out, key=lambda t: -t[1])
+
+    def explained(self, output: str | None = None) -> float:
+        """The part of the band's variance the parameters' shares cover, weighted over the
+        output's points as :meth:`dominant` weights them: 1 in the linear method, the
+        linear part ``R^2`` of a sampled output (the rest is the model's nonlinearity)."""
+        key = self._key(output)
+        var = np.nan_to_num(np.asarray(self.sd[key], dtype=float) ** 2)
+        tot = float(np.sum(var))
+        if tot <= 0:
+            return 0.0
+        return float(sum(np.sum(np.nan_to_num(np.asarray(c, dtype=float)) * var)
+                         for c in self.contributions[key].values()) / tot)
 
     def summary(self, outputs: Sequence[str] | None = None) -> dict[str, Any]:
         """Method, check and dominant parameters per output, for ``summary.json``."""
@@ -355,6 +370,7 @@ class Propagation:
             "parameters": list(self.names),
             "dominant": {k: [{"parameter": n, "share": round(s, 4)} for n, s in self.dominant(k)]
                          for k in keys if k in self.center},
+            "explained": {k: round(self.explained(k), 4) for k in keys if k in self.center},
             "notes": list(self.notes),
         }
 
@@ -898,6 +914,120 @@ def _probe_directions(dist: ParameterDistribution, h: np.ndarray, f0: dict[str, 
     return [root @ vt[i] for i in range(n_dirs)]
 
 
+#: parameters of one correlated group up to which Shapley shares are exact (2^k subsets);
+#: a larger group is averaged over seeded random orders (:data:`_SHAPLEY_ORDERS`)
+_SHAPLEY_EXACT = 10
+_SHAPLEY_ORDERS = 512
+
+
+def shapley_shares(g: np.ndarray, cov: np.ndarray, var: np.ndarray) -> np.ndarray:
+    """Each parameter's share of an output's variance: the Shapley effects of a linear
+    model with correlated, jointly normal parameters.
+
+    For the output ``y = g^T theta`` (per output point; ``g`` the gradient, or the
+    regression slopes of a sampled band) with ``cov(theta) = C``, the variance a set
+    ``u`` of parameters explains is ``v(u) = var(E[y | theta_u]) = b_u^T C_uu^-1 b_u``
+    with ``b = C g``; a parameter's Shapley effect is its marginal contribution
+    ``v(u + j) - v(u)`` averaged over the orders in which the parameters are added
+    (Owen and Prieur, "On Shapley value for measuring importance of dependent inputs",
+    SIAM/ASA J. Uncertainty Quantification 5, 2017; Song, Nelson and Staum, SIAM/ASA
+    JUQ 4, 2016).  The effects are never negative (``v`` grows with ``u``) and add up to
+    ``v(all) = g^T C g``: divided by ``var`` the shares add up to 1 in the linear method
+    and to the linear part ``R^2 <= 1`` of a sampled output's variance.  Correlated
+    parameters share what they explain together (the even split of the covariance terms,
+    ``g_j (C g)_j / var``, gave shares above 100 % and below 0 when two parameters were
+    strongly correlated).  Uncorrelated groups are computed apart (a parameter's effect
+    depends only on its own group); a group of more than :data:`_SHAPLEY_EXACT`
+    parameters is averaged over :data:`_SHAPLEY_ORDERS` seeded random orders.
+
+    Parameters
+    ----------
+    g
+        ``(k, t)``: the output's sensitivity to each parameter at each of its points.
+    cov
+        ``(k, k)`` covariance of the parameters.
+    var
+        ``(t,)`` the variance to divide by (points where it is 0 get no shares).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(k, t)`` shares.
+    """
+    g = np.nan_to_num(np.asarray(g, dtype=float))
+    cov = np.asarray(cov, dtype=float)
+    k, t = g.shape
+    effects = np.zeros((k, t))
+    b = cov @ g
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    live = np.flatnonzero(sd > 0)
+    for group in _groups(cov, live, sd):
+        if len(group) == 1:
+            j = group[0]
+            effects[j] = g[j] ** 2 * cov[j, j]
+        else:
+            effects[group] = _group_effects(np.asarray(group), cov, b)
+    var = np.asarray(var, dtype=float).reshape(-1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = np.where(var > 0, np.clip(effects, 0.0, None) / var, 0.0)
+    return np.where(np.isfinite(out), out, 0.0)
+
+
+def _groups(cov: np.ndarray, live: np.ndarray, sd: np.ndarray) -> list[list[int]]:
+    """The groups of correlated parameters (connected through any correlation)."""
+    rest = set(live.tolist())
+    groups = []
+    while rest:
+        todo, grp = [min(rest)], []
+        rest.discard(todo[0])
+        while todo:
+            i = todo.pop()
+            grp.append(i)
+            near = [j for j in rest if abs(cov[i, j]) > 1e-12 * sd[i] * sd[j]]
+            for j in near:
+                rest.discard(j)
+            todo += near
+        groups.append(sorted(grp))
+    return groups
+
+
+def _group_effects(group: np.ndarray, cov: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The Shapley effects ``(m, t)`` of one correlated group (:func:`shapley_shares`)."""
+    m = group.size
+    cache: dict[int, np.ndarray] = {0: np.zeros(b.shape[1])}
+
+    def v(mask: int) -> np.ndarray:
+        got = cache.get(mask)
+        if got is None:
+            idx = group[[i for i in range(m) if mask >> i & 1]]
+            bu = b[idx]
+            cu = cov[np.ix_(idx, idx)]
+            try:
+                x = np.linalg.solve(cu, bu)
+            except np.linalg.LinAlgError:
+                x = np.linalg.lstsq(cu, bu, rcond=None)[0]
+            got = cache[mask] = np.sum(bu * x, axis=0)
+        return got
+
+    out = np.zeros((m, b.shape[1]))
+    if m <= _SHAPLEY_EXACT:
+        w = [math.factorial(s) * math.factorial(m - s - 1) / math.factorial(m) for s in range(m)]
+        for mask in range(1 << m):
+            s = bin(mask).count("1")
+            for j in range(m):
+                if not mask >> j & 1:
+                    out[j] += w[s] * (v(mask | 1 << j) - v(mask))
+        return out
+    rng = np.random.default_rng(20170101)
+    for _ in range(_SHAPLEY_ORDERS):
+        mask = 0
+        for j in rng.permutation(m):
+            nxt = mask | 1 << int(j)
+            out[j] += v(nxt) - v(mask)
+            mask = nxt
+    return out / _SHAPLEY_ORDERS
+
+
 def _linear_from_design(dist: ParameterDistribution, h: np.ndarray, f0: dict[str, np.ndarray],
                         steps: list[dict[str, np.ndarray]], dirs: list[np.ndarray],
                         probes: list[dict[str, np.ndarray]], confidence: float, tol: float,
@@ -921,10 +1051,7 @@ def _linear_from_design(dist: ParameterDistribution, h: np.ndarray, f0: dict[str
         upper[key] = v0 + tq * s
         nus[key] = nu
         g = G[key].reshape(k, -1)
-        cg = cov @ g  # (k, t)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            c = g * cg / var.reshape(1, -1)
-        c = np.where(np.isfinite(c), c, 0.0)
+        c = shapley_shares(g, cov, var.reshape(-1))
         contrib[key] = {n: c[i].reshape(v0.shape) for i, n in enumerate(names)}
         flat_s = s.reshape(-1)
         floor = max(_SD_FLOOR * float(np.max(flat_s, initial=0.0)), 1e-300)
@@ -992,13 +1119,12 @@ def _sampling_result(dist: ParameterDistribution, draws: np.ndarray,
         if np.any(live) and np.any(ok) and m > live.sum() + 1:
             xc = x[:, ok] - x[:, ok].mean(axis=0)
             d = dth[:, live]
+            cdd = d.T @ d / m
             sxy = d.T @ xc / m  # (k_live, t)
-            beta = np.linalg.lstsq(d.T @ d / m, sxy, rcond=None)[0]
+            beta = np.linalg.lstsq(cdd, sxy, rcond=None)[0]
             vx = np.mean(xc**2, axis=0)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                sh = beta * sxy / vx
             sub = np.zeros((live.sum(), x.shape[1]))
-            sub[:, ok] = np.where(np.isfinite(sh), sh, 0.0)
+            sub[:, ok] = shapley_shares(beta, cdd, vx)
             shares[live] = sub
         contrib[key] = {n: shares[i].reshape(v0.shape) for i, n in enumerate(names)}
     res = Propagation(method="sampling", confidence=confidence, center=center, sd=sd,

@@ -95,7 +95,7 @@ def _figure_rows(rounds: int) -> list[BenchRow]:
     from torlab.model.predict import predict_traction
     from torlab.parsers.hpt import read_hpt
     from torlab.reduce.hpt import reduce_hpt
-    from torlab.reports.fit import fit_figure
+    from torlab.reports.fit import result_figure
     from torlab.reports.predict import traction_figure
     from torlab.reports.render import Plot, plot
     from torlab.scene import load_scene
@@ -109,7 +109,7 @@ def _figure_rows(rounds: int) -> list[BenchRow]:
         ("traction curve, 101 points, band", plot(traction_figure, [("Tab. 5.4", t)],
                                                   boundary=sc.boundary, title="Tab. 5.4")),
         (f"HPT layer fit, {len(logs)} logs x {len(fit.data) // max(len(logs), 1)} points",
-         plot(fit_figure, fit)),
+         plot(result_figure, fit)),
     ]
     rows = []
     for name, p in cases:

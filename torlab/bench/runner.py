@@ -454,7 +454,7 @@ def time_error_figure(component: str, rows: Sequence[BenchRow]) -> Any:
     ``extra["family"]`` where the module gives one; a line joins each group's
     speed/error front (the variants no faster variant beats in accuracy).
     """
-    from torlab.reports.plotting import subplots
+    from torlab.reports.plotting import legend, subplots
 
     pts = [r for r in rows if r.error is not None and math.isfinite(r.error)
            and r.time_s > 0 and math.isfinite(r.time_s)]
@@ -466,11 +466,20 @@ def time_error_figure(component: str, rows: Sequence[BenchRow]) -> Any:
     groups: dict[str, list[BenchRow]] = {}
     for r in pts:
         groups.setdefault(str(r.extra.get("family", "variants")), []).append(r)
+    few = len(pts) <= 8  # few variants: each its own marker and legend entry
+    marks = "osD^vp<>"
     for fam, rs in groups.items():
         rs = sorted(rs, key=lambda r: r.time_s)
         x = [r.error if r.error > 0 else floor for r in rs]
         y = [r.time_s for r in rs]
-        line = ax.plot(x, y, "o", ms=4, label=fam)[0]
+        line = ax.plot(x, y, "o", ms=4, label=None if few else fam)[0]
+        if few:
+            line.set_visible(False)
+            for k, (xx, yy, r) in enumerate(zip(x, y, rs, strict=True)):
+                name = r.variant[:48] + (f" (error 0, drawn at {floor:.0e})" if r.error == 0
+                                         else "")
+                ax.plot([xx], [yy], marks[k % len(marks)], ms=5, color=line.get_color(),
+                        label=name if len(groups) == 1 else f"{fam}: {name}")
         # the family's speed/error front: each point faster than every more accurate one
         front, best = [], math.inf
         for xx, yy in zip(x, y, strict=True):
@@ -480,19 +489,13 @@ def time_error_figure(component: str, rows: Sequence[BenchRow]) -> Any:
         if len(front) > 1:
             ax.plot(*zip(*front, strict=True), "-", lw=0.8, color=line.get_color())
         zero = [(xx, yy) for xx, yy, r in zip(x, y, rs, strict=True) if r.error == 0]
-        if zero:
+        if zero and not few:
             ax.plot(*zip(*zero, strict=True), "v", color=line.get_color(), ms=7)
     for r in pts:
         if r.default:
             e = r.error if r.error > 0 else floor
-            ax.plot([e], [r.time_s], "*", ms=16, mfc="none", mec="k", mew=1.4, zorder=5)
-            ax.annotate("default", (e, r.time_s), textcoords="offset points", xytext=(-10, 10),
-                        fontsize=8, ha="right", fontweight="bold")
-    if len(pts) <= 8:
-        for r in pts:
-            e = r.error if r.error > 0 else floor
-            ax.annotate(r.variant[:48], (e, r.time_s), textcoords="offset points",
-                        xytext=(6, -10), fontsize=6, alpha=0.8)
+            ax.plot([e], [r.time_s], "*", ms=16, mfc="none", mec="k", mew=1.4, zorder=5,
+                    label="default")
     ax.set_xscale("log")
     ax.set_yscale("log")
     import textwrap
@@ -500,16 +503,15 @@ def time_error_figure(component: str, rows: Sequence[BenchRow]) -> Any:
     kind = pts[0].error_kind or "relative"
     refs = sorted({r.reference for r in pts})
     against = refs[0] if len(refs) == 1 else "each variant's reference (see bench.md)"
-    ax.set_xlabel("\n".join(textwrap.wrap(f"error, {kind} (dimensionless), against {against}",
-                                           100)), fontsize=7)
+    ax.set_xlabel("\n".join(textwrap.wrap(f"error ε, {kind}, against {against} (–)", 100)),
+                  fontsize=7)
     units = sorted({r.unit_of_work for r in pts})
     unit = units[0] if len(units) == 1 else "one unit of work (see bench.md)"
-    ax.set_ylabel("\n".join(textwrap.wrap(f"time (s) per {unit}", 60)), fontsize=7)
+    ax.set_ylabel("\n".join(textwrap.wrap(f"time t per {unit} (s)", 60)), fontsize=7)
     ax.set_title(f"{component}: time against error", fontsize=10)
-    if any(r.error == 0 for r in pts):
+    if any(r.error == 0 for r in pts) and not few:
         ax.plot([], [], "v", color="0.4", label=f"error 0 (drawn at {floor:.0e})")
-    if len(groups) > 1 or any(r.error == 0 for r in pts):
-        ax.legend(loc="best")
+    legend(ax)
     return fig
 
 
@@ -526,7 +528,7 @@ def write_bench_outputs(result: BenchResult, out: Any, command: str) -> list[str
     names = ["bench.csv", "bench.md"]
     out.write_csv("bench.csv", table, allow_missing=missing)
     out.write_text("bench.md", bench_markdown(result, command))
-    from torlab.reports.render import write_figures
+    from torlab.reports.render import plot, write_figures
 
     comps: list[str] = []
     for r in result.rows:
@@ -535,6 +537,7 @@ def write_bench_outputs(result: BenchResult, out: Any, command: str) -> list[str
     for c in comps:
         rs = [r for r in result.rows if r.component == c]
         if _plottable(rs):
-            written, _ = write_figures(out, [(f"plots/{_slug(c)}", time_error_figure(c, rs))])
+            written, _ = write_figures(out, [(f"plots/{_slug(c)}", plot(time_error_figure, c,
+                                                                         list(rs)))])
             names += written
     return names

@@ -145,10 +145,12 @@ def _print_band(summary: dict) -> None:
     c.print(f"95 % band from the fit's covariance: {how}"
             + (f", nonlinearity {nl:.2g} (limit {b['nonlinearity_tolerance']:g})"
                if nl is not None else "") + f", {b['n_evaluations']} model evaluations")
+    from torlab.reports.traction import shares_text
+
     for out, dom in b.get("dominant", {}).items():
         if dom:
-            c.print(f"  {out}: dominated by " + ", ".join(
-                f"{d['parameter']} ({100 * d['share']:.0f} %)" for d in dom))
+            c.print(f"  {out}: shares of its variance: "
+                    + shares_text(dom, (b.get("explained") or {}).get(out)))
     for n in b["notes"]:
         if not n.startswith(("linearised", "sampled")):
             c.print(f"[yellow]band:[/yellow] {n}")

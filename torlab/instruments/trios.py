@@ -504,11 +504,11 @@ def trios_figure(points: Any, steps: Any, title: str = "") -> Any:
 
     from torlab.reports.plotting import PALETTE, decimate, finish, legend, pixel_columns, subplots
 
-    panels = [("time", "time (s, steps in order)")]
+    panels = [("time", "time t, steps one after the other (s)")]
     if "temperature_C" in points:
-        panels.append(("temperature_C", "temperature (°C)"))
+        panels.append(("temperature_C", "temperature T (°C)"))
     if "shear_rate_1_s" in points and (steps["varies"] == "shear rate").any():
-        panels.append(("shear_rate_1_s", "shear rate (1/s)"))
+        panels.append(("shear_rate_1_s", "shear rate γ̇ (1/s)"))
     fig, axes = subplots(1, len(panels), figsize=(3.2 * len(panels) + 1.0, 3.8))
     axes = np.atleast_1d(axes)
     offset = 0.0
@@ -535,10 +535,10 @@ def trios_figure(points: Any, steps: Any, title: str = "") -> Any:
     for ax, (col, label) in zip(axes, panels, strict=True):
         ax.set_yscale("log")
         ax.set_xlabel(label)
+        ax.set_ylabel("viscosity η (Pa·s)")
         if col == "shear_rate_1_s" and (points[col] > 0).all() and \
                 points[col].max() / points[col].min() > 10:
             ax.set_xscale("log")
-    axes[0].set_ylabel("viscosity η (Pa·s)")
     legend(axes[-1])
     if title:
         fig.suptitle(title)

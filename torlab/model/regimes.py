@@ -218,6 +218,7 @@ def transition_evidence(scene: Scene, speed_range: tuple[float, float] | None = 
                      parameters=list(band.names),
                      dominant=[{"parameter": n, "share": round(s, 4)}
                                for n, s in band.dominant(key)],
+                     explained=round(band.explained(key), 4),
                      notes=list(band.notes))
             if not (math.isfinite(lo) and math.isfinite(hi)):
                 e.update(status="not resolved", low95_m_s=None, high95_m_s=None)

@@ -544,11 +544,11 @@ def fits_section(ctx: RunContext) -> Any:
     """The fitted parameter sets: table, data-against-model figures, warnings."""
     import pandas as pd
 
-    from torlab.reports.fit import fit_figure
+    from torlab.reports.fit import result_figure
     from torlab.reports.html import Figure, Section, Table
     from torlab.reports.render import plot
 
-    figs = [Figure(f"fit_{safe_name(name.replace(':', '_'))}", plot(fit_figure, res),
+    figs = [Figure(f"fit_{safe_name(name.replace(':', '_'))}", plot(result_figure, res),
                    f"{name}: data against the fitted model, residuals")
             for name, res in ctx.fit_results]
     warn = [f"{name}: {w}" for name, res in ctx.fit_results for w in res.warnings]

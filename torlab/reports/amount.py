@@ -142,10 +142,11 @@ def amount_section(series: Any, cfg: Any, fits: list[CrossingFit] | None,
             f"[{same['mass_low_mg']:.3g}, {same['mass_high_mg']:.3g}] mg; the crossings share "
             "the pooled scatter, which the test neglects).")
     figs = [Figure("amount_applied", plot(amount_figure, series, fits, cfg, mass=False),
-                   "Friction f against the applied amount (µL for liquids, mg for solids), "
-                   "error bars one standard deviation of f over the reduction window, with the "
-                   "fitted curves and their 95 % bands, the optimal band and the threshold "
-                   "crossings"),]
+                   "Friction f against the applied amount (µL for liquids, mg for solids, "
+                   "each unit in a panel of its own), error bars one standard deviation of f "
+                   "over the reduction window, with the fitted curves and their 95 % bands, "
+                   "the optimal band and, below, each product's crossing of the threshold "
+                   "with its interval"),]
     missing = sorted(set(series.loc[series["mass_mg"].isna(), "product"]))
     if cfg.basis == "mass" and series["mass_mg"].notna().any():
         figs.append(Figure("amount_mass", plot(amount_figure, series, fits, cfg, mass=True),
@@ -184,74 +185,129 @@ def amount_section(series: Any, cfg: Any, fits: list[CrossingFit] | None,
         summary=summary, notes=notes)
 
 
+#: the most products in one panel of the amount figure (more: facets of this many)
+PER_PANEL = 7
+
+
 def amount_figure(series: Any, fits: list[CrossingFit], cfg: Any, *, mass: bool) -> Any:
     """Friction f against the applied amount (or mass) per product (:class:`Plot` function).
 
     Measured f with error bars (the standard deviation of f over the reduction's
-    window), the fitted logistic with its 95 % band, the optimal band, the threshold
-    and each crossing with its interval (diamond).
+    window), the fitted logistic with its 95 % band, the optimal band and the threshold;
+    below, a strip with each product's crossing of the threshold and its interval, one
+    row per product (the crossings lie close together: drawn on the threshold line they
+    overlapped).  One unit per axis: products applied in different units (µL of a
+    liquid, mg of a solid) are drawn in panels side by side, and more than
+    :data:`PER_PANEL` products in facets of that many.
     """
+    from torlab.reports.plotting import facet_legend, facets, figure_legend, legend, unit
+
+    shown = [cf for cf in fits if len(series[series["product"] == cf.product])
+             and math.isfinite(mass_factor(series, cf.product) if mass else 1.0)]
+    by_unit: dict[str, list[CrossingFit]] = {}
+    for cf in shown:
+        by_unit.setdefault("mg" if mass else unit(cf.unit), []).append(cf)
+    panels = [(u, group[i:i + PER_PANEL]) for u, group in by_unit.items()
+              for i in range(0, len(group), PER_PANEL)] or [("mg" if mass else "–", [])]
+    title = ("Friction against applied mass" if mass else
+             "Friction against applied amount") + f" at {cfg.temperature:g} °C"
+    strip = [0.3 + 0.19 * len(g) for _, g in panels]
+    if len(panels) == 1:
+        # room on the left for the strip's product names (8-pt labels, about 0.065 in a
+        # character) and the axis labels
+        name = max((len(_strip_name(cf)) + 4 for cf in panels[0][1]), default=8)
+        fig, (ax, st) = subplots(2, 1, sharex=True, figsize=(7.0, 3.9 + strip[0]),
+                                 height_ratios=[3.4, strip[0]],
+                                 left=max(0.78, 0.3 + 0.065 * name))
+        _amount_panel(ax, st, series, panels[0][1], cfg, mass, panels[0][0], fits)
+        legend(ax)
+        ax.set_title(title)
+        return fig
+    one = len(shown) <= PER_PANEL  # few products: one legend for the figure
+    fig, axes = facets(len(panels), ncols=2, panel=(3.6, 2.6), strips=strip,
+                       shared_legend=one)
+    for k, ((u, group), (ax, st)) in enumerate(zip(panels, axes, strict=True)):
+        _amount_panel(ax, st, series, group, cfg, mass, u, fits,
+                      marks=not one or k == len(panels) - 1)
+        if not one:
+            facet_legend(ax)
+        k = sum(1 for (v, _), _a in zip(panels, axes, strict=True) if v == u)
+        ax.set_title(f"products applied in {u}" + (
+            f": {group[0].product} … {group[-1].product}" if k > 1 else ""), fontsize=9)
+    if one:
+        figure_legend(fig, [a[0] for a in axes])
+    fig.suptitle(title)
+    return fig
+
+
+def _strip_name(cf: CrossingFit) -> str:
+    """A product's row in the strip of crossings."""
+    return cf.product if math.isfinite(cf.crossing) else f"{cf.product}: no crossing"
+
+
+def _amount_panel(ax: Any, st: Any, series: Any, group: list[CrossingFit], cfg: Any,
+                  mass: bool, unit_: str, fits: list[CrossingFit], marks: bool = True) -> None:
+    """One panel of the amount figure (``ax``) and its strip of crossings (``st``);
+    ``marks``: the legend entries of the fitted curve and the crossing."""
     from torlab.reports.plotting import (
         axis_label,
         band,
+        cap,
         colours,
-        legend,
         plain_log_ticks,
         points,
-        unit,
     )
 
-    fig, ax = subplots(figsize=(7.0, 4.6))
     lo_b, hi_b = cfg.band
     thr = cfg.threshold
     ax.axhspan(lo_b, hi_b, color="#d9ead3", alpha=0.6, lw=0,
                label=f"optimal band {lo_b:g}–{hi_b:g}")
     ax.axhline(thr, color="#7f7f7f", ls="--", lw=1.0, label=f"low-friction threshold {thr:g}")
-    col = colours(cf.product for cf in fits)
-    units = sorted({unit(cf.unit) for cf in fits})
-    alpha = 0.22 if len(fits) <= 2 else 0.12
-    xs_all = []
-    for cf in fits:
+    col = colours(cf.product for cf in fits)  # the same colour in every panel and figure
+    xs_all, rows = [], []
+    for cf in group:
         g = series[series["product"] == cf.product].sort_values("applied_amount")
         mf = mass_factor(series, cf.product) if mass else 1.0
-        if not math.isfinite(mf) or not len(g):
-            continue
         a = g["applied_amount"].to_numpy(dtype=float)
         xs_all.append(a * mf)
         color = col[cf.product]
-        name = f"{cf.product}" if mass or len(units) == 1 else f"{cf.product} ({unit(cf.unit)})"
         points(ax, a * mf, g["f"].to_numpy(dtype=float), g["f_sd"].to_numpy(dtype=float),
-               color=color, label=name, filled=True)
+               color=color, label=cf.product, filled=True, ms=3.5)
         if cf.params and cf.method == "logistic":
             xs = np.geomspace(a.min(), a.max(), 100)
             ax.plot(xs * mf, logistic(np.log(xs), **cf.params), color=color, lw=1.3)
             b = logistic_band(np.log(xs), cf)
             if b is not None:
-                band(ax, xs * mf, b[0], b[1], color=color, alpha=alpha)
+                band(ax, xs * mf, b[0], b[1], color=color)
         else:
             ax.plot(a * mf, g["f"], color=color, lw=0.8, alpha=0.6)
-        if math.isfinite(cf.crossing):
-            lo = cf.crossing - cf.crossing_low if math.isfinite(cf.crossing_low) else 0.0
-            hi = cf.crossing_high - cf.crossing if math.isfinite(cf.crossing_high) else 0.0
-            ax.errorbar([cf.crossing * mf], [thr], xerr=[[lo * mf], [hi * mf]], fmt="D", ms=6,
-                        color=color, mfc="white", capsize=3, elinewidth=1.0)
+        rows.append((cf, mf, color))
     ax.set_xscale("log")
-    if not mass and xs_all:
+    if xs_all:
         plain_log_ticks(ax.xaxis, np.concatenate(xs_all))
-    if mass:
-        ax.set_xlabel(axis_label("applied mass", "m", "mg"))
-    else:
-        ax.set_xlabel(axis_label("applied amount", "", " or ".join(units) or "–")
-                      if len(units) > 1 else axis_label("applied amount", "", units[0]))
     ax.set_ylabel(axis_label("friction coefficient", "f"))
     ax.set_ylim(bottom=0)
-    # legend entries for what the marks mean
-    ax.plot([], [], "-", color="0.3", lw=1.3, label="fitted logistic (95 % band shaded)"
-            if cfg.curve == "logistic" else "interpolation")
-    ax.errorbar([], [], xerr=[], fmt="D", ms=6, color="0.3", mfc="white", capsize=3,
-                label="crossing of the threshold"
-                + (f" ({100 * cfg.confidence:g} % interval)" if cfg.curve == "logistic" else ""))
-    legend(ax)
-    ax.set_title(("Friction against applied mass" if mass else
-                  "Friction against applied amount") + f" at {cfg.temperature:g} °C")
-    return fig
+    if marks:
+        ax.plot([], [], "-", color="0.3", lw=1.3, label="fitted logistic (95 % band shaded)"
+                if cfg.curve == "logistic" else "interpolation")
+    # the strip: each product's crossing of the threshold on a row of its own
+    names = []
+    for k, (cf, mf, color) in enumerate(rows):
+        names.append(_strip_name(cf))
+        if not math.isfinite(cf.crossing):
+            continue
+        lo = cf.crossing - cf.crossing_low if math.isfinite(cf.crossing_low) else 0.0
+        hi = cf.crossing_high - cf.crossing if math.isfinite(cf.crossing_high) else 0.0
+        st.errorbar([cf.crossing * mf], [k], xerr=[[lo * mf], [hi * mf]], fmt="D", ms=5,
+                    color=color, mfc="white", capsize=cap(5), elinewidth=1.0)
+    st.set_yticks(range(len(names)), names)
+    st.set_ylim(len(names) - 0.4, -0.6)
+    st.grid(False, axis="y")
+    st.tick_params(axis="y", length=0)
+    if marks:
+        ax.errorbar([], [], xerr=[], fmt="D", ms=5, color="0.3", mfc="white", capsize=cap(5),
+                    label=f"crossing of f = {thr:g} (strip below"
+                    + (f"; {100 * cfg.confidence:g} % interval)" if cfg.curve == "logistic"
+                       else ")"))
+    st.set_xlabel(axis_label("applied mass", "m", "mg") if mass or unit_ == "mg"
+                  else axis_label("applied volume", "V", unit_))

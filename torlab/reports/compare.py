@@ -45,7 +45,9 @@ def compare_figure(table: Any, title: str = "") -> Any:
     -------
     matplotlib.figure.Figure
     """
-    from torlab.reports.plotting import plain_log_ticks, pretty, subplots
+    import textwrap
+
+    from torlab.reports.plotting import cap, plain_log_ticks, pretty, subplots
 
     qs = list(dict.fromkeys(table["quantity"]))
     rows = [table[table["quantity"] == q] for q in qs]
@@ -66,7 +68,7 @@ def compare_figure(table: Any, title: str = "") -> Any:
         for yi, e, a, b, c in zip(y, est, lo, hi, called, strict=True):
             col = "#1f4e9c" if c else "#888888"
             ax.errorbar([e], [yi], xerr=[[e - a], [b - e]], fmt="o", ms=5, color=col,
-                        mfc=col if c else "white", mew=1.0, elinewidth=1.1, capsize=3)
+                        mfc=col if c else "white", mew=1.0, elinewidth=1.1, capsize=cap(5))
         ax.axvline(1.0 if log else 0.0, color="#b22222", lw=1.0, ls="--")
         if log:
             ax.set_xscale("log")
@@ -74,7 +76,7 @@ def compare_figure(table: Any, title: str = "") -> Any:
         ax.set_yticklabels([pretty(f"{a} vs {b}") for a, b in zip(sub["a"], sub["b"],
                                                                      strict=True)])
         ax.set_ylim(-0.7, len(sub) - 0.3)
-        ax.set_title(label, fontsize="medium")
+        ax.set_xlabel(textwrap.fill(label, 80))
         lim = np.concatenate([lo, hi, [1.0 if log else 0.0]])
         lim = lim[np.isfinite(lim) & ((lim > 0) if log else True)]
         if lim.size:

@@ -27,10 +27,12 @@ _LAYOUT: dict[str, tuple[str, str, float, str, str, str, float, str, bool]] = {
     "polach": ("creepage", "creepage ξ (%)", 100.0, "mu_torlab", "mu_polach",
                "creep force F/N (–)", 1.0, "residual", False),
 }
-_RES_LABEL = {"layer_hpt": ("residual (MPa)", 1e-6), "layer_traction": ("residual μ (–)", 1.0),
-              "temperature": ("residual μ (–)", 1.0), "film": ("residual (nm)", 1e9),
-              "film_temperature": ("residual (nm)", 1e9),
-              "viscosity": ("residual ln η (–)", 1.0), "polach": ("Polach − torlab (–)", 1.0)}
+_RES_LABEL = {"layer_hpt": ("residual Δτ (MPa)", 1e-6),
+              "layer_traction": ("residual Δμ (–)", 1.0),
+              "temperature": ("residual Δμ (–)", 1.0), "film": ("residual Δh (nm)", 1e9),
+              "film_temperature": ("residual Δh (nm)", 1e9),
+              "viscosity": ("residual Δln η (–)", 1.0),
+              "polach": ("Polach − torlab ΔF/N (–)", 1.0)}
 #: legend names of the data and the model where they are not a measurement and a model
 _LEGEND = {"polach": ("torlab", "Polach")}
 
@@ -65,7 +67,7 @@ def fit_figure(result: Any, title: str | None = None,
     -------
     matplotlib.figure.Figure
     """
-    from torlab.reports.plotting import colours, legend, subplots
+    from torlab.reports.plotting import colours, fit_units, legend, param_text, subplots
 
     fig, (ax, axr) = subplots(2, 1, sharex=True, figsize=(7.0, 5.6), height_ratios=[3, 1])
     d = result.data
@@ -73,29 +75,33 @@ def fit_figure(result: Any, title: str | None = None,
     groups = [(None, d)] if "curve" not in d or d["curve"].nunique() == 1 else list(d.groupby("curve"))
     col = colours(g for g, _ in groups)
     many = len(groups) > 1
+    data_name, model_name = _LEGEND.get(result.kind, ("measured", "model"))
+    if result.kind == "temperature":
+        sym = _symbol(ym.removesuffix("_measured"))
+        data_name, model_name = f"{sym} measured", f"{sym} model"
+    names = _curve_names(result, [g for g, _ in groups], data_name)
     for g, sub in groups:
         x = sub[xc].to_numpy() * xf
         order = np.argsort(x, kind="stable")
-        lab = "" if g is None else f" {g}"
         c = col[g]
-        data_name, model_name = _LEGEND.get(result.kind, ("measured", "model"))
-        if result.kind == "temperature":
-            sym = _symbol(ym.removesuffix("_measured"))
-            data_name, model_name = f"{sym} measured", f"{sym} model"
         dense = len(x) > 200
         ms, alpha = (2.0, 0.55) if dense else (4.5, 1.0)
         ax.plot(x, sub[ym].to_numpy() * yf, "o", ms=ms, mew=0, alpha=alpha, color=c,
-                label=f"{data_name}{lab}")
+                label=data_name if g is None else names[g])
         if result.kind == "film_temperature":
             pass  # the fitted exponential on a dense grid (_film_temperature_marks)
         elif model_curve is None or g is not None:
+            # several curves of one fit: each curve's model in its colour, one legend entry
             ax.plot(x[order], sub[ymod].to_numpy()[order] * yf, "-", lw=1.3,
-                    color="0.1" if not many else c, label=f"{model_name}{lab}")
+                    color="0.1" if not many else c, label=None if many else model_name)
         else:
             ax.plot(np.asarray(model_curve[0]) * xf, np.asarray(model_curve[1]) * yf, "-", lw=1.3,
                     color="0.1", label="model")
         axr.plot(x, sub[rc].to_numpy() * _res_label(result)[1], "o", ms=ms, mew=0, alpha=alpha,
                  color=c)
+    if many and result.kind != "film_temperature":
+        ax.plot([], [], "-", lw=1.3, color="0.1",
+                label=f"{model_name} (each curve's line in its colour)")
     if result.kind == "temperature":
         x = d[xc].to_numpy()
         order = np.argsort(x)
@@ -123,8 +129,8 @@ def fit_figure(result: Any, title: str | None = None,
     axr.set_ylabel(_res_label(result)[0])
     axr.set_xlabel(xl)
     legend(ax)
-    txt = ", ".join(f"{_SYMBOLS.get(n, n)} = {_fmt(n, result.params[n])}"
-                    for n in result.names[:4])
+    units = fit_units(result)
+    txt = ", ".join(param_text(n, result.params[n], si=units.get(n)) for n in result.names[:4])
     src = _short_source(result.meta.get("source", ""))
     head = title or (KIND_TITLES.get(result.kind, f"{result.kind.replace('_', ' ')} fit")
                      + (f": {src}" if src else ""))
@@ -132,8 +138,20 @@ def fit_figure(result: Any, title: str | None = None,
     return fig
 
 
-#: symbols of parameters in figure titles, where the name is not one
-_SYMBOLS = {"film_at_reference": "h(v_ref)", "film_temperature_coefficient": "b = d ln h/dT"}
+def _curve_names(result: Any, groups: list[Any], data_name: str) -> dict[Any, str]:
+    """Legend names of the curves of a fit of several: the source file of each (the fit's
+    ``meta["curves"]``) where it names them, else the data's name and the curve's."""
+    files = result.meta.get("curves") or []
+    out = {}
+    for g in groups:
+        if not isinstance(g, (int, np.integer)):  # a curve named by the fit (v = 5 m/s)
+            out[g] = f"{data_name} {g}"
+            continue
+        name = str(files[int(g)]) if 0 <= int(g) < len(files) else ""
+        out[g] = name or f"{data_name} {g}"
+    if len(set(out.values())) < len(out):  # the same file twice: number them
+        out = {g: f"{n} ({k + 1})" for k, (g, n) in enumerate(out.items())}
+    return out
 
 
 def _film_temperature_marks(ax: Any, result: Any, yf: float, colour: Any) -> None:
@@ -220,22 +238,3 @@ def _symbol(name: str) -> str:
 
 def _res_label(result: Any) -> tuple[str, float]:
     return _RES_LABEL.get(result.kind, (f"residual ({result.residual_unit})", 1.0))
-
-
-def _fmt(name: str, v: float) -> str:
-    from torlab.model.layers import all_params
-
-    layer = all_params().get(name)
-    if layer is not None and layer.kind == "length":
-        return f"{v * 1e6:.3g} µm"
-    if layer is not None and layer.unit == "1/m":
-        return f"{v:.4g} 1/m"
-    if name == "alpha":
-        return f"{v * 1e9:.3g} 1/GPa"
-    if name in ("film_prefactor", "film_at_reference"):
-        return f"{v * 1e9:.3g} nm"
-    if name == "film_temperature_coefficient":
-        return f"{v:.3g} 1/K"
-    if name == "eta0":
-        return f"{v * 1e3:.3g} mPa·s"
-    return f"{v:.4g}"

@@ -33,11 +33,14 @@ def hpt_figure(results: Sequence[Any], title: str = "") -> Any:
     fig, (ax1, ax2) = subplots(2, 1, sharex=True, figsize=(7.5, 6.5))
     cmap = matplotlib.colormaps["viridis"]
     n = len(results)
+    labels = [str(r.meta.label) for r in results]
     for i, r in enumerate(results):
         d = r.data
         u = d["displacement_m"].to_numpy()
         color = cmap(i / (n - 1)) if n > 1 else PALETTE[0]
-        label = r.meta.label
+        label = labels[i]
+        if labels.count(label) > 1:  # repeated runs: each named by its file
+            label = f"{label}: {getattr(r.meta, 'source', '') or f'run {i + 1}'}"
         cols = pixel_columns(ax1)  # a long log: the points its pixel columns can show
         x, y = decimate(u, d["shear_stress_Pa"].to_numpy(), cols)  # in SI, scaled once thin
         ax1.plot(x * 1e6, y / 1e6, lw=1.0, color=color, label=label)
@@ -49,15 +52,17 @@ def hpt_figure(results: Sequence[Any], title: str = "") -> Any:
                  lw=2.5, solid_capstyle="butt")
     ax1.set_ylabel("shear stress τ (MPa)")
     ax2.set_ylabel("friction coefficient f (–)")
-    xl = "displacement at r_e" + (", rig compliance subtracted" if results and
-                                   results[0].compliance else "") + " (µm)"
+    xl = "displacement u at r_e" + (", rig compliance subtracted" if results and
+                                     results[0].compliance else "") + " (µm)"
     ax2.set_xlabel(xl)
     ax1.set_ylim(bottom=0)
     ax2.set_ylim(bottom=0)
     if results:
         legend(ax1, fontsize=6 if many else None, ncol=1 + len(results) // 25)
-    ax2.text(0.01, 0.02, "bars: mean f over the window before the maximum displacement",
-             transform=ax2.transAxes, fontsize=7, alpha=0.7)
+    if results:
+        ax2.plot([], [], "-", lw=2.5, color="0.35", solid_capstyle="butt",
+                 label="mean f over the window before the maximum displacement (shaded)")
+        legend(ax2)
     if title:
         fig.suptitle(title)
     return fig

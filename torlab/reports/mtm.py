@@ -22,12 +22,12 @@ __all__ = ["axis_label", "curve_figure", "time_test_figure", "traction_evolution
 #: axis label and scale of the usual columns
 _AXES = {
     "srr": ("slide-to-roll ratio SRR (%)", 100.0),
-    "rolling_speed_m_s": ("rolling speed (m/s)", 1.0),
-    "sliding_speed_m_s": ("sliding speed (m/s)", 1.0),
-    "step_time_s": ("step time (s)", 1.0),
+    "rolling_speed_m_s": ("rolling speed U (m/s)", 1.0),
+    "sliding_speed_m_s": ("sliding speed Δu (m/s)", 1.0),
+    "step_time_s": ("step time t (s)", 1.0),
     "traction_coefficient": ("traction coefficient μ (–)", 1.0),
     "film_thickness_m": ("film thickness h (nm)", 1e9),
-    "traction_force_N": ("traction force (N)", 1.0),
+    "traction_force_N": ("traction force F_T (N)", 1.0),
 }
 _UNITS = (("_m_s", "m/s"), ("_Pa", "Pa"), ("_N", "N"), ("_C", "°C"), ("_s", "s"), ("_m", "m"),
           ("_Hz", "Hz"))
@@ -116,17 +116,26 @@ def curve_figure(red: Any, kind: str) -> Any:
     return fig
 
 
-def time_test_figure(red: Any, results: list[Any]) -> Any:
+def time_test_figure(red: Any, results: list[Any],
+                     evidence: dict[Any, dict[str, Any]] | None = None) -> Any:
     """Coefficient against time of the timed steps with the time-test figures marked.
 
     Marks (per step): the application moment (dashed), the minimum (dot), the
     recovery (triangle) and the mean after recovery (bar to the end), and the
-    low-adhesion threshold (dotted line); the time below it is shaded.
+    low-adhesion threshold (dotted line); the time below it is shaded.  With
+    ``evidence`` (step -> the intervals of
+    :func:`torlab.reduce.time_test_uncertainty.time_test_uncertainty`) the minimum
+    and the recovery carry their 95 % intervals as error bars and the mean after
+    recovery its 95 % band.  What each mark means is in the legend.
     """
+    from torlab.reports.plotting import band_style, cap
+
     d = red.curves["timed"]
     fig, ax = subplots(figsize=(8.0, 4.8))
     step_arr = d["step"].to_numpy()
     by_step = {r.step: r for r in results}
+    evidence = evidence or {}
+    shown = False
     for i, st in enumerate(dict.fromkeys(step_arr.tolist())):
         sel = step_arr == st
         t = d.loc[sel, "step_time_s"].to_numpy()
@@ -135,23 +144,50 @@ def time_test_figure(red: Any, results: list[Any]) -> Any:
         r = by_step.get(st)
         if r is None:
             continue
+        shown = True
+        ev = evidence.get(st, {})
         ax.plot(*decimate(t, mu, pixel_columns(ax)), lw=0.8, color=color, label=f"step {st}")
         ax.axvline(r.application_time_s, color=color, ls="--", lw=0.8)
-        ax.plot([r.minimum_time_s], [r.minimum], "o", color=color, ms=5)
+        lo, hi = ev.get("minimum_low95", np.nan), ev.get("minimum_high95", np.nan)
+        yerr = [[max(r.minimum - lo, 0.0)], [max(hi - r.minimum, 0.0)]] \
+            if np.isfinite(lo) and np.isfinite(hi) else None
+        ax.errorbar([r.minimum_time_s], [r.minimum], yerr=yerr, fmt="o", color=color, ms=6,
+                    capsize=cap(6), mfc="white", mew=1.5, zorder=5)
         if r.recovered:
-            ax.plot([r.recovery_at_s], [r.recovery_level], "^", color=color, ms=6)
+            lo, hi = ev.get("recovery_time_low95", np.nan), ev.get("recovery_time_high95", np.nan)
+            xerr = [[max(r.recovery_time_s - lo, 0.0)], [max(hi - r.recovery_time_s, 0.0)]] \
+                if np.isfinite(lo) and np.isfinite(hi) else None
+            ax.errorbar([r.recovery_at_s], [r.recovery_level], xerr=xerr, fmt="^", color=color,
+                        ms=7, capsize=cap(7), mfc="white", mew=1.5, zorder=5)
             ax.plot([r.recovery_at_s, r.evaluated_until_s], [r.mean_after_recovery] * 2,
                     color=color, lw=2.5, solid_capstyle="butt")
+            lo, hi = (ev.get("mean_after_recovery_low95", np.nan),
+                      ev.get("mean_after_recovery_high95", np.nan))
+            if np.isfinite(lo) and np.isfinite(hi):
+                band(ax, [r.recovery_at_s, r.evaluated_until_s], [lo, lo], [hi, hi],
+                     color=color)
         below = np.where(mu < r.threshold, mu, np.nan)
+        rgb, a = band_style(color, 0.15)
         ax.fill_between(t, below, r.threshold, where=np.isfinite(below) & (t >= r.application_time_s),
-                        color=color, alpha=0.12, lw=0)
+                        color=rgb, alpha=a, lw=0)
     if results:
         ax.axhline(results[0].threshold, color="k", ls=":", lw=0.8)
-    ax.set_xlabel("step time (s)")
+    ax.set_xlabel("step time t (s)")
     ax.set_ylabel("traction coefficient μ (–)")
-    ax.text(0.01, 0.98, "dashed: application · dot: minimum · triangle: recovery · bar: mean "
-            "after recovery · dotted: low-adhesion threshold (shaded: below)",
-            transform=ax.transAxes, fontsize=7, va="top", alpha=0.7)
+    if shown:  # the marks, once, in grey
+        g = "0.35"
+        ax.plot([], [], "--", color=g, lw=0.8, label="application")
+        iv = " (95 % interval)" if evidence else ""
+        ax.errorbar([], [], yerr=[], fmt="o", color=g, ms=6, mfc="white", mew=1.5,
+                    capsize=cap(6), label=f"minimum{iv}")
+        ax.errorbar([], [], xerr=[], fmt="^", color=g, ms=7, mfc="white", mew=1.5,
+                    capsize=cap(7), label=f"recovery{iv}")
+        ax.plot([], [], "-", color=g, lw=2.5, label="mean after recovery"
+                + (" (95 % band)" if evidence else ""))
+        ax.plot([], [], ":", color="k", lw=0.8, label=f"low-adhesion threshold "
+                f"{results[0].threshold:g}")
+        rgb, a = band_style(g, 0.15)
+        ax.fill_between([], [], [], color=rgb, alpha=a, lw=0, label="time below the threshold")
     legend(ax)
     fig.suptitle(f"Time test after application (thesis Fig. 5.9): {red.label}")
     return fig

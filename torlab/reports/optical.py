@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import textwrap
 from typing import Any
 
 import numpy as np
 
-from torlab.reports.plotting import PALETTE, legend, subplots
+from torlab.reports.plotting import PALETTE, legend, points, subplots
 
 __all__ = ["optical_figure"]
 
@@ -54,8 +55,9 @@ def optical_figure(res: Any) -> Any:
                          mfc="none", color=c)
             sym = res.symmetry
             verdict = _symmetry_words(sym)
-            ax2.set_title(f"folded: filled +SRR, hollow −SRR → |SRR|, −μ; {verdict}", fontsize=8)
-        ax2.set_xlabel("|SRR| (%)")
+            ax2.set_title(textwrap.fill(f"folded: filled +SRR, hollow −SRR → |SRR|, −μ; "
+                                        f"{verdict}", 60), fontsize=8)
+        ax2.set_xlabel("slide-to-roll ratio |SRR| (%)")
         ax2.set_ylabel("traction coefficient μ (–)")
     elif res.test == "film_thickness":
         fig, (ax1, ax2) = subplots(2, 1, sharex=True, figsize=(7.0, 6.5))
@@ -83,8 +85,12 @@ def optical_figure(res: Any) -> Any:
         fig, ax1 = subplots(figsize=(7.0, 4.6))
         sub = p.sort_values("rolling_speed_m_s")
         if "traction_coefficient" in sub:
-            ax1.errorbar(sub["rolling_speed_m_s"], sub["traction_coefficient"],
-                         yerr=sub.get("traction_coefficient_sd"), fmt="o-", ms=4, capsize=2)
+            sd = sub.get("traction_coefficient_sd")
+            points(ax1, sub["rolling_speed_m_s"].to_numpy(dtype=float),
+                   sub["traction_coefficient"].to_numpy(dtype=float),
+                   None if sd is None else sd.to_numpy(dtype=float), color=PALETTE[0])
+            ax1.plot(sub["rolling_speed_m_s"], sub["traction_coefficient"], "-", lw=1.0,
+                     color=PALETTE[0])
         ax1.set_xscale("log")
         ax1.set_xlabel("rolling speed U (m/s)")
         ax1.set_ylabel("traction coefficient μ (–)")

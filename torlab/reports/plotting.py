@@ -29,12 +29,14 @@ import sys
 from collections.abc import Iterable, Sequence
 from typing import Any
 
-__all__ = ["DIMENSIONLESS", "PALETTE", "STYLE", "STYLE_VERSION", "axis_label", "band",
-           "colours", "decimate", "finish", "legend", "pixel_columns", "plain_log_ticks",
-           "points", "pretty", "pyplot", "subplots", "unit"]
+__all__ = ["BAND_CONTRAST", "DIMENSIONLESS", "PALETTE", "STYLE", "STYLE_VERSION", "axis_label",
+           "band", "band_style", "cap", "colours", "decimate", "facet_legend", "facets",
+           "figure_legend", "finish", "fit_units", "legend", "number", "param_label", "param_symbol", "param_text",
+           "param_unit", "pixel_columns", "plain_log_ticks", "points", "pretty", "pyplot",
+           "subplots", "unit"]
 
 #: bump when the look of the figures changes (invalidates cached figures)
-STYLE_VERSION = 2
+STYLE_VERSION = 3
 
 STYLE: dict[str, Any] = {
     "figure.figsize": (7.0, 4.5),
@@ -59,7 +61,7 @@ STYLE: dict[str, Any] = {
     "lines.color": "#0072B2",
     "patch.facecolor": "#0072B2",
     "lines.markersize": 4,
-    "errorbar.capsize": 2,
+    "errorbar.capsize": 3,
     "legend.frameon": False,
     "legend.fontsize": 8,
     "legend.handlelength": 1.8,
@@ -82,6 +84,8 @@ DIMENSIONLESS = "–"
 # margins of the fixed layout (inches)
 _LEFT, _RIGHT, _BOTTOM, _TOP, _HSPACE, _WSPACE = 0.78, 0.22, 0.52, 0.38, 0.22, 0.62
 _LINE = 0.17  # one extra line of 9-pt text
+#: the most legend entries in one column (an outside legend as tall as a 4.5-inch figure)
+_LEGEND_ROWS = 20
 
 _READY: list[Any] = []
 #: set by the command line: matplotlib's projections may skip its 3-D toolkit (see :func:`_mpl`)
@@ -210,6 +214,15 @@ def _place(fig: Any, extra_right: float = 0.0) -> None:
     m = getattr(fig, "_torlab_margins", {"left": _LEFT, "top": _TOP})
     axes = fig.axes
     top = m["top"] + _LINE * max([_lines(ax.get_title()) - 1 for ax in axes] + [0])
+    sup = getattr(fig, "_suptitle", None)
+    if sup is not None:  # at a fixed height below the top edge, above any axes title
+        sup.set_y(1.0 - 0.06 / h)
+        sup.set_verticalalignment("top")
+        need = 0.06 + 0.2 * _lines(sup.get_text()) + 0.1
+        if any(ax.get_title() for ax in axes):
+            top += need
+        else:
+            top = max(top, need)
     left = m["left"] + _LINE * max([_lines(ax.get_ylabel()) - 1 for ax in axes] + [0])
     bottom = _BOTTOM + _LINE * max([_lines(ax.get_xlabel()) - 1 for ax in axes] + [0])
     gs = axes[0].get_gridspec() if axes and axes[0].get_subplotspec() is not None else None
@@ -219,7 +232,11 @@ def _place(fig: Any, extra_right: float = 0.0) -> None:
     ax_h = inner_h / max(nrows, 1)
     ax_w = inner_w / max(ncols, 1)
     titles = any(_lines(ax.get_title()) for ax in axes[ncols:]) if nrows > 1 else False
-    hspace = (_HSPACE + (0.3 if titles else 0.0)) / max(ax_h, 0.1)
+    # x labels of panels above others (stacked panels that do not share x): their tick
+    # labels and label need the room between the panels
+    inner = max([_lines(ax.get_xlabel()) for ax in axes[:-ncols]] + [0]) if nrows > 1 else 0
+    hspace = (_HSPACE + (0.3 if titles else 0.0) + (0.2 + _LINE * inner if inner else 0.0)) \
+        / max(ax_h, 0.1)
     wspace = _WSPACE / max(ax_w, 0.1)
     fig.subplots_adjust(left=left / w, right=1 - (_RIGHT + extra_right) / w, bottom=bottom / h,
                         top=1 - top / h, hspace=hspace, wspace=wspace)
@@ -237,6 +254,8 @@ def legend(ax: Any, *, outside: bool = True, loc: str = "upper right", ncol: int
     if not handles:
         return None
     labels = [pretty(x) for x in labels]
+    # a legend no taller than the plotting area: more columns rather than entries cut off
+    ncol = max(ncol, math.ceil(len(labels) / _LEGEND_ROWS))
     if outside:
         lg = ax.legend(handles, labels, loc="upper left", bbox_to_anchor=(1.02, 1.0),
                        borderaxespad=0.0, ncol=ncol, title=title, **kw)
@@ -257,6 +276,9 @@ def finish(fig: Any) -> Any:
             ax.set_title(pretty(ax.get_title()))
     if getattr(fig, "_suptitle", None) is not None:
         fig._suptitle.set_text(pretty(fig._suptitle.get_text()))
+    if fig.get_layout_engine() is not None:  # a grid of facets (:func:`facets`) lays itself out
+        fig._torlab_finished = True  # type: ignore[attr-defined]
+        return fig
     need = 0.0
     outside = [ax.get_legend() for ax in fig.axes
                 if ax.get_legend() is not None and getattr(ax.get_legend(), "_torlab_outside",
@@ -272,6 +294,98 @@ def finish(fig: Any) -> Any:
     return fig
 
 
+def facets(n: int, *, ncols: int = 2, panel: tuple[float, float] = (3.4, 2.5),
+           strips: Sequence[float] | None = None, legend_width: float = 2.3,
+           shared_legend: bool = False) -> tuple[Any, list[list[Any]]]:
+    """A figure of ``n`` panels (facets) in ``ncols`` columns, for what one panel cannot show
+    readably (many curves: a few per facet, each facet with its own legend; or quantities in
+    different units side by side).
+
+    Laid out by matplotlib's constrained layout (the fixed margins of :func:`subplots` do
+    not know the facets' legends): every label, tick label and legend is kept inside the
+    figure and clear of the others.
+
+    Parameters
+    ----------
+    n
+        Number of facets.
+    ncols
+        Columns of facets (fewer when ``n`` is smaller).
+    panel
+        Width and height (inches) of one facet's plotting area.
+    strips
+        Per facet, the height (inches) of a strip below its panel that shares its x axis
+        (0: none); None: no strips.
+    legend_width
+        Room (inches) for a facet's legend to the right of its panel (``shared_legend``:
+        for one legend of the whole figure, at its right).
+
+    Returns
+    -------
+    (figure, axes)
+        ``axes[i]`` is ``[panel]`` or ``[panel, strip]`` of facet ``i``.
+    """
+    _mpl()
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    ncols = max(1, min(ncols, n))
+    nrows = math.ceil(n / ncols)
+    strip_h = [float(x) for x in (strips or [0.0] * n)] + [0.0] * n
+    row_strip = [max(strip_h[r * ncols:(r + 1) * ncols] or [0.0]) for r in range(nrows)]
+    pw, ph = panel
+    width = ncols * (pw + 0.9 + (0.0 if shared_legend else legend_width)) + \
+        (legend_width if shared_legend else 0.0)
+    height = 0.5 + sum(ph + 0.75 + (sh + 0.1 if sh else 0.0) for sh in row_strip)
+    fig = Figure(figsize=(width, height), layout="constrained")
+    FigureCanvasAgg(fig)
+    fig.get_layout_engine().set(h_pad=0.04, w_pad=0.06, hspace=0.02, wspace=0.04)
+    ratios: list[float] = []
+    for sh in row_strip:
+        ratios += [ph, sh] if sh else [ph]
+    gs = fig.add_gridspec(len(ratios), ncols, height_ratios=ratios)
+    out: list[list[Any]] = []
+    row = 0
+    for r in range(nrows):
+        for c in range(ncols):
+            i = r * ncols + c
+            if i >= n:
+                break
+            ax = fig.add_subplot(gs[row, c])
+            axes = [ax]
+            if row_strip[r]:
+                st = fig.add_subplot(gs[row + 1, c], sharex=ax)
+                if strip_h[i] <= 0:
+                    st.set_visible(False)
+                axes.append(st)
+            out.append(axes)
+        row += 2 if row_strip[r] else 1
+    fig._torlab_facets = True  # type: ignore[attr-defined]
+    return fig, out
+
+
+def figure_legend(fig: Any, axes: Sequence[Any], **kw: Any) -> Any:
+    """One legend for every facet of a :func:`facets` figure, at its right: each label once,
+    in the order the facets show them."""
+    handles: dict[str, Any] = {}
+    for ax in axes:
+        for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
+            handles.setdefault(pretty(lab), h)
+    if not handles:
+        return None
+    ncol = max(1, math.ceil(len(handles) / _LEGEND_ROWS))
+    lg = fig.legend(list(handles.values()), list(handles), loc="outside right upper",
+                    ncol=ncol, **kw)
+    lg._torlab_outside = True
+    return lg
+
+
+def facet_legend(ax: Any, **kw: Any) -> Any:
+    """The legend of a facet (:func:`facets`), outside its panel on the right (the
+    constrained layout makes room for it)."""
+    return legend(ax, **kw)
+
+
 def colours(keys: Iterable[Any]) -> dict[Any, str]:
     """A distinct colour per key, in the order given (stable: the same keys in the same
     order get the same colours in every figure of a report)."""
@@ -282,15 +396,45 @@ def colours(keys: Iterable[Any]) -> dict[Any, str]:
     return out
 
 
-def band(ax: Any, x: Any, low: Any, high: Any, *, color: str, label: str | None = None,
+#: the smallest luminance step of a shaded 95 % band from the white background
+BAND_CONTRAST = 0.12
+
+
+def _luminance(rgb: Sequence[float]) -> float:
+    """Relative luminance (Rec. 709 weights) of an RGB colour in 0..1."""
+    return 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2]
+
+
+def band_style(color: Any, alpha: float = 0.22) -> tuple[tuple[float, float, float], float]:
+    """The colour and opacity of a band in ``color`` that stands out from white by at least
+    :data:`BAND_CONTRAST` in luminance: the opacity is raised for a pale colour (up to
+    0.45), and a colour too pale even then (yellow) is darkened."""
+    from matplotlib.colors import to_rgb
+
+    rgb = to_rgb(color)
+    lum = _luminance(rgb)
+    need = BAND_CONTRAST / max(1.0 - lum, 1e-9)
+    if need <= max(alpha, 0.45):
+        return rgb, max(alpha, need)
+    k = (1.0 - BAND_CONTRAST / 0.45) / max(lum, 1e-9)  # scale so that 1 - lum = contrast/0.45
+    return tuple(min(max(c * k, 0.0), 1.0) for c in rgb), 0.45  # type: ignore[return-value]
+
+
+def band(ax: Any, x: Any, low: Any, high: Any, *, color: Any, label: str | None = None,
          alpha: float = 0.22) -> Any:
-    """A shaded 95 % band between ``low`` and ``high`` (no edge line)."""
-    return ax.fill_between(x, low, high, color=color, alpha=alpha, lw=0, label=label)
+    """A shaded 95 % band between ``low`` and ``high`` (no edge line), at least
+    :data:`BAND_CONTRAST` darker than the background (:func:`band_style`)."""
+    rgb, a = band_style(color, alpha)
+    return ax.fill_between(x, low, high, color=rgb, alpha=a, lw=0, label=label)
 
 
 def points(ax: Any, x: Any, y: Any, yerr: Any = None, *, color: str, label: str | None = None,
-           marker: str = "o", ms: float = 4.5, filled: bool = False, xerr: Any = None) -> Any:
-    """Measured points, with error bars where a spread is given (NaN: no bar)."""
+           marker: str = "o", ms: float = 4.0, filled: bool = False, xerr: Any = None) -> Any:
+    """Measured points, with error bars where a spread is given (NaN: no bar).
+
+    The bars' caps are 2 pt wider than the marker, so a spread smaller than the marker
+    still shows as the caps' ends beside it.
+    """
     import numpy as np
 
     mfc = color if filled else "white"
@@ -300,7 +444,13 @@ def points(ax: Any, x: Any, y: Any, yerr: Any = None, *, color: str, label: str 
     ye = None if yerr is None else np.where(np.isfinite(np.asarray(yerr, float)),
                                             np.asarray(yerr, float), 0.0)
     return ax.errorbar(x, y, yerr=ye, xerr=xerr, fmt=marker, ms=ms, color=color, mfc=mfc,
-                       mew=1.0, elinewidth=0.8, capsize=2, label=label)
+                       mew=1.0, elinewidth=0.8, capsize=cap(ms), label=label)
+
+
+def cap(ms: float) -> float:
+    """The cap size (half its width, points) of error bars on markers of size ``ms``: the
+    caps are 2 pt wider than the marker."""
+    return ms / 2.0 + 1.0
 
 
 _UNITS = {"ul": "µL", "uL": "µL", "µl": "µL", "μl": "µL", "μL": "µL", "ml": "mL",
@@ -326,6 +476,87 @@ def axis_label(quantity: str, symbol: str = "", unit_: str = DIMENSIONLESS) -> s
     """``"traction coefficient μ (–)"``: words, the symbol, the unit in parentheses."""
     sym = f" {symbol}" if symbol else ""
     return f"{quantity}{sym} ({unit(unit_) if unit_ else DIMENSIONLESS})"
+
+
+#: symbols of the fitted parameters that are not a layer law's (a layer law's symbols come
+#: from its registry, :mod:`torlab.model.layers`; every unit from the fit's own table,
+#: :data:`torlab.fit.result.PARAM_UNITS`)
+_SYMBOLS = {"eta0": "η0", "alpha": "α", "Z": "Z", "speed_exponent": "n",
+            "film_prefactor": "C", "film_at_reference": "h(v_ref)",
+            "film_temperature_coefficient": "b", "rig_compliance": "c_rig", "mu0": "μ0",
+            "A": "A", "B": "B", "kA": "kA", "kS": "kS", "k0": "k0", "k1": "k1",
+            "spread": "s", "transfer": "f_tr"}
+#: SI unit -> the unit shown on a figure and the factor to it (one per kind of parameter)
+_SHOWN = {"m": ("µm", 1e6), "1/Pa": ("1/GPa", 1e9), "Pa*s": ("mPa·s", 1e3),
+          "m/Pa": ("µm/GPa", 1e15), "m^2/J": ("m²/J", 1.0), "-": ("", 1.0)}
+#: parameters in metres shown in nm (film thicknesses), not µm (layer lengths)
+_NANO = ("film_prefactor", "film_at_reference")
+
+
+def param_symbol(name: str) -> str:
+    """The symbol of a fitted parameter for figures: a layer law's from its registry
+    (``mu_c1`` -> ``μc1``, ``mu_c1_T`` -> ``μc1,T``), a limit at the reference temperature
+    ``μc1(T_ref)``, the others' from a short table; an unknown name as it is."""
+    from torlab.model.layers import all_params
+
+    layer = all_params()
+    if name in layer:
+        return layer[name].symbol
+    if name.endswith("_Tref") and name[:-5] in layer:
+        return f"{layer[name[:-5]].symbol}(T_ref)"
+    return _SYMBOLS.get(name, name)
+
+
+def param_unit(name: str, si: str | None = None) -> tuple[str, float]:
+    """The unit a parameter is shown in on a figure and the factor from its SI value
+    (``L_mue``: µm, 1e6; ``mu_c1_T``: 1/K; a dimensionless one: ``""``).
+
+    ``si``: the parameter's SI unit as its fit states it (:meth:`FitResult.table`'s
+    ``unit``, from :data:`torlab.fit.result.PARAM_UNITS`); None: a layer law's from its
+    registry, else dimensionless.
+    """
+    from torlab.model.layers import all_params
+
+    if si is None:
+        layer = all_params()
+        base = name[:-5] if name.endswith("_Tref") and name[:-5] in layer else name
+        si = layer[base].unit if base in layer and base == name else "-"
+    if si == "m" and name in _NANO:
+        return "nm", 1e9
+    return _SHOWN.get(si, (si, 1.0))
+
+
+def number(v: float, digits: int = 4) -> str:
+    """A number for a figure: ``digits`` significant digits, a true minus sign, powers of
+    ten written ``×10⁻⁴`` below 1e-3 and from 1e5 on."""
+    if not math.isfinite(v):
+        return str(v)
+    if v != 0 and not 1e-3 <= abs(v) < 1e5:
+        m, e = f"{v:.{max(digits - 1, 0)}e}".split("e")
+        sup = str(int(e)).translate(str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹"))
+        return f"{m}×10{sup}".replace("-", "−")
+    return f"{v:.{digits}g}".replace("-", "−")
+
+
+def param_text(name: str, value: float, digits: int = 4, si: str | None = None) -> str:
+    """``"μc1 = 0.1462"``, ``"Lμe = 8.31 µm"``, ``"μc1,T = −5.296×10⁻⁴ 1/K"``: a fitted
+    parameter's symbol, value and unit, for a figure's title (``si``: its SI unit,
+    :func:`param_unit`)."""
+    u, f = param_unit(name, si)
+    return f"{param_symbol(name)} = {number(value * f, digits)}" + (f" {u}" if u else "")
+
+
+def param_label(name: str, si: str | None = None) -> str:
+    """An axis label for a parameter: ``"μc1 (–)"``, ``"Lμe (µm)"``."""
+    u, _ = param_unit(name, si)
+    return f"{param_symbol(name)} ({u or DIMENSIONLESS})"
+
+
+def fit_units(result: Any) -> dict[str, str]:
+    """The SI unit of each parameter of a :class:`~torlab.fit.result.FitResult`, as its
+    table states them."""
+    t = result.table()
+    return {str(n): str(u) for n, u in zip(t["parameter"], t["unit"], strict=True)}
 
 
 def plain_log_ticks(axis: Any, values: Any) -> None:

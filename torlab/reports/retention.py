@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from torlab.reports.plotting import PALETTE, legend, subplots
+from torlab.reports.plotting import PALETTE, band, cap, legend, subplots
 from torlab.reports.render import plot
 
 __all__ = ["crossing_text", "layer_figure", "removal_figure", "retention_figure", "retention_section",
@@ -38,7 +38,7 @@ def removal_figure(result: Any, title: str | None = None) -> Any:
     Per time test: the measured coefficient (points), the model over the fit
     window (line) and before it (dotted: the film phase, not fitted).
     """
-    from torlab.model.removal import LAW_UNITS
+    from torlab.reports.plotting import fit_units, param_text
 
     d = result.data
     fig, (ax, axm) = subplots(2, 1, sharex=True, figsize=(7.5, 6.0),
@@ -47,10 +47,13 @@ def removal_figure(result: Any, title: str | None = None) -> Any:
         col = PALETTE[i % len(PALETTE)]
         t = g["time_s"].to_numpy()
         win = g["in_fit"].to_numpy(dtype=bool)
-        ax.plot(t, g["mu_measured"], ".", ms=2, color=col, alpha=0.35, label=f"{name} measured")
-        ax.plot(t[win], g["mu_model"].to_numpy()[win], "-", lw=1.6, color=col, label=f"{name} model")
+        ax.plot(t, g["mu_measured"], ".", ms=2, color=col, alpha=0.35, label=f"{name}")
+        ax.plot(t[win], g["mu_model"].to_numpy()[win], "-", lw=1.6, color=col)
         ax.plot(t[~win], g["mu_model"].to_numpy()[~win], ":", lw=1.0, color=col)
         axm.plot(t, g["amount_mg_m2"], "-", lw=1.2, color=col)
+    ax.plot([], [], "-", lw=1.6, color="0.2", label="model over the fit window (each test's "
+            "colour)")
+    ax.plot([], [], ":", lw=1.0, color="0.2", label="model in the film phase (not fitted)")
     ax.set_ylabel("traction coefficient μ (–)")
     ax.set_ylim(bottom=0)
     legend(ax)
@@ -58,10 +61,10 @@ def removal_figure(result: Any, title: str | None = None) -> Any:
     axm.set_ylabel("remaining amount m (mg/m²)")
     if (d["amount_mg_m2"] > 0).any():
         axm.set_yscale("log")
-    law = result.meta.get("law", "")
-    pars = ", ".join(f"{n} = {result.params[n]:.3g} {LAW_UNITS.get(n, '')}" for n in result.names)
-    ax.set_title(title or f"Removal fit: {law} ({pars}); dotted: film phase, not fitted",
-                 fontsize=9)
+    law = str(result.meta.get("law", "")).replace("_", "-")
+    units = fit_units(result)
+    pars = ", ".join(param_text(n, result.params[n], 3, si=units.get(n)) for n in result.names)
+    ax.set_title(title or f"Removal fit: {law} law ({pars})", fontsize=9)
     return fig
 
 
@@ -89,9 +92,9 @@ def layer_figure(layer: Any, title: str = "") -> Any:
         j = idx[i]
         ax.plot(m / MG_M2, p[:, j], "-", color=col, lw=1.2)
         ax.errorbar(nodes[1:] / MG_M2, allp[1:, j], yerr=1.96 * se[1:, i], fmt=mk, ms=4,
-                    color=col, capsize=2, label=f"{name}, HPT fit ±95 %")
+                    color=col, capsize=cap(4), label=f"{name}, HPT fit ±95 %")
         ax.errorbar(nodes[:1] / MG_M2, allp[:1, j], yerr=1.96 * se[:1, i], fmt=mk, ms=5,
-                    mfc="none", color=col, capsize=2,
+                    mfc="none", color=col, capsize=cap(5),
                     label="dry fit at the assumed anchor" if i == len(limits) - 1 else None)
     ax.axvspan(nodes[0] / MG_M2, layer.m_min / MG_M2, color="0.9", lw=0,
                label="below the smallest tested amount")
@@ -133,8 +136,8 @@ def retention_figure(pred: Any, *, axis: str = "passes", title: str = "") -> Any
     lo, hi = s["band"]
     ax.axhspan(lo, hi, color="#d9ead3", alpha=0.6, lw=0, label=f"band {lo:g}–{hi:g}")
     if t["mu_low95"].notna().all():
-        ax.fill_between(x, t["mu_low95"], t["mu_high95"], color=PALETTE[0], alpha=0.25, lw=0,
-                        label=f"{100 * s.get('confidence', 0.95):g} % interval")
+        band(ax, x, t["mu_low95"], t["mu_high95"], color=PALETTE[0], alpha=0.25,
+             label=f"{100 * s.get('confidence', 0.95):g} % interval")
     ax.plot(x, t["mu"], color=PALETTE[0], lw=1.8, label="μ (estimate)")
     ax.axhline(s["mu_dry"], color="0.4", ls=":", lw=0.9, label=f"dry μ = {s['mu_dry']:.3f}")
     for key, col, word in (("passes_to_enter_band", PALETTE[2], "enters"),
@@ -147,7 +150,7 @@ def retention_figure(pred: Any, *, axis: str = "passes", title: str = "") -> Any
         if cr.get("low95") is not None:
             hi95 = cr["high95"] if cr.get("high95") is not None else cr["passes"]
             xerr = [[xc - cr["low95"] * scale], [max(hi95 * scale - xc, 0.0)]]
-        ax.errorbar([xc], [cr["level"]], xerr=xerr, fmt="o", color=col, ms=5, capsize=3,
+        ax.errorbar([xc], [cr["level"]], xerr=xerr, fmt="o", color=col, ms=5, capsize=cap(5),
                     label=f"{word} the band: {cr['passes']:.3g} passes")
     ax.set_ylabel("traction coefficient μ (–)")
     ax.set_ylim(bottom=0)
@@ -178,7 +181,7 @@ def sweep_figure(sweep: Any, title: str = "") -> Any:
     for col, name, c in (("mu_steady", "steady (applied amount, no removal)", PALETTE[0]),
                          ("mu_sweep", f"recorded during a {s['seconds']:g} s sweep", PALETTE[1])):
         if f"{col}_low95" in t:
-            ax.fill_between(x, t[f"{col}_low95"], t[f"{col}_high95"], color=c, alpha=0.2, lw=0)
+            band(ax, x, t[f"{col}_low95"], t[f"{col}_high95"], color=c)
         ax.plot(x, t[col], color=c, lw=1.8, label=f"{name}: {_trend(s, col)}")
     ax.set_ylabel("traction coefficient μ (–)")
     ax.set_ylim(bottom=0)
@@ -214,6 +217,7 @@ def retention_overlay_figure(curves: list[tuple[str, Any]], *, band: Any, axis: 
     axis, title
         As :func:`retention_figure`.
     """
+    from torlab.reports.plotting import band as shade
     from torlab.reports.plotting import colours
 
     fig, ax = subplots(figsize=(7.5, 4.8))
@@ -225,8 +229,8 @@ def retention_overlay_figure(curves: list[tuple[str, Any]], *, band: Any, axis: 
         x, xlabel = _xaxis(t, axis)
         c = col[label]
         if t["mu_low95"].notna().all():
-            ax.fill_between(x, t["mu_low95"], t["mu_high95"], color=c, alpha=0.2, lw=0,
-                            label=f"{label}: 95 % interval")
+            shade(ax, x, t["mu_low95"], t["mu_high95"], color=c,
+                  label=f"{label}: 95 % interval")
         ax.plot(x, t["mu"], color=c, lw=1.8, label=label)
     ax.set_ylabel("traction coefficient μ (–)")
     ax.set_xlabel(xlabel)

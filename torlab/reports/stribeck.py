@@ -22,6 +22,7 @@ import numpy as np
 
 from torlab.reports.html import Figure, Section, Table
 from torlab.reports.plotting import subplots
+from torlab.reports.traction import shares_text
 
 __all__ = ["FILM_RATIO_MIN_NM", "StribeckCurve", "film_figure", "film_ratio", "film_section",
            "lambda_figure", "measured_stribeck_figure", "stribeck_section"]
@@ -104,11 +105,10 @@ def transition_words(tr: dict[str, Any]) -> str:
             continue
         st = e.get("status", "")
         if st == "resolved":
-            dom = ", ".join(f"{d['parameter']} {100 * d['share']:.0f} %"
-                            for d in e.get("dominant", []))
+            dom = shares_text(e.get("dominant", []), e.get("explained"))
             iv = (f" (95 % interval {e['low95_m_s']:.3g}–{e['high95_m_s']:.3g} m/s, "
-                  f"{e.get('method')} propagation" + (f", dominated by {dom}" if dom else "")
-                  + ")")
+                  f"{e.get('method')} propagation"
+                  + (f", shares of its variance: {dom}" if dom else "") + ")")
         elif st == "exact":
             iv = (" (exact given the scene: the lubricant's parameters carry no fit "
                   "covariance)")
@@ -245,7 +245,7 @@ def stribeck_section(curves: list[StribeckCurve]) -> Section:
 
 def _band_entry(band: dict[str, Any]) -> dict[str, Any] | None:
     keep = ("method", "confidence", "nonlinearity", "n_evaluations", "parameters", "dominant",
-            "notes")
+            "explained", "notes")
     return {k: band[k] for k in keep if k in band} if band else None
 
 
@@ -254,9 +254,9 @@ def _band_words(band: dict[str, Any], output: str = "mu") -> str:
     m = band.get("method", "") if band else ""
     if m in ("linear", "sampling"):
         dom = (band.get("dominant") or {}).get(output) or []
-        d = ", ".join(f"{x['parameter']} {100 * x['share']:.0f} %" for x in dom)
+        d = shares_text(dom, (band.get("explained") or {}).get(output))
         return (f"95 % band by {m} propagation of {', '.join(band.get('parameters', []))}"
-                + (f", dominated by {d}" if d else ""))
+                + (f", shares of its variance: {d}" if d else ""))
     if m == "none":
         return "no band (the fitted parameters have zero variance)"
     why = "; ".join(n for n in (band or {}).get("notes", []) if n.startswith("no band"))

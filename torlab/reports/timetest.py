@@ -23,6 +23,11 @@ from torlab.reports.render import plot
 
 __all__ = ["time_test_section", "time_tests_figure"]
 
+#: the intervals a time test's figure draws (:func:`torlab.reports.mtm.time_test_figure`)
+_FIGURE_INTERVALS = ("minimum_low95", "minimum_high95", "recovery_time_low95",
+                     "recovery_time_high95", "mean_after_recovery_low95",
+                     "mean_after_recovery_high95")
+
 
 def time_test_section(reductions: list[tuple[str, Any]], cfg: Any,
                       model: dict[str, Any] | None = None,
@@ -91,10 +96,14 @@ def time_test_section(reductions: list[tuple[str, Any]], cfg: Any,
                 row["model_creepage"] = model["creepage"].get(label, float("nan"))
             rows.append(row)
         if red.time_tests:
+            marks = {t.step: {k: v for k, v in evidence.get((label, t.step), {}).items()
+                              if k in _FIGURE_INTERVALS} for t in red.time_tests}
             figs.append(Figure(f"time_test_{_safe(label)}",
-                               plot(time_test_figure, red, red.time_tests),
+                               plot(time_test_figure, red, red.time_tests,
+                                    marks if any(marks.values()) else None),
                                f"{label}: coefficient against step time with the time-test "
-                               "figures marked (thesis Fig. 5.9)"))
+                               "figures marked (thesis Fig. 5.9)"
+                               + (", with their 95 % intervals" if evidence else "")))
     if not rows:
         raise TorlabInputError("reports.time_test: no timed step with a traction coefficient in "
                                "the MTM files", key="reports.time_test")

@@ -142,7 +142,8 @@ def traction_section(curves: list[TractionCurve], cfg: Any) -> Section:
             "P(negative)": ("p_negative", ".3f"), "P(neutral)": ("p_neutral", ".3f"),
             "P(positive)": ("p_positive", ".3f"),
             "relative change": ("relative_change", "+.4f"),
-            "points": ("points_in_trend", "d"), "band dominated by": ("band_dominated_by", "")}
+            "points": ("points_in_trend", "d"),
+            "band variance shares": ("band_dominated_by", "")}
     paragraphs = [
         "Traction coefficient against creepage (= SRR as a fraction): modelled curves "
         "(Hertz + FASTSIM with the third-body layer; film and asperity load sharing for "
@@ -205,7 +206,18 @@ def _mu_band(table: Any, i: int) -> tuple[float, float]:
 def _dominant_text(band: dict[str, Any], output: str = "mu") -> str:
     """``"mu_c2 62 %, L_mup 30 %"``: the parameters that dominate a band."""
     dom = (band.get("dominant") or {}).get(output) or []
-    return ", ".join(f"{d['parameter']} {100 * d['share']:.0f} %" for d in dom)
+    return shares_text(dom, (band.get("explained") or {}).get(output))
+
+
+def shares_text(dominant: list[dict[str, Any]], explained: float | None = None) -> str:
+    """``"mu_c2 79 %, L_mup 11 %"``: the parameters' shares of a band's variance (Shapley
+    effects, :func:`torlab.uncertainty.shapley_shares`: never negative, at most 100 %
+    together), and, where the parameters' linear effects explain less than all of it
+    (a sampled band), how much they explain."""
+    text = ", ".join(f"{d['parameter']} {100 * d['share']:.0f} %" for d in dominant)
+    if text and explained is not None and explained < 0.995:
+        text += f" (of the {100 * explained:.0f} % its parameters explain linearly)"
+    return text
 
 
 def _band_summary(band: dict[str, Any]) -> dict[str, Any] | None:
@@ -213,7 +225,7 @@ def _band_summary(band: dict[str, Any]) -> dict[str, Any] | None:
     if not band:
         return None
     keep = ("method", "confidence", "nonlinearity", "n_evaluations", "parameters", "dominant",
-            "notes")
+            "explained", "notes")
     return {k: band[k] for k in keep if k in band}
 
 
@@ -258,7 +270,7 @@ def _curve_sentence(r: dict[str, Any], c: TractionCurve) -> str:
         if m in ("linear", "sampling"):
             dom = _dominant_text(c.band)
             out += (f" Band: {m} propagation of {', '.join(c.band.get('parameters', []))}"
-                    + (f"; dominated by {dom}." if dom else "."))
+                    + (f"; shares of its variance: {dom}." if dom else "."))
         elif m == "none":
             out += " Band: none (the fitted parameters have zero variance)."
         else:
@@ -271,12 +283,48 @@ def _curve_sentence(r: dict[str, Any], c: TractionCurve) -> str:
     return out
 
 
+#: the most curve groups (a colour each) in one panel of the traction figure: more are
+#: drawn in facets of this many, each with its own legend
+PER_PANEL = 7
+
+
 def traction_report_figure(curves: list[TractionCurve], cfg: Any) -> Any:
     """|μ| against creepage (%): modelled lines with their 95 % bands, measured circles, one
-    colour per group (:class:`~torlab.reports.render.Plot` function)."""
-    from torlab.reports.plotting import axis_label, band, colours, legend, points, subplots
+    colour per group (:class:`~torlab.reports.render.Plot` function).
 
-    fig, ax = subplots(figsize=(7.0, 4.6))
+    More than :data:`PER_PANEL` groups are drawn in facets of :data:`PER_PANEL`, each with
+    its own colours and legend (a campaign of 96 curves in one panel had a legend cut off
+    after 24 entries and repeated colours).
+    """
+    from torlab.reports.plotting import facet_legend, facets, legend, subplots
+
+    groups = list(dict.fromkeys(c.group or c.label for c in curves))
+    kinds = {c.kind for c in curves}
+    parts = [p for k, p in (("model", "modelled (lines)"), ("measured", "measured (circles)"))
+             if k in kinds]
+    title = "Traction curves: " + " and ".join(parts)
+    if len(groups) <= PER_PANEL:
+        fig, ax = subplots(figsize=(7.0, 4.6))
+        _traction_panel(ax, curves, cfg)
+        legend(ax)
+        ax.set_title(title)
+        return fig
+    chunks = [groups[i:i + PER_PANEL] for i in range(0, len(groups), PER_PANEL)]
+    fig, axes = facets(len(chunks), ncols=2)
+    for k, (chunk, (ax,)) in enumerate(zip(chunks, axes, strict=True)):
+        mine = set(chunk)
+        _traction_panel(ax, [c for c in curves if (c.group or c.label) in mine], cfg)
+        facet_legend(ax)
+        first = k * PER_PANEL + 1
+        ax.set_title(f"curves {first}–{first + len(chunk) - 1} of {len(groups)}", fontsize=9)
+    fig.suptitle(f"{title}, {len(groups)} curves in {len(chunks)} panels")
+    return fig
+
+
+def _traction_panel(ax: Any, curves: list[TractionCurve], cfg: Any) -> None:
+    """One panel of the traction figure: its curves, the band, the axes' labels."""
+    from torlab.reports.plotting import axis_label, band, band_style, colours, points
+
     col = colours(c.group or c.label for c in curves)
     banded = False
     for c in curves:
@@ -299,15 +347,10 @@ def traction_report_figure(curves: list[TractionCurve], cfg: Any) -> Any:
         ax.axhspan(cfg.band[0], cfg.band[1], color="#d9ead3", alpha=0.5, lw=0,
                    label=f"optimal band {cfg.band[0]:g}–{cfg.band[1]:g}")
     if banded:
-        ax.fill_between([], [], [], color="0.5", alpha=0.22, lw=0,
+        rgb, a = band_style("0.5")
+        ax.fill_between([], [], [], color=rgb, alpha=a, lw=0,
                         label="95 % band (fit uncertainty)")
     ax.set_xlabel(axis_label("creepage ξ = SRR", "", "%"))
     ax.set_ylabel(axis_label("traction coefficient", "|μ|"))
     ax.set_ylim(bottom=0)
     ax.set_xlim(left=0)
-    legend(ax)
-    kinds = {c.kind for c in curves}
-    parts = [p for k, p in (("model", "modelled (lines)"), ("measured", "measured (circles)"))
-             if k in kinds]
-    ax.set_title("Traction curves: " + " and ".join(parts))
-    return fig

@@ -20,14 +20,15 @@ def falls_figure(res: Any) -> Any:
     fig, (ax1, ax2) = subplots(2, 1, sharex=True, figsize=(9.0, 6.0),
                                gridspec_kw={"height_ratios": [3, 1]})
     cols = pixel_columns(ax1)  # a long trace: the points its pixel columns can show
-    ax1.plot(*decimate(t, x, cols), lw=0.6, color="0.6")
-    for f in res.fall_list:
-        ax1.plot(*decimate(t[f.s0:f.s1], x[f.s0:f.s1], cols), lw=1.6, color=PALETTE[0])
-    ax1.set_ylabel("position (mm, downward)")
-    ax1.set_title("grey: LVDT trace; blue: steady parts (terminal velocity fits)", fontsize=8)
+    ax1.plot(*decimate(t, x, cols), lw=0.6, color="0.6", label="LVDT trace")
+    for k, f in enumerate(res.fall_list):
+        ax1.plot(*decimate(t[f.s0:f.s1], x[f.s0:f.s1], cols), lw=1.6, color=PALETTE[0],
+                 label="steady parts (terminal velocity fits)" if k == 0 else None)
+    ax1.set_ylabel("position x, downward (mm)")
+    legend(ax1)
     ax2.plot(*decimate(t, d["pressure_Pa"].to_numpy() / 1e6, cols), lw=0.8, color=PALETTE[1])
-    ax2.set_ylabel("pressure (MPa)")
-    ax2.set_xlabel("time (s)")
+    ax2.set_ylabel("pressure p (MPa)")
+    ax2.set_xlabel("time t (s)")
     fig.suptitle(f"Falling-body runs: {res.label}")
     return fig
 
@@ -47,7 +48,7 @@ def fit_figure(res: Any, fits: Sequence[Any]) -> Any:
         ax2.plot(f.pressures_Pa / 1e6, f.residuals * 100, "o", ms=3, color=PALETTE[i % len(PALETTE)])
     ax2.axhline(0, color="k", lw=0.5)
     ax1.set_ylabel("viscosity η (mPa·s)")
-    ax2.set_ylabel("residual of ln η (%)")
+    ax2.set_ylabel("residual Δln η (%)")
     ax2.set_xlabel("pressure p (MPa)")
     legend(ax1)
     fig.suptitle(f"Pressure–viscosity law (Eqs. 5.38–5.39): {res.label}")
