@@ -499,8 +499,10 @@ def test_report_files_and_provenance(request, fixture):
         assert h == sha(PROTOCOLS / rel), rel
     html = (out / "report.html").read_text()
     assert html.startswith("<!DOCTYPE html>")
-    assert "data:image/png;base64," in html
-    assert not re.search(r"""(src|href)=['"](https?:|/|\.\./)""", html)  # self-contained
+    assert "data:image" not in html  # the figures linked, from inside the folder
+    assert not re.search(r"""(src|href)=['"](https?:|/|\.\./)""", html)
+    for src in re.findall(r"""<img [^>]*src=['"]([^'"]+)['"]""", html):
+        assert (out / src).is_file(), src
     md = (out / "report.md").read_text()
     for sec in res.sections:
         folder = out / sec
@@ -555,11 +557,19 @@ def test_rerun_reuses_cache_and_refuses_overwrite(tmp_path):
     png = (out / "amount" / "amount_applied.png").read_bytes()
     with pytest.raises(OutputExistsError):
         run_protocol(p, out)
+    kept = ("amount/amount_applied.png", "amount/amount_mass.png", "report.html", "report.md")
+    before = {n: (out / n).stat() for n in kept}
     r2 = run_protocol(p, out, force=True)
     assert (r2.cache_hits, r2.cache_misses) == (7, 0)
     assert (r2.timing["figures_drawn"], r2.timing["figures_reused"]) == (0, 2)
     assert (out / "amount" / "amount_applied.png").read_bytes() == png
     assert r2.summary["reports"] == r1.summary["reports"]
+    # nothing drawn, and the figures and reports that did not change not even rewritten:
+    # the same files (inode and time) as the first run's
+    for n, st in before.items():
+        now = (out / n).stat()
+        assert (now.st_ino, now.st_mtime_ns) == (st.st_ino, st.st_mtime_ns), n
+    assert r2.timing["files_kept"] == len(kept)
     # a changed input file is recomputed, the others are reused; so are the crossings and
     # the figure, whose data did not change (only a comment of the log did)
     f = tmp_path / "hpt_OFM1_8uL_25C.txt"
@@ -574,8 +584,48 @@ def test_rerun_reuses_cache_and_refuses_overwrite(tmp_path):
     r4 = run_protocol(p, out, force=True)
     assert (r4.timing["figures_drawn"], r4.timing["figures_reused"]) == (2, 0)
     assert (out / "amount" / "amount_applied.png").read_bytes() != png
+    assert (out / "report.html").stat().st_ino != before["report.html"].st_ino  # changed
     assert len(list((out / ".cache").glob("fig-*.png"))) == 2
     assert len(list((out / ".cache").glob("fig-*.png.mac"))) == 2
+
+
+def test_no_figures_and_the_linked_report(tmp_path, cli):
+    """``--no-figures`` (or ``reports.figures: false``) writes every number and table and
+    names the figures not drawn; report.html shows the figures from their files (its size
+    does not grow with them), or embeds them with ``reports.html_figures: embed``."""
+    import json
+    import re
+
+    for f in sorted((ROOT / "sample_data/hpt").glob("hpt_OFM1_*uL_25C.txt")):
+        shutil.copy(f, tmp_path / f.name)
+    p = tmp_path / "small.yaml"
+    p.write_text(SMALL)
+    r = cli("run", p, "-o", tmp_path / "plain", "-q")
+    assert r.exit_code == 0, r.output
+    page = (tmp_path / "plain" / "report.html").read_text(encoding="utf-8")
+    assert "data:image" not in page and len(page) < 20_000
+    srcs = re.findall(r"<img [^>]*src='([^']+)'", page)
+    assert sorted(srcs) == ["amount/amount_applied.png", "amount/amount_mass.png"]
+    assert all((tmp_path / "plain" / s).is_file() for s in srcs)
+    r = cli("run", p, "-o", tmp_path / "bare", "-q", "--no-figures")
+    assert r.exit_code == 0, r.output
+    assert "figures: not drawn (--no-figures)" in r.output
+    assert not list((tmp_path / "bare").rglob("*.png"))
+    bare = tmp_path / "bare"
+    assert (bare / "report.html").read_text(encoding="utf-8").count("figure not drawn") == 2
+    assert "figure not drawn" in (bare / "report.md").read_text(encoding="utf-8")
+    for t in ("amount/crossings.csv", "amount/series.csv"):
+        assert (bare / t).read_bytes() == (tmp_path / "plain" / t).read_bytes()
+    a, b = (json.loads((d / "summary.json").read_text()) for d in (tmp_path / "plain", bare))
+    assert a["reports"] == b["reports"] and a["fits"] == b["fits"]
+    # the protocol's keys
+    p.write_text(SMALL + "  figures: false\n")
+    r = cli("run", p, "-o", tmp_path / "key", "-q")
+    assert r.exit_code == 0 and not list((tmp_path / "key").rglob("*.png"))
+    p.write_text(SMALL + "  html_figures: embed\n")
+    r = cli("run", p, "-o", tmp_path / "embed", "-q")
+    assert r.exit_code == 0
+    assert (tmp_path / "embed" / "report.html").read_text().count("data:image/png;base64,") == 2
 
 
 def test_cached_figure_that_was_changed_is_drawn_again(tmp_path):

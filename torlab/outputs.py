@@ -540,6 +540,8 @@ class OutputDir:
         self.files: list[str] = []
         self._written: dict[str, str] = {}  # names written by the write_* methods (casefolded)
         self.notes: list[str] = []
+        #: files of the earlier results kept as they were (same bytes; :meth:`write_bytes`)
+        self.kept: list[str] = []
         #: seconds spent writing files (for a command's honest time split)
         self.io_seconds = 0.0
         self._staging: Path | None = None
@@ -750,17 +752,58 @@ class OutputDir:
         """Where ``name`` will be after :meth:`commit`."""
         return self.target / name
 
-    def write_text(self, name: str, text: str) -> Path:
-        """Write a UTF-8 text file."""
-        return self.write_bytes(name, text.encode("utf-8"))
+    def write_text(self, name: str, text: str, *, keep_same: bool = False) -> Path:
+        """Write a UTF-8 text file (``keep_same``: as for :meth:`write_bytes`)."""
+        return self.write_bytes(name, text.encode("utf-8"), keep_same=keep_same)
 
-    def write_bytes(self, name: str, data: bytes) -> Path:
-        """Write a binary file."""
+    def write_bytes(self, name: str, data: bytes, *, keep_same: bool = False) -> Path:
+        """Write a binary file.
+
+        ``keep_same``: where the earlier results (replaced with ``force``) hold a file of
+        this name with exactly these bytes, that file is kept as it is -- hard-linked into
+        the new results, its time and inode unchanged -- instead of written anew (a
+        re-run's figures and reports that did not change are not rewritten).
+        """
         t0 = time.perf_counter()
         with writing(self.final_path(name)):
-            _write_file(self._open_new(name), data)
+            if not (keep_same and self._keep_earlier(name, data)):
+                _write_file(self._open_new(name), data)
         self.io_seconds += time.perf_counter() - t0
         return self.final_path(name)
+
+    def _keep_earlier(self, name: str, data: bytes) -> bool:
+        """Link the earlier results' ``name`` into staging if it holds exactly ``data``.
+
+        Only a regular file of this user, inside the earlier results (no link on the way),
+        and only where the file system links; anything else: False (written anew)."""
+        if not self.force:
+            return False
+        rel = self._rel(name)
+        src = self._real / rel
+        try:
+            st = os.lstat(src)
+            if not (stat.S_ISREG(st.st_mode) and st.st_size == len(data) and _mine(st)):
+                return False
+            if Path(os.path.realpath(src)) != Path(os.path.realpath(self._real)) / rel:
+                return False  # a folder on the way is a link
+            fd = os.open(src, os.O_RDONLY | _O_NOFOLLOW | _O_CLOEXEC)
+            with os.fdopen(fd, "rb") as f:
+                if not os.path.samestat(os.fstat(f.fileno()), st) or f.read(len(data) + 1) != data:
+                    return False
+        except OSError:
+            return False
+        d = self._folder_of(rel)
+        try:
+            with contextlib.suppress(FileNotFoundError):
+                d.unlink(rel.name)
+        finally:
+            d.close()
+        if not _hard_link(src, self.staging / rel, st):
+            return False
+        if rel.as_posix() not in self.files:
+            self.files.append(rel.as_posix())
+        self.kept.append(rel.as_posix())
+        return True
 
     def write_json(self, name: str, obj: Any) -> Path:
         """Write ``obj`` as indented JSON (NaN/inf are refused)."""

@@ -35,13 +35,16 @@ def run_cmd(
     no_cache: Annotated[bool, typer.Option(
         "--no-cache", help="Recompute everything (do not reuse OUT/.cache).")] = False,
     formats: FormatsOpt = None,
+    no_figures: Annotated[bool, typer.Option(
+        "--no-figures", help="Draw no figures (the reports keep every number and table; "
+        "the protocol's reports.figures: false does the same).")] = False,
     jobs: JobsOpt = None,
     scheduler: SchedulerOpt = None,
     quiet: QuietOpt = False,
 ) -> None:
     """Run a test protocol: reduce its raw logs, fit its parameter sets and write its reports.
 
-    Writes to OUT: report.html (self-contained), report.md, summary.json (key numbers,
+    Writes to OUT: report.html (figures linked), report.md, summary.json (key numbers,
     torlab version, SHA-256 of the protocol and every input), one folder per report with
     figures (PNG; --formats or the protocol's reports.figure_formats for SVG/PDF) and CSV
     tables, data/ (reduced logs), fits/ (parameter files for 'torlab predict').  A re-run
@@ -73,7 +76,7 @@ def run_cmd(
     with session(jobs, scheduler, quiet) as ex:
         res = run_protocol(lp, out, force=force, command=command_line(),
                            progress=enabled_for(quiet), cache=not no_cache, formats=fmts,
-                           executor=ex)
+                           executor=ex, figures=False if no_figures else None)
     for n in res.notes:
         c.print(f"[yellow]note[/yellow] {n}")
     _print_key_numbers(res.summary)
@@ -99,9 +102,12 @@ def _timing_line(res: Any) -> str:
     if "t_start" in _STATE:
         t["total"] = time.perf_counter() - _STATE["t_start"]
         t["other"] = max(t["total"] - t["compute"] - t["figures"] - t["io"], 0.0)
-    return (f"cache: {res.cache_hits} results reused, {res.cache_misses} computed; figures: "
-            f"{t['figures_reused']} reused, {t['figures_drawn']} drawn"
-            f"{_alongside(t.get('figures_ahead', 0))}; {t['total']:.1f} s = "
+    figs = ("figures: not drawn (--no-figures)" if not t.get("figures_on", True) else
+            f"figures: {t['figures_reused']} reused, {t['figures_drawn']} drawn"
+            f"{_alongside(t.get('figures_ahead', 0))}"
+            + (f", {t['files_kept']} unchanged files kept" if t.get("files_kept") else ""))
+    return (f"cache: {res.cache_hits} results reused, {res.cache_misses} computed; {figs}; "
+            f"{t['total']:.1f} s = "
             f"compute {t['compute']:.1f} s + figures {t['figures']:.1f} s + I/O {t['io']:.1f} s "
             f"+ start-up, imports and checks {t['other']:.1f} s ({t['executor']})")
 

@@ -63,7 +63,8 @@ class RunResult:
 # --------------------------------------------------------------------------- entry point
 def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[str], *,
                  force: bool = False, command: str = "", progress: bool = False,
-                 cache: bool = True, formats: Any = None, executor: Any = None) -> RunResult:
+                 cache: bool = True, formats: Any = None, executor: Any = None,
+                 figures: bool | None = None) -> RunResult:
     """Run a protocol from raw logs to reports (``torlab run``).
 
     Parameters
@@ -86,6 +87,10 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
     executor
         Where independent tasks run (:mod:`torlab.parallel`); default
         :func:`torlab.parallel.current` (serial unless the caller set one).
+    figures
+        Draw the figures (default the protocol's ``reports.figures``, else yes); without
+        them every number and table is written, and the reports name the figures not
+        drawn.
 
     Returns
     -------
@@ -110,15 +115,17 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
     from torlab.protocols.loader import LoadedProtocol, load_protocol
     from torlab.protocols.sections import build_sections
     from torlab.reports.html import render_html, render_markdown, write_figures, write_tables
-    from torlab.reports.render import FiguresAhead, parse_formats
+    from torlab.reports.render import FiguresAhead, RenderStats, parse_formats
 
     t0 = time.perf_counter()
     lp = protocol if isinstance(protocol, LoadedProtocol) else load_protocol(protocol)
     p = lp.protocol
     formats = parse_formats(formats if formats is not None
                             else getattr(p.reports, "figure_formats", None) or None)
+    draw = figures if figures is not None else bool(getattr(p.reports, "figures", True))
+    embed = getattr(p.reports, "html_figures", "link") == "embed"
     ex = executor if executor is not None else current()
-    ex.prepare(*_needs(p))
+    ex.prepare(*_needs(p, draw))
     inputs = lp.input_files()
     t1 = time.perf_counter()
     dest = OutputDir(out, force=force, inputs=inputs, command=command,
@@ -134,19 +141,21 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
             fit_all(run)
             # each section's figures start as soon as it is built, drawn whenever a
             # worker would otherwise wait while the later sections compute
-            ahead = FiguresAhead(formats, store=rc.figures if cache else None, executor=ex)
+            ahead = FiguresAhead(formats, store=rc.figures if cache else None, executor=ex) \
+                if draw else None
             try:
-                sections = build_sections(run, ready=lambda s: ahead.start(
-                    [(f"{s.key}/{f.name}", f.fig) for f in s.figures]))
+                sections = build_sections(run, ready=None if ahead is None else (
+                    lambda s: ahead.start([(f"{s.key}/{f.name}", f.fig) for f in s.figures])))
                 t_stages = time.perf_counter() - t1
                 io_stages = rc.io_seconds + dest.io_seconds - io0
                 t1 = time.perf_counter()
                 io0 = rc.io_seconds + dest.io_seconds
                 fig = write_figures(dest, sections, formats,
                                     store=rc.figures if cache else None, executor=ex,
-                                    ahead=ahead)
+                                    ahead=ahead, images=embed) if draw else RenderStats()
             except BaseException:
-                ahead.cancel()
+                if ahead is not None:
+                    ahead.cancel()
                 raise
             t_figures = time.perf_counter() - t1
             io_figures = rc.io_seconds + dest.io_seconds - io0
@@ -176,8 +185,13 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
         intro.append(f"Protocol {prov['protocol_file']} ({p.name}), torlab {__version__}.")
         if run.notes:
             intro += [f"Note: {n}" for n in run.notes]
-        dest.write_text("report.html", render_html(title, intro, sections, prov))
-        dest.write_text("report.md", render_markdown(title, intro, sections, prov))
+        shown = ("embed" if embed else "link") if draw else None
+        # a page that did not change is kept as it was (not rewritten)
+        dest.write_text("report.html", render_html(title, intro, sections, prov, figures=shown),
+                        keep_same=True)
+        dest.write_text("report.md", render_markdown(title, intro, sections, prov,
+                                                     figures=shown is not None),
+                        keep_same=True)
         ex.flush()  # results still to be stored in the cache
         rc.prune()
         # honest split: reading and writing (cache entries, cached figures, result files)
@@ -186,7 +200,8 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
                   "figures": max(t_figures - io_figures, 0.0),
                   "io": t_io + io_stages + io_figures + time.perf_counter() - t2,
                   "figures_drawn": fig.drawn, "figures_reused": fig.reused,
-                  "figures_ahead": fig.ahead, "executor": ex.describe()}
+                  "figures_ahead": fig.ahead, "figures_on": draw,
+                  "files_kept": len(dest.kept), "executor": ex.describe()}
         summary["run"] = {"seconds": round(time.perf_counter() - t0, 2), "cache_hits": rc.hits,
                           "cache_misses": rc.misses, "command": command,
                           "figures_drawn": fig.drawn, "figures_reused": fig.reused}
@@ -205,11 +220,11 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
                      timing=timing)
 
 
-def _needs(p: Any) -> list[Any]:
+def _needs(p: Any, draw: bool = True) -> list[Any]:
     """What the protocol's tasks will import, loaded once in this process and inherited by
     the local workers (:meth:`torlab.parallel.Executor.prepare`) instead of once in every
     worker: the fits' optimiser (which the amount report's crossings need here too), the
-    figures' matplotlib, and torlab's own modules of the fits, predictions and figures.
+    figures' matplotlib (when ``draw``), and torlab's own modules of the fits, predictions and figures.
     In the order the stages need them: the executor loads them one at a time while
     earlier tasks run.  Nothing is loaded when no worker starts (a re-run from the cache).
     """
@@ -222,7 +237,8 @@ def _needs(p: Any) -> list[Any]:
         needs.append("scipy.optimize")
     if getattr(p.fits, "hpt_layers", None):
         needs += ["torlab.fit.layer", "torlab.fit.temperature"]
-    needs.append(prepare_drawing)
+    if draw:
+        needs.append(prepare_drawing)
     if getattr(r, "traction", None) is not None or getattr(r, "stribeck", None) is not None:
         needs += ["torlab.model.predict", "torlab.model.bands", "torlab.uncertainty",
                   "torlab._stats"]

@@ -857,6 +857,12 @@ class Reports(_Model):
     #: file formats of every figure (``torlab run --formats`` overrides)
     figure_formats: Annotated[list[Literal["png", "svg", "pdf"]],
                               BeforeValidator(_formats)] = Field(default=["png"], min_length=1)
+    #: draw the figures at all (``torlab run --no-figures``: false); without them the
+    #: reports hold every number and table, and name the figures not drawn
+    figures: bool = True
+    #: how report.html shows the figures: ``link`` (the figure files, its size the same at
+    #: any campaign size) or ``embed`` (base64 inside the page: one self-contained file)
+    html_figures: Literal["link", "embed"] = "link"
 
 
 # --------------------------------------------------------------------------- protocol

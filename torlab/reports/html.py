@@ -6,9 +6,9 @@ Every protocol report (:mod:`torlab.reports.amount`, :mod:`~torlab.reports.timet
 :class:`Section`.  :func:`write_sections` writes each section's figures (in the
 formats asked for; declared :class:`~torlab.reports.render.Plot` figures are
 drawn in parallel and cached by content, :mod:`torlab.reports.render`) and tables
-(CSV) into its own sub-folder, then one self-contained ``report.html`` (figures
-embedded as base64 PNG -- SVG when no PNG is written --, tables inline, no
-external file or script) and a ``report.md`` that links the files.
+(CSV) into its own sub-folder, then ``report.html`` (figures shown from their files
+-- PNG, else SVG --, or embedded as base64 with ``reports.html_figures: embed``;
+tables inline, no script) and a ``report.md`` that links the files.
 """
 
 from __future__ import annotations
@@ -72,13 +72,15 @@ class Section:
 
 
 def write_figures(dest: Any, sections: list[Section], formats: Any = None, *, store: Any = None,
-                  executor: Any = None, ahead: Any = None) -> Any:
+                  executor: Any = None, ahead: Any = None, images: bool = False) -> Any:
     """Write every section's figures (``<key>/<name>.<format>``); returns the
     :class:`~torlab.reports.render.RenderStats`.
 
-    The bytes shown in the HTML (PNG, else SVG) are kept on the section
-    (:attr:`Section.images`).  ``ahead``: figures already started
-    (:class:`~torlab.reports.render.FiguresAhead`).
+    A figure file of the earlier results (replaced with ``force``) that holds the same
+    bytes is kept as it is, not rewritten (:meth:`~torlab.outputs.OutputDir.write_bytes`,
+    ``keep_same``).  ``images``: keep the bytes shown in an HTML page that embeds them (PNG,
+    else SVG) on the section (:attr:`Section.images`); otherwise only their file names.
+    ``ahead``: figures already started (:class:`~torlab.reports.render.FiguresAhead`).
     """
     from torlab.reports.render import DEFAULT_FORMATS, render_figures
 
@@ -90,11 +92,12 @@ def write_figures(dest: Any, sections: list[Section], formats: Any = None, *, st
             got = images[f"{s.key}/{f.name}"]
             names = []
             for fmt in formats:
-                dest.write_bytes(f"{s.key}/{f.name}.{fmt}", got[fmt])
+                dest.write_bytes(f"{s.key}/{f.name}.{fmt}", got[fmt], keep_same=True)
                 names.append(f"{s.key}/{f.name}.{fmt}")
             show = next((x for x in ("png", "svg") if x in got), None)
             if show is not None:
-                s.images[f.name] = got[show]
+                if images:
+                    s.images[f.name] = got[show]
                 s.image_types[f.name] = show
             s.figure_files[f.name] = names
             s.files += names
@@ -153,8 +156,11 @@ figure{margin:1em 0}figure img{max-width:100%}figcaption{font-size:.9em;color:#4
 
 
 def render_html(title: str, intro: list[str], sections: list[Section],
-                provenance: dict[str, Any]) -> str:
-    """A self-contained HTML page (inline CSS, figures as base64 PNG)."""
+                provenance: dict[str, Any], figures: str | None = "embed") -> str:
+    """An HTML page (inline CSS, no script): ``figures="link"`` shows each figure from its
+    file (PNG, else SVG) next to the page, so the page's size does not grow with the
+    figures; ``"embed"`` puts them into the page as base64 (one self-contained file);
+    None: the figures were not drawn and the page names them."""
     e = html.escape
     out = ["<!DOCTYPE html>", "<html lang='en'><head><meta charset='utf-8'>",
            f"<title>{e(title)}</title><style>{_CSS}</style></head><body>", f"<h1>{e(title)}</h1>"]
@@ -176,16 +182,7 @@ def render_html(title: str, intro: list[str], sections: list[Section],
             out += ["<tr>" + "".join(f"<td>{e(c)}</td>" for c in r) + "</tr>" for r in rows]
             out.append("</table>")
         for f in s.figures:
-            data = s.images.get(f.name)
-            files = s.figure_files.get(f.name) or [f"{s.key}/{f.name}.png"]
-            links = ", ".join(f"<code>{e(x)}</code>" for x in files)
-            if data is None:
-                out.append(f"<p><b>{e(f.caption)}</b> ({links})</p>")
-                continue
-            mime = "image/svg+xml" if s.image_types.get(f.name) == "svg" else "image/png"
-            b64 = base64.b64encode(data).decode("ascii")
-            out.append(f"<figure><img alt='{e(f.caption)}' src='data:{mime};base64,{b64}'>"
-                       f"<figcaption>{e(f.caption)} ({links})</figcaption></figure>")
+            out.append(_html_figure(s, f, figures))
     out.append("<h2 id='provenance'>Provenance</h2><div class='prov'><table>")
     for k in ("torlab_version", "protocol_file", "protocol_sha256", "command"):
         if k in provenance:
@@ -195,6 +192,29 @@ def render_html(title: str, intro: list[str], sections: list[Section],
         out.append(f"<tr><td>{e(name)}</td><td>{e(h)}</td></tr>")
     out.append("</table></div></body></html>")
     return "\n".join(out) + "\n"
+
+
+def _html_figure(s: Section, f: Figure, figures: str | None) -> str:
+    """One figure of the HTML page: linked, embedded, or named when it was not drawn."""
+    from urllib.parse import quote
+
+    e = html.escape
+    if figures is None or f.name not in s.figure_files:
+        return f"<p><b>{e(f.caption)}</b> (figure not drawn: --no-figures)</p>"
+    files = s.figure_files[f.name]
+    kind = s.image_types.get(f.name)
+    links = ", ".join(f"<a href='{e(quote(x, safe='/._-'))}'><code>{e(x)}</code></a>"
+                      for x in files)
+    shown = next((x for x in files if kind and x.endswith(f".{kind}")), None)
+    if shown is None:
+        return f"<p><b>{e(f.caption)}</b> ({links})</p>"
+    if figures == "embed" and f.name in s.images:
+        mime = "image/svg+xml" if kind == "svg" else "image/png"
+        src = f"data:{mime};base64,{base64.b64encode(s.images[f.name]).decode('ascii')}"
+    else:
+        src = quote(shown, safe="/._-")
+    return (f"<figure><img alt='{e(f.caption)}' src='{e(src)}' loading='lazy'>"
+            f"<figcaption>{e(f.caption)} ({links})</figcaption></figure>")
 
 
 _MD_SPECIAL = str.maketrans({"\\": "\\\\", "`": "\\`", "[": "\\[", "]": "\\]",
@@ -233,7 +253,7 @@ def _md_link(path: str) -> str:
 
 
 def render_markdown(title: str, intro: list[str], sections: list[Section],
-                    provenance: dict[str, Any]) -> str:
+                    provenance: dict[str, Any], figures: bool = True) -> str:
     """``report.md``: the same content, figures and tables linked as files.
 
     Every piece of text is escaped with :func:`md_escape` (the HTML report
@@ -260,6 +280,9 @@ def render_markdown(title: str, intro: list[str], sections: list[Section],
             out += ["| " + " | ".join(e(c) for c in r) + " |" for r in rows]
             out.append("")
         for f in s.figures:
+            if not figures:
+                out += [f"*{e(f.caption)}* (figure not drawn: --no-figures)", ""]
+                continue
             files = s.figure_files.get(f.name) or [f"{s.key}/{f.name}.png"]
             shown = next((x for x in files if x.endswith((".png", ".svg"))), None)
             if shown is not None:

@@ -473,14 +473,15 @@ class FiguresAhead:
 def write_figures(dest: Any, items: Sequence[tuple[str, Any]],
                   formats: Sequence[str] = DEFAULT_FORMATS, *, store: Any = None,
                   executor: Any = None, dpi: float | None = None) -> tuple[list[str], RenderStats]:
-    """Render figures and write ``<name>.<format>`` into an :class:`~torlab.outputs.OutputDir`.
+    """Render figures and write ``<name>.<format>`` into an :class:`~torlab.outputs.OutputDir`
+    (a file of the earlier results with the same bytes is kept, not rewritten).
 
     Returns the file names written and the :class:`RenderStats`.
     """
     images, stats = render_figures(items, formats, store=store, executor=executor, dpi=dpi)
     written = []
     for name, _ in items:
-        for f in formats:
-            dest.write_bytes(f"{name}.{f}", images[name][f])
+        for f in formats:  # an earlier result's file with the same bytes is kept as it is
+            dest.write_bytes(f"{name}.{f}", images[name][f], keep_same=True)
             written.append(f"{name}.{f}")
     return written, stats
