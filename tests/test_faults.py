@@ -323,6 +323,9 @@ def _small_file_limit() -> None:
 def test_full_disk_is_exit_2_and_keeps_earlier_results(project):
     before = _first_run(project)
     out = project / "res" / "out"
+    # results that differ from the earlier ones (a re-run whose results are byte-identical
+    # keeps the earlier files and writes nothing large)
+    (project / "p.yaml").write_text(SMALL.replace("points: 6", "points: 7"))
     r = subprocess.run([sys.executable, "-m", "torlab", "run", str(project / "p.yaml"), "-o",
                         str(out), "--force"], env=_env(project), capture_output=True, text=True,
                        timeout=300, preexec_fn=_small_file_limit)
