@@ -101,6 +101,36 @@ def test_decimal_commas_read_as_the_same_numbers(tmp_path):
     pd.testing.assert_frame_equal(a, b)
 
 
+def test_a_comma_file_whose_first_row_has_no_decimal_mark(tmp_path):
+    """The decimal mark is read from every row of a step: a first row of whole numbers
+    (298 K) does not make a decimal-comma export one read with points."""
+    text = HAND.read_text(encoding="utf-8").replace("\r\n", "\n")
+    head, _, body = text.partition("[step]")
+    step3 = "[step]" + body.split("[step]")[2]
+    f = tmp_path / "comma.txt"
+    f.write_text(head + step3.replace("5\t100\t50\t1\t298.15", "5\t100\t50\t1\t298", 1)
+                 .replace(".15", ",15").replace("mPa,s", "mPa.s"), encoding="utf-8")
+    df, meta = _read(f)
+    assert meta.decimal == ","
+    np.testing.assert_allclose(df["temperature_C"], [24.85, 25.0, 25.0, 25.0], atol=1e-9)
+    np.testing.assert_allclose(df["viscosity_Pa_s"], 0.05, rtol=1e-12)
+
+
+@pytest.mark.parametrize("encode", [
+    lambda t: t.encode("utf-16"),  # Excel's "Unicode text"
+    lambda t: t.replace("\r\n", "\r").encode("utf-8"),
+    lambda t: t.replace("\r\n", "\r\r\n").encode("utf-8"),
+    lambda t: t.replace("Operator\t", "Comment\t" + "n" * 70_000 + "\r\nOperator\t")
+    .encode("utf-8"),
+], ids=["utf16_bom", "cr", "cr_cr_lf", "header_line_70kB"])
+def test_encodings_line_ends_and_long_header_lines_read_the_same_points(tmp_path, encode):
+    f = tmp_path / "x.txt"
+    f.write_bytes(encode(HAND.read_bytes().decode("utf-8")))
+    a, _ = _read(HAND)
+    b, _ = _read(f)
+    pd.testing.assert_frame_equal(a.drop(columns="line"), b.drop(columns="line"))
+
+
 @pytest.mark.parametrize("change, line, message", [
     (("dyne/cm²\t1/s\tPa.s\ts\t°C\tdyne/cm²\ts\tµm", "dyne/cm²\t1/s\tPa.s"), 9,
      "the units row has 3 units for 6 columns"),
@@ -113,6 +143,14 @@ def test_decimal_commas_read_as_the_same_numbers(tmp_path):
     (("5\t100\t50\t2\t298.15", "5\t100\t50\t2\t-5"), 31, "below absolute zero"),
     (("dyne/cm²\t1/s\tPa.s\ts\t°C\tdyne/cm²\ts\tµm\n", ""), 9, "no units row"),
     (("[step]\nFlow sweep - 1\n", "[step]\n"), 6, "followed by the step's name"),
+    (("25\t50\t0.05\t30\t25.0\t-300", "25\t50\t0,05\t30\t25.0\t-300"), 12,
+     "column 'Viscosity': '0,05' has a decimal comma, but the file's decimal mark is '.'"),
+    (("25\t50\t0.05\t30\t25.0\t-300", "25\t50\t   \t30\t25.0\t-300"), 12,
+     "column 'Viscosity': a cell of spaces"),
+    (("25\t50\t0.05\t30\t25.0\t-300", "1e308\t50\t0.05\t30\t25.0\t-300"), 12,
+     "column 'Stress': 1e308 dyne/cm² is too large to be a measurement"),
+    (("25\t50\t0.05\t30\t25.0\t-300", "25\t50\t0.05\t30\t25.0\t-300\t7"), 12,
+     "expected 6 fields separated by tab"),
     (("Temperature ramp - 2\nStress\tShear rate\tViscosity",
       "Temperature ramp - 2\nStress\tShear rate\tThickness"), 18, "has no Viscosity column"),
 ])

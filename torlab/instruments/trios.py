@@ -16,9 +16,14 @@ The units row under the column names gives each column's unit, in TRIOS's spelli
 edge, with :func:`torlab.units.parse_unit_factor` (pint for the units torlab's table does
 not hold).  TRIOS writes the units of columns it did not export after the last one (a
 units row longer than the column names): those are left out.  Columns torlab does not
-know (oscillation quantities ...) are left out with a note; a row with another number of
-fields than the column names, a number that is not one, an empty cell, a viscosity that is
-not positive or a temperature below absolute zero is an error naming the line.
+know (oscillation quantities ...) are left out with a note.  The file is read through
+torlab's reader layer (:mod:`torlab.parsers._table`: size bound, UTF-8, Windows-1252 or
+UTF-16 with its BOM, every line end alike) and each step's rows with its rules: a row with
+another number of fields than the column names, a cell that is not a finite number (text,
+NaN, an empty cell or a cell of spaces, a decimal comma in a step written with points), a
+value beyond 1e100 once in SI units, a viscosity that is not positive or a temperature
+below absolute zero is an error naming the line and column.  A step whose rows hold
+commas and no point is read with decimal commas.
 
 The reduction gives viscosity against shear rate, time and temperature: every point
 (``points``: SI units, the step and the file line of each), one row per step
@@ -168,10 +173,11 @@ def read(path: Path, **_: Any) -> tuple[Any, TriosMetadata]:
     """
     import pandas as pd
 
-    from torlab.parsers._text import read_text
+    from torlab.parsers._table import TextFile
 
-    text, display = read_text(path)
-    lines = text.split("\n")
+    with TextFile(path) as tf:  # size bound, encodings, every line end alike
+        display = tf.display
+        lines = [s for _, s in tf.iter_lines()]
     meta = TriosMetadata(source=display)
     k = _read_header(lines, meta, display)
     frames = []
@@ -238,7 +244,7 @@ def _read_step(lines: list[str], k: int, meta: TriosMetadata, display: str
     ``(step, its points or None, index after it)``."""
     import numpy as np
 
-    from torlab.parsers._text import parse_numeric_rows
+    from torlab.parsers._table import RowSpec, parse_rows
 
     if not lines[k].strip():
         return None, None, k + 1
@@ -273,16 +279,20 @@ def _read_step(lines: list[str], k: int, meta: TriosMetadata, display: str
     if not rows:
         meta.notes.append(f"step {number} ({name}) has no data rows")
         return step, None, end
-    if meta.decimal == "." and _decimal_comma(rows[0]):
+    if meta.decimal == "." and _decimal_comma(rows):
         meta.decimal = ","
-    arr = parse_numeric_rows(rows, k + 5, cols, path=display, delimiter="\t",
-                             decimal=meta.decimal, use=use)
+    # every row's field count, every cell a finite number with the file's decimal mark,
+    # converted to SI in the layer (so a value beyond its bound is judged in SI units)
+    spec = RowSpec(cols, use, display, delimiter="\t", decimal=meta.decimal,
+                   scales=[a for a, _ in scales], offsets=[b for _, b in scales],
+                   units=[units[j] for j in use])
+    arr = parse_rows(rows, k + 5, spec)
     step.first_line, step.last_line = k + 5, end
     import pandas as pd
 
     data = {"step": np.full(len(rows), number)}
-    for i, (col, (scale, offset)) in enumerate(zip(names, scales, strict=True)):
-        data[col] = arr[:, i] * scale + offset
+    for i, col in enumerate(names):
+        data[col] = arr[:, i]
     data["line"] = np.arange(k + 5, end + 1)
     df = pd.DataFrame(data)
     _check_values(df, display)
@@ -291,9 +301,10 @@ def _read_step(lines: list[str], k: int, meta: TriosMetadata, display: str
     return step, df, end
 
 
-def _decimal_comma(row: str) -> bool:
-    """A data row written with decimal commas (``0,0213``; tab-separated, no point)."""
-    return "," in row and "." not in row
+def _decimal_comma(rows: list[str]) -> bool:
+    """A step written with decimal commas (``0,0213``; tab-separated): a comma in its rows
+    and no point (a row with the other mark is then an error naming its line)."""
+    return any("," in r for r in rows) and not any("." in r for r in rows)
 
 
 def _check_values(df: Any, display: str) -> None:

@@ -4,9 +4,6 @@
 * :func:`read_text` reads a path or buffer as text (UTF-8 with or without BOM,
   falling back to Windows-1252, which PCS software sometimes writes; UTF-16 with its
   BOM), with every line end normalised, and returns a display name for messages.
-* :func:`parse_numeric_rows` turns delimited text rows held in memory into a float
-  array, with the reader layer's rules (the field count of every row, one error naming
-  the file, line and column of the first bad cell).
 * The ``torlab-*`` log header: :func:`read_log_header`, :func:`parse_log_columns`,
   :func:`header_key` and the value helpers.
 """
@@ -24,14 +21,12 @@ import numpy as np
 from torlab.errors import TorlabInputError
 from torlab.parsers._table import (  # the one reader layer; number_field re-exported
     MAX_TEXT_BYTES,
-    RowSpec,
     TextFile,
     number_field,
-    parse_rows,
 )
 
 __all__ = ["MAX_TEXT_BYTES", "LogMetadata", "PathOrBuffer", "detect_delimiter", "header_key",
-           "number_field", "parse_log_columns", "parse_numeric_rows", "read_log_header",
+           "number_field", "parse_log_columns", "read_log_header",
            "read_text", "refuse_below_absolute_zero", "sign_value", "split_unit"]
 
 PathOrBuffer = str | os.PathLike[str] | IO[str] | IO[bytes]
@@ -76,54 +71,6 @@ def detect_delimiter(line: str, candidates: Sequence[str] = (",", "\t", ";", "|"
         if c > count:
             best, count = d, c
     return best
-
-
-def parse_numeric_rows(
-    lines: Sequence[str],
-    first_line_no: int,
-    columns: Sequence[str],
-    *,
-    path: str,
-    delimiter: str = ",",
-    decimal: str = ".",
-    use: Sequence[int] | None = None,
-    allow_empty: Sequence[bool] | None = None,
-) -> np.ndarray:
-    """Parse delimited numeric rows into an ``(n_rows, n_used)`` float array
-    (:func:`torlab.parsers._table.parse_rows`).
-
-    Parameters
-    ----------
-    lines
-        The data lines (no header), without line ends.  Blank lines at the end
-        are ignored; a blank line in the middle is an error.
-    first_line_no
-        1-based file line number of ``lines[0]`` (for messages).
-    columns
-        Names of all fields in a row (for messages and the field count).
-    path
-        File name for messages.
-    delimiter, decimal
-        Field separator and decimal mark.
-    use
-        Indices of the fields to return (default: all).
-    allow_empty
-        Per returned column, whether an empty field is allowed (read as NaN).
-
-    Raises
-    ------
-    TorlabInputError
-        Naming the file, the 1-based line and the column, for the first bad
-        field: another number of fields than the header's (a truncated row, a
-        decimal comma), text in a number column, NaN or infinity, a blank line
-        between rows.
-    """
-    n = len(lines)
-    while n and not lines[n - 1].strip():
-        n -= 1
-    spec = RowSpec(list(columns), list(range(len(columns))) if use is None else list(use), path,
-                   delimiter=delimiter, decimal=decimal, allow_empty=allow_empty)
-    return parse_rows(list(lines[:n]), first_line_no, spec)
 
 
 def as_path_str(p: Any) -> str:
