@@ -553,6 +553,85 @@ def reported_cases(layer_files: dict[str, bytes] | None = None) -> list[Case]:
     # a log over the size bound: refused before it is read
     case("hpt", "-", "over_1_GiB_sparse", b"", "input_error", "larger than 1024 MiB",
          extra={"__sparse__": b"1"})
+    # a Ball Load of zero in every row, or in some, of an MTM step: said with the lines
+    ml0 = _text_lines(mtm)
+    n_rows = next(k for k in range(mh + 1, len(ml0)) if not ml0[k][:1].isdigit())
+    for which, rows in (("all", range(mh + 1, n_rows)), ("some", range(mh + 1, mh + 4))):
+        m = list(ml0)
+        for k in rows:
+            c = m[k].split("\t")
+            c[j] = "0"
+            m[k] = "\t".join(c)
+        case("pcs", "mtm_TOR-A_5uL", f"ball_load_0_in_{which}_rows", _join(m), "ok",
+             f"Ball Load is zero or negative in {len(rows)} of {n_rows - mh - 1} rows "
+             f"(lines {mh + 2}-{rows[-1] + 1})")
+    out += _trios_reader_cases() + _law_cases(hpt_raw)
+    return out
+
+
+def _trios_reader_cases() -> list[Case]:
+    """The TRIOS export through the reader layer: each row rule with its outcome."""
+    hand = (DATA / "trios" / "hand.txt").read_bytes()
+    row = b"25\t50\t0.05\t30\t25.0\t-300"
+    out = []
+    for mut, new, expect, text in (
+            ("extra_field", row + b"\t7", "input_error", ":12: expected 6 fields separated by tab"),
+            ("missing_field", row.rsplit(b"\t", 1)[0], "input_error", "(a truncated row?)"),
+            ("decimal_comma_cell", row.replace(b"0.05", b"0,05"), "input_error",
+             ":12: column 'Viscosity': '0,05' has a decimal comma"),
+            ("cell_of_spaces", row.replace(b"0.05", b"   "), "input_error",
+             ":12: column 'Viscosity': a cell of spaces"),
+            ("empty_cell", row.replace(b"0.05", b""), "input_error",
+             ":12: column 'Viscosity': empty value"),
+            ("nan_cell", row.replace(b"0.05", b"nan"), "input_error",
+             "'nan' is not a finite number"),
+            ("stress_1e308", b"1e308" + row[2:], "input_error",
+             ":12: column 'Stress': 1e308 dyne/cm² is too large to be a measurement")):
+        out.append(Case("trios", "hand.txt", mut, hand.replace(row, new, 1), expect=expect,
+                        expect_in=text))
+    text = hand.decode("utf-8")
+    for mut, b in (("utf16_bom", text.encode("utf-16")),
+                   ("cr_only", hand.replace(b"\r\n", b"\r")),
+                   ("cr_cr_lf", hand.replace(b"\r\n", b"\r\r\n")),
+                   ("header_line_70kB", hand.replace(b"Operator\t", b"Comment\t" + b"n" * 70_000
+                                                     + b"\r\nOperator\t"))):
+        out.append(Case("trios", "hand.txt", mut, b, expect="ok"))
+    return out
+
+
+#: a layer parameter file as 'torlab fit hpt --law linear' writes it (its boundary section)
+LINEAR_PARAMS = "boundary:\n  law: linear\n  mu_c1: 0.21\n  L_mue: 31 um\n  k_mu: 50 1/m\n"
+
+
+def _law_cases(hpt_raw: bytes) -> list[Case]:
+    """``fit hpt --law`` and ``--resolution``; parameter files whose law and parameters do
+    not go together (``predict traction SCENE PARAMS``)."""
+    out = []
+    for law, text in (("nosuch", "--law: 'nosuch' is not a layer law"),
+                      ("voce,nosuch", "--law: 'nosuch' is not a layer law"),
+                      ("", "--law: no layer law given")):
+        out.append(Case("fit_hpt", "hpt_OFM1_4uL_25C", f"law={law}", hpt_raw,
+                        args=("--law", law), expect="input_error", expect_in=text))
+    for value, text in (("x", "'x' is not a quantity"), ("0", "0 MPa is not possible"),
+                        ("-1 MPa", "-1 MPa is not possible"), ("nan", "value is NaN"),
+                        ("1e300 MPa", "1e+300 MPa is not possible"),
+                        ("2.9 K", "unit 'K' is not a pressure")):
+        out.append(Case("fit_hpt", "hpt_OFM1_4uL_25C", f"resolution={value}", hpt_raw,
+                        args=("--resolution", value, "--law", "auto"), expect="input_error",
+                        expect_in=f"--resolution: {text}"))
+    out.append(Case("fit_hpt", "hpt_OFM1_4uL_25C", "resolution=2.9 MPa", hpt_raw,
+                    args=("--law", "auto", "--resolution", "2.9 MPa"), expect="ok", slow=True))
+    lin = LINEAR_PARAMS
+    for mut, text, expect, want in (
+            ("as_written", lin, "ok", ""),
+            ("law_without_its_parameter", lin.replace("  k_mu: 50 1/m\n", ""), "input_error",
+             "input.yaml:1: boundary.k_mu: missing (required)"),
+            ("parameter_of_another_law", lin.replace("law: linear", "law: voce"),
+             "input_error", "boundary.k_mu: not a parameter of the voce layer law"),
+            ("unknown_law", lin.replace("law: linear", "law: nosuch"), "input_error",
+             "boundary: nosuch is not a layer law")):
+        out.append(Case("predict_params", "linear_params.yaml", mut, text.encode(),
+                        expect=expect, expect_in=want))
     return out
 
 
@@ -747,7 +826,8 @@ def _place(case: Case, work: Path) -> Path:
               "protocol_files": ".yaml",
               "predict_retention": ".yaml", "optical": ".csv", "fit_visc": ".csv",
               "fit_polach": ".yaml", "predict_table": ".yaml", "predict_creep": ".yaml",
-              "predict_sweep": ".yaml", "fit_traction": ".csv"}.get(case.reader, ".txt")
+              "predict_sweep": ".yaml", "fit_traction": ".csv",
+              "predict_params": ".yaml"}.get(case.reader, ".txt")
     p = work / f"input{suffix}"
     if case.special == "fifo":
         os.mkfifo(p)
@@ -848,6 +928,9 @@ def _command(case: Case, work: Path) -> list[str]:
     if r == "predict_table":
         return ["predict", "table", str(p), "--creepage", "0:0.01:3", "--lateral", "0:0.01:3",
                 "--spin", "0:1:2", "-o", out]
+    if r == "predict_params":
+        return ["predict", "traction", str(SCENES / "wheel_rail_tab54.yaml"), str(p),
+                "--creepage", "0:0.05:6", "-o", out]
     if r == "predict_creep":
         return ["predict", "traction", str(p), "--creepage", "0:0.02:5", "--lateral", "0.001",
                 "--spin", "0.1", "-o", out]

@@ -228,7 +228,7 @@ def hpt_cmd(
     files = require_files(inputs, "HPT", keep=is_hpt_input)
     extra: list[Path] = []
     comp = _compliance(compliance, extra)
-    law_choice(law)  # an unknown law: one error line before anything is read
+    law_choice(law, key="--law")  # an unknown law: one error line before anything is read
     res_pa = None if resolution is None else check_range(
         "stress", to_si(resolution, "pressure", where="--resolution"), where="--resolution")
     curves = hpt_curves(files, compliance=comp)

@@ -287,13 +287,15 @@ def _initial_guess(c: HptCurve, law: LayerLaw) -> np.ndarray:
 AUTO = "auto"
 
 
-def law_choice(law: Any) -> list[LayerLaw]:
+def law_choice(law: Any, key: str = "law") -> list[LayerLaw]:
     """The laws a ``law=`` argument asks for: a name, ``"auto"`` (every law), or a list.
+
+    ``key`` names the argument in the error (``"--law"`` on the command line).
 
     Raises
     ------
     TorlabInputError
-        An unknown law (with a suggestion).
+        An unknown law (with a suggestion), or no law.
     """
     from torlab._suggest import did_you_mean
 
@@ -308,11 +310,11 @@ def law_choice(law: Any) -> list[LayerLaw]:
             continue
         if nm not in LAWS:
             raise TorlabInputError(f"{nm!r} is not a layer law: use {', '.join(LAWS)} or "
-                                   f"{AUTO}{did_you_mean(nm, [*LAWS, AUTO])}", key="law")
+                                   f"{AUTO}{did_you_mean(nm, [*LAWS, AUTO])}", key=key)
         out.append(LAWS[nm])
     out = list(dict.fromkeys(out))
     if not out:
-        raise TorlabInputError("no layer law given", key="law")
+        raise TorlabInputError("no layer law given", key=key)
     return out
 
 
