@@ -403,6 +403,24 @@ def test_an_unwritable_home_prints_nothing_from_matplotlib(tmp_path):
     shutil.rmtree(d, ignore_errors=True)
 
 
+@pytest.mark.parametrize("env", ["XDG_CONFIG_HOME", "XDG_CACHE_HOME"])
+def test_a_relative_xdg_folder_makes_nothing_in_the_working_folder(tmp_path, env):
+    """A relative XDG_CONFIG_HOME would have matplotlib make relcfg/matplotlib wherever
+    torlab runs; torlab gives it its private folder instead."""
+    work = tmp_path / "work"
+    work.mkdir()
+    e = {"HOME": str(tmp_path / "home"), "PATH": "/usr/bin:/bin", "TMPDIR": str(tmp_path),
+         env: "relcfg"}
+    r = subprocess.run([sys.executable, "-c", "import torlab.reports, os\n"
+                        "from torlab.reports.plotting import subplots\nsubplots()\n"
+                        "print(os.environ['MPLCONFIGDIR'])"],
+                       env=e, cwd=work, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0 and r.stderr == ""
+    assert list(work.iterdir()) == []
+    assert Path(r.stdout.strip()).parent == tmp_path
+    shutil.rmtree(r.stdout.strip(), ignore_errors=True)
+
+
 # ------------------------------------------------------------------ time tests for the fit
 def test_time_test_rows_without_load_are_dropped_and_said(tmp_path):
     from torlab.errors import TorlabInputError

@@ -475,7 +475,7 @@ def _data_names(lp: LoadedProtocol, doc: Any, sec: str, d: Any,
     taken: dict[str, Path] = {}
     for f, n in names.items():
         k = n.casefold()
-        if k in taken:
+        if k in taken and not (f in label or taken[k] in label):  # labels: said below
             g = taken[k]
             problems.append(doc.error(
                 ("data", sec, "files", entry[f]),
@@ -492,11 +492,17 @@ def _data_names(lp: LoadedProtocol, doc: Any, sec: str, d: Any,
             other = seen[k][1]
             problems.append(doc.error(
                 ("data", sec, "files", entry[f]),
-                f"label {text!r} is used twice" if text == other else
-                f"label {text!r} makes the same file name ({plain_name(text)!r}) as "
-                f"{other!r}: their figures and rows would be one; give labels that differ"))
+                f"label {_short(text)!r} is used twice" if text == other else
+                f"label {_short(text)!r} makes the same file name "
+                f"({_short(plain_name(text))!r}) as {_short(other)!r}: their figures and rows "
+                "would be one; give labels that differ"))
         seen.setdefault(k, (f, text))
     return names
+
+
+def _short(text: str, n: int = 60) -> str:
+    """User text for a message: its start and end where it is longer than ``n``."""
+    return text if len(text) <= n else f"{text[: n // 2 - 2]} … {text[-(n // 2 - 2):]}"
 
 
 def _shown(f: Path, base: Path) -> str:

@@ -12,7 +12,9 @@ def _matplotlib_config_dir() -> None:
     matplotlib keeps its font cache in ``$XDG_CONFIG_HOME/matplotlib`` and
     ``$XDG_CACHE_HOME/matplotlib`` (``~/.config``, ``~/.cache``).  Where those cannot be
     made or written (a read-only or missing home folder), it falls back to a new
-    temporary folder and prints two raw lines about it on every run.  torlab sets
+    temporary folder and prints two raw lines about it on every run; where one is a
+    relative path (which the XDG specification says to ignore), it makes that folder
+    under whatever folder torlab runs in.  In both cases torlab sets
     ``MPLCONFIGDIR`` instead to ``torlab-matplotlib-<uid>`` in the temporary folder
     (made with mode 0700 and used only while it is this user's own folder, not a link;
     otherwise a new private one), so the output stays one line per problem and the font
@@ -28,6 +30,8 @@ def _matplotlib_config_dir() -> None:
     home = os.path.expanduser("~")
     for env, default in (("XDG_CONFIG_HOME", ".config"), ("XDG_CACHE_HOME", ".cache")):
         base = os.environ.get(env) or os.path.join(home, default)
+        if not os.path.isabs(base):  # never a folder under the working folder
+            break
         d = os.path.join(base, "matplotlib")
         try:
             os.makedirs(d, exist_ok=True)
