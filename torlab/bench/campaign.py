@@ -1,118 +1,287 @@
-"""A large HPT campaign built from the Paper C sample campaign, for measuring protocol runs.
+"""How a protocol run grows with the campaign (``torlab bench --campaign N``).
 
-:func:`build_campaign` writes ``copies`` virtual Paper C campaigns (``torlab synth hpt``
-with the seeds 1 .. ``copies``), each product renamed per seed (``OFM1-s03``), and a
-protocol with Paper C's settings over all of them: at 16 copies, 1664 logs, 96 traction
-curves and about 200 figures.  ``python -m torlab.bench.campaign OUT --copies 16`` builds
-it and runs it cold (with and without figures) and warm, one after the other, and prints
-each run's time split and the size of ``report.html`` (docs/performance.md).
+A lab's protocol may hold a year of logs.  This benchmark builds virtual Paper C
+campaigns of 1x, 4x, 16x ... the sample campaign (the seeds 1, 2, ... of ``torlab synth
+hpt``, each seed's products named apart -- ``OFM1-s03`` -- so that every seed adds its own
+fits, predicted curves and figures, as a year of new batches does) with paper_c's
+settings (``protocols/paper_c.yaml``: its data options, fits and reports), and runs each
+with ``torlab run`` as a user does:
+
+* **cold**: into a fresh folder (everything reduced, fitted, predicted and drawn);
+* **warm**: ``--force`` into the same folder, nothing changed (everything from the cache).
+
+For every run it records the wall time, the CPU time (user + system of the run and every
+process it started: ``os.wait4``), the peak resident memory of the largest single process
+(``ru_maxrss``: the parent, or a worker), the size of ``report.html``, the run's own split
+(compute, figures, I/O: ``summary.json``'s ``run.timing``) and the counts (logs, fitted
+parameter sets, predicted curves, figures).  From the sizes it fits the growth exponent
+``b`` of ``time = a * logs**b`` (least squares in log-log) and extrapolates to 10 000 logs.
+
+The machine may be shared: the load average at the start of each run is recorded, and
+the CPU time, the memory and the counts hardly depend on it (the wall time does).
+
+The campaigns are built once into ``data_dir`` (kept and reused when given, e.g.
+``--campaign-data``), the runs write into a temporary folder.
 """
 
 from __future__ import annotations
 
+import json
+import math
+import os
 import re
 import subprocess
 import sys
+import tempfile
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
-__all__ = ["build_campaign", "run_once"]
+__all__ = ["CampaignRun", "build_campaign", "campaign_sizes", "campaign_table", "growth",
+           "run_campaigns"]
 
-_PROTOCOL = """\
-version: 1
-name: campaign_{copies}x
-title: "{copies} copies of the Paper C campaign (seeds 1-{copies})"
-data:
-  hpt:
-    files:
-{files}
-    compliance: s01/rig_compliance.csv
-    window: 20 um
-fits:
-  hpt_layers:
-    amounts: [4 uL, 4 mg]
-    temperature: 25 degC
-    joint: true
-    temperature_coefficients: true
-    selection: none
-reports:
-  amount:
-    temperature: 25 degC
-    band: [0.15, 0.25]
-    threshold: 0.15
-    basis: mass
-    curve: logistic
-    confidence: 0.95
-  traction:
-    creepage: {{from: 0, to: 0.05, points: 51}}
-    trend_tolerance: 0.01
-    trend_probability: 0.9
-    band: [0.15, 0.25]
-    curves:
-      - label: "{{set}} (Tab. 5.4)"
-        scene: {scene}
-        params: ["hpt:*"]
-"""
+REPO = Path(__file__).resolve().parents[2]
+#: the marker of a built campaign (its size and the torlab version that built it)
+MARKER = "campaign.json"
 
 
-def build_campaign(dest: str | Path, copies: int) -> Path:
-    """Write ``copies`` renamed Paper C campaigns into ``dest`` and the protocol over them
-    (``dest/campaign.yaml``, returned)."""
-    dest = Path(dest)
-    dest.mkdir(parents=True, exist_ok=True)
-    for k in range(1, copies + 1):
-        d = dest / f"s{k:02d}"
-        if not (d / "truth.yaml").is_file():
-            subprocess.run([sys.executable, "-m", "torlab", "synth", "hpt", "--seed", str(k),
-                            "-o", str(d)], check=True, capture_output=True)
-            for f in d.glob("hpt_*.txt"):  # each seed's products under names of their own
-                text = f.read_text(encoding="utf-8")
-                f.write_text(re.sub(r"^# product: (\S+)", rf"# product: \1-s{k:02d}", text,
-                                    count=1, flags=re.M), encoding="utf-8")
-    scene = Path(__file__).resolve().parents[2] / "protocols" / "scenes" / "wheel_rail_tab54.yaml"
-    files = "\n".join(f"      - s{k:02d}/hpt_*.txt" for k in range(1, copies + 1))
-    p = dest / "campaign.yaml"
-    p.write_text(_PROTOCOL.format(copies=copies, files=files, scene=scene), encoding="utf-8")
-    return p
+@dataclass
+class CampaignRun:
+    """One protocol run of one campaign size.
+
+    Attributes
+    ----------
+    size
+        Seeds in the campaign (1x, 4x ...).
+    kind
+        ``"cold"`` or ``"warm"``.
+    wall_s, cpu_s
+        Wall time; CPU time (user + system) of the run and every process it started.
+    peak_rss_mb
+        Largest resident memory of a single process of the run [MB] (``ru_maxrss``).
+    load
+        1-minute load average when the run started.
+    counts
+        ``logs``, ``sets`` (fitted parameter sets), ``curves`` (predicted curves),
+        ``figures``, ``report_html_mb``, ``output_files``.
+    timing
+        The run's own split (``compute``, ``figures``, ``io``, ``other``: seconds of wall
+        time) from its ``summary.json``.
+    """
+
+    size: int
+    kind: str
+    wall_s: float
+    cpu_s: float
+    peak_rss_mb: float
+    load: float
+    counts: dict[str, float] = field(default_factory=dict)
+    timing: dict[str, float] = field(default_factory=dict)
 
 
-def run_once(protocol: Path, out: Path, *args: str, python: str = sys.executable,
-             env: dict[str, str] | None = None) -> dict[str, float]:
-    """Run ``torlab run`` in a new process: wall time, the time split it prints, the size
-    of ``report.html`` and of the folder's figures."""
+def campaign_sizes(n: int) -> list[int]:
+    """1, 4, 16 ... up to ``n`` (and ``n`` itself when it is not a power of four)."""
+    if n < 1:
+        raise ValueError("a campaign has at least one seed")
+    sizes = [1]
+    while sizes[-1] * 4 <= n:
+        sizes.append(sizes[-1] * 4)
+    if sizes[-1] != n:
+        sizes.append(n)
+    return sizes
+
+
+def _protocol(n: int) -> dict[str, Any]:
+    """paper_c's protocol over the campaign's files and products."""
+    from torlab.yamlio import load_yaml
+
+    base = load_yaml(REPO / "protocols" / "paper_c.yaml").data
+    doc = dict(base)
+    doc["name"] = f"campaign_{n}x"
+    doc["title"] = f"Paper C's protocol on a {n}x campaign (seeds 1-{n})"
+    doc["description"] = ("Virtual Paper C campaign, torlab synth hpt seeds 1-"
+                          f"{n}, products named by seed (torlab bench --campaign).")
+    doc["products"] = {f"{k}-s{s:02d}": dict(v, label=f"{v['label']} (seed {s})")
+                       for s in range(1, n + 1) for k, v in base["products"].items()}
+    data = {**base["data"]["hpt"], "files": ["data/hpt_*.txt"],
+            "compliance": "data/rig_compliance.csv"}
+    doc["data"] = {"hpt": data}
+    reports = json.loads(json.dumps(base["reports"]))
+    for c in reports["traction"]["curves"]:
+        c["scene"] = str(REPO / "protocols" / "scenes" / Path(c["scene"]).name)
+    doc["reports"] = reports
+    return doc
+
+
+def build_campaign(folder: str | os.PathLike[str], n: int) -> Path:
+    """The campaign of seeds 1..``n`` in ``folder`` (built unless it is there already).
+
+    ``folder/protocol.yaml`` is paper_c's protocol over ``folder/data/``: the logs of
+    ``torlab synth hpt --seed s`` for every seed, each seed's products renamed
+    ``<product>-s<seed>`` (file names ``hpt_s<seed>_...``), and the rig compliance of
+    seed 1.  Returns the protocol's path.
+    """
+    from torlab import __version__
+    from torlab.outputs import OutputDir
+    from torlab.synth.hpt import (
+        HptRig,
+        compliance_curve_text,
+        paper_c_design,
+        simulate_hpt,
+        write_hpt_log,
+    )
+    from torlab.yamlio import dump_yaml
+
+    folder = Path(folder)
+    marker = folder / MARKER
+    want = {"seeds": n, "torlab": __version__}
+    try:
+        if json.loads(marker.read_text(encoding="utf-8")) == want:
+            return folder / "protocol.yaml"
+    except (OSError, ValueError):
+        pass
+    rig = HptRig()
+    with OutputDir(folder, force=True, command=f"torlab bench --campaign {n}") as out:
+        for s in range(1, n + 1):
+            tag = f"s{s:02d}"
+            for spec in paper_c_design(s):
+                text = write_hpt_log(spec, simulate_hpt(spec, rig), rig)
+                text = re.sub(r"^# product: (\S+)", rf"# product: \1-{tag}", text, count=1,
+                              flags=re.M)
+                out.write_text(f"data/{spec.name.replace('hpt_', f'hpt_{tag}_', 1)}.txt", text)
+        out.write_text("data/rig_compliance.csv", compliance_curve_text(rig, 2))
+        out.write_text("protocol.yaml", dump_yaml(_protocol(n)))
+        out.write_text(MARKER, json.dumps(want))
+    return folder / "protocol.yaml"
+
+
+def _run(argv: list[str], cwd: Path) -> tuple[float, float, float]:
+    """Wall time, CPU time (the process and its children) and peak RSS [MB] of a command."""
+    env = dict(os.environ)
+    env.pop("TORLAB_DEBUG", None)
     t0 = time.perf_counter()
-    r = subprocess.run([python, "-m", "torlab", "run", str(protocol), "-o", str(out), "-q",
-                        *args], check=True, capture_output=True, text=True, env=env)
+    proc = subprocess.Popen(argv, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            env=env)
+    err = proc.stderr.read() if proc.stderr is not None else b""
+    _, status, ru = os.wait4(proc.pid, 0)
     wall = time.perf_counter() - t0
-    line = next(x for x in r.stdout.splitlines() if x.startswith("cache:"))
-    got = {"wall": wall}
-    for key in ("compute", "figures", "I/O"):
-        m = re.search(rf"{re.escape(key)} ([0-9.]+) s", line)
-        got[key.lower().replace("/", "")] = float(m.group(1)) if m else float("nan")
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    if proc.returncode != 0:
+        last = (err.decode("utf-8", "replace").strip().splitlines() or ["(no output)"])[-1]
+        raise RuntimeError(f"torlab {' '.join(argv[3:])[:160]} exited with {proc.returncode}: "
+                           f"{last}")
+    rss = ru.ru_maxrss / (1024.0 if sys.platform != "darwin" else 1024.0**2)
+    return wall, ru.ru_utime + ru.ru_stime, rss
+
+
+def _counts(out: Path) -> tuple[dict[str, float], dict[str, float]]:
+    summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+    run = summary.get("run", {})
+    curves = summary.get("reports", {}).get("traction", {}).get("curves", [])
     html = out / "report.html"
-    got["report_html_MB"] = html.stat().st_size / 1e6 if html.is_file() else float("nan")
-    got["figures_MB"] = sum(f.stat().st_size for f in out.rglob("*.png")
-                            if ".cache" not in f.parts) / 1e6
-    return got
+    counts = {
+        "logs": float(summary.get("data", {}).get("hpt", {}).get("files", 0)),
+        "sets": float(len(summary.get("fits", {}))),
+        "curves": float(len(curves) if isinstance(curves, (list, dict)) else 0),
+        "figures": float(run.get("figures_drawn", 0) + run.get("figures_reused", 0)),
+        "report_html_mb": html.stat().st_size / 1e6 if html.exists() else math.nan,
+        "output_files": float(sum(1 for _ in out.rglob("*") if _.is_file())),
+    }
+    return counts, {k: float(v) for k, v in run.get("timing", {}).items()
+                    if isinstance(v, (int, float))}
 
 
-def main(argv: list[str] | None = None) -> int:  # pragma: no cover - a measuring tool
-    import argparse
-    import shutil
+def run_campaigns(n: int, *, jobs: int = 2, data_dir: str | os.PathLike[str] | None = None,
+                  python: str | None = None, extra_args: tuple[str, ...] = (),
+                  warm_runs: int = 1, progress: Any = None) -> list[CampaignRun]:
+    """Cold and warm runs of the campaigns of :func:`campaign_sizes` (module docstring).
 
-    ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("out", type=Path)
-    ap.add_argument("--copies", type=int, default=16)
-    ap.add_argument("--jobs", default="2")
-    a = ap.parse_args(argv)
-    proto = build_campaign(a.out / "campaign", a.copies)
-    for name, extra in (("cold", ()), ("cold, --no-figures", ("--no-figures",))):
-        out = a.out / f"run-{len(extra)}"
-        shutil.rmtree(out, ignore_errors=True)
-        print(name, run_once(proto, out, "-j", a.jobs, *extra))
-    print("warm", run_once(proto, a.out / "run-0", "-j", a.jobs, "--force"))
-    return 0
+    Parameters
+    ----------
+    n
+        The largest campaign (seeds).
+    jobs
+        ``torlab run --jobs``.
+    data_dir
+        Where the campaigns are built (and kept); default a temporary folder.
+    python
+        The interpreter whose torlab runs (default this one): compare two installs on
+        the same campaigns, one after the other.
+    extra_args
+        More ``torlab run`` options (``--scheduler ADDRESS`` ...).
+    warm_runs
+        Warm runs per size (each is a row).
+    progress
+        Called with a line before each step.
+    """
+    say = progress or (lambda _m: None)
+    py = python or sys.executable
+    rows: list[CampaignRun] = []
+    with tempfile.TemporaryDirectory(prefix="torlab-campaign-") as tmp:
+        root = Path(data_dir) if data_dir is not None else Path(tmp) / "data"
+        for size in campaign_sizes(n):
+            say(f"campaign {size}x: building ...")
+            proto = build_campaign(root / f"c{size}", size)
+            out = Path(tmp) / f"out{size}"
+            for k in range(1 + warm_runs):
+                kind = "cold" if k == 0 else "warm"
+                say(f"campaign {size}x: {kind} run ...")
+                argv = [py, "-m", "torlab", "run", str(proto), "-o", str(out), "--jobs",
+                        str(jobs), "--quiet", *extra_args, *(["--force"] if k else [])]
+                load = os.getloadavg()[0] if hasattr(os, "getloadavg") else math.nan
+                wall, cpu, rss = _run(argv, proto.parent)
+                counts, timing = _counts(out)
+                rows.append(CampaignRun(size, kind, wall, cpu, rss, load, counts, timing))
+    return rows
 
 
-if __name__ == "__main__":  # pragma: no cover
-    raise SystemExit(main())
+def growth(rows: list[CampaignRun], kind: str = "cold", what: str = "wall_s"
+           ) -> tuple[float, float]:
+    """``(a, b)`` of ``what = a * logs**b`` over the runs of ``kind`` (least squares in
+    log-log; NaN with fewer than two sizes)."""
+    import numpy as np
+
+    pts = [(r.counts.get("logs", 0.0), getattr(r, what)) for r in rows if r.kind == kind]
+    pts = [(x, y) for x, y in pts if x > 0 and y > 0]
+    if len({x for x, _ in pts}) < 2:
+        return math.nan, math.nan
+    x, y = np.log([p[0] for p in pts]), np.log([p[1] for p in pts])
+    b, lna = np.polyfit(x, y, 1)
+    return float(math.exp(lna)), float(b)
+
+
+def campaign_table(rows: list[CampaignRun]) -> str:
+    """The Markdown table of the runs, the growth exponents and the extrapolation to
+    10 000 logs."""
+    first_warm = {}
+    for r in rows:
+        if r.kind == "warm":
+            first_warm.setdefault(r.size, r)
+    lines = ["| size | logs / sets / curves / figures | cold, wall (CPU) | figures, share of "
+             "cold | warm rerun, wall (CPU) | peak memory | report.html | load |",
+             "|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        if r.kind != "cold":
+            continue
+        w = first_warm.get(r.size)
+        c = r.counts
+        fig = r.timing.get("figures", math.nan)
+        share = fig / r.timing["total"] if r.timing.get("total") else math.nan
+        lines.append(
+            f"| {r.size}x | {c['logs']:.0f} / {c['sets']:.0f} / {c['curves']:.0f} / "
+            f"{c['figures']:.0f} | {r.wall_s:.1f} s ({r.cpu_s:.1f} s) | {share:.0%} | "
+            + (f"{w.wall_s:.2f} s ({w.cpu_s:.2f} s)" if w else "-")
+            + f" | {max(r.peak_rss_mb, w.peak_rss_mb if w else 0):.0f} MB | "
+            f"{c['report_html_mb']:.1f} MB | {r.load:.1f}"
+            + (f" / {w.load:.1f}" if w else "") + " |")
+    out = ["\n".join(lines), ""]
+    for kind, what, label in (("cold", "wall_s", "cold wall"), ("cold", "cpu_s", "cold CPU"),
+                              ("warm", "wall_s", "warm wall"), ("warm", "cpu_s", "warm CPU"),
+                              ("cold", "peak_rss_mb", "peak memory")):
+        a, b = growth(rows, kind, what)
+        if math.isfinite(b):
+            unit = "MB" if what == "peak_rss_mb" else "s"
+            out.append(f"- {label}: grows as logs^{b:.2f}; at 10 000 logs about "
+                       f"{a * 1e4**b:.3g} {unit}")
+    return "\n".join(out) + "\n"

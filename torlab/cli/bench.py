@@ -21,6 +21,17 @@ def bench_cmd(
     only: Annotated[list[str] | None, typer.Option(
         "--only", help="Run only this benchmark (repeat, or a comma list): hertz, fastsim, "
         "temperature, asperity, loadshare, optical, ... (the modules of torlab/bench/).")] = None,
+    campaign: Annotated[int | None, typer.Option(
+        "--campaign", metavar="N", help="Instead: how a protocol run grows with the campaign. "
+        "Builds the 1x, 4x, 16x ... N x virtual Paper C campaigns (torlab synth hpt seeds "
+        "1..N, paper_c's settings), runs each cold and warm with torlab run, and writes "
+        "the table (time, CPU, peak memory, report size, growth exponent) to OUT/campaign.md "
+        "and campaign.csv.", min=1)] = None,
+    campaign_data: Annotated[str | None, typer.Option(
+        "--campaign-data", metavar="DIR", help="With --campaign: build the campaigns in DIR "
+        "and keep them (reused by the next run); default a temporary folder.")] = None,
+    jobs: Annotated[int, typer.Option("--jobs", "-j", help="With --campaign: torlab run "
+                                      "--jobs.", min=1)] = 2,
     force: ForceOpt = False,
     quiet: QuietOpt = False,
 ) -> None:
@@ -40,6 +51,9 @@ def bench_cmd(
 
     cmd = command_line()
     dest = OutputDir(out, force=force, command=cmd)  # refuses an occupied folder before the run
+    if campaign is not None:
+        _campaign(dest, out, campaign, campaign_data, jobs, quiet)
+        return
     err = Console(stderr=True, highlight=False, soft_wrap=True)
     with Progress(enabled_for(quiet)) as prog, \
             prog.task("benchmark modules", len(select_components(only))) as advance:
@@ -64,6 +78,39 @@ def bench_cmd(
         typer.echo(f"error: benchmark(s) failed: {', '.join(result.failed)} (the FAILED rows "
                    f"of {out}/bench.md say why)", err=True)
         raise typer.Exit(1)
+
+
+def _campaign(dest: Any, out: Any, n: int, data: str | None, jobs: int, quiet: bool) -> None:
+    """``torlab bench --campaign N``: the campaign table (:mod:`torlab.bench.campaign`)."""
+    from rich.console import Console
+
+    from torlab.bench.campaign import campaign_table, run_campaigns
+    from torlab.bench.runner import machine_info
+
+    err = Console(stderr=True, highlight=False, soft_wrap=True)
+    machine = machine_info()
+    try:
+        rows = run_campaigns(n, jobs=jobs, data_dir=data,
+                             progress=None if quiet else lambda m: err.print(m))
+        table = campaign_table(rows)
+        head = "\n".join(f"- {k}: {v}" for k, v in machine.items())
+        dest.write_text("campaign.md", f"# torlab bench --campaign {n} --jobs {jobs}\n\n"
+                        f"{head}\n\n{table}")
+        dest.write_csv("campaign.csv", {
+            "size": [r.size for r in rows], "kind": [r.kind for r in rows],
+            "wall_s": [r.wall_s for r in rows], "cpu_s": [r.cpu_s for r in rows],
+            "peak_rss_MB": [r.peak_rss_mb for r in rows], "load": [r.load for r in rows],
+            **{k: [r.counts.get(k, float("nan")) for r in rows]
+               for k in ("logs", "sets", "curves", "figures", "report_html_mb", "output_files")},
+            **{f"{k}_s": [r.timing.get(k, float("nan")) for r in rows]
+               for k in ("compute", "figures", "io", "total")}},
+            allow_missing=("compute_s", "figures_s", "io_s", "total_s"))
+    except BaseException:
+        dest.abort()
+        raise
+    dest.commit()
+    console().print(table)
+    console().print(f"wrote campaign.md, campaign.csv to {out}")
 
 
 def _print_tables(result: Any) -> None:

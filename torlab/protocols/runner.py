@@ -204,7 +204,9 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
                   "files_kept": len(dest.kept), "executor": ex.describe()}
         summary["run"] = {"seconds": round(time.perf_counter() - t0, 2), "cache_hits": rc.hits,
                           "cache_misses": rc.misses, "command": command,
-                          "figures_drawn": fig.drawn, "figures_reused": fig.reused}
+                          "figures_drawn": fig.drawn, "figures_reused": fig.reused,
+                          "timing": {k: round(timing[k], 3) for k in ("compute", "figures", "io")}
+                          | {"total": round(time.perf_counter() - t0, 3)}}
         dest.write_json("summary.json", summary)
     except BaseException:
         dest.abort()

@@ -1,0 +1,67 @@
+"""``torlab bench --campaign``: the campaigns it builds, the growth fit and the table.
+
+No test asserts a time; the runs themselves are measured by the benchmark.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from torlab.bench import campaign as cb
+from torlab.bench.campaign import CampaignRun, campaign_sizes, campaign_table, growth
+
+
+def test_campaign_sizes_are_powers_of_four_up_to_n():
+    assert campaign_sizes(1) == [1]
+    assert campaign_sizes(16) == [1, 4, 16]
+    assert campaign_sizes(10) == [1, 4, 10]
+    with pytest.raises(ValueError):
+        campaign_sizes(0)
+
+
+def _rows(a: float, b: float) -> list[CampaignRun]:
+    return [CampaignRun(s, "cold", a * (104 * s) ** b, 2 * a * (104 * s) ** b, 100.0, 1.0,
+                        {"logs": 104.0 * s, "sets": 12.0 * s, "curves": 6.0 * s,
+                         "figures": 3.0 + 12 * s, "report_html_mb": 0.5, "output_files": 9.0},
+                        {"figures": 0.1, "total": 1.0})
+            for s in (1, 4, 16)]
+
+
+def test_growth_recovers_an_exact_power_law():
+    a, b = growth(_rows(0.03, 1.25))
+    assert b == pytest.approx(1.25, rel=1e-9)
+    assert a == pytest.approx(0.03, rel=1e-9)
+    assert math.isnan(growth(_rows(1.0, 1.0)[:1])[1])  # one size: no exponent
+
+
+def test_table_has_one_row_per_size_and_the_extrapolation():
+    rows = _rows(0.03, 1.0)
+    rows.append(CampaignRun(4, "warm", 0.5, 0.4, 120.0, 1.0, rows[1].counts, {}))
+    text = campaign_table(rows)
+    assert sum(line.startswith("| ") for line in text.splitlines()) == 4  # header, 3 sizes
+    assert "| 4x | 416 / 48 / 24 / 51 |" in text
+    assert "0.50 s (0.40 s)" in text
+    # a = 0.03 s per log, exponent 1: 300 s at 10 000 logs
+    assert "cold wall: grows as logs^1.00; at 10 000 logs about 300 s" in text
+
+
+def test_built_campaign_is_a_valid_protocol_over_renamed_products(tmp_path, monkeypatch):
+    import torlab.synth.hpt as synth
+    from torlab.parsers.hpt import read_hpt
+    from torlab.protocols.loader import load_protocol
+
+    design = synth.paper_c_design
+    monkeypatch.setattr(synth, "paper_c_design", lambda seed: design(seed)[:2])
+    proto = cb.build_campaign(tmp_path / "c2", 2)
+    lp = load_protocol(proto)
+    files = lp.data_files("hpt")
+    assert [f.name for f in files] == sorted(f.name for f in files)
+    assert len(files) == 4 and {f.name[:7] for f in files} == {"hpt_s01", "hpt_s02"}
+    _, meta = read_hpt(files[-1])
+    assert meta.product.endswith("-s02") and meta.product in lp.protocol.products
+    # built once: the marker makes a second call reuse the folder
+    stamp = files[0].stat().st_mtime_ns
+    assert cb.build_campaign(tmp_path / "c2", 2) == proto
+    assert files[0].stat().st_mtime_ns == stamp
