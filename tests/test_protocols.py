@@ -578,7 +578,7 @@ def test_rerun_reuses_cache_and_refuses_overwrite(tmp_path):
     assert (r3.cache_hits, r3.cache_misses) == (6, 1)
     assert r3.timing["figures_reused"] == 2
     assert r3.summary["inputs"]["hpt_OFM1_8uL_25C.txt"] == sha(f)
-    assert len(list((out / ".cache").glob("*.tlc"))) == 7   # the stale entry was dropped
+    assert len(list((out / ".cache").glob("*-*.tlc"))) == 7   # the stale entry was dropped
     # a changed number is a changed figure: drawn again, the old one dropped
     p.write_text(SMALL.replace("curve: interpolation", "curve: interpolation\n    threshold: 0.2"))
     r4 = run_protocol(p, out, force=True)

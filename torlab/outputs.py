@@ -505,6 +505,13 @@ class OutputDir:
         file, so the earlier results are never written through; a caller writing
         to :meth:`path` itself must do the same); what they contain is for their
         reader to check -- the folder may come from someone else.
+    carry
+        Names of folders (one name each, no ``/``) in an existing ``target`` to *move*
+        into the new results when the staging folder is made (one rename, however many
+        files they hold: a protocol's cache), and back if the run fails.  Only a real
+        folder of this user is moved (not a link); its files are left as they are, so
+        what they contain is for their reader to check.  A run killed while it holds
+        one leaves the earlier results without it.
 
     Raises
     ------
@@ -525,6 +532,7 @@ class OutputDir:
         inputs: Iterable[str | os.PathLike[str]] = (),
         command: str = "",
         keep: Iterable[str] = (),
+        carry: Iterable[str] = (),
     ) -> None:
         self.target = Path(target)
         t = self.target
@@ -537,7 +545,15 @@ class OutputDir:
         self.command = command
         self.inputs = [Path(p) for p in inputs]
         self.keep = list(keep)
-        self.files: list[str] = []
+        self.carry = list(carry)
+        if any("/" in c or c in ("", ".", "..") for c in self.carry):
+            raise ValueError(f"carry takes folder names, not paths: {self.carry}")
+        self._carried: list[str] = []
+        #: the inputs' SHA-256 for the manifest (a caller that hashed them already may
+        #: give its own function)
+        self.hasher: Any = sha256_file
+        self.files: list[str] = []  # in the order written; _listed: the same names, a set
+        self._listed: set[str] = set()
         self._written: dict[str, str] = {}  # names written by the write_* methods (casefolded)
         self.notes: list[str] = []
         #: files of the earlier results kept as they were (same bytes; :meth:`write_bytes`)
@@ -667,7 +683,37 @@ class OutputDir:
                     for k in self.keep:  # linked where possible: kept files are only
                         # ever replaced (unlinked, written anew), never changed in place
                         _copy_regular(t / k, self._staging / k, link=True)
+                    self._move_carried(into_staging=True)
         return self._staging
+
+    def _move_carried(self, *, into_staging: bool) -> None:
+        """Move the :attr:`carry` folders from the earlier results into staging, or back."""
+        if not self.carry or self._stage is None:
+            return
+        try:
+            out = self._parent.sub(self._real.name)
+        except OSError:
+            return
+        try:
+            src, dst = (out, self._stage) if into_staging else (self._stage, out)
+            for k in (self.carry if into_staging else list(self._carried)):
+                st = src.lstat(k)
+                if st is None or not stat.S_ISDIR(st.st_mode) or not _mine(st) \
+                        or dst.lstat(k) is not None:
+                    continue
+                try:
+                    if src.fd is not None and dst.fd is not None:
+                        os.rename(k, k, src_dir_fd=src.fd, dst_dir_fd=dst.fd)
+                    else:
+                        os.rename(src.path / k, dst.path / k)
+                except OSError:
+                    continue
+                if into_staging:
+                    self._carried.append(k)
+                else:
+                    self._carried.remove(k)
+        finally:
+            out.close()
 
     def _check_staging(self) -> None:
         """The staging folder's name still names the folder this run made."""
@@ -730,9 +776,15 @@ class OutputDir:
             fd = d.open(rel.name, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
         finally:
             d.close()
-        if rel.as_posix() not in self.files and rel.as_posix() != MANIFEST:
-            self.files.append(rel.as_posix())
+        if rel.as_posix() != MANIFEST:
+            self._list(rel.as_posix())
         return fd
+
+    def _list(self, name: str) -> None:
+        """Record ``name`` for the manifest (once)."""
+        if name not in self._listed:
+            self._listed.add(name)
+            self.files.append(name)
 
     def path(self, name: str) -> Path:
         """Staging path for ``name`` (a relative path), recorded in the manifest.
@@ -744,8 +796,7 @@ class OutputDir:
         with writing(self.target / rel):
             self._folder_of(rel).close()
             self._check_staging()
-        if rel.as_posix() not in self.files:
-            self.files.append(rel.as_posix())
+        self._list(rel.as_posix())
         return self.staging / rel
 
     def final_path(self, name: str) -> Path:
@@ -800,8 +851,7 @@ class OutputDir:
             d.close()
         if not _hard_link(src, self.staging / rel, st):
             return False
-        if rel.as_posix() not in self.files:
-            self.files.append(rel.as_posix())
+        self._list(rel.as_posix())
         self.kept.append(rel.as_posix())
         return True
 
@@ -869,14 +919,14 @@ class OutputDir:
 
     def _commit(self) -> Path:
         st = self.staging
-        for name in self.keep:
-            if (st / name).exists() and name not in self.files:
-                self.files.append(name)
+        for name in [*self.keep, *self.carry]:
+            if (st / name).exists():
+                self._list(name)
         manifest = {
             "torlab_version": __version__,
             "command": self.command,
             "written": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-            "inputs": {str(p): sha256_file(p) for p in self.inputs if p.is_file()},
+            "inputs": {str(p): self.hasher(p) for p in self.inputs if p.is_file()},
             "files": sorted(self.files),
         }
         _write_file(self._open_new(MANIFEST), (json.dumps(manifest, indent=2) + "\n").encode())
@@ -953,10 +1003,12 @@ class OutputDir:
         _remove_tree(old)
 
     def abort(self) -> None:
-        """Discard the staged files; the target is left as it was; release the lock."""
+        """Discard the staged files; the target is left as it was (with the :attr:`carry`
+        folders moved back); release the lock."""
         if self._staging is not None:
             with contextlib.suppress(OSError, OutputWriteError):
                 self._check_staging()  # a folder put in its place is not ours to delete
+                self._move_carried(into_staging=False)
                 _remove_tree(self._staging)
             self._close_stage()
         self._lock.release()

@@ -243,7 +243,7 @@ class Executor:
 
     def map(self, fn: Callable[[Any], Any], items: Iterable[Any], *,
             description: str = "", uses: Sequence[str | Callable[[], Any]] | None = None,
-            chunksize: int = 1) -> list[Any]:
+            chunksize: int = 1, each: Callable[[int, Any], Any] | None = None) -> list[Any]:
         """``[fn(item) for item in items]``, in order (``fn`` picklable for other executors).
 
         ``description`` labels the progress bar (:mod:`torlab.progress`) shown while the
@@ -253,7 +253,11 @@ class Executor:
         (:class:`ProcessExecutor`).  It only changes where time is spent: a task that uses
         a module its worker lacks imports it itself.  ``chunksize``: items sent to a
         local worker together, for many short tasks (a protocol's reductions: 3 ms
-        each), whose one-by-one round trips would cost more than the tasks.
+        each), whose one-by-one round trips would cost more than the tasks.  ``each(i,
+        result)`` is called in this process as each task's result arrives (in any order)
+        and its return value is kept instead: work on the results that should not wait
+        for the whole map, such as writing a large result away and keeping a summary of it
+        (so that the results of a long map are never all held at once).
         """
         from torlab.progress import current as progress
 
@@ -261,10 +265,10 @@ class Executor:
         out = []
         with progress().task(description, len(items) if description and len(items) > 1
                              else 0) as advance:
-            for it in items:
+            for i, it in enumerate(items):
                 res, ws = self._run_one(fn, it)
                 _reissue(ws)
-                out.append(res)
+                out.append(res if each is None else each(i, res))
                 advance()
         return out
 
@@ -408,10 +412,10 @@ class ProcessExecutor(Executor):
 
     def map(self, fn: Callable[[Any], Any], items: Iterable[Any], *,
             description: str = "", uses: Sequence[str | Callable[[], Any]] | None = None,
-            chunksize: int = 1) -> list[Any]:
+            chunksize: int = 1, each: Callable[[int, Any], Any] | None = None) -> list[Any]:
         items = list(items)
         if len(items) <= 1:  # one task: no round trip through a worker
-            return super().map(fn, items, description=description)
+            return super().map(fn, items, description=description, each=each)
         from concurrent.futures import FIRST_EXCEPTION, wait
 
         from torlab.progress import current as progress
@@ -435,9 +439,12 @@ class ProcessExecutor(Executor):
                 while pending:
                     done, pending = wait(pending, return_when=FIRST_EXCEPTION)
                     for f in done:
-                        if f.exception() is None:
-                            out[index[f]] = f.result()
                         b = blocks[index[f]]
+                        if f.exception() is None:
+                            res = f.result()
+                            if each is not None:
+                                res = [(each(b.start + j, r), ws) for j, (r, ws) in enumerate(res)]
+                            out[index[f]] = res
                         advance(b.stop - b.start)
                     failed = [index[f] for f in done if f.exception() is not None]
                     if failed:
@@ -672,7 +679,7 @@ class DaskExecutor(Executor):
 
     def map(self, fn: Callable[[Any], Any], items: Iterable[Any], *,
             description: str = "", uses: Sequence[str | Callable[[], Any]] | None = None,
-            chunksize: int = 1) -> list[Any]:
+            chunksize: int = 1, each: Callable[[int, Any], Any] | None = None) -> list[Any]:
         items = list(items)
         if not items:
             return []
@@ -682,8 +689,9 @@ class DaskExecutor(Executor):
         out = []
         try:
             with progress().task(description, len(items) if description else 0) as advance:
-                for f in futs:  # in order: the first error in task order is the one raised
-                    out.append(f.result())
+                for i, f in enumerate(futs):  # in order: the first error in task order
+                    res, ws = f.result()
+                    out.append((res if each is None else each(i, res), ws))
                     advance()
         except BaseException:
             self.client.cancel(futs)
@@ -800,9 +808,11 @@ def _job_count(jobs: int | None) -> int:
 
 
 def map_tasks(fn: Callable[[Any], Any], items: Iterable[Any], *, description: str = "",
-              uses: Sequence[str | Callable[[], Any]] | None = None, chunksize: int = 1) -> list:
+              uses: Sequence[str | Callable[[], Any]] | None = None, chunksize: int = 1,
+              each: Callable[[int, Any], Any] | None = None) -> list:
     """:meth:`Executor.map` on the :func:`current` executor."""
-    return current().map(fn, items, description=description, uses=uses, chunksize=chunksize)
+    return current().map(fn, items, description=description, uses=uses, chunksize=chunksize,
+                         each=each)
 
 
 def chunks(n: int, size: int) -> list[slice]:
@@ -838,18 +848,23 @@ def _call(job: tuple[Callable[[Any], Any], Any]) -> Any:
 def map_deferred(executor: Executor, fn: Callable[[Any], Any], items: Iterable[Any], *,
                  description: str = "", subtasks: str = "",
                  uses: Sequence[str | Callable[[], Any]] | None = None,
-                 chunksize: int = 1) -> list[Any]:
+                 chunksize: int = 1, each: Callable[[int, Any], Any] | None = None) -> list[Any]:
     """:meth:`Executor.map`, with the :class:`Deferred` results completed.
 
     The items of all the deferred results go to ``executor`` in one map
     (labelled ``subtasks``), in order, then each ``then`` runs here -- as a task
     would, with one BLAS thread -- until no result is deferred.  ``uses`` and
-    ``chunksize``: as for :meth:`Executor.map`, for the first map.  The split into
-    tasks is the tasks' own, so the results do not depend on the executor.
+    ``chunksize``: as for :meth:`Executor.map`, for the first map; ``each``: for the
+    first map's results that are not deferred.  The split into tasks is the tasks' own, so
+    the results do not depend on the executor.
     """
     from torlab.threads import limit_threads
 
-    out = executor.map(fn, items, description=description, uses=uses, chunksize=chunksize)
+    def first(i: int, v: Any) -> Any:
+        return v if each is None or isinstance(v, Deferred) else each(i, v)
+
+    out = executor.map(fn, items, description=description, uses=uses, chunksize=chunksize,
+                       each=first)
     while True:
         pending = [i for i, v in enumerate(out) if isinstance(v, Deferred)]
         if not pending:

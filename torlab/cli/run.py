@@ -81,6 +81,10 @@ def run_cmd(
         c.print(f"[yellow]note[/yellow] {n}")
     _print_key_numbers(res.summary)
     c.print(_timing_line(res))
+    if res.unchanged:
+        c.print(f"nothing changed since the run that wrote {out} (protocol, input files, "
+                "options, torlab): its results are current; nothing was rewritten")
+        return
     c.print(f"wrote {', '.join(res.sections)} report(s): {out}/report.html, report.md, "
             "summary.json")
 

@@ -163,11 +163,42 @@ def section_options(section: Any, ctx: Any) -> tuple[dict[str, Any], dict[str, A
             {"window": section.window, "source": section.source, "compliance": key})
 
 
+def light(red: Reduction) -> dict[str, Any]:
+    """What a protocol run keeps of a reduced run (:mod:`torlab.protocols.data`), as plain
+    JSON: the header, the summary figures and notes, without the reduced curve (the fits
+    read it from the run's cache where they run)."""
+    from dataclasses import asdict, fields
+
+    def plain(v: Any) -> Any:
+        return v.item() if hasattr(v, "item") and not isinstance(v, (str, bytes)) else v
+
+    d = red.detail
+    return {"source": red.source, "detected": red.detected, "notes": list(red.notes),
+            "key_numbers": {k: plain(v) for k, v in red.key_numbers.items()},
+            "meta": asdict(red.meta),
+            "detail": {f.name: plain(getattr(d, f.name)) for f in fields(d)
+                       if f.name not in ("data", "meta")}}
+
+
+def from_light(d: dict[str, Any]) -> Reduction:
+    """The Reduction of :func:`light`'s JSON: header and key figures, no tables, and a
+    detail without its curve (``data`` None).  TypeError or KeyError for other JSON."""
+    from torlab.parsers.hpt import HptMetadata
+    from torlab.reduce.hpt import HptResult
+
+    meta = HptMetadata(**d["meta"])
+    detail = HptResult(data=None, meta=meta, **d["detail"])
+    if not isinstance(d["key_numbers"], dict) or not isinstance(d["notes"], list):
+        raise TypeError("not the light form of an HPT reduction")
+    return Reduction(NAME, str(d["source"]), {}, d["key_numbers"], [str(n) for n in d["notes"]],
+                     meta, detail, detected=str(d["detected"]))
+
+
 def write_section(dest: Any, labelled: list[tuple[str, Reduction]]) -> dict[str, Any]:
     """``data/hpt_summary.csv`` (one row per run); the summary's f over the window."""
     import pandas as pd
 
-    rows = [r.detail.summary() for _, r in labelled]
+    rows = [dict(r.key_numbers) for _, r in labelled]
     dest.write_csv("data/hpt_summary.csv", pd.DataFrame(rows),
                    allow_missing=("applied_amount", "temperature_C"))
     return {"files": len(rows), "f_window": {r["file"]: r["f_window"] for r in rows}}

@@ -19,8 +19,9 @@ An instrument is one module (``torlab/instruments/<name>.py``) listed once in
 
 and optionally ``prepare(options)`` (once per batch), the measured curves it holds
 (``traction_curves``, ``stribeck_curves``, ``film_curves``) and the protocol hooks
-``check_section``, ``section_options`` and ``write_section`` (:mod:`torlab.protocols.data`
-documents their defaults).  Everything else (the commands, their option help, the
+``check_section``, ``section_options``, ``write_section`` and ``light`` (:mod:`torlab.protocols.data`
+documents their defaults; ``light(reduction)`` is what a protocol run keeps in memory of a
+reduction whose bulk its fits read from the run's cache).  Everything else (the commands, their option help, the
 protocol section's schema, detection, folders, ``--xlsx``) is generated from these.
 
 This module is the vocabulary of those declarations: it imports nothing of

@@ -45,13 +45,14 @@ import secrets
 import sys
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypeVar
 
 from torlab.codec import BadEntry, NotCacheable, decode_with_arrays, encode_with_arrays
 
-__all__ = ["CACHE_DIR", "FORMAT", "FORMAT_VERSION", "FigureStore", "ResultCache",
-           "cache_key_file"]
+__all__ = ["CACHE_DIR", "FORMAT", "FORMAT_VERSION", "INDEX", "Encoded", "Encoding", "EntryRef",
+           "FigureStore", "Light", "ResultCache", "cache_key_file"]
 
 CACHE_DIR = ".cache"
 FORMAT = "torlab-cache"
@@ -62,7 +63,44 @@ FIGURE_FORMAT_VERSION = 1
 SUFFIX = ".tlc"
 #: entries larger than this are not read (a crafted folder must not exhaust memory)
 MAX_ENTRY_BYTES = 512 << 20
+#: the cache's index: every entry of the last run, its file's status and the light values
+#: of some kinds; the input files' hashes (signed JSON: ``torlab-cache-index 1 <hmac>``)
+INDEX = "index.tlc"
+INDEX_FORMAT = "torlab-cache-index"
+INDEX_VERSION = 1
+#: an input file changed less than this before it was hashed is hashed again next time [ns]
+RACY_NS = 2_000_000_000
+_O_NOFOLLOW = getattr(os, "O_NOFOLLOW", 0)
+_NO_LIGHT = object()
 T = TypeVar("T")
+
+
+def _status(st: os.stat_result) -> list[int]:
+    """What tells a file that was not written since from one that was: size,
+    modification and change times [ns], inode (the change time cannot be set back)."""
+    return [int(st.st_size), int(st.st_mtime_ns), int(st.st_ctime_ns), int(st.st_ino)]
+
+
+def _valid_index(idx: Any) -> bool:
+    """The index has the shape :meth:`ResultCache.write_index` writes (a light value is
+    checked by the function that rebuilds it)."""
+    from torlab import __version__
+
+    if not isinstance(idx, dict) or not isinstance(idx.get("entries"), dict) \
+            or not isinstance(idx.get("files"), dict) or idx.get("torlab") != __version__:
+        return False
+    for name, rec in idx["entries"].items():
+        st = rec.get("st") if isinstance(rec, dict) else None
+        if not (isinstance(name, str) and name.endswith(SUFFIX) and isinstance(st, list)
+                and len(st) == 4 and all(type(x) is int for x in st)
+                and isinstance(rec.get("kind"), str)):
+            return False
+    for path, rec in idx["files"].items():
+        if not (isinstance(path, str) and isinstance(rec, list) and len(rec) == 6
+                and all(type(x) is int for x in rec[:4]) and isinstance(rec[4], str)
+                and type(rec[5]) is int):
+            return False
+    return True
 
 
 # ------------------------------------------------------------------------------ the key
@@ -228,6 +266,16 @@ class ResultCache:
         self.io_seconds = 0.0
         self.compute_seconds = 0.0
         self._figures: FigureStore | None = None
+        #: the index read at the start (entry name -> record), the names in the folder, the
+        #: index this run writes (the entries it used), the input files' hashes
+        self._index: dict[str, dict[str, Any]] = {}
+        self._present: set[str] | None = None
+        self._next: dict[str, dict[str, Any]] = {}
+        self._hashes: dict[str, list[Any]] = {}
+        self._hashes_next: dict[str, list[Any]] = {}
+        #: the run that wrote the index (:meth:`up_to_date`), the run writing the next one
+        self._run: Any = None
+        self._run_next: dict[str, Any] | None = None
 
     @property
     def secret(self) -> bytes:
@@ -247,9 +295,12 @@ class ResultCache:
     def _mac(self, payload: bytes) -> str:
         return hmac.new(self.secret, payload, hashlib.sha256).hexdigest()
 
-    def dumps(self, name: str, kind: str, value: Any) -> bytes:
-        """The bytes of an entry: a header line with the HMAC, the JSON tree (one line,
-        padded to a multiple of 8 bytes), the arrays' bytes."""
+    @staticmethod
+    def payload(name: str, kind: str, value: Any) -> bytes:
+        """An entry without its header: the JSON tree (one line, padded to a multiple of 8
+        bytes) and the arrays' bytes.  Needs no key, so a worker process can encode a
+        value where it computed it (:func:`encoded`) and hand this process the bytes to
+        sign (:meth:`store_payload`).  Raises :class:`~torlab.codec.NotCacheable`."""
         from torlab import __version__
 
         tree, chunks = encode_with_arrays(value)
@@ -258,7 +309,14 @@ class ResultCache:
         text = json.dumps(body, separators=(",", ":"), allow_nan=False).encode("utf-8")
         head_len = len(FORMAT) + len(str(FORMAT_VERSION)) + 64 + 3
         text += b" " * (-(head_len + len(text) + 1) % 8) + b"\n"
-        payload = b"".join([text, *chunks])
+        return b"".join([text, *chunks])
+
+    def dumps(self, name: str, kind: str, value: Any) -> bytes:
+        """The bytes of an entry: a header line with the HMAC, the JSON tree (one line,
+        padded to a multiple of 8 bytes), the arrays' bytes."""
+        return self._signed(self.payload(name, kind, value))
+
+    def _signed(self, payload: bytes) -> bytes:
         return f"{FORMAT} {FORMAT_VERSION} {self._mac(payload)}\n".encode("ascii") + payload
 
     def loads(self, name: str, kind: str, data: bytes | bytearray) -> Any:
@@ -288,26 +346,92 @@ class ResultCache:
         return decode_with_arrays(body.get("value"), view[end + 1:])
 
     def _read(self, p: Path) -> bytearray | None:
+        data, _ = self._read_stat(p)
+        return data
+
+    def _read_stat(self, p: Path) -> tuple[bytearray | None, os.stat_result | None]:
+        """The bytes of a regular file (None if unreadable or too large) and its status as
+        opened (``fstat``)."""
         from torlab.errors import TorlabInputError
         from torlab.files import open_regular
 
         try:
             with open_regular(p) as f:
-                size = os.fstat(f.fileno()).st_size
+                st = os.fstat(f.fileno())
+                size = st.st_size
                 if size > MAX_ENTRY_BYTES:
-                    return None
+                    return None, None
                 data = bytearray(size + 1)  # one more: a file that grew is seen whole
                 n = f.readinto(data)
                 if n > size:
                     rest = f.read(MAX_ENTRY_BYTES + 1 - n)
                     data = data[:n] + rest
                     if len(data) > MAX_ENTRY_BYTES:
-                        return None
+                        return None, None
+                    st = os.fstat(f.fileno())
                 else:
                     del data[n:]
         except (TorlabInputError, OSError):
+            return None, None
+        return data, st
+
+    # -- the index: which entries there are, each file's status, the small values ---------
+    def _load_index(self) -> None:
+        """Read the index once (or, without a valid one, scan the folder once).
+
+        The index (:data:`INDEX`, an entry itself: signed, data only) lists every entry
+        of the run that wrote it with its file's status (size, modification and change
+        times, inode) and, for some kinds, a small value (:meth:`lookup_light`).  A name
+        not in it is not looked for (no file is opened or stat'ed per entry).
+        """
+        if self._present is not None:
+            return
+        self._present = set()
+        if self.folder is None:
+            return
+        t0 = time.perf_counter()
+        try:
+            idx = self._read_index()
+            if _valid_index(idx):
+                self._index = idx["entries"]
+                self._hashes = idx["files"]
+                self._run = idx.get("run")
+                self._present = set(self._index)
+                return
+            with contextlib.suppress(OSError):  # no index: one scan of the folder
+                with os.scandir(self.folder) as it:
+                    self._present = {e.name for e in it if e.name.endswith(SUFFIX)
+                                     and e.name != INDEX}
+        finally:
+            self.io_seconds += time.perf_counter() - t0
+
+    def _read_index(self) -> Any:
+        """The index's JSON (None: missing, unreadable or not authentic)."""
+        assert self.folder is not None
+        data = self._read(self.folder / INDEX)
+        if data is None:
             return None
-        return data
+        nl = data.find(b"\n", 0, 200)
+        head = bytes(data[:nl]).decode("ascii", "replace").split(" ") if nl > 0 else []
+        if len(head) != 3 or head[0] != INDEX_FORMAT or head[1] != str(INDEX_VERSION) \
+                or not hmac.compare_digest(head[2], self._mac(memoryview(data)[nl + 1:])):
+            return None
+        try:
+            return json.loads(memoryview(data)[nl + 1:].tobytes())
+        except (ValueError, RecursionError):
+            return None
+
+    def _unchanged(self, name: str) -> dict[str, Any] | None:
+        """The index's record of ``name`` if its file is still the one the index describes
+        (same size, times and inode: not written since), else None."""
+        rec = self._index.get(name)
+        if rec is None or self.folder is None:
+            return None
+        try:
+            st = os.stat(self.folder / name, follow_symlinks=False)
+        except OSError:
+            return None
+        return rec if _status(st) == rec.get("st") else None
 
     def lookup(self, kind: str, **parts: Any) -> tuple[bool, Any]:
         """``(True, value)`` for a valid stored entry of ``(kind, parts)``, else ``(False, None)``.
@@ -320,25 +444,77 @@ class ResultCache:
         try:
             name = f"{self.key(kind, **parts)}{SUFFIX}"
             self.used.add(name)
-            p = self.folder / name
-            if not (p.exists() or p.is_symlink()):
+            self._load_index()
+            assert self._present is not None
+            if name not in self._present:
                 return False, None
-            data = self._read(p)
-            try:
-                if data is None:
-                    raise BadEntry("unreadable")
-                value = self.loads(name, kind, data)
-            except BadEntry:
-                self.rejected += 1
-                with contextlib.suppress(OSError):
-                    p.unlink()
-                return False, None
-            self.hits += 1
-            if self.register is not None:
-                self.register(f"{CACHE_DIR}/{name}")
-            return True, value
+            return self._load(name, kind)
         finally:
             self.io_seconds += time.perf_counter() - t0
+
+    def _load(self, name: str, kind: str) -> tuple[bool, Any]:
+        """Read, authenticate and decode entry ``name``."""
+        assert self.folder is not None
+        p = self.folder / name
+        data, st = self._read_stat(p)
+        try:
+            if data is None or st is None:
+                raise BadEntry("unreadable")
+            value = self.loads(name, kind, data)
+        except BadEntry:
+            self.rejected += 1
+            with contextlib.suppress(OSError):
+                p.unlink()
+            return False, None
+        self.hits += 1
+        self._next[name] = {"kind": kind, "st": _status(st)}
+        return True, value
+
+    def lookup_light(self, kind: str, light: Light, **parts: Any) -> tuple[bool, Any]:
+        """``(True, light.restore(light.light(value)))`` for a stored entry, else
+        ``(False, None)``.
+
+        ``light.light(value)`` is what the caller keeps of the value (a reduction's
+        header and key figures without its data), as plain JSON; ``light.restore`` makes
+        the caller's object of it again.  It is kept in the index, so a later run whose
+        entry file is unchanged gets it without reading the entry at all; otherwise the
+        entry is read, authenticated and decoded (:meth:`lookup`).
+        """
+        if self.folder is None:
+            return False, None
+        t0 = time.perf_counter()
+        try:
+            name = f"{self.key(kind, **parts)}{SUFFIX}"
+            self.used.add(name)
+            self._load_index()
+            rec = self._unchanged(name)
+            if rec is not None and rec.get("kind") == kind and "light" in rec:
+                try:
+                    value = light.restore(rec["light"])
+                except (TypeError, ValueError, KeyError, AttributeError):
+                    value = None
+                if value is not None:
+                    self.hits += 1
+                    self._next[name] = rec
+                    return True, value
+        finally:
+            self.io_seconds += time.perf_counter() - t0
+        hit, value = self.lookup(kind, **parts)
+        if not hit:
+            return False, None
+        small = light.light(value)
+        self._next[name]["light"] = small
+        return True, light.restore(small)
+
+    def ref(self, kind: str, **parts: Any) -> EntryRef | None:
+        """A reference to the stored entry of ``(kind, parts)`` that a worker process can
+        read without the key (:meth:`EntryRef.value`: the file checked against the status
+        this process wrote or authenticated it with); None when there is none."""
+        name = f"{self.key(kind, **parts)}{SUFFIX}"
+        rec = self._next.get(name)
+        if self.folder is None or rec is None:
+            return None
+        return EntryRef(str(self.folder / name), name, kind, tuple(rec["st"]))
 
     def store(self, kind: str, value: Any, **parts: Any) -> None:
         """Store ``value`` under ``(kind, parts)`` (silently not, if it is not plain data)."""
@@ -354,11 +530,37 @@ class ResultCache:
                 self.used.discard(name)
                 return
             self.used.add(name)
-            self._write(name, blob)
+            self._next[name] = {"kind": kind, "st": self._write(name, blob)}
         finally:
             self.io_seconds += time.perf_counter() - t0
 
-    def _write(self, name: str, blob: bytes) -> None:
+    def entry_name(self, kind: str, **parts: Any) -> str:
+        """The file name of the entry of ``(kind, parts)``."""
+        return f"{self.key(kind, **parts)}{SUFFIX}"
+
+    def store_payload(self, name: str, kind: str, payload: bytes | None,
+                      light: Any = _NO_LIGHT) -> None:
+        """Sign and write an entry :meth:`payload` made elsewhere (a worker: :func:`encoded`);
+        ``light``: its small value for the index (:meth:`lookup_light`).  A None payload
+        (the value was not plain data) is not stored."""
+        if self.folder is None:
+            return
+        t0 = time.perf_counter()
+        try:
+            if payload is None:
+                self.not_cacheable.add(kind)
+                self.used.discard(name)
+                return
+            self.used.add(name)
+            rec: dict[str, Any] = {"kind": kind, "st": self._write(name, self._signed(payload))}
+            if light is not _NO_LIGHT:
+                rec["light"] = light
+            self._next[name] = rec
+        finally:
+            self.io_seconds += time.perf_counter() - t0
+
+    def _write(self, name: str, blob: bytes) -> list[int]:
+        """Write a new file ``name`` (never through an existing one); its status record."""
         from torlab.files import writing
 
         p = self.folder / name  # type: ignore[operator]
@@ -369,7 +571,95 @@ class ResultCache:
             # links to the earlier results' (torlab.outputs.OutputDir keep=)
             with contextlib.suppress(FileNotFoundError):
                 target.unlink()
-            target.write_bytes(blob)
+            fd = os.open(target, os.O_WRONLY | os.O_CREAT | os.O_EXCL | _O_NOFOLLOW, 0o666)
+            with os.fdopen(fd, "wb") as f:
+                f.write(blob)
+                f.flush()
+                return _status(os.fstat(f.fileno()))
+
+    # -- input files: their hashes, kept across runs --------------------------------------
+    def sha(self, path: str | os.PathLike[str]) -> str:
+        """SHA-256 of an input file; reused from the index when the file's status (size,
+        modification and change times, inode) is the one it had when it was hashed, and
+        that change time lay at least :data:`RACY_NS` before the hashing (a file changed
+        within the same clock tick as it was hashed is hashed again)."""
+        from torlab.files import sha256_file, sha256_file_cached
+
+        if self.folder is None:
+            return sha256_file_cached(path)
+        key = os.path.abspath(path)  # the protocol's paths are absolute already
+        st = os.stat(key)
+        now = _status(st)
+        self._load_index()
+        rec = self._hashes_next.get(key) or self._hashes.get(key)
+        if rec is not None and list(rec[:4]) == now and isinstance(rec[4], str) \
+                and now[2] < rec[5] - RACY_NS:
+            self._hashes_next[key] = rec
+            return rec[4]
+        t0 = time.perf_counter()
+        at = time.time_ns()
+        digest = sha256_file(key)
+        self.io_seconds += time.perf_counter() - t0
+        self._hashes_next[key] = [*now, digest, at]
+        return digest
+
+    # -- the whole run --------------------------------------------------------------------
+    def record_run(self, key: str, dest: Any, info: dict[str, Any]) -> None:
+        """Record in the next index the run that writes ``dest``: its key (what its results
+        depend on) and the status of every file it wrote (:meth:`up_to_date`)."""
+        from torlab.outputs import MANIFEST
+
+        outputs = {}
+        for name in dest.files:
+            if name == MANIFEST or name.split("/", 1)[0] == CACHE_DIR:
+                continue
+            with contextlib.suppress(OSError):
+                outputs[name] = _status(os.stat(dest.staging / name, follow_symlinks=False))
+        self._run_next = {**info, "key": key, "outputs": outputs}
+
+    def up_to_date(self, key: str, results: Path) -> dict[str, Any] | None:
+        """The record of the run that wrote ``results`` (:meth:`record_run`) if it had the
+        same key and every file it wrote is still the one it wrote (same size, times and
+        inode: nothing edited, replaced or removed since); else None.  The record comes
+        from the signed index, so a results folder from elsewhere never passes."""
+        self._load_index()
+        rec = self._run
+        if not (isinstance(rec, dict) and rec.get("key") == key
+                and isinstance(rec.get("outputs"), dict) and isinstance(rec.get("hits"), int)
+                and isinstance(rec.get("figures"), int)
+                and isinstance(rec.get("sections"), list)):
+            return None
+        for name, st in rec["outputs"].items():
+            try:
+                now = os.stat(results / name, follow_symlinks=False)
+            except (OSError, TypeError, ValueError):
+                return None
+            if _status(now) != st:
+                return None
+        return rec
+
+    def write_index(self) -> None:
+        """Write the index of the entries this run used (:meth:`_load_index`): signed JSON."""
+        if self.folder is None:
+            return
+        from torlab import __version__
+
+        t0 = time.perf_counter()
+        try:
+            entries = {n: r for n, r in self._next.items() if n in self.used}
+            value = {"torlab": __version__, "entries": entries, "files": self._hashes_next,
+                     "run": self._run_next}
+            try:
+                text = json.dumps(value, separators=(",", ":")).encode("utf-8")
+            except (TypeError, ValueError):  # a light value that is not plain JSON
+                value["entries"] = {n: {k: v for k, v in r.items() if k != "light"}
+                                    for n, r in entries.items()}
+                text = json.dumps(value, separators=(",", ":")).encode("utf-8")
+            head = f"{INDEX_FORMAT} {INDEX_VERSION} {self._mac(text)}\n".encode("ascii")
+            self.used.add(INDEX)
+            self._write(INDEX, head + text)
+        finally:
+            self.io_seconds += time.perf_counter() - t0
 
     def get_or_compute(self, kind: str, compute: Callable[[], T], **parts: Any) -> T:
         """The cached value for ``(kind, parts)``, or ``compute()`` stored under it."""
@@ -391,8 +681,12 @@ class ResultCache:
         return self._figures
 
     def prune(self) -> int:
-        """Delete everything in the folder this run did not use (old entries, other files)."""
-        if self.folder is None or not self.folder.is_dir():
+        """Write the index (:meth:`write_index`), then delete everything in the folder this
+        run did not use (old entries, other files)."""
+        if self.folder is None:
+            return 0
+        self.write_index()
+        if not self.folder.is_dir():
             return 0
         import shutil
 
@@ -481,6 +775,107 @@ class FigureStore:
                      .encode("ascii"))
         finally:
             c.io_seconds += time.perf_counter() - t0
+
+
+@dataclass(frozen=True)
+class EntryRef:
+    """A stored entry as a worker process reads it (:meth:`ResultCache.ref`).
+
+    The worker has no key: it trusts the file only if it is still the file the run
+    wrote or authenticated (the same status: size, modification and change times,
+    inode, checked on the opened file), and then decodes it (data only, as every entry).
+
+    Attributes
+    ----------
+    path, name, kind
+        The entry file, its name and kind.
+    status
+        Its file's status when the run wrote or authenticated it.
+    """
+
+    path: str
+    name: str
+    kind: str
+    status: tuple[int, int, int, int]
+
+    def value(self) -> Any:
+        """The entry's value.
+
+        Raises
+        ------
+        BadEntry
+            The file is gone, changed since, or does not decode.
+        """
+        from torlab.errors import TorlabInputError
+        from torlab.files import open_regular
+
+        try:
+            with open_regular(self.path) as f:
+                if tuple(_status(os.fstat(f.fileno()))) != tuple(self.status):
+                    raise BadEntry(f"{self.name} changed since it was stored")
+                data = bytearray(f.read(MAX_ENTRY_BYTES + 1))
+        except (OSError, TorlabInputError) as e:
+            raise BadEntry(f"{self.name}: {e}") from None
+        nl = data.find(b"\n", 0, 200)
+        end = data.find(b"\n", nl + 1)
+        if nl < 0 or end < 0:
+            raise BadEntry(f"{self.name} is not an entry")
+        view = memoryview(data)
+        try:
+            body = json.loads(view[nl + 1:end].tobytes())
+        except (ValueError, RecursionError):
+            raise BadEntry("payload is not JSON") from None
+        if not isinstance(body, dict) or body.get("entry") != self.name \
+                or body.get("kind") != self.kind:
+            raise BadEntry("entry header does not match")
+        return decode_with_arrays(body.get("value"), view[end + 1:])
+
+
+@dataclass
+class Encoded:
+    """A task's result with its cache entry already encoded where it was computed
+    (:func:`encoded`): ``value`` (or its light form), ``payload`` for
+    :meth:`ResultCache.store_payload` (None: not plain data)."""
+
+    value: Any
+    payload: bytes | None
+    light: bool = False  # ``value`` is the light form of the stored value
+
+
+@dataclass(frozen=True)
+class Light:
+    """What a caller keeps of a kind of value (:meth:`ResultCache.lookup_light`):
+    ``light(value)``, plain JSON (numbers, text, lists, mappings), and ``restore`` of that
+    JSON, the caller's object (raising TypeError, ValueError or KeyError on JSON of
+    another shape).  Both picklable (module-level functions)."""
+
+    light: Callable[[Any], Any]
+    restore: Callable[[Any], Any]
+
+
+@dataclass
+class Encoding:
+    """``fn`` as an executor task whose result comes back encoded for the cache
+    (:class:`Encoded`), with its light JSON instead of the value when ``light`` is given
+    (:class:`Light`): the worker encodes, this process only signs and writes (picklable)."""
+
+    fn: Any
+    light: Light | None = None
+
+    def __call__(self, job: tuple[str, str, Any]) -> Any:
+        name, kind, arg = job
+        value = self.fn(arg)
+        from torlab.parallel import Deferred
+
+        if isinstance(value, Deferred):  # finished in the calling process, stored there
+            return value
+        try:
+            payload: bytes | None = ResultCache.payload(name, kind, value)
+        except (NotCacheable, ValueError, TypeError):
+            payload = None
+        if self.light is None:
+            return Encoded(value, payload)
+        return Encoded(self.light.light(value), payload, True)
 
 
 def _jsonable(o: Any) -> Any:

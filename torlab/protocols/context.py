@@ -81,6 +81,11 @@ class RunContext:
     #: what the sections found of each item (product, composition) for ``reports.compare``:
     #: label -> :class:`torlab.comparison.Item`
     compare_items: dict[str, Any] = field(default_factory=dict)
+    #: ``id(reduction)`` -> where the whole reduction is, for a reduction kept light
+    #: (:func:`torlab.protocols.data.reduce_data`): an object with ``reduction()`` (the
+    #: whole one, read here) and ``arg()`` (what a task takes instead: read there)
+    stored: dict[int, Any] = field(default_factory=dict)
+    _by_source: dict[Path, Any] | None = field(default=None, repr=False)
 
     @property
     def p(self) -> Any:
@@ -88,18 +93,34 @@ class RunContext:
         return self.lp.protocol
 
     def sha(self, path: Path) -> str:
-        """SHA-256 of a file (cached by the result cache)."""
-        from torlab.files import sha256_file_cached
-
-        return sha256_file_cached(path)
+        """SHA-256 of a file (kept by the result cache across runs:
+        :meth:`torlab.protocols.cache.ResultCache.sha`)."""
+        return self.cache.sha(path)
 
     def reduction(self, path: Path) -> Any:
-        """The reduction of one of the protocol's data files."""
-        for reds in self.reductions.values():
-            for r in reds:
-                if Path(r.source) == Path(path):
-                    return r
-        raise TorlabInputError("not one of the protocol's data files", path=path)
+        """The (whole) reduction of one of the protocol's data files."""
+        if self._by_source is None or len(self._by_source) != sum(map(len, self.reductions.values())):
+            self._by_source = {}
+            for reds in self.reductions.values():
+                for r in reds:
+                    self._by_source.setdefault(Path(r.source), r)
+        r = self._by_source.get(Path(path))
+        if r is None:
+            raise TorlabInputError("not one of the protocol's data files", path=path)
+        return self.full(r)
+
+    def full(self, red: Any) -> Any:
+        """The whole reduction of ``red`` (read from the cache when only its summary is
+        kept here: :attr:`stored`)."""
+        s = self.stored.get(id(red))
+        return red if s is None else s.reduction()
+
+    def task_arg(self, red: Any) -> Any:
+        """What a task takes for the reduction ``red``: the reduction's ``detail``, or a
+        reference a worker reads it through (:attr:`stored`; ``torlab.protocols.data.detail``
+        turns either into the detail)."""
+        s = self.stored.get(id(red))
+        return red.detail if s is None else s.arg()
 
     def labelled(self, section: str) -> list[tuple[str, Any]]:
         """``(label, reduction)`` of a data section (the protocol's labels, else file stems)."""
@@ -245,7 +266,8 @@ class RunContext:
         return out
 
     def cached_map(self, kind: str | list[str], fn: Any, tasks: list[tuple[dict[str, Any], Any]],
-                   description: str = "", uses: Any = None, short: bool = False) -> list[Any]:
+                   description: str = "", uses: Any = None, short: bool = False,
+                   light: Any = None) -> list[Any]:
         """``fn(arg)`` for ``(cache parts, arg)`` tasks: entries in the cache are reused, the
         others computed on the run's executor (:mod:`torlab.parallel`) and stored.
 
@@ -253,7 +275,15 @@ class RunContext:
         one map, so that no worker waits between them).  ``uses``: which of the
         executor's prepared modules the tasks use (:meth:`torlab.parallel.Executor.map`;
         None: all).  ``short``: the tasks take milliseconds each, so they go to the
-        workers in blocks (four per worker)."""
+        workers in blocks (four per worker).  ``light``: what this process keeps of a value
+        (:class:`torlab.protocols.cache.Light`: a reduction's header and key figures): the
+        values themselves stay in the cache (:meth:`full`, :meth:`task_arg`), and a later
+        run takes the light values from the cache's index without reading the entries.
+
+        A computed value is encoded for the cache where it was computed (a worker,
+        :class:`torlab.protocols.cache.Encoding`); this process signs and writes it as it
+        arrives, so a long map's results are never all held here at once.
+        """
         import time
 
         from torlab.parallel import current
@@ -262,30 +292,52 @@ class RunContext:
         out: list[Any] = [None] * len(tasks)
         todo = []
         for i, (parts, _) in enumerate(tasks):
-            hit, v = self.cache.lookup(kinds[i], **parts)
+            hit, v = (self.cache.lookup(kinds[i], **parts) if light is None else
+                      self.cache.lookup_light(kinds[i], light, **parts))
             if hit:
                 out[i] = v
             else:
                 todo.append(i)
         if todo:
             from torlab.parallel import map_deferred
+            from torlab.protocols.cache import Encoded, Encoding
 
             ex = self.executor if self.executor is not None else current()
             t0 = time.perf_counter()
+            cache = self.cache.folder is not None
+            names = [self.cache.entry_name(kinds[i], **tasks[i][0]) for i in todo]
+
+            written: set[int] = set()
+
+            def stored(j: int, v: Any) -> Any:  # as each result arrives
+                if isinstance(v, Encoded):
+                    self.cache.store_payload(names[j], kinds[todo[j]], v.payload,
+                                             **({"light": v.value} if v.light else {}))
+                    written.add(j)
+                    return light.restore(v.value) if v.light else v.value
+                return v
+
             # a task may defer part of its work (a sampled band's draws): those parts run
             # as tasks of their own, on every worker (torlab.parallel.Deferred)
             size = -(-len(todo) // (4 * max(1, ex.workers))) if short else 1
-            vals = map_deferred(ex, fn, [tasks[i][1] for i in todo], description=description,
-                                subtasks="band: parameter draws", uses=uses, chunksize=size)
+            task = Encoding(fn, light) if cache else fn
+            args = [(names[j], kinds[i], tasks[i][1]) for j, i in enumerate(todo)] if cache \
+                else [tasks[i][1] for i in todo]
+            vals = map_deferred(ex, task, args, description=description,
+                                subtasks="band: parameter draws", uses=uses, chunksize=size,
+                                each=stored)
             self.cache.compute_seconds += time.perf_counter() - t0
             self.cache.misses += len(todo)
-            for i, v in zip(todo, vals, strict=True):
+            late = []  # finished here (deferred work): encoded and stored here
+            for j, (i, v) in enumerate(zip(todo, vals, strict=True)):
                 out[i] = v
-            # stored while the next map's tasks run (encoding tables takes a while), or at
-            # the run's end (torlab.parallel.Executor.meanwhile)
-            ex.meanwhile(lambda todo=todo, vals=vals: [
-                self.cache.store(kinds[i], v, **tasks[i][0])
-                for i, v in zip(todo, vals, strict=True)])
+                if cache and j not in written:
+                    late.append((i, v))
+            # stored while the next map's tasks run, or at the run's end
+            # (torlab.parallel.Executor.meanwhile)
+            if late:
+                ex.meanwhile(lambda late=late: [self.cache.store(kinds[i], v, **tasks[i][0])
+                                                for i, v in late])
         return out
 
 

@@ -15,10 +15,19 @@ which the schema calls):
   Reduction)`` pairs, return the section's entry of the run summary.  Default
   (:func:`default_write`): every table of every file under ``data/<section>/`` and the
   tables over all files (the instrument's ``collect``) as ``data/<section>_<table>.csv``.
+* ``light(reduction) -> JSON`` and ``from_light(JSON) -> Reduction``: what the run keeps
+  in memory of each file (its header and key figures, say) as plain JSON and the
+  Reduction rebuilt from it (without its data), the whole reduction staying in the run's
+  cache: the fits read it there, in the worker that fits (:class:`ReductionArg`), and a
+  later run takes the light forms from the cache's index without reading the entries.
+  Then ``write_section`` receives the light forms.  Default: none (the whole reductions
+  are kept; so they are when the run has no cache).  A campaign of thousands of HPT logs
+  (the ``hpt`` section's) keeps about a kB per log instead of its curve.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -57,20 +66,94 @@ def reduce_data(ctx: RunContext) -> None:
         prepared = prepare_options(inst, {k: v for k, v in opts.items() if v is not None})
         files = ctx.lp.data_files(section)
         parts = [{"sha": ctx.sha(f), "name": f.name, "options": key} for f in files]
-        reds = ctx.cached_map(section, _reduce_task,
-                              [(pt, (inst.name, f, prepared, section)) for pt, f in
-                               zip(parts, files, strict=True)], f"{section}: reducing files",
-                              uses=(), short=True)  # no optimiser, no matplotlib: loaded meanwhile
+        jobs = [(inst.name, f, prepared, section) for f in files]
+        # an instrument with a light form keeps only that here (its data stay in the cache)
+        light = None
+        if ctx.cache.folder is not None and hasattr(inst.impl(), "light"):
+            from torlab.protocols.cache import Light
+
+            light = Light(_light, _Restore(inst.name))
+        reds = ctx.cached_map(section, _reduce_task, list(zip(parts, jobs, strict=True)),
+                              f"{section}: reducing files", uses=(), short=True,
+                              light=light)  # no optimiser, no matplotlib: loaded meanwhile
         names = ctx.lp.result_names.get(section, {})
-        for red, pt, f in zip(reds, parts, files, strict=True):
+        for red, pt, job, f in zip(reds, parts, jobs, files, strict=True):
             ctx.keys[id(red)] = ctx.cache.key(section, **pt)
             if names.get(f, f.stem) != f.stem:  # two files of one name: named by labels
                 red.name = names[f]
+            if light is not None:
+                ctx.stored[id(red)] = StoredReduction(ctx.cache, section, pt, job)
         ctx.reductions[section] = reds
         write = getattr(inst.impl(), "write_section", None)
         labelled = ctx.labelled(section)
         ctx.data_summary[section] = write(ctx.dest, labelled) if write is not None else \
             default_write(ctx.dest, labelled, section, prepared)
+
+
+def _light(red: Any) -> Any:
+    """The light form of a reduction (its instrument's ``light``: plain JSON): what a
+    protocol run keeps in memory of it."""
+    from torlab.instruments import get_instrument
+
+    return get_instrument(red.instrument).impl().light(red)
+
+
+@dataclass(frozen=True)
+class _Restore:
+    """The light Reduction from its JSON (the instrument's ``from_light``)."""
+
+    instrument: str
+
+    def __call__(self, d: Any) -> Any:
+        from torlab.instruments import get_instrument
+
+        return get_instrument(self.instrument).impl().from_light(d)
+
+
+class StoredReduction:
+    """A reduction kept in the run's cache, of which the run holds only the light form.
+
+    :meth:`reduction` reads it here (or reduces the file again, should the entry be gone);
+    :meth:`arg` is what a task takes instead (:class:`ReductionArg`), read in its worker.
+    """
+
+    def __init__(self, cache: Any, section: str, parts: dict[str, Any], job: tuple) -> None:
+        self.cache, self.section, self.parts, self.job = cache, section, parts, job
+
+    def reduction(self) -> Any:
+        """The whole reduction."""
+        hit, red = self.cache.lookup(self.section, **self.parts)
+        return red if hit else _reduce_task(self.job)
+
+    def arg(self) -> ReductionArg:
+        """The reduction as a task's argument (:func:`detail`)."""
+        return ReductionArg(self.cache.ref(self.section, **self.parts), self.job)
+
+
+@dataclass(frozen=True)
+class ReductionArg:
+    """A reduction a task reads where it runs: the cache entry (checked against the status
+    it was stored with, :class:`torlab.protocols.cache.EntryRef`), or -- the entry gone or
+    changed -- the file reduced again."""
+
+    ref: Any
+    job: tuple
+
+    def reduction(self) -> Any:
+        from torlab.codec import BadEntry
+
+        if self.ref is not None:
+            try:
+                return self.ref.value()
+            except BadEntry:
+                pass
+        return _reduce_task(self.job)
+
+
+def detail(x: Any) -> Any:
+    """The reduction detail a task was given: as it is, or read through a
+    :class:`ReductionArg`."""
+    return x.reduction().detail if isinstance(x, ReductionArg) else x
 
 
 def _reduce_task(job: tuple[str, Path, dict[str, Any], str]) -> Any:

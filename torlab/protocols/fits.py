@@ -104,8 +104,8 @@ def fit_hpt_layers(ctx: RunContext) -> None:
                 f"{label}: {len(at_t)} runs match the amounts and temperature "
                 f"({', '.join(r.label for r in at_t)}); set joint: true to "
                 "fit them together, or list one amount", key="fits.hpt_layers.amounts")
-        others = [r for r in runs if all(r is not x for x in at_t)
-                  and r.meta.temperature is not None]
+        chosen = {id(r) for r in at_t}
+        others = [r for r in runs if id(r) not in chosen and r.meta.temperature is not None]
         plan.append((label, at_t, others))
     temp_jobs = []
     for label, at_t, others in plan:
@@ -117,8 +117,8 @@ def fit_hpt_layers(ctx: RunContext) -> None:
                        else cfg.temperature + 273.15 for c in curves]
             temp_jobs.append((label, ({"runs": [ctx.keys[id(c)] for c in curves],
                                        "temps": temps_K, "selection": cfg.selection},
-                                      ("temperature", ([c.detail for c in curves], temps_K,
-                                                       cfg.selection)))))
+                                      ("temperature", ([ctx.task_arg(c) for c in curves],
+                                                       temps_K, cfg.selection)))))
         elif cfg.temperature_coefficients and any("thermal" in sd for sd in ctx.lp.scenes.values()):
             ctx.notes.append(f"fits.hpt_layers: {label} has no run at another temperature: its "
                              "temperature coefficients are not measured (the scene's values "
@@ -127,8 +127,8 @@ def fit_hpt_layers(ctx: RunContext) -> None:
     # default law's fits are as they always were)
     law = {} if cfg.law == "voce" else {"law": cfg.law}
     layer_jobs = [({"runs": [ctx.keys[id(r)] for r in at_t], **law},
-                   ("layer", ([r.detail for r in at_t], cfg.law) if law else
-                    [r.detail for r in at_t]))
+                   ("layer", ([ctx.task_arg(r) for r in at_t], cfg.law) if law else
+                    [ctx.task_arg(r) for r in at_t]))
                   for _, at_t, _ in plan]
     if cfg.law == "auto" and temp_jobs:
         # every law is fitted and one chosen per product: its temperature runs are fitted
@@ -168,17 +168,18 @@ def _fit_task(job: tuple[str, Any]) -> Any:
     selection[, law]))``): an executor task."""
     from torlab.fit.layer import fit_layer_hpt
     from torlab.instruments.measured import hpt_curves
+    from torlab.protocols.data import detail
 
     what, arg = job
     if what == "layer":
         if isinstance(arg, tuple):
-            return fit_layer_hpt(hpt_curves(arg[0]), law=arg[1])
-        return fit_layer_hpt(hpt_curves(arg))
+            return fit_layer_hpt(hpt_curves([detail(x) for x in arg[0]]), law=arg[1])
+        return fit_layer_hpt(hpt_curves([detail(x) for x in arg]))
     from torlab.fit.temperature import fit_temperature_coefficients
 
     details, temps_K, selection, *law = arg
-    return fit_temperature_coefficients(hpt_curves(details), temps_K, selection=selection,
-                                        law=law[0] if law else None)
+    return fit_temperature_coefficients(hpt_curves([detail(x) for x in details]), temps_K,
+                                        selection=selection, law=law[0] if law else None)
 
 
 def _temperature(ctx: RunContext, label: str, tres: Any, scene_dict: dict[str, Any]) -> None:

@@ -52,10 +52,10 @@ class LoadedProtocol:
         d = getattr(self.protocol.data, section)
         if d is None:
             return []
-        out: list[Path] = []
+        out: dict[Path, None] = {}  # ordered, and a membership test of constant cost
         for entry in d.files:
-            out += [p for p in entry.resolved if p not in out]
-        return out
+            out.update(dict.fromkeys(entry.resolved))
+        return list(out)
 
     def labels(self, section: str) -> dict[Path, str]:
         """Labels given to files of ``data.<section>`` (file -> label)."""
@@ -66,11 +66,11 @@ class LoadedProtocol:
 
     def input_files(self) -> list[Path]:
         """Every file the run reads (protocol, data, references, scenes), no duplicates."""
-        files: list[Path] = [] if self.path is None else [self.path]
+        files: dict[Path, None] = {} if self.path is None else {self.path: None}
 
-        def add(p: Path | None) -> None:
-            if p is not None and p not in files:
-                files.append(p)
+        def add(p: Path | None) -> None:  # ordered, no duplicates, constant cost per file
+            if p is not None:
+                files.setdefault(p)
 
         from torlab.protocols.schema import DATA_SECTIONS
 
@@ -86,7 +86,7 @@ class LoadedProtocol:
                 add(p)
         for f in self.protocol.fits.lubricants:
             add(f.measured.resolved)
-        return files
+        return list(files)
 
 
 def load_protocol(path: str | os.PathLike[str]) -> LoadedProtocol:

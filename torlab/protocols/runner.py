@@ -58,6 +58,9 @@ class RunResult:
     #: stage); figures ``figures_drawn``, ``figures_reused``, and ``figures_ahead``: drawn
     #: while the sections computed (their drawing is inside ``compute``'s wall time)
     timing: dict[str, Any] = field(default_factory=dict)
+    #: nothing changed since the run that wrote ``out`` (the protocol, its inputs, torlab
+    #: and the options): the results were left as they were, nothing was rewritten
+    unchanged: bool = False
 
 
 # --------------------------------------------------------------------------- entry point
@@ -103,19 +106,10 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
     TorlabInputError, FitError, NumericalError
         A data file, fit or prediction fails (nothing is written then).
     """
-    from torlab import __version__
-    from torlab.files import sha256_file_cached
     from torlab.outputs import OutputDir
-    from torlab.parallel import current
-    from torlab.progress import Progress
     from torlab.protocols.cache import CACHE_DIR, ResultCache
-    from torlab.protocols.context import RunContext, finite
-    from torlab.protocols.data import reduce_data
-    from torlab.protocols.fits import fit_all
     from torlab.protocols.loader import LoadedProtocol, load_protocol
-    from torlab.protocols.sections import build_sections
-    from torlab.reports.html import render_html, render_markdown, write_figures, write_tables
-    from torlab.reports.render import FiguresAhead, RenderStats, parse_formats
+    from torlab.reports.render import parse_formats
 
     t0 = time.perf_counter()
     lp = protocol if isinstance(protocol, LoadedProtocol) else load_protocol(protocol)
@@ -124,102 +118,181 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
                             else getattr(p.reports, "figure_formats", None) or None)
     draw = figures if figures is not None else bool(getattr(p.reports, "figures", True))
     embed = getattr(p.reports, "html_figures", "link") == "embed"
-    ex = executor if executor is not None else current()
-    ex.prepare(*_needs(p, draw))
     inputs = lp.input_files()
     t1 = time.perf_counter()
     dest = OutputDir(out, force=force, inputs=inputs, command=command,
-                     keep=[CACHE_DIR] if cache else [])
+                     carry=[CACHE_DIR] if cache else [])
     try:
-        rc = ResultCache(dest.staging / CACHE_DIR if cache else None, register=dest.path)
+        # the earlier results' cache (moved into the new results below, if they are made)
+        rc = ResultCache(dest.final_path(CACHE_DIR) if cache else None)
+        run_key = _run_key(lp, rc, inputs, {"formats": list(formats), "cache": cache,
+                                            "figures": draw, "embed": embed})
+        same = rc.up_to_date(run_key, dest.final_path("")) if force and run_key else None
+        if same is not None:  # nothing changed: the results are there, nothing is rewritten
+            dest.close()
+            return _unchanged_result(Path(out), same, t0, command,
+                                     executor if executor is not None else None)
+        rc.folder = dest.staging / CACHE_DIR if cache else None
+        rc.register = dest.path
+        dest.hasher = rc.sha  # the manifest's input hashes: each file hashed once
         t_io = time.perf_counter() - t1  # the output folder and its carried-over cache
-        with Progress(progress) as prog:
-            run = RunContext(lp, dest, rc, prog, executor=ex)
-            t1 = time.perf_counter()
-            io0 = rc.io_seconds + dest.io_seconds
-            reduce_data(run)
-            fit_all(run)
-            # each section's figures start as soon as it is built, drawn whenever a
-            # worker would otherwise wait while the later sections compute
-            ahead = FiguresAhead(formats, store=rc.figures if cache else None, executor=ex) \
-                if draw else None
-            try:
-                sections = build_sections(run, ready=None if ahead is None else (
-                    lambda s: ahead.start([(f"{s.key}/{f.name}", f.fig) for f in s.figures])))
-                t_stages = time.perf_counter() - t1
-                io_stages = rc.io_seconds + dest.io_seconds - io0
-                t1 = time.perf_counter()
-                io0 = rc.io_seconds + dest.io_seconds
-                fig = write_figures(dest, sections, formats,
-                                    store=rc.figures if cache else None, executor=ex,
-                                    ahead=ahead, images=embed) if draw else RenderStats()
-            except BaseException:
-                if ahead is not None:
-                    ahead.cancel()
-                raise
-            t_figures = time.perf_counter() - t1
-            io_figures = rc.io_seconds + dest.io_seconds - io0
-        t2 = time.perf_counter()
-        write_tables(dest, sections)
-        base = lp.base
-        prov = {
-            "torlab_version": __version__,
-            "protocol_file": lp.path.name if lp.path else "<text>",
-            "protocol_sha256": sha256_file_cached(lp.path) if lp.path else "",
-            "command": command,
-            "inputs": {_rel(p, base): sha256_file_cached(p) for p in inputs if lp.path is None
-                       or p != lp.path},
-        }
-        summary = {
-            "torlab_version": __version__,
-            "protocol": {"name": p.name, "title": p.title, "version": p.version,
-                         "file": prov["protocol_file"], "sha256": prov["protocol_sha256"]},
-            "inputs": prov["inputs"],
-            "data": finite(run.data_summary),
-            "fits": finite(run.fit_summary),
-            "reports": {s.key: finite(s.summary) for s in sections if s.key != "fits"},
-            "notes": run.notes + [n for s in sections for n in s.notes],
-        }
-        title = p.title or p.name
-        intro = [p.description] if p.description else []
-        intro.append(f"Protocol {prov['protocol_file']} ({p.name}), torlab {__version__}.")
-        if run.notes:
-            intro += [f"Note: {n}" for n in run.notes]
-        shown = ("embed" if embed else "link") if draw else None
-        # a page that did not change is kept as it was (not rewritten)
-        dest.write_text("report.html", render_html(title, intro, sections, prov, figures=shown),
-                        keep_same=True)
-        dest.write_text("report.md", render_markdown(title, intro, sections, prov,
-                                                     figures=shown is not None),
-                        keep_same=True)
-        ex.flush()  # results still to be stored in the cache
-        rc.prune()
-        # honest split: reading and writing (cache entries, cached figures, result files)
-        # is I/O wherever it happened; what remains of each stage is its own work
-        timing = {"compute": max(t_stages - io_stages, 0.0),
-                  "figures": max(t_figures - io_figures, 0.0),
-                  "io": t_io + io_stages + io_figures + time.perf_counter() - t2,
-                  "figures_drawn": fig.drawn, "figures_reused": fig.reused,
-                  "figures_ahead": fig.ahead, "figures_on": draw,
-                  "files_kept": len(dest.kept), "executor": ex.describe()}
-        summary["run"] = {"seconds": round(time.perf_counter() - t0, 2), "cache_hits": rc.hits,
-                          "cache_misses": rc.misses, "command": command,
-                          "figures_drawn": fig.drawn, "figures_reused": fig.reused,
-                          "timing": {k: round(timing[k], 3) for k in ("compute", "figures", "io")}
-                          | {"total": round(time.perf_counter() - t0, 3)}}
-        dest.write_json("summary.json", summary)
+        return _run(lp, dest, rc, formats, run_key, executor, progress, cache, command, t0,
+                    t_io, inputs, draw, embed)
     except BaseException:
         dest.abort()
         raise
+
+
+def _run(lp: Any, dest: Any, rc: Any, formats: Any, run_key: str, executor: Any,
+         progress: bool, cache: bool, command: str, t0: float, t_io: float,
+         inputs: list[Path], draw: bool, embed: bool) -> RunResult:
+    """The stages of :func:`run_protocol` into ``dest`` (which the caller aborts on an
+    error), and the commit."""
+    from torlab import __version__
+    from torlab.files import sha256_file_cached
+    from torlab.parallel import current
+    from torlab.progress import Progress
+    from torlab.protocols.context import RunContext, finite
+    from torlab.protocols.data import reduce_data
+    from torlab.protocols.fits import fit_all
+    from torlab.protocols.sections import build_sections
+    from torlab.reports.html import render_html, render_markdown, write_figures, write_tables
+    from torlab.reports.render import FiguresAhead, RenderStats
+
+    p = lp.protocol
+    ex = executor if executor is not None else current()
+    ex.prepare(*_needs(p, draw))
+    with Progress(progress) as prog:
+        run = RunContext(lp, dest, rc, prog, executor=ex)
+        t1 = time.perf_counter()
+        io0 = rc.io_seconds + dest.io_seconds
+        reduce_data(run)
+        fit_all(run)
+        # each section's figures start as soon as it is built, drawn whenever a
+        # worker would otherwise wait while the later sections compute
+        ahead = FiguresAhead(formats, store=rc.figures if cache else None, executor=ex) \
+            if draw else None
+        try:
+            sections = build_sections(run, ready=None if ahead is None else (
+                lambda s: ahead.start([(f"{s.key}/{f.name}", f.fig) for f in s.figures])))
+            t_stages = time.perf_counter() - t1
+            io_stages = rc.io_seconds + dest.io_seconds - io0
+            t1 = time.perf_counter()
+            io0 = rc.io_seconds + dest.io_seconds
+            fig = write_figures(dest, sections, formats,
+                                store=rc.figures if cache else None, executor=ex,
+                                ahead=ahead, images=embed) if draw else RenderStats()
+        except BaseException:
+            if ahead is not None:
+                ahead.cancel()
+            raise
+        t_figures = time.perf_counter() - t1
+        io_figures = rc.io_seconds + dest.io_seconds - io0
+    t2 = time.perf_counter()
+    write_tables(dest, sections)
+    base = lp.base
+    prov = {
+        "torlab_version": __version__,
+        "protocol_file": lp.path.name if lp.path else "<text>",
+        "protocol_sha256": sha256_file_cached(lp.path) if lp.path else "",
+        "command": command,
+        "inputs": {_rel(p, base): rc.sha(p) for p in inputs if lp.path is None
+                   or p != lp.path},
+    }
+    summary = {
+        "torlab_version": __version__,
+        "protocol": {"name": p.name, "title": p.title, "version": p.version,
+                     "file": prov["protocol_file"], "sha256": prov["protocol_sha256"]},
+        "inputs": prov["inputs"],
+        "data": finite(run.data_summary),
+        "fits": finite(run.fit_summary),
+        "reports": {s.key: finite(s.summary) for s in sections if s.key != "fits"},
+        "notes": run.notes + [n for s in sections for n in s.notes],
+    }
+    title = p.title or p.name
+    intro = [p.description] if p.description else []
+    intro.append(f"Protocol {prov['protocol_file']} ({p.name}), torlab {__version__}.")
+    if run.notes:
+        intro += [f"Note: {n}" for n in run.notes]
+    shown = ("embed" if embed else "link") if draw else None
+    # a page that did not change is kept as it was (not rewritten)
+    dest.write_text("report.html", render_html(title, intro, sections, prov, figures=shown),
+                    keep_same=True)
+    dest.write_text("report.md", render_markdown(title, intro, sections, prov,
+                                                 figures=shown is not None),
+                    keep_same=True)
+    ex.flush()  # results still to be stored in the cache
+    # honest split: reading and writing (cache entries, cached figures, result files)
+    # is I/O wherever it happened; what remains of each stage is its own work
+    timing = {"compute": max(t_stages - io_stages, 0.0),
+              "figures": max(t_figures - io_figures, 0.0),
+              "io": t_io + io_stages + io_figures + time.perf_counter() - t2,
+              "figures_drawn": fig.drawn, "figures_reused": fig.reused,
+              "figures_ahead": fig.ahead, "figures_on": draw,
+              "files_kept": len(dest.kept), "executor": ex.describe()}
+    summary["run"] = {"seconds": round(time.perf_counter() - t0, 2), "cache_hits": rc.hits,
+                      "cache_misses": rc.misses, "command": command,
+                      "figures_drawn": fig.drawn, "figures_reused": fig.reused,
+                      "timing": {k: round(timing[k], 3) for k in ("compute", "figures", "io")}
+                      | {"total": round(time.perf_counter() - t0, 3)}}
+    dest.write_json("summary.json", summary)
+    sections_run = [s.key for s in sections]
+    if run_key:  # what a re-run with nothing changed finds (RunResult of _unchanged_result)
+        rc.record_run(run_key, dest, {"sections": sections_run, "hits": rc.hits + rc.misses,
+                                      "figures": fig.drawn + fig.reused})
+    rc.prune()  # the index, then what this run did not use
     t3 = time.perf_counter()
     dest.commit()
     timing["io"] += time.perf_counter() - t3
     timing["total"] = time.perf_counter() - t0
     timing["other"] = max(timing["total"] - timing["compute"] - timing["figures"]
                           - timing["io"], 0.0)
-    return RunResult(out=Path(out), summary=summary, sections=[s.key for s in sections],
+    return RunResult(out=dest.target, summary=summary, sections=sections_run,
                      cache_hits=rc.hits, cache_misses=rc.misses, notes=summary["notes"],
                      timing=timing)
+
+
+def _run_key(lp: Any, rc: Any, inputs: list[Path], options: dict[str, Any]) -> str:
+    """What the results of a run depend on, hashed: torlab's, Python's and NumPy's versions,
+    the protocol file and every input file (by their SHA-256: kept by the cache across runs,
+    :meth:`~torlab.protocols.cache.ResultCache.sha`) and the options that change a result.
+    Empty for a protocol given as text (never taken as unchanged)."""
+    import hashlib
+    import json
+    import platform
+
+    import numpy as np
+
+    from torlab import __version__
+
+    if lp.path is None or rc.folder is None:
+        return ""
+    blob = json.dumps({"torlab": __version__, "python": platform.python_version(),
+                       "numpy": np.__version__, "protocol": rc.sha(lp.path),
+                       "inputs": {str(p): rc.sha(p) for p in inputs}, "options": options},
+                      sort_keys=True)
+    return hashlib.sha256(blob.encode()).hexdigest()
+
+
+def _unchanged_result(out: Path, rec: dict[str, Any], t0: float, command: str,
+                      executor: Any) -> RunResult:
+    """The result of a re-run that found nothing changed: the earlier run's summary (its
+    file is the one that run wrote: :meth:`~torlab.protocols.cache.ResultCache.up_to_date`),
+    every result reused, no figure drawn, nothing written."""
+    import json
+
+    summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+    total = time.perf_counter() - t0
+    summary["run"] = dict(summary.get("run", {}), command=command, cache_hits=rec["hits"],
+                          cache_misses=0, figures_drawn=0, figures_reused=rec["figures"],
+                          seconds=round(total, 2), unchanged=True)
+    timing = {"compute": 0.0, "figures": 0.0, "io": 0.0, "other": total, "total": total,
+              "figures_drawn": 0, "figures_reused": rec["figures"], "figures_ahead": 0,
+              "executor": executor.describe() if executor is not None else "none needed"}
+    notes = list(summary.get("notes", []))
+    return RunResult(out=out, summary=summary, sections=list(rec["sections"]),
+                     cache_hits=rec["hits"], cache_misses=0, notes=notes, timing=timing,
+                     unchanged=True)
 
 
 def _needs(p: Any, draw: bool = True) -> list[Any]:

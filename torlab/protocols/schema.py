@@ -208,7 +208,11 @@ def resolve_paths(pattern: str, base: Path) -> list[Path]:
     p = Path(os.path.expanduser(pattern))
     full = p if p.is_absolute() else base / p
     if _GLOB_CHARS & set(pattern):
-        hits = sorted(Path(h) for h in glob.glob(str(full)) if Path(h).is_file())
+        folder, name = os.path.split(str(full))
+        if _GLOB_CHARS & set(folder):
+            hits = sorted(Path(h) for h in glob.glob(str(full)) if Path(h).is_file())
+        else:  # one folder: one scan of it, the file types from the scan (no stat per file)
+            hits = [Path(folder, n) for n in sorted(_match_files(folder, name))]
         if not hits:
             raise ValueError(f"no file matches {pattern!r} (looked in {full.parent})")
         return hits
@@ -217,6 +221,21 @@ def resolve_paths(pattern: str, base: Path) -> list[Path]:
     if full.is_dir():
         raise ValueError(f"{pattern} is a folder, expected a file")
     return [full]
+
+
+def _match_files(folder: str, pattern: str) -> list[str]:
+    """Names of the files in ``folder`` matching the glob ``pattern`` (as :func:`glob.glob`
+    matches them: hidden names only by a pattern starting with a dot; a link counts as
+    the file it points to)."""
+    import fnmatch
+
+    try:
+        with os.scandir(folder or os.curdir) as it:
+            entries = [e for e in it if not e.name.startswith(".") or pattern.startswith(".")]
+    except OSError:
+        return []
+    names = set(fnmatch.filter([e.name for e in entries], pattern))
+    return [e.name for e in entries if e.name in names and e.is_file()]
 
 
 def _file_entry(v: Any) -> Any:

@@ -443,12 +443,13 @@ def _amount_series_fits(ctx: RunContext, cfg: Any) -> tuple[list[Any], Any, list
     for g in sorted((k for k in groups if k is not None), key=lambda k: k[1]):
         runs = groups[g]
         fits.append(ctx.cache.get_or_compute(
-            "fit_hpt", lambda runs=runs: fit_layer_hpt([r.detail for r in runs]),
+            "fit_hpt", lambda runs=runs: fit_layer_hpt([ctx.full(r).detail for r in runs]),
             runs=[ctx.keys[id(r)] for r in runs]))
         labels += [ctx.keys[id(r)] for r in runs]
     dry_runs = groups[None]
-    dry = ctx.cache.get_or_compute("fit_hpt", lambda: fit_layer_hpt([r.detail for r in dry_runs]),
-                                   runs=[ctx.keys[id(r)] for r in dry_runs])
+    dry = ctx.cache.get_or_compute(
+        "fit_hpt", lambda: fit_layer_hpt([ctx.full(r).detail for r in dry_runs]),
+        runs=[ctx.keys[id(r)] for r in dry_runs])
     return fits, dry, labels + [ctx.keys[id(r)] for r in dry_runs]
 
 

@@ -1,0 +1,304 @@
+"""Protocol runs that stay cheap as the campaign grows: the cache's index, light reductions
+in the parent process, a re-run with nothing changed, one scan per folder, results stored
+as they arrive.
+
+Each test checks a result or a count of work (entries read, files rewritten, hashes
+computed), never a duration; ``torlab bench --campaign`` measures the speed.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+HPT = ROOT / "sample_data" / "hpt"
+
+AMOUNT = """\
+version: 1
+name: small
+data:
+  hpt:
+    files: [hpt_*.txt]
+reports:
+  amount:
+    curve: interpolation
+"""
+
+FITS = """\
+version: 1
+name: fits
+products:
+  OFM1: {label: "oil-based FM 1", density: 930 kg/m^3}
+data:
+  hpt:
+    files: [hpt_*.txt]
+fits:
+  hpt_layers:
+    amounts: [4 uL]
+    temperature: 25 degC
+    joint: true
+    temperature_coefficients: false
+reports:
+  amount:
+    curve: interpolation
+"""
+
+
+def _protocol(tmp_path: Path, text: str, pattern: str, n: int = 4) -> Path:
+    for f in sorted(HPT.glob(pattern))[:n]:
+        shutil.copy(f, tmp_path / f.name)
+    p = tmp_path / "p.yaml"
+    p.write_text(text)
+    return p
+
+
+def _files(out: Path) -> dict[str, tuple[int, int, bytes]]:
+    return {str(f.relative_to(out)): (f.stat().st_ino, f.stat().st_mtime_ns, f.read_bytes())
+            for f in sorted(out.rglob("*")) if f.is_file()}
+
+
+# ------------------------------------------------------------------ nothing changed
+def test_rerun_with_nothing_changed_rewrites_nothing(tmp_path):
+    """A --force re-run that finds the protocol, its files, torlab and the options as they
+    were leaves every file of the results (and of its cache) as it is; an edited result or
+    a changed input makes it a run again, which restores what was edited."""
+    from torlab.protocols.runner import run_protocol
+
+    p = _protocol(tmp_path, AMOUNT, "hpt_OFM1_*uL_25C.txt")
+    out = tmp_path / "out"
+    r1 = run_protocol(p, out)
+    before = _files(out)
+    r2 = run_protocol(p, out, force=True)
+    assert r2.unchanged and not r1.unchanged
+    assert _files(out) == before  # same inodes, times and bytes: nothing rewritten
+    assert (r2.cache_hits, r2.cache_misses) == (r1.cache_misses, 0)
+    assert r2.summary["reports"] == r1.summary["reports"] and r2.sections == r1.sections
+    assert (r2.timing["figures_drawn"], r2.timing["figures_reused"]) == (0, 2)
+    # an edited result: a run (from the cache), which writes the result again
+    md = out / "report.md"
+    text = md.read_text()
+    md.write_text(text + "\nmy own line\n")
+    r3 = run_protocol(p, out, force=True)
+    assert not r3.unchanged and (r3.cache_hits, r3.cache_misses) == (r1.cache_misses, 0)
+    assert md.read_text() == text
+    # other options: a run
+    r4 = run_protocol(p, out, force=True, formats=["png", "svg"])
+    assert not r4.unchanged and list(out.rglob("*.svg"))
+    # a changed input: a run that recomputes that file only
+    f = sorted(tmp_path.glob("hpt_*.txt"))[-1]
+    f.write_text(f.read_text().replace("# operator: torlab synth", "# operator: someone"))
+    r5 = run_protocol(p, out, force=True, formats=["png", "svg"])
+    assert not r5.unchanged and r5.cache_misses == 1
+
+
+def test_unchanged_results_copied_elsewhere_are_run_again(tmp_path):
+    """The record of the run is signed and names the files by their status: a copy of the
+    results (new files) or a folder from elsewhere is never taken as current."""
+    from torlab.protocols.runner import run_protocol
+
+    p = _protocol(tmp_path, AMOUNT, "hpt_OFM1_*uL_25C.txt")
+    run_protocol(p, tmp_path / "out")
+    shutil.copytree(tmp_path / "out", tmp_path / "copy")
+    r = run_protocol(p, tmp_path / "copy", force=True)
+    assert not r.unchanged
+
+
+# ------------------------------------------------------------------ light reductions
+@pytest.fixture(scope="module")
+def fitted(tmp_path_factory):
+    """The small fit protocol run once: ``(protocol, out, result)``."""
+    from torlab.protocols.runner import run_protocol
+
+    d = tmp_path_factory.mktemp("fits")
+    p = _protocol(d, FITS, "hpt_OFM1_*uL_25C.txt")
+    return p, d / "out", run_protocol(p, d / "out")
+
+
+def test_parent_keeps_light_reductions_and_fits_read_the_whole_ones(tmp_path, monkeypatch,
+                                                                    fitted):
+    """The run keeps each HPT log's header and key figures only; the fit, which reads the
+    curves from the cache in its task, equals the fit of a run without a cache (which
+    keeps the whole reductions)."""
+    from torlab.protocols import fits as fits_mod
+    from torlab.protocols.runner import run_protocol
+
+    p, _, r1 = fitted
+    seen = {}
+    real = fits_mod.fit_all
+
+    def spy(ctx):
+        seen["reds"] = list(ctx.reductions["hpt"])
+        seen["full"] = [ctx.full(r) for r in seen["reds"]]
+        return real(ctx)
+
+    monkeypatch.setattr(fits_mod, "fit_all", spy)
+    monkeypatch.setattr("torlab.protocols.runner.fit_all", spy, raising=False)
+    out = tmp_path / "again"
+    r2 = run_protocol(p, out)
+    reds, full = seen["reds"], seen["full"]
+    assert reds and all(r.tables == {} and r.detail.data is None for r in reds)
+    assert all(len(f.detail.data) == f.key_numbers["n_points"] > 100 for f in full)
+    assert [r.key_numbers for r in reds] == [f.key_numbers for f in full]
+    assert [r.meta for r in reds] == [f.meta for f in full]
+    r0 = run_protocol(p, tmp_path / "nocache", cache=False)
+    assert r2.summary["fits"] == r0.summary["fits"] == r1.summary["fits"]
+    assert r2.summary["data"] == r0.summary["data"]
+    assert (out / "data" / "hpt_summary.csv").read_bytes() == \
+        (tmp_path / "nocache" / "data" / "hpt_summary.csv").read_bytes()
+
+
+def test_rerun_reads_no_reduction_of_an_unchanged_file(tmp_path, monkeypatch, fitted):
+    """With one input changed, the other files' reductions come from the cache's index (no
+    entry file read); the fit of the changed runs is computed again."""
+    from torlab.protocols.cache import ResultCache
+    from torlab.protocols.runner import run_protocol
+
+    p0, _, r1 = fitted
+    shutil.copytree(p0.parent, tmp_path / "w", ignore=shutil.ignore_patterns("out"))
+    p = tmp_path / "w" / p0.name
+    out = tmp_path / "w" / "out"
+    run_protocol(p, out)
+    f = sorted(p.parent.glob("hpt_*.txt"))[-1]
+    f.write_text(f.read_text().replace("# operator: torlab synth", "# operator: someone"))
+    loaded: list[str] = []
+    real = ResultCache._load
+
+    def count(self, name, kind):
+        loaded.append(kind)
+        return real(self, name, kind)
+
+    monkeypatch.setattr(ResultCache, "_load", count)
+    r = run_protocol(p, out, force=True)
+    assert "hpt" not in loaded  # the unchanged file's reduction: from the index
+    assert r.cache_misses == 2  # the changed file's reduction and the fit that uses it
+    assert r.summary["fits"] == r1.summary["fits"]  # a comment changed, not the data
+
+
+def test_task_reduces_again_when_its_entry_changed(tmp_path, fitted):
+    """A fit task reads a reduction through a reference checked against the status the run
+    stored it with; a changed entry file is not read, the log is reduced again."""
+    from torlab.codec import BadEntry
+    from torlab.instruments import get_instrument, prepare_options
+    from torlab.protocols.cache import ResultCache
+    from torlab.protocols.data import StoredReduction, detail
+    from torlab.protocols.loader import load_protocol
+
+    p, _, _ = fitted
+    lp = load_protocol(p)
+    f = lp.data_files("hpt")[0]
+    inst = get_instrument("hpt")
+    opts = {k: v for k, v in lp.protocol.data.hpt.options().items() if v is not None}
+    prepared = prepare_options(inst, opts)
+    whole = inst.impl().reduce(f, **prepared)
+    rc = ResultCache(tmp_path / "c")
+    parts = {"sha": rc.sha(f), "name": f.name}
+    rc.store("hpt", whole, **parts)
+    arg = StoredReduction(rc, "hpt", parts, ("hpt", f, prepared, "hpt")).arg()
+    assert arg.ref is not None
+    assert detail(arg).data.equals(whole.detail.data)
+    entry = Path(arg.ref.path)
+    entry.write_bytes(entry.read_bytes())  # the same bytes, written again: not the same file
+    with pytest.raises(BadEntry, match="changed since"):
+        arg.ref.value()
+    assert detail(arg).data.equals(whole.detail.data)  # reduced again
+
+
+# ------------------------------------------------------------------ the pieces
+def test_output_folder_carries_its_cache_by_moving_it(tmp_path):
+    """``carry``: the folder is moved into the new results (the same files, not copies),
+    and back when the run fails."""
+    from torlab.outputs import OutputDir
+
+    out = tmp_path / "out"
+    with OutputDir(out) as d:
+        d.write_text(".cache/a.tlc", "entry")
+        d.write_text("r.txt", "result")
+    ino = (out / ".cache" / "a.tlc").stat().st_ino
+    d = OutputDir(out, force=True, carry=[".cache"])
+    assert (d.staging / ".cache" / "a.tlc").stat().st_ino == ino
+    assert not (out / ".cache").exists()
+    d.abort()
+    assert (out / ".cache" / "a.tlc").stat().st_ino == ino
+    d = OutputDir(out, force=True, carry=[".cache"])
+    d.write_text("r.txt", "new")
+    d.commit()
+    assert (out / ".cache" / "a.tlc").stat().st_ino == ino
+    assert ".cache" in json.loads((out / "torlab-manifest.json").read_text())["files"]
+    with pytest.raises(ValueError):
+        OutputDir(tmp_path / "x", carry=["a/b"])
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_each_result_is_handled_once_as_it_arrives(jobs):
+    from torlab.parallel import ProcessExecutor, SerialExecutor
+
+    seen = []
+
+    def each(i, v):
+        seen.append((i, v))
+        return -v
+
+    ex = SerialExecutor() if jobs == 1 else ProcessExecutor(jobs)
+    try:
+        out = ex.map(abs, [-3, 1, -4, 1, -5], each=each, chunksize=2)
+    finally:
+        ex.close()
+    assert out == [-3, -1, -4, -1, -5]
+    assert sorted(seen) == [(0, 3), (1, 1), (2, 4), (3, 1), (4, 5)]
+
+
+def test_one_scan_of_a_folder_matches_glob(tmp_path):
+    import glob
+
+    from torlab.protocols.schema import resolve_paths
+
+    for n in ("b.txt", "a.txt", ".hidden.txt", "c.csv", "B.txt"):
+        (tmp_path / n).write_text("x")
+    (tmp_path / "d.txt").mkdir()
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "e.txt").write_text("x")
+    (tmp_path / "link.txt").symlink_to(tmp_path / "a.txt")
+    (tmp_path / "dlink.txt").symlink_to(tmp_path / "sub")
+    for pat in ("*.txt", ".*.txt", "[ab].txt", "?.txt", "*", "sub/*.txt", "*/e.txt"):
+        want = sorted(Path(h) for h in glob.glob(str(tmp_path / pat)) if Path(h).is_file())
+        assert resolve_paths(pat, tmp_path) == want, pat
+    with pytest.raises(ValueError, match="no file matches"):
+        resolve_paths("*.xlsx", tmp_path)
+
+
+def test_input_hashes_are_reused_only_for_files_not_changed_since(tmp_path, monkeypatch):
+    from torlab import files
+    from torlab.protocols import cache as cm
+
+    f = tmp_path / "in.txt"
+    f.write_text("abc")
+    calls = []
+    real = files.sha256_file
+    monkeypatch.setattr(files, "sha256_file", lambda p: calls.append(p) or real(p))
+
+    def fresh():
+        c = cm.ResultCache(tmp_path / "c")
+        return c, c.sha(f)
+
+    c, h = fresh()
+    c.write_index()
+    assert h == real(f) and len(calls) == 1
+    _, h2 = fresh()  # hashed right after it was written: within the racy margin, again
+    assert h2 == h and len(calls) == 2
+    monkeypatch.setattr(cm, "RACY_NS", 0)
+    c, _ = fresh()
+    c.write_index()
+    n = len(calls)
+    _, h3 = fresh()
+    assert h3 == h and len(calls) == n  # unchanged: reused
+    f.write_text("abd")  # same size, new content
+    c, h4 = fresh()
+    assert h4 == real(f) != h and len(calls) == n + 1
+    os.utime(f, ns=(0, 0))
+    _, h5 = fresh()
+    assert h5 == h4 and len(calls) == n + 2  # another status: hashed again
