@@ -88,6 +88,7 @@ Example
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -112,6 +113,9 @@ CONFIDENCE = 0.95
 NONLINEARITY_TOL = 0.1
 #: parameter draws of the sampling method
 N_SAMPLES = 400
+#: draws of the second-order method's quadratic model (not of the model: cheap;
+#: quasi-random, :func:`_lattice_draws`)
+N_SURROGATE = 4096
 #: principal directions probed by the nonlinearity check explain at least this share
 _PROBE_SHARE = 0.9
 #: a standard deviation below this fraction of its output's largest one is floored there
@@ -305,6 +309,7 @@ class Propagation:
         quantity of an unpickled propagation is linear (or uses its stored draws)."""
         state = dict(self.__dict__)
         state["_design"] = {k: v for k, v in self._design.items() if k != "model"}
+        state.pop("_lattice", None)
         return state
 
     # -- access -----------------------------------------------------------------------------
@@ -366,6 +371,8 @@ class Propagation:
             "nonlinearity_tolerance": self._design.get("tol"),
             "n_evaluations": int(self.n_evaluations),
             "n_samples": self._design.get("n_samples") if self.method == "sampling" else None,
+            "quadratic_draws": self._design.get("n_surrogate")
+            if self.method == "second-order" else None,
             "n_failed": int(self.n_failed),
             "parameters": list(self.names),
             "dominant": {k: [{"parameter": n, "share": round(s, 4)} for n, s in self.dominant(k)]
@@ -410,11 +417,42 @@ class Propagation:
             out.notes.insert(0, f"derived quantity nonlinear (eta = {res.nonlinearity:.3g} > "
                                 f"{tol:g}): sampled the model")
             return out
+        if self.method == "second-order":
+            return self._derive_second_order(func, tol)
         samples = [_as_outputs(func(s)) for s in d["samples"]]
         f0 = _as_outputs(func(d["f0"]))
         stacked = {k: np.stack([s[k] for s in samples]) for k in f0}
         return _sampling_result(d["dist"], d["draws"], stacked, f0, self.confidence,
                                 self.nonlinearity, self.names, self.n_failed, d)
+
+    def _derive_second_order(self, func: Callable[[dict[str, np.ndarray]], Any],
+                             tol: float) -> Propagation:
+        """:meth:`derive` of a second-order propagation: ``func`` at the design's points
+        gives the derived quantity's own quadratic model, checked as the outputs' was;
+        failing that, the model is sampled (if kept) or the result is linear."""
+        d = self._design
+        design = {**d, "tol": tol}
+        res = _second_order_from_design(design, self.confidence, self.nonlinearity,
+                                        self.names, 0, func=func,
+                                        draws=getattr(self, "_lattice", None))
+        if isinstance(res, Propagation):
+            return res
+        model = d.get("model")
+        lin = _linear_from_design(d["dist"], d["h"], _as_outputs(func(d["f0"])),
+                                  [_as_outputs(func(o)) for o in d["steps"]], d["dirs"],
+                                  [_as_outputs(func(o)) for o in d["probes"]],
+                                  self.confidence, tol, 0, self.names)
+        if model is None:
+            lin.notes.append(f"the derived quantity's second-order check failed ({res}) and no "
+                             "model was kept for sampling; linear result")
+            return lin
+        draws = _draws(d["dist"], d["n_samples"], d["seed"])
+        samples, failed = _evaluate_many(model, d["dist"], draws, d["vectorized"])
+        out = _sampling_from_draws(d["dist"], draws[~failed], samples, d["f0"],
+                                   self.confidence, lin.nonlinearity, self.names,
+                                   int(failed.sum()), func=func, tol=tol)
+        out.notes.insert(0, f"derived quantity: {res}; sampled the model")
+        return out
 
     def class_probabilities(self, edges: Sequence[float], output: str | None = None
                             ) -> np.ndarray:
@@ -440,7 +478,9 @@ class Propagation:
             s = float(np.ravel(self.sd[key])[0])
             cdf = t_cdf((e - c) / s, nu) if math.isfinite(nu) else _norm_cdf((e - c) / s)
         else:
-            x = np.asarray(self._design["stacked"][key], dtype=float).reshape(-1)
+            stacked = self._design.get("stacked", {})
+            x = np.asarray(stacked[key] if key in stacked else _surrogate_samples(
+                self._design, key, getattr(self, "_lattice", None)), dtype=float).reshape(-1)
             cdf = np.array([np.mean(x < v) if i == 0 else np.mean(x <= v)
                             for i, v in enumerate(e)])
         cdf = np.concatenate(([0.0], np.asarray(cdf, dtype=float), [1.0]))
@@ -555,11 +595,21 @@ def propagate(model: Model, dist: ParameterDistribution, *, confidence: float = 
             res.notes.insert(0, f"linearised: nonlinearity {res.nonlinearity:.3g} <= "
                                 f"{nonlinearity_tol:g}")
         return res
+    why = (f"nonlinearity {res.nonlinearity:.3g} > {nonlinearity_tol:g} (the linear band edge "
+           "would be off by more than that share of the band's half-width)")
+    try:
+        second = _second_order(model, dist, res, vectorized, seed)
+    except NumericalError as e:  # no solution at a point of the quadratic's design
+        second = f"the model failed at a point of the second-order design ({e})"
+    if isinstance(second, Propagation):
+        second._design.update({k: v for k, v in design_base.items() if k != "n_samples"})
+        second.notes.insert(0, f"second order: {why}; {second.notes.pop(0)}")
+        return second
+    # the evaluations of the second-order design are counted with the draws' (they were
+    # spent; the band does not use them)
+    n_eval = res.n_evaluations + (len(dirs) + 2 if "more evaluations" in second else 0)
     return _sample(model, dist, f0, confidence, n_samples, seed, vectorized, nonlinearity_tol,
-                   res.nonlinearity, design_base, n_eval,
-                   f"sampled: nonlinearity {res.nonlinearity:.3g} > {nonlinearity_tol:g} (the "
-                   "linear band edge would be off by more than that share of the band's "
-                   "half-width)", defer)
+                   res.nonlinearity, design_base, n_eval, f"sampled: {why}; {second}", defer)
 
 
 def _sample(model: Model, dist: ParameterDistribution, f0: dict[str, np.ndarray],
@@ -569,6 +619,162 @@ def _sample(model: Model, dist: ParameterDistribution, f0: dict[str, np.ndarray]
     pending = PendingSampling(model, dist, _draws(dist, n_samples, seed), f0, confidence, tol,
                               eta, design_base, n_eval, note)
     return pending if defer and not vectorized else pending.run()
+
+
+# ---------------------------------------------------------------------------------------------
+# second order: the model's curvature along its principal directions
+# ---------------------------------------------------------------------------------------------
+def _second_order(model: Model, dist: ParameterDistribution, lin: Propagation, vectorized: bool,
+                  seed: int) -> Propagation | str:
+    """The band of a model that is not linear over it, from its curvature along the principal
+    directions (see the module docstring): the :class:`Propagation`, or why not (a str).
+
+    ``lin`` is the linear propagation (its design: the steps, the principal directions and
+    the probes at ``-t`` along them).  The model is evaluated at ``+t`` along the same
+    directions and at two check points off them; the quadratic model through these
+    points must give the checks to ``tol`` of the band's half-width.  Raises
+    :class:`~torlab.errors.NumericalError` if the model fails at one of the points.
+    """
+    d = lin._design
+    dirs, tol = d["dirs"], d["tol"]
+    theta0, _ = dist.transformed()
+    t = _quantile(lin.confidence, _min_dof(dist))
+    basis, _ = _principal_basis(dist, d["h"], d["f0"], d["steps"])
+    checks = _check_points(dirs, basis[len(dirs)] if len(basis) > len(dirs) else None, t)
+    rows = np.array([theta0 + t * dv for dv in dirs] + [theta0 + c for c in checks])
+    out = _evaluate_rows(model, dist, rows, vectorized)
+    n_eval = lin.n_evaluations + rows.shape[0]
+    plus, at_checks = out[:len(dirs)], out[len(dirs):]
+    design = {"dist": dist, "h": d["h"], "f0": d["f0"], "steps": d["steps"], "dirs": dirs,
+              "probes": d["probes"], "plus": plus, "checks": checks, "at_checks": at_checks,
+              "t": t, "tol": tol, "seed": int(seed), "n_surrogate": N_SURROGATE}
+    res = _second_order_from_design(design, lin.confidence, lin.nonlinearity, lin.names, n_eval)
+    return res if isinstance(res, Propagation) else f"{res} ({rows.shape[0]} more evaluations)"
+
+
+def _check_points(dirs: list[np.ndarray], nxt: np.ndarray | None, t: float) -> list[np.ndarray]:
+    """Offsets (theta) where the quadratic model is checked: between the first principal
+    direction and the next one left out of the quadratic, on both sides of each (at the
+    band's edge distance ``t``), or -- a single parameter -- half-way to the edges."""
+    d1 = dirs[0]
+    if nxt is None:
+        return [-0.5 * t * d1, 0.5 * t * d1]
+    r = math.sqrt(0.5)
+    return [-t * r * (d1 + nxt), t * r * (d1 - nxt)]
+
+
+def _quadratic(design: dict[str, Any], key: str, f0: np.ndarray, steps: list[np.ndarray],
+               probes: list[np.ndarray], plus: list[np.ndarray]) -> dict[str, np.ndarray]:
+    """The quadratic model of one output (flattened): ``f0``, the gradient ``G`` (k, n) from
+    the forward steps, the directions' weights ``W`` (m, k: the coordinate along direction
+    j of an offset is ``offset @ W[j]``), the slope corrections and curvatures (m, n) from
+    the points at ``-t`` and ``+t`` along each direction."""
+    dist, h, dirs, t = design["dist"], design["h"], design["dirs"], design["t"]
+    _, cov = dist.transformed()
+    f = np.asarray(f0, dtype=float).reshape(-1)
+    G = np.stack([(np.asarray(steps[i], dtype=float).reshape(-1) - f) / h[i] if h[i] > 0
+                  else np.zeros_like(f) for i in range(h.size)])
+    P = np.linalg.pinv(cov)
+    W = np.stack([P @ dv for dv in dirs])
+    fm = np.stack([np.asarray(p, dtype=float).reshape(-1) for p in probes])
+    fp = np.stack([np.asarray(p, dtype=float).reshape(-1) for p in plus])
+    gd = np.stack([dv @ G for dv in dirs])
+    slope = (fp - fm) / (2.0 * t) - gd
+    curv = (fp + fm - 2.0 * f[None, :]) / t**2
+    return {"f0": f, "G": G, "W": W, "slope": slope, "curv": curv,
+            "shape": np.asarray(np.shape(f0), dtype=np.int64)}
+
+
+def _quadratic_at(q: dict[str, np.ndarray], offsets: np.ndarray) -> np.ndarray:
+    """The quadratic model at parameter offsets ``(N, k)`` (theta): ``(N, n)``."""
+    a = offsets @ q["W"].T
+    return q["f0"][None, :] + offsets @ q["G"] + a @ q["slope"] + 0.5 * (a * a) @ q["curv"]
+
+
+def _second_order_from_design(design: dict[str, Any], confidence: float, eta: float,
+                              names: tuple[str, ...], n_eval: int,
+                              func: Callable[[dict[str, np.ndarray]], Any] | None = None,
+                              draws: np.ndarray | None = None) -> Propagation | str:
+    """The second-order propagation of the model's outputs (or of ``func`` of them) from the
+    design of :func:`_second_order`; a str saying why not when the checks fail."""
+    dist, t, tol = design["dist"], design["t"], design["tol"]
+
+    def apply(o: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        return o if func is None else _as_outputs(func(o))
+
+    f0 = apply(design["f0"])
+    steps = [apply(o) for o in design["steps"]]
+    probes = [apply(o) for o in design["probes"]]
+    plus = [apply(o) for o in design["plus"]]
+    at_checks = [apply(o) for o in design["at_checks"]]
+    _, cov = dist.transformed()
+    offsets = np.array(design["checks"])
+    quads, worst = {}, 0.0
+    for key, v0 in f0.items():
+        q = _quadratic(design, key, v0, [o[key] for o in steps], [o[key] for o in probes],
+                       [o[key] for o in plus])
+        quads[key] = q
+        sd = np.sqrt(np.clip(np.einsum("it,ij,jt->t", q["G"], cov, q["G"]), 0.0, None))
+        if not np.all(np.isfinite(sd)) or float(np.max(sd, initial=0.0)) <= 0:
+            continue
+        floor = max(_SD_FLOOR * float(np.max(sd)), 1e-300)
+        want = np.stack([np.asarray(o[key], dtype=float).reshape(-1) for o in at_checks])
+        err = np.abs(want - _quadratic_at(q, offsets)) / (t * np.maximum(sd, floor))
+        if not np.all(np.isfinite(err)):
+            return "the model is not finite at a check point"
+        worst = max(worst, float(np.max(err)))
+    if worst > tol:
+        return (f"the quadratic model along the principal direction(s) misses the model at "
+                f"its check points by {worst:.3g} > {tol:g} of the half-width")
+    if draws is None:
+        draws = _lattice_draws(dist, int(design["n_surrogate"]), int(design["seed"]))
+    theta0, _ = dist.transformed()
+    lo_q, hi_q = 50.0 * (1 - confidence), 50.0 * (1 + confidence)
+    center, sd, lower, upper, contrib, stacked = {}, {}, {}, {}, {}, {}
+    for key, q in quads.items():
+        v0 = np.asarray(f0[key], dtype=float)
+        x = np.ascontiguousarray(_quadratic_at(q, draws - theta0[None, :]).T)  # (n, N)
+        lo, hi = np.percentile(x, [lo_q, hi_q], axis=1)
+        v = v0.reshape(-1)  # the band always contains the model at the estimate
+        center[key] = v0
+        sd[key] = np.std(x, axis=1, ddof=1).reshape(v0.shape)
+        lower[key] = np.minimum(lo, v).reshape(v0.shape)
+        upper[key] = np.maximum(hi, v).reshape(v0.shape)
+        # shares of the first-order part (as the linear method's)
+        g = q["G"]
+        var = np.einsum("it,ij,jt->t", g, cov, g)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            c = g * (cov @ g) / var[None, :]
+        c = np.where(np.isfinite(c), c, 0.0)
+        contrib[key] = {n: c[i].reshape(v0.shape) for i, n in enumerate(names)}
+        if func is not None:  # a derived quantity: its draws, for class_probabilities
+            stacked[key] = x.T.reshape((x.shape[1], *v0.shape))
+    res = Propagation(method="second-order", confidence=confidence, center=center, sd=sd,
+                      lower=lower, upper=upper, contributions=contrib, nonlinearity=eta,
+                      n_evaluations=n_eval, names=names)
+    # the band's own draws are made again from the seed when they are needed (kept while
+    # the object lives: not a field, so neither the cache nor a worker's pickle holds them)
+    res._design = {**design, "quads": quads, "check_error": worst, "stacked": stacked}
+    res._lattice = draws
+    res.notes.append(f"the model's curvature along {len(design['dirs'])} principal "
+                     f"direction(s) is taken into account (quadratic model through the "
+                     f"points at -t and +t; at two check points it is off by {worst:.3g} "
+                     f"<= {tol:g} of the half-width); the band is the 2.5-97.5 % range "
+                     f"of {draws.shape[0]} draws of that model")
+    return res
+
+
+def _surrogate_samples(design: dict[str, Any], key: str, draws: np.ndarray | None = None
+                       ) -> np.ndarray:
+    """The draws of a second-order propagation's quadratic model of ``key`` (made again from
+    its seed when not given: the same draws as the band's)."""
+    dist = design["dist"]
+    theta0, _ = dist.transformed()
+    if draws is None:
+        draws = _lattice_draws(dist, int(design["n_surrogate"]), int(design["seed"]))
+    q = design["quads"][key]
+    return _quadratic_at(q, draws - theta0[None, :]).reshape(
+        (draws.shape[0], *tuple(int(x) for x in q["shape"])))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -851,6 +1057,67 @@ def _draws(dist: ParameterDistribution, n: int, seed: int) -> np.ndarray:
     return out
 
 
+#: bases of the Halton sequence's dimensions (:func:`_lattice_draws`)
+_PRIMES = (2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37, 41, 43, 47, 53, 59, 61, 67, 71)
+
+
+def _halton(n: int, d: int, shift: np.ndarray) -> np.ndarray:
+    """The first ``n`` points of the ``d``-dimensional Halton sequence (radical inverses in
+    the first ``d`` primes), shifted by ``shift`` modulo 1 (Cranley-Patterson): uniform
+    points in the unit cube that fill it far more evenly than random ones."""
+    return (_halton_points(n, d) + shift[None, :]) % 1.0
+
+
+@functools.lru_cache(maxsize=8)
+def _halton_points(n: int, d: int) -> np.ndarray:
+    """The unshifted points of :func:`_halton` (made once per size; read-only)."""
+    out = np.empty((n, d))
+    idx = np.arange(1, n + 1)
+    for j in range(d):
+        b, f = _PRIMES[j], 1.0
+        r = np.zeros(n)
+        i = idx.copy()
+        while i.any():
+            f /= b
+            r += f * (i % b)
+            i //= b
+        out[:, j] = r
+    out.flags.writeable = False
+    return out
+
+
+def _lattice_draws(dist: ParameterDistribution, n: int, seed: int) -> np.ndarray:
+    """``(n, k)`` draws of ``theta`` as :func:`_draws` makes them (per block multivariate
+    normal or Student t), from a randomly shifted Halton sequence instead of random
+    numbers (quasi-Monte Carlo: the normal parts by the inverse normal distribution, each t
+    block's chi-squared by its inverse; seeded shift).  Their quantiles of a smooth function
+    are several times closer to the exact ones than those of as many random draws.  With
+    more dimensions than :data:`_PRIMES` (where Halton points lose their evenness) the
+    draws are random (:func:`_draws`)."""
+    from scipy.special import chdtri, ndtri
+
+    theta0, cov = dist.transformed()
+    k = theta0.size
+    blocks = dist.blocks_or_default
+    d = k + sum(1 for _, dof in blocks if math.isfinite(dof))
+    if d > len(_PRIMES):
+        return _draws(dist, n, seed)
+    u = _halton(n, d, np.random.default_rng(seed).random(d))
+    u = np.clip(u, 1e-12, 1.0 - 1e-12)
+    z = ndtri(u[:, :k])
+    out = np.repeat(theta0[None, :], n, axis=0)
+    col = k
+    for idx, dof in blocks:
+        ii = np.asarray(idx)
+        w, v = np.linalg.eigh(cov[np.ix_(ii, ii)])
+        dz = z[:, ii] @ (v * np.sqrt(np.clip(w, 0.0, None))).T
+        if math.isfinite(dof):
+            dz = dz * np.sqrt(dof / chdtri(dof, u[:, col]))[:, None]
+            col += 1
+        out[:, ii] += dz
+    return out
+
+
 def _none_result(f0: dict[str, np.ndarray], names: tuple[str, ...], confidence: float,
                  n_eval: int) -> Propagation:
     zero = {k: np.zeros_like(v) for k, v in f0.items()}
@@ -886,7 +1153,20 @@ def _block_variances(dist: ParameterDistribution, G: dict[str, np.ndarray],
 
 def _probe_directions(dist: ParameterDistribution, h: np.ndarray, f0: dict[str, np.ndarray],
                       steps: list[dict[str, np.ndarray]]) -> list[np.ndarray]:
-    """Principal directions (in theta, scaled to one standard deviation) of the output variance."""
+    """Principal directions (in theta, scaled to one standard deviation) of the output
+    variance: the first, and the second when the first explains less than
+    :data:`_PROBE_SHARE`."""
+    basis, share = _principal_basis(dist, h, f0, steps)
+    if not basis:
+        return []
+    n_dirs = 1 if share[0] >= _PROBE_SHARE or len(basis) == 1 else 2
+    return basis[:n_dirs]
+
+
+def _principal_basis(dist: ParameterDistribution, h: np.ndarray, f0: dict[str, np.ndarray],
+                     steps: list[dict[str, np.ndarray]]) -> tuple[list[np.ndarray], np.ndarray]:
+    """Every principal direction of the output variance (in theta, one standard deviation
+    long), largest first, and the share of the normalised variance each explains."""
     _, cov = dist.transformed()
     k = h.size
     rows = []
@@ -901,17 +1181,15 @@ def _probe_directions(dist: ParameterDistribution, h: np.ndarray, f0: dict[str, 
             continue
         rows.append((g / np.maximum(sd, floor)).T)  # (t, k)
     if not rows:
-        return []
+        return [], np.zeros(0)
     A = np.concatenate(rows)  # normalised sensitivities
     w, v = np.linalg.eigh(cov)
     root = v * np.sqrt(np.clip(w, 0.0, None))  # theta = theta0 + root z
     B = A @ root  # output per unit z
     _, s, vt = np.linalg.svd(B, full_matrices=False)
     if s.size == 0 or s[0] <= 0:
-        return []
-    share = s**2 / np.sum(s**2)
-    n_dirs = 1 if share[0] >= _PROBE_SHARE or s.size == 1 else 2
-    return [root @ vt[i] for i in range(n_dirs)]
+        return [], np.zeros(0)
+    return [root @ vt[i] for i in range(s.size)], s**2 / np.sum(s**2)
 
 
 #: parameters of one correlated group up to which Shapley shares are exact (2^k subsets);
