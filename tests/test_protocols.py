@@ -564,19 +564,30 @@ def test_rerun_reuses_cache_and_refuses_overwrite(tmp_path):
     assert (r2.timing["figures_drawn"], r2.timing["figures_reused"]) == (0, 2)
     assert (out / "amount" / "amount_applied.png").read_bytes() == png
     assert r2.summary["reports"] == r1.summary["reports"]
-    # nothing drawn, and the figures and reports that did not change not even rewritten:
-    # the same files (inode and time) as the first run's
+    # nothing changed: nothing drawn, nothing rewritten, every result the same file (inode
+    # and time) as the first run's
+    assert r2.unchanged
+    manifest = json.loads((out / "torlab-manifest.json").read_text())
     for n, st in before.items():
         now = (out / n).stat()
         assert (now.st_ino, now.st_mtime_ns) == (st.st_ino, st.st_mtime_ns), n
-    assert r2.timing["files_kept"] == len(kept)
+    assert r2.timing["files_kept"] == len([n for n in manifest["files"]
+                                           if not n.startswith(".cache")])
     # a changed input file is recomputed, the others are reused; so are the crossings and
-    # the figure, whose data did not change (only a comment of the log did)
+    # the figures, whose data did not change (only a comment of the log did): the figure
+    # files are kept as they were (same inode and time), the reports (which name the
+    # inputs' SHA-256) are written anew
     f = tmp_path / "hpt_OFM1_8uL_25C.txt"
     f.write_text(f.read_text().replace("# operator: torlab synth", "# operator: someone else"))
     r3 = run_protocol(p, out, force=True)
+    assert not r3.unchanged
     assert (r3.cache_hits, r3.cache_misses) == (6, 1)
     assert r3.timing["figures_reused"] == 2
+    for n in kept[:2]:
+        now, st = (out / n).stat(), before[n]
+        assert (now.st_ino, now.st_mtime_ns) == (st.st_ino, st.st_mtime_ns), n
+    assert (out / "report.html").stat().st_ino != before["report.html"].st_ino
+    assert r3.timing["files_kept"] >= 2
     assert r3.summary["inputs"]["hpt_OFM1_8uL_25C.txt"] == sha(f)
     assert len(list((out / ".cache").glob("*-*.tlc"))) == 7   # the stale entry was dropped
     # a changed number is a changed figure: drawn again, the old one dropped
@@ -644,6 +655,9 @@ def test_cached_figure_that_was_changed_is_drawn_again(tmp_path):
     good = (out / "amount" / "amount_applied.png").read_bytes()
     for fig in figs:  # a picture changed in the cache (its authentication left as it was)
         fig.write_bytes(fig.read_bytes() + b"tampered")
+    # a log's comment changed: the run is made again, the figures' data are the same
+    f = tmp_path / "hpt_OFM1_8uL_25C.txt"
+    f.write_text(f.read_text().replace("# operator: torlab synth", "# operator: someone else"))
     r = run_protocol(p, out, force=True)
     assert (r.timing["figures_drawn"], r.timing["figures_reused"]) == (2, 0)
     assert (out / "amount" / "amount_applied.png").read_bytes() == good

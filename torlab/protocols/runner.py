@@ -239,7 +239,7 @@ def _run(lp: Any, dest: Any, rc: Any, formats: Any, run_key: str, executor: Any,
     sections_run = [s.key for s in sections]
     if run_key:  # what a re-run with nothing changed finds (RunResult of _unchanged_result)
         rc.record_run(run_key, dest, {"sections": sections_run, "hits": rc.hits + rc.misses,
-                                      "figures": fig.drawn + fig.reused})
+                                      "figures": fig.drawn + fig.reused, "figures_on": draw})
     rc.prune()  # the index, then what this run did not use
     t3 = time.perf_counter()
     dest.commit()
@@ -288,6 +288,8 @@ def _unchanged_result(out: Path, rec: dict[str, Any], t0: float, command: str,
                           seconds=round(total, 2), unchanged=True)
     timing = {"compute": 0.0, "figures": 0.0, "io": 0.0, "other": total, "total": total,
               "figures_drawn": 0, "figures_reused": rec["figures"], "figures_ahead": 0,
+              "figures_on": bool(rec.get("figures_on", True)),
+              "files_kept": len(rec["outputs"]),
               "executor": executor.describe() if executor is not None else "none needed"}
     notes = list(summary.get("notes", []))
     return RunResult(out=out, summary=summary, sections=list(rec["sections"]),
