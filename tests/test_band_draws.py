@@ -287,10 +287,21 @@ def test_sampled_thermal_band_edges_unchanged_40_draws():
     _same_edges(got, json.loads(WFM_WET_BAND.read_text())["n40"])
 
 
+@pytest.fixture
+def no_second_order(monkeypatch):
+    """The second-order method's check failing, so that a nonlinear band is sampled (the
+    path of a model the quadratic does not hold)."""
+    import torlab.uncertainty as unc
+
+    monkeypatch.setattr(unc, "_second_order",
+                        lambda *a, **k: "the quadratic model misses (made to fail here)")
+
+
 @pytest.mark.slow
-def test_sampled_thermal_band_edges_unchanged():
-    """The whole prediction (400 draws, the method chosen by the nonlinearity check) against
-    its earlier edges, to 1e-9 (a regression guard, as above)."""
+def test_sampled_thermal_band_edges_unchanged(no_second_order):
+    """The whole prediction (400 draws, sampled as the nonlinearity check decides when the
+    second-order check fails) against its earlier edges, to 1e-9 (a regression guard, as
+    above)."""
     import json
 
     want = json.loads(WFM_WET_BAND.read_text())["full"]
@@ -299,7 +310,7 @@ def test_sampled_thermal_band_edges_unchanged():
     _same_edges({k: p.table[k].to_numpy() for k in want if k != "method"}, want)
 
 
-def test_deferred_band_whose_draws_fail_gives_no_band():
+def test_deferred_band_whose_draws_fail_gives_no_band(no_second_order):
     """A protocol's prediction with its draws deferred (predict_traction_deferred): when the
     blocks come back with more than 5 % of the draws failed, the prediction is finished
     without a band and says why, as predict_traction does; the blocks after the first round

@@ -209,8 +209,11 @@ def test_warm_rerun_reads_the_binary_entries_it_wrote(tmp_path):
         "version: 1\nname: small\ndata:\n  hpt:\n    files: [hpt_*.txt]\n"
         "reports:\n  amount:\n    curve: interpolation\n")
     r1 = run_protocol(tmp_path / "p.yaml", tmp_path / "out")
-    entries = sorted((tmp_path / "out" / ".cache").glob("*.tlc"))
+    entries = sorted((tmp_path / "out" / ".cache").glob("*-*.tlc"))
     assert entries and all(e.read_bytes().startswith(b"torlab-cache 2 ") for e in entries)
+    # the index of the entries, read once by the next run: a format of its own
+    index = tmp_path / "out" / ".cache" / "index.tlc"
+    assert index.read_bytes().startswith(b"torlab-cache-index ")
     r2 = run_protocol(tmp_path / "p.yaml", tmp_path / "out", force=True)
     assert (r2.cache_hits, r2.cache_misses) == (r1.cache_misses, 0)
     assert r2.summary["reports"] == r1.summary["reports"]

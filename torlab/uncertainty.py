@@ -740,12 +740,11 @@ def _second_order_from_design(design: dict[str, Any], confidence: float, eta: fl
         sd[key] = np.std(x, axis=1, ddof=1).reshape(v0.shape)
         lower[key] = np.minimum(lo, v).reshape(v0.shape)
         upper[key] = np.maximum(hi, v).reshape(v0.shape)
-        # shares of the first-order part (as the linear method's)
-        g = q["G"]
-        var = np.einsum("it,ij,jt->t", g, cov, g)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            c = g * (cov @ g) / var[None, :]
-        c = np.where(np.isfinite(c), c, 0.0)
+        # shares: the Shapley effects of the first-order part over the quadratic's whole
+        # variance (adding up to its linear part, as a sampled band's)
+        vx = np.var(x, axis=1)
+        c = shapley_shares(q["G"], cov, np.maximum(vx, np.einsum(
+            "it,ij,jt->t", q["G"], cov, q["G"])))
         contrib[key] = {n: c[i].reshape(v0.shape) for i, n in enumerate(names)}
         if func is not None:  # a derived quantity: its draws, for class_probabilities
             stacked[key] = x.T.reshape((x.shape[1], *v0.shape))

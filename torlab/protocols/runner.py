@@ -109,6 +109,7 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
     from torlab.outputs import OutputDir
     from torlab.protocols.cache import CACHE_DIR, ResultCache
     from torlab.protocols.loader import LoadedProtocol, load_protocol
+    from torlab.protocols.rerun import run_key, unchanged_result
     from torlab.reports.render import parse_formats
 
     t0 = time.perf_counter()
@@ -125,18 +126,17 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
     try:
         # the earlier results' cache (moved into the new results below, if they are made)
         rc = ResultCache(dest.final_path(CACHE_DIR) if cache else None)
-        run_key = _run_key(lp, rc, inputs, {"formats": list(formats), "cache": cache,
-                                            "figures": draw, "embed": embed})
-        same = rc.up_to_date(run_key, dest.final_path("")) if force and run_key else None
+        key = run_key(lp, rc, inputs, {"formats": list(formats), "cache": cache,
+                                       "figures": draw, "embed": embed})
+        same = rc.up_to_date(key, dest.final_path("")) if force and key else None
         if same is not None:  # nothing changed: the results are there, nothing is rewritten
             dest.close()
-            return _unchanged_result(Path(out), same, t0, command,
-                                     executor if executor is not None else None)
+            return RunResult(**unchanged_result(Path(out), same, t0, command, executor))
         rc.folder = dest.staging / CACHE_DIR if cache else None
         rc.register = dest.path
         dest.hasher = rc.sha  # the manifest's input hashes: each file hashed once
         t_io = time.perf_counter() - t1  # the output folder and its carried-over cache
-        return _run(lp, dest, rc, formats, run_key, executor, progress, cache, command, t0,
+        return _run(lp, dest, rc, formats, key, executor, progress, cache, command, t0,
                     t_io, inputs, draw, embed)
     except BaseException:
         dest.abort()
@@ -237,7 +237,7 @@ def _run(lp: Any, dest: Any, rc: Any, formats: Any, run_key: str, executor: Any,
                       | {"total": round(time.perf_counter() - t0, 3)}}
     dest.write_json("summary.json", summary)
     sections_run = [s.key for s in sections]
-    if run_key:  # what a re-run with nothing changed finds (RunResult of _unchanged_result)
+    if run_key:  # what a re-run with nothing changed finds (torlab.protocols.rerun)
         rc.record_run(run_key, dest, {"sections": sections_run, "hits": rc.hits + rc.misses,
                                       "figures": fig.drawn + fig.reused, "figures_on": draw})
     rc.prune()  # the index, then what this run did not use
@@ -250,51 +250,6 @@ def _run(lp: Any, dest: Any, rc: Any, formats: Any, run_key: str, executor: Any,
     return RunResult(out=dest.target, summary=summary, sections=sections_run,
                      cache_hits=rc.hits, cache_misses=rc.misses, notes=summary["notes"],
                      timing=timing)
-
-
-def _run_key(lp: Any, rc: Any, inputs: list[Path], options: dict[str, Any]) -> str:
-    """What the results of a run depend on, hashed: torlab's, Python's and NumPy's versions,
-    the protocol file and every input file (by their SHA-256: kept by the cache across runs,
-    :meth:`~torlab.protocols.cache.ResultCache.sha`) and the options that change a result.
-    Empty for a protocol given as text (never taken as unchanged)."""
-    import hashlib
-    import json
-    import platform
-
-    import numpy as np
-
-    from torlab import __version__
-
-    if lp.path is None or rc.folder is None:
-        return ""
-    blob = json.dumps({"torlab": __version__, "python": platform.python_version(),
-                       "numpy": np.__version__, "protocol": rc.sha(lp.path),
-                       "inputs": {str(p): rc.sha(p) for p in inputs}, "options": options},
-                      sort_keys=True)
-    return hashlib.sha256(blob.encode()).hexdigest()
-
-
-def _unchanged_result(out: Path, rec: dict[str, Any], t0: float, command: str,
-                      executor: Any) -> RunResult:
-    """The result of a re-run that found nothing changed: the earlier run's summary (its
-    file is the one that run wrote: :meth:`~torlab.protocols.cache.ResultCache.up_to_date`),
-    every result reused, no figure drawn, nothing written."""
-    import json
-
-    summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
-    total = time.perf_counter() - t0
-    summary["run"] = dict(summary.get("run", {}), command=command, cache_hits=rec["hits"],
-                          cache_misses=0, figures_drawn=0, figures_reused=rec["figures"],
-                          seconds=round(total, 2), unchanged=True)
-    timing = {"compute": 0.0, "figures": 0.0, "io": 0.0, "other": total, "total": total,
-              "figures_drawn": 0, "figures_reused": rec["figures"], "figures_ahead": 0,
-              "figures_on": bool(rec.get("figures_on", True)),
-              "files_kept": len(rec["outputs"]),
-              "executor": executor.describe() if executor is not None else "none needed"}
-    notes = list(summary.get("notes", []))
-    return RunResult(out=out, summary=summary, sections=list(rec["sections"]),
-                     cache_hits=rec["hits"], cache_misses=0, notes=notes, timing=timing,
-                     unchanged=True)
 
 
 def _needs(p: Any, draw: bool = True) -> list[Any]:
