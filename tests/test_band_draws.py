@@ -327,3 +327,22 @@ def test_deferred_band_whose_draws_fail_gives_no_band(no_second_order):
     note = pred.summary["band"]["notes"][0]
     assert note.startswith("no band: uncertainty propagation: the model failed for 80 of 400")
     assert "the draw failed" in note
+
+
+@pytest.mark.slow  # the 3000-draw reference: about 20 s
+def test_automatic_band_of_the_thermal_curve_within_015_of_3000_draws():
+    """The flash-temperature scene's band is nonlinear (the check says so); the automatic
+    choice takes the model's curvature along its principal directions (a dozen model
+    evaluations, not 400 draws) and its edges are within 0.15 half-widths of a band of
+    3000 seeded draws of the model itself at every creepage (mu and the temperature)."""
+    from torlab.bench.bands import _edge_error
+    from torlab.model.bands import scene_uncertainty
+
+    sc = _wfm_wet()
+    xi = np.linspace(0.0, 0.05, 51)
+    p = predict_traction(sc, xi)
+    assert p.band.method == "second-order" and p.band.n_evaluations <= 12
+    t = traction_curve(sc, xi).table
+    ref = traction_band(sc, xi, t, scene_uncertainty(sc), method="sampling", n_samples=3000,
+                        seed=12345)
+    assert _edge_error(p.band, {k: (ref.low(k), ref.high(k)) for k in ref.center}) <= 0.15
