@@ -4,7 +4,8 @@ A lab's protocol may hold a year of logs.  This benchmark builds virtual Paper C
 campaigns of 1x, 4x, 16x ... the sample campaign (the seeds 1, 2, ... of ``torlab synth
 hpt``, each seed's products named apart -- ``OFM1-s03`` -- so that every seed adds its own
 fits, predicted curves and figures, as a year of new batches does) with paper_c's
-settings (``protocols/paper_c.yaml``: its data options, fits and reports), and runs each
+settings (``protocols/paper_c.yaml``: its data options, fits and reports, without the
+comparisons of its four products by name), and runs each
 with ``torlab run`` as a user does:
 
 * **cold**: into a fresh folder (everything reduced, fitted, predicted and drawn);
@@ -108,6 +109,8 @@ def _protocol(n: int) -> dict[str, Any]:
             "compliance": "data/rig_compliance.csv"}
     doc["data"] = {"hpt": data}
     reports = json.loads(json.dumps(base["reports"]))
+    # paper_c's comparisons name its four products; the campaign's are named by seed
+    reports.pop("compare", None)
     for c in reports["traction"]["curves"]:
         c["scene"] = str(REPO / "protocols" / "scenes" / Path(c["scene"]).name)
     doc["reports"] = reports
@@ -135,7 +138,11 @@ def build_campaign(folder: str | os.PathLike[str], n: int) -> Path:
 
     folder = Path(folder)
     marker = folder / MARKER
-    want = {"seeds": n, "torlab": __version__}
+    import hashlib
+
+    proto = dump_yaml(_protocol(n))  # a changed protocol (paper_c's) builds it again
+    want = {"seeds": n, "torlab": __version__,
+            "protocol": hashlib.sha256(proto.encode()).hexdigest()}
     try:
         if json.loads(marker.read_text(encoding="utf-8")) == want:
             return folder / "protocol.yaml"
@@ -151,7 +158,7 @@ def build_campaign(folder: str | os.PathLike[str], n: int) -> Path:
                               flags=re.M)
                 out.write_text(f"data/{spec.name.replace('hpt_', f'hpt_{tag}_', 1)}.txt", text)
         out.write_text("data/rig_compliance.csv", compliance_curve_text(rig, 2))
-        out.write_text("protocol.yaml", dump_yaml(_protocol(n)))
+        out.write_text("protocol.yaml", proto)
         out.write_text(MARKER, json.dumps(want))
     return folder / "protocol.yaml"
 
