@@ -565,6 +565,18 @@ def reported_cases(layer_files: dict[str, bytes] | None = None) -> list[Case]:
         case("pcs", "mtm_TOR-A_5uL", f"ball_load_0_in_{which}_rows", _join(m), "ok",
              f"Ball Load is zero or negative in {len(rows)} of {n_rows - mh - 1} rows "
              f"(lines {mh + 2}-{rows[-1] + 1})")
+    # values inside the reader's bound that no test produces
+    hj = hpt[hh].split(",").index("arm_force [N]")
+    arm = [",".join(c if i != hj else "9e99" for i, c in enumerate(t.split(",")))
+           if k > hh and t else t for k, t in enumerate(hpt)]
+    case("hpt", "hpt_OFM1_4uL_25C", "arm_force_9e99", _join(arm), "input_error",
+         "the friction coefficient over the window is 7.58e+96, which no contact has")
+    mc = list(ml0)
+    c = mc[mh + 3].split("\t")
+    c[len(c) - 1 - ml0[mh].split("\t")[::-1].index("Traction Coeff (-)")] = "9e99"
+    mc[mh + 3] = "\t".join(c)
+    case("pcs", "mtm_TOR-A_5uL", "traction_coeff_9e99", _join(mc), "input_error",
+         f":{mh + 4}: column 'Traction Coeff': 9e+99 is not possible")
     out += _trios_reader_cases() + _law_cases(hpt_raw)
     return out
 

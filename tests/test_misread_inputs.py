@@ -300,6 +300,56 @@ def test_a_pcs_column_near_the_largest_float(cli, tmp_path, column):
     assert f"column '{column}': 1.0e308 is too large" in _one_error(r, f, h + 2)
 
 
+@pytest.mark.parametrize("column, value, fragment", [
+    ("Traction Coeff (-)", "9e99", "column 'Traction Coeff': 9e+99 is not possible for a "
+     "traction coefficient"),
+    ("Traction Coeff (-)", "10.5", "column 'Traction Coeff': 10.5 is not possible"),
+    ("Ball Load (N)", "2e8", "Ball Load: 2e+08 N is not possible for a normal load (the "
+     "largest possible is 1e+08 N)"),
+    ("Rolling Speed (mm/s)", "2e6", "column 'Rolling Speed': 2000 m/s is not possible for a "
+     "speed (at most 1000 m/s"),
+    ("SRR (%)", "250", "column 'SRR': 250 % is not possible for a slide-roll ratio (at most "
+     "200 %"),
+    ("Traction Force (N)", "9e99", "column 'Traction Force': 9e+99 N is not possible for a "
+     "force"),
+    ("Lube RTD Temp (°C)", "2500", "lube_temperature_C: 2500 degC is above 2000 degC"),
+])
+def test_pcs_values_no_test_produces_are_named(cli, tmp_path, column, value, fragment):
+    """Values inside the reader's bound (1e100 in SI units) that no test produces: a
+    traction coefficient above 10, a load above 1e8 N, a speed above 1000 m/s, a
+    slide-roll ratio beyond 200 %, a temperature above 2000 degC (was: exit 0 with a
+    coefficient of 9e99 in the summary)."""
+    lines = _lines(SAMPLE / "mtm" / "mtm_TOR-A_5uL.txt")
+    h = next(k for k, s in enumerate(lines) if s.startswith("Step Time"))
+    head = lines[h].split("\t")
+    j = len(head) - 1 - head[::-1].index(column)  # the used column (the last of the name)
+    c = lines[h + 3].split("\t")
+    c[j] = value
+    lines[h + 3] = "\t".join(c)
+    f = tmp_path / "m.txt"
+    f.write_text("\n".join(lines), encoding="utf-8")
+    r = cli("mtm", "reduce", f, "-o", tmp_path / "o", "--no-plot")
+    assert fragment in _one_error(r, f, h + 4)
+
+
+def test_an_hpt_friction_coefficient_no_contact_has_is_an_error(cli, tmp_path):
+    """An arm force of 9e99 N in every row (inside the reader's bound): the friction
+    coefficient would be 7.6e96 (was: exit 0 with it in the summary)."""
+    lines = _lines(HPT_LOG)
+    h = next(k for k, s in enumerate(lines) if s.startswith("time"))
+    j = lines[h].split(",").index("arm_force [N]")
+    for k in range(h + 1, len(lines)):
+        if lines[k]:
+            c = lines[k].split(",")
+            c[j] = "9e99"
+            lines[k] = ",".join(c)
+    f = tmp_path / "h.txt"
+    f.write_text("\n".join(lines))
+    r = cli("hpt", "reduce", f, "-o", tmp_path / "o", "--no-plot")
+    assert "the friction coefficient over the window is 7.58e+96, which no contact has" in \
+        _one_error(r, f)
+
+
 def test_memory_running_out_while_reducing_names_the_log(monkeypatch):
     from torlab.errors import TorlabInputError
     from torlab.parsers.hpt import read_hpt

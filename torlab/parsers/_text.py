@@ -246,19 +246,26 @@ def parse_log_columns(header: str, columns: dict[str, tuple[Any, ...]], display:
 
 
 def refuse_below_absolute_zero(df: Any, display: str) -> None:
-    """A temperature column (``*_C``) below -273.15 degC is an error naming the line.
+    """A temperature column (``*_C``) below -273.15 degC, or above the hottest temperature
+    torlab takes for a measurement (``torlab.units.RANGES["temperature"]``, 2000 degC), is
+    an error naming the line.
 
     Temperature columns are converted to degC from any unit (K, degF); a value
-    below absolute zero is a wrong unit or a broken cell, never a measurement.
+    below absolute zero or above that is a wrong unit or a broken cell, never a
+    measurement.
     """
+    from torlab.units import RANGES
+
+    top = RANGES["temperature"].high
     for c in df.columns:
         if not str(c).endswith("_C"):
             continue
         v = df[c].to_numpy(dtype=float)
-        bad = v < -273.15 - 1e-9
+        bad = (v < -273.15 - 1e-9) | (v > top)
         if bad.any():
             i = int(np.argmax(bad))
             line = int(df["line"].iloc[i]) if "line" in df else None
-            raise TorlabInputError(f"{v[i]:g} degC is below absolute zero (-273.15 degC); "
-                                   "check the value and the column's unit", path=display,
-                                   line=line, key=str(c))
+            what = "is below absolute zero (-273.15 degC)" if v[i] < 0 else \
+                f"is above {top:g} degC, which no test reaches"
+            raise TorlabInputError(f"{v[i]:g} degC {what}; check the value and the column's "
+                                   "unit", path=display, line=line, key=str(c))

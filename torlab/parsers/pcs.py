@@ -189,6 +189,9 @@ _META_UNIT = {"length": "mm", "velocity": "mm/s", "srr": "%"}
 
 #: a Ball Load this far below zero (N) is not a load cell at rest but a broken value
 LOAD_ZERO_NOISE_N = 0.5
+#: the largest traction coefficient taken for a measurement (no contact's traction force is
+#: ten times its load)
+MAX_COEFFICIENT = 10.0
 
 
 def _meta_range(name: str) -> str | None:
@@ -579,7 +582,7 @@ def read_pcs(src: PathOrBuffer, *, instrument: str | None = None,
     blocks = _split(lines, meta, display)
     df = _tables(blocks, meta, display)
     refuse_below_absolute_zero(df, display)
-    _refuse_negative_load(df, display)
+    _refuse_impossible(df, display)
     _coefficient_convention(df, meta)
     expected = meta.steps_completed
     if expected is not None and expected != len(meta.steps):
@@ -1125,23 +1128,69 @@ def _coefficient_convention(df: Any, meta: PcsMetadata) -> None:
                              "rows (kept as written)")
 
 
-def _refuse_negative_load(df: Any, display: str) -> None:
-    """A load column (``Ball Load``, ``Pin Load``) below ``-LOAD_ZERO_NOISE_N`` is an error
-    naming the line: a normal load cannot pull.  Readings around zero (an unloaded step)
-    stay; :func:`torlab.reduce.mtm.mu_series` derives no coefficient from them and says so.
+def _refuse_impossible(df: Any, display: str) -> None:
+    """Values no test produces are errors naming the line and column.
+
+    A load column (``Ball Load``, ``Pin Load``) below ``-LOAD_ZERO_NOISE_N`` (a normal load
+    cannot pull) or above the largest possible load (``torlab.units.RANGES["load"]``); a
+    traction coefficient beyond :data:`MAX_COEFFICIENT` (no contact's traction is ten times
+    its load: a broken column).  Readings around zero (an unloaded step) stay;
+    :func:`torlab.reduce.mtm.mu_series` derives no coefficient from them and says so.
     """
+    from torlab.units import RANGES
+
+    high = RANGES["load"].high
     for c in ("ball_load_N", "pin_load_N"):
         if c not in df:
             continue
         w = df[c].to_numpy(dtype=float)
-        bad = w < -LOAD_ZERO_NOISE_N  # NaN (an empty cell) compares False
+        bad = (w < -LOAD_ZERO_NOISE_N) | (w > high)  # NaN (an empty cell) compares False
         if bad.any():
             i = int(np.argmax(bad))
             line = int(df["line"].iloc[i]) if "line" in df else None
-            raise TorlabInputError(f"{w[i]:g} N is not possible for a normal load (a load cell "
-                                   f"at rest reads within {LOAD_ZERO_NOISE_N:g} N of zero); check "
+            why = f"a load cell at rest reads within {LOAD_ZERO_NOISE_N:g} N of zero" \
+                if w[i] < 0 else f"the largest possible is {high:g} N"
+            raise TorlabInputError(f"{w[i]:g} N is not possible for a normal load ({why}); check "
                                    "the value and the column's unit", path=display, line=line,
                                    key={"ball_load_N": "Ball Load", "pin_load_N": "Pin Load"}[c])
+    for c in df.columns:
+        limit = _largest(str(c), RANGES)
+        if limit is None:
+            continue
+        top, what, unit, scale = limit
+        v = df[c].to_numpy(dtype=float)
+        bad = np.abs(v) > top  # NaN compares False
+        if bad.any():
+            i = int(np.argmax(bad))
+            line = int(df["line"].iloc[i]) if "line" in df else None
+            raise TorlabInputError(f"{v[i] / scale:g}{unit} is not possible for {what} (at most "
+                                   f"{top / scale:g}{unit} in magnitude); check the value and "
+                                   "the column's unit", path=display, line=line,
+                                   key=f"column {_pcs_name(str(c))!r}")
+
+
+def _pcs_name(col: str) -> str:
+    """The PCS name of a torlab column, for messages (``lube_temperature_C`` -> ``Lube
+    Temp``)."""
+    base = re.sub(r"_col\d+$", "", col)
+    for k, v in PCS_COLUMNS.items():
+        if v[0] == base:
+            return k.upper() if len(k) <= 3 else k.title()
+    return col
+
+
+def _largest(col: str, ranges: Any) -> tuple[float, str, str, float] | None:
+    """``(largest magnitude in SI, what, unit shown, its scale)`` of a PCS column no test
+    exceeds (``None``: not checked here)."""
+    if col.startswith("traction_coefficient") or col.startswith("rolling_coefficient"):
+        return MAX_COEFFICIENT, "a traction coefficient of any contact", "", 1.0
+    if col.endswith("_m_s"):
+        return ranges["speed"].high, "a speed", " m/s", 1.0
+    if col == "srr":
+        return ranges["creepage"].high, "a slide-roll ratio", " %", 0.01
+    if col.endswith("force_N") or ("force_" in col and col.endswith("_N")):
+        return ranges["load"].high, "a force", " N", 1.0
+    return None
 
 
 def coefficient_column(df: Any) -> tuple[str, str]:

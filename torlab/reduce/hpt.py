@@ -41,6 +41,10 @@ __all__ = [
 ]
 
 DEFAULT_WINDOW = 20e-6
+#: the largest friction coefficient over the window taken for a measurement: no contact's
+#: shear stress is ten times its normal stress (a torque or arm force in the wrong unit,
+#: or a broken column, is)
+MAX_FRICTION = 10.0
 
 
 def annulus_area(r1: float, r2: float) -> float:
@@ -349,6 +353,11 @@ def _reduce_hpt(df: Any, meta: HptMetadata, *, window: float, source: str,
     # memory of the new columns
     out = pd.DataFrame(cols, copy=False)
     fm, fs, n = window_mean(u, f, window)
+    if not abs(fm) <= MAX_FRICTION:
+        what = "torque (or arm_force and arm_length)"
+        raise TorlabInputError(f"the friction coefficient over the window is {fm:.3g}, which no "
+                               f"contact has (|f| <= {MAX_FRICTION:g}): check the {what} and "
+                               "the normal_force columns and their units", path=path)
     tm, _, _ = window_mean(u, tau, window)
     desc = ""
     if compliance is not None:
