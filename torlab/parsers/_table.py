@@ -510,8 +510,10 @@ def _cell_text(data: bytes, i: int, j: int, spec: RowSpec) -> str:
 
 def _cell_error(data: bytes, i: int, j: int, spec: RowSpec, first_idx: int,
                 line_of: Callable[[int], int]) -> None:
-    cell = _cell_text(data, i, j, spec)
-    msg = "empty value" if not cell else f"{cell!r} is not a finite number"
+    raw = _row(data, i).split(spec.delimiter)[j]
+    cell = raw.strip()
+    msg = (f"{cell!r} is not a finite number" if cell else
+           "a cell of spaces (write a number)" if raw else "empty value (write a number)")
     raise TorlabInputError(msg, path=spec.path, line=line_of(first_idx + i),
                            key=f"column {spec.column(j)!r}")
 
