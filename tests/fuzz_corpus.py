@@ -577,6 +577,12 @@ def reported_cases(layer_files: dict[str, bytes] | None = None) -> list[Case]:
     mc[mh + 3] = "\t".join(c)
     case("pcs", "mtm_TOR-A_5uL", "traction_coeff_9e99", _join(mc), "input_error",
          f":{mh + 4}: column 'Traction Coeff': 9e+99 is not possible")
+    sf = list(strib)
+    c = sf[h + 5].split(",")
+    c[-1] = "9e99"
+    sf[h + 5] = ",".join(c)
+    case("optical", "stribeck_smooth", "film_thickness_9e99", _join(sf), "input_error",
+         f":{h + 6}: film_thickness: 9e+99 nm is not possible for a film thickness")
     out += _trios_reader_cases() + _law_cases(hpt_raw)
     return out
 

@@ -332,6 +332,26 @@ def test_pcs_values_no_test_produces_are_named(cli, tmp_path, column, value, fra
     assert fragment in _one_error(r, f, h + 4)
 
 
+@pytest.mark.parametrize("column, value, fragment", [
+    ("ball_speed [m/s]", "2000", "ball_speed: 2000 m/s is not possible for a speed"),
+    ("normal_load [N]", "2e8", "normal_load: 2e+08 N is not possible for a force"),
+    ("friction_force [N]", "9e99", "friction_force: 9e+99 N is not possible for a force"),
+    ("film_thickness [nm]", "2e6", "film_thickness: 2e+06 nm is not possible for a film "
+     "thickness (at most 1e+06 nm"),
+])
+def test_optical_values_no_test_produces_are_named(cli, tmp_path, column, value, fragment):
+    lines = _lines(SAMPLE / "optical" / "stribeck_smooth.csv")
+    h = next(k for k, s in enumerate(lines) if s.startswith("time"))
+    j = lines[h].split(",").index(column)
+    c = lines[h + 3].split(",")
+    c[j] = value
+    lines[h + 3] = ",".join(c)
+    f = tmp_path / "o.csv"
+    f.write_text("\n".join(lines))
+    r = cli("optical", "reduce", f, "-o", tmp_path / "o", "--no-plot")
+    assert fragment in _one_error(r, f, h + 4)
+
+
 def test_an_hpt_friction_coefficient_no_contact_has_is_an_error(cli, tmp_path):
     """An arm force of 9e99 N in every row (inside the reader's bound): the friction
     coefficient would be 7.6e96 (was: exit 0 with it in the summary)."""

@@ -297,8 +297,31 @@ def iter_optical_arrays(src: OpticalSource, chunksize: int = 250_000) -> Iterato
                 yield out
 
 
+#: SI column -> (largest magnitude a test produces, what, unit shown, its scale): beyond it a
+#: value is a broken cell or a wrong unit (the speed, load and temperature of
+#: ``torlab.units.RANGES``; no interferometer measures a film of a millimetre)
+_LARGEST: dict[str, tuple[float, str, str, float]] = {
+    **dict.fromkeys(("ball_speed_m_s", "disc_speed_m_s", "ball_speed_set_m_s",
+                     "disc_speed_set_m_s"), (1e3, "a speed", "m/s", 1.0)),
+    **dict.fromkeys(("normal_load_N", "load_set_N", "friction_force_N"),
+                    (1e8, "a force", "N", 1.0)),
+    "temperature_C": (2000.0, "a temperature", "degC", 1.0),
+    "film_thickness_m": (1e-3, "a film thickness", "nm", 1e-9),
+}
+
+
 def _validate_column(v: np.ndarray, name: str, first: int, display: str) -> None:
     """The per-column rules (finite values and empty cells: the reader layer)."""
+    if name in _LARGEST:
+        top, what, unit, scale = _LARGEST[name]
+        big = np.abs(v) > top  # NaN (an empty cell) compares False
+        if big.any():
+            i = int(np.argmax(big))
+            raise TorlabInputError(f"{v[i] / scale:g} {unit} is not possible for {what} (at most "
+                                   f"{top / scale:g} {unit} in magnitude); check the value and "
+                                   "the column's unit", path=display, line=first + i,
+                                   key=name.removesuffix("_m_s").removesuffix("_N")
+                                   .removesuffix("_C").removesuffix("_m"))
     if name == "normal_load_N":
         if not (v > 0).all():
             i = int(np.argmax(~(v > 0)))
