@@ -19,6 +19,11 @@ mixed curve (the Paper A rough ball in water: film, asperity load sharing, FASTS
 is the largest relative difference of the two bands' edges (round-off: the draws are the
 same computation).
 
+The nonlinear group is the curve of paper_c's campaign whose band is not linear over it
+(the WFM-wet layer on Tab. 5.4 with its flash temperature, ``tests/data/bands``): the plain
+curve, ``predict_traction`` with the automatic choice (the second-order band) and 400 draws,
+against a band of 3000 draws (600 with ``quick``).
+
 The third group runs the thermal curve's sampled band on 2 local processes, as a protocol
 did before (the whole band one task: its draws one after the other in one worker) and as it
 does now (the band's 20 blocks of draws as tasks of their own,
@@ -225,6 +230,57 @@ def _square(x: int) -> int:
     return x * x
 
 
+#: the nonlinear band of paper_c's campaign (the WFM-wet layer on Tab. 5.4 with its flash
+#: temperature and temperature coefficients, as the protocol fits it from the sample data)
+NONLINEAR_SCENE = ("tests", "data", "bands", "wfm_wet_tab54.yaml")
+
+
+def _nonlinear_rows(quick: bool) -> list[BenchRow]:
+    """The curve whose band the nonlinearity check refuses to linearise: plain, the
+    automatic choice (second order) and 400 draws, against a band of 3000 draws."""
+    from pathlib import Path
+
+    import yaml
+
+    from torlab.model.bands import scene_uncertainty, traction_band
+    from torlab.model.predict import predict_traction
+    from torlab.model.traction import traction_curve
+    from torlab.scene import scene_from_dict
+
+    path = Path(__file__).resolve().parents[2].joinpath(*NONLINEAR_SCENE)
+    if not path.is_file():  # an installed torlab without its tests
+        return []
+    sc = scene_from_dict(yaml.safe_load(path.read_text(encoding="utf-8")))
+    xi = np.linspace(0.0, 0.05, 51)
+    su = scene_uncertainty(sc)
+    table = traction_curve(sc, xi).table
+    n_ref = 600 if quick else 3000
+    ref_band = traction_band(sc, xi, table, su, method="sampling", n_samples=n_ref, seed=12345)
+    ref = {k: (ref_band.low(k), ref_band.high(k)) for k in ref_band.center}
+    repeat = 3 if quick else 7
+    t_plain = median_time(lambda: traction_curve(sc, xi), repeat=repeat)
+    t_auto = median_time(lambda: predict_traction(sc, xi), repeat=repeat)
+    auto = predict_traction(sc, xi).band
+    t_samp = median_time(lambda: traction_band(sc, xi, table, su, method="sampling",
+                                               n_samples=400, seed=3), repeat=1) + t_plain
+    samp = traction_band(sc, xi, table, su, method="sampling", n_samples=400, seed=3)
+    comp = "nonlinear traction band"
+    unit = "51-point Tab. 5.4 curve, WFM-wet layer, flash temperature"
+    refname = f"sampled band of {n_ref} draws (seed 12345)"
+    kind = "band edge / reference half-width"
+    return [
+        BenchRow(comp, "plain curve (no band)", t_plain, None, "", False, unit,
+                 extra={"ratio_to_plain": 1.0}),
+        BenchRow(comp, f"band, automatic choice ({auto.method})", t_auto,
+                 _edge_error(auto, ref), refname, True, unit, error_kind=kind,
+                 extra={"ratio_to_plain": t_auto / t_plain, "model_evaluations":
+                        auto.n_evaluations, "nonlinearity": auto.nonlinearity}),
+        BenchRow(comp, "band, sampling (400 draws)", t_samp, _edge_error(samp, ref), refname,
+                 False, unit, error_kind=kind,
+                 extra={"ratio_to_plain": t_samp / t_plain, "model_evaluations":
+                        samp.n_evaluations})]
+
+
 def run(quick: bool = False) -> list[BenchRow]:
     """Plain curve, its band by the default choice, forced linearisation and forced sampling;
     the sampled band's draws row by row and many at a time."""
@@ -267,4 +323,4 @@ def run(quick: bool = False) -> list[BenchRow]:
                              extra={"ratio_to_plain": t / t_plain,
                                     "model_evaluations": b.n_evaluations,
                                     "reference_noise": noise}))
-    return rows + _draw_rows(quick) + _process_rows(quick)
+    return rows + _nonlinear_rows(quick) + _draw_rows(quick) + _process_rows(quick)
