@@ -41,13 +41,17 @@ def _hpt_args(files=HPT) -> list[str]:
 
 @pytest.fixture(scope="module")
 def fitted(tmp_path_factory):
-    """``torlab fit removal`` on the shipped sample campaign (once per module)."""
+    """``torlab fit removal`` on the shipped sample campaign (once per module), on the
+    tribometer scene the campaign was made with (Kalker's FASTSIM, the thesis's boundary
+    method: protocols/scenes/mtm_retention.yaml)."""
     from typer.testing import CliRunner
 
     from torlab.cli import app
 
     out = tmp_path_factory.mktemp("fit") / "fit"
-    r = CliRunner().invoke(app, ["fit", "removal", *TESTS, *_hpt_args(), "-o", str(out)])
+    r = CliRunner().invoke(app, ["fit", "removal", *TESTS, *_hpt_args(), "--scene",
+                                 str(ROOT / "protocols" / "scenes" / "mtm_retention.yaml"),
+                                 "-o", str(out)])
     assert r.exit_code == 0, r.output
     return out, r.output
 
@@ -126,6 +130,7 @@ def test_fit_removal_from_hpt_parameter_files_equals_from_logs(fitted, cli, tmp_
         assert r.exit_code == 0, r.output
         pfiles.append(str(d / "params.yaml"))
     r = cli("fit", "removal", *TESTS, *[a for p in pfiles for a in ("--hpt", p)],
+            "--scene", ROOT / "protocols" / "scenes" / "mtm_retention.yaml",
             "-o", tmp_path / "from_params")
     assert r.exit_code == 0, r.output
     a = json.loads((out / "summary.json").read_text())
@@ -141,7 +146,8 @@ def test_python_api_matches_the_commands(fitted, tmp_path):
 
     out, _ = fitted
     rp = load_retention(out / "params.yaml")
-    res = torlab.fit_removal(TESTS, rp.layer, density="930 kg/m^3")
+    res = torlab.fit_removal(TESTS, rp.layer, density="930 kg/m^3",
+                             scene=ROOT / "protocols" / "scenes" / "mtm_retention.yaml")
     cli_k1 = json.loads((out / "summary.json").read_text())["params"]["k1"]
     assert res.params["k1"] == pytest.approx(cli_k1, rel=1e-9)
     res.to_params(tmp_path / "removal.yaml")

@@ -313,7 +313,7 @@ def _covariance_blocks(d: dict) -> list:
 
 
 def fit_traction(scene: SceneLike, data: Any, *, fix: dict[str, Any] | None = None,
-                 dry: bool = False) -> FitResult:
+                 dry: bool = False, method: str | None = None) -> FitResult:
     """The layer from a measured traction curve mu(creepage) through the traction model
     (thesis Eqs. 5.14-5.30; the mixed model for a lubricated scene).
 
@@ -334,10 +334,14 @@ def fit_traction(scene: SceneLike, data: Any, *, fix: dict[str, Any] | None = No
     dry
         Ignore the scene's lubricant and roughness (a dry test; automatic for an
         optical log of test ``dry_traction``).
+    method
+        The boundary method (``fastsim``, ``fastsim-kalker``, ``exact``, ``auto``; None:
+        the scene's ``grid: method``): :func:`torlab.fit.traction.fit_layer_traction`.
 
     Returns
     -------
     FitResult
+        ``meta["boundary_method"]``, ``meta["theory_error_95"]``.
     """
     import numpy as np
 
@@ -350,7 +354,8 @@ def fit_traction(scene: SceneLike, data: Any, *, fix: dict[str, Any] | None = No
     else:
         xi, mu = data
         points = TractionData(np.asarray(xi, dtype=float), np.asarray(mu, dtype=float), "", None)
-    return fit_traction_test(_scene(scene), points, dry=dry, fixed=layer_values(fix or {}))
+    return fit_traction_test(_scene(scene), points, dry=dry, fixed=layer_values(fix or {}),
+                             method=method)
 
 
 def fit_viscosity(data: Any, law: str = "roelands", **options: Any) -> FitResult:
@@ -458,7 +463,7 @@ def _grid(values: Any, kind: str, name: str) -> Any:
 
 
 def predict_traction(scene: SceneLike, creepage: Any, *, params: Any = None,
-                     trend_tolerance: float = 0.01) -> TractionPrediction:
+                     trend_tolerance: float = 0.01, method: str | None = None) -> TractionPrediction:
     """Traction curve of a scene (thesis model: Hertz + FASTSIM with the layer, contact
     temperature, EHL film and asperity load sharing where the scene has them).
 
@@ -472,16 +477,21 @@ def predict_traction(scene: SceneLike, creepage: Any, *, params: Any = None,
         Parameter files or FitResults applied over the scene (``fit_hpt(...)``).
     trend_tolerance
         Relative change after saturation below which the trend is neutral.
+    method
+        The boundary method: ``fastsim`` (FASTSIM corrected by Kalker's exact theory),
+        ``fastsim-kalker`` (the thesis's FASTSIM), ``exact`` (Kalker's exact theory) or
+        ``auto``; None: the scene's ``grid: method`` (``fastsim``).
 
     Returns
     -------
     TractionPrediction
-        ``table`` (creepage, mu ...), ``trend``, ``modelled``, ``summary``.
+        ``table`` (creepage, mu, mu_theory_error_95 ...), ``trend``, ``modelled``,
+        ``summary`` (with ``method`` and ``theory_error``).
     """
     from torlab.model.predict import predict_traction as _predict
 
     return _predict(_scene(scene, params), _grid(creepage, "dimensionless", "creepage"),
-                    trend_tolerance=trend_tolerance)
+                    trend_tolerance=trend_tolerance, method=method)
 
 
 def predict_stribeck(scene: SceneLike, speed: Any, creepage: Any, *, params: Any = None
@@ -817,7 +827,7 @@ def predict_sweep(scene: SceneLike, params: Any, amount: Any, *, seconds: Any,
 
 # ------------------------------------------------------------------ creep forces (vehicle dynamics)
 def predict_creep(scene: SceneLike, creepage: Any, lateral: Any = 0.0, spin: Any = 0.0, *,
-                  params: Any = None) -> TractionPrediction:
+                  params: Any = None, method: str | None = None) -> TractionPrediction:
     """Creep forces ``Fx, Fy, Mz`` of a dry scene along a creepage curve at one lateral
     creepage and one spin: FASTSIM with the third-body layer in all three creepages
     (Kalker's flexibilities from C11, C22, C23; the Voce limit, Eqs. 5.24-5.29; the contact
@@ -836,19 +846,21 @@ def predict_creep(scene: SceneLike, creepage: Any, lateral: Any = 0.0, spin: Any
         Spin of every point: ``"0.5 1/m"`` or 1/m.
     params
         Parameter files or FitResults applied over the scene.
+    method
+        The boundary method (as :func:`predict_traction`).
 
     Returns
     -------
     TractionPrediction
         ``table`` (``creepage, mu, lateral, spin_1_m, mu_x, mu_y, Fx_N, Fy_N, Mz_Nm,
-        adhesion_fraction``; ``max_temperature_C`` with ``thermal:``), ``trend``,
-        ``modelled``, ``summary``.
+        adhesion_fraction``, their theory errors ``Fx_theory_error_95_N`` ...;
+        ``max_temperature_C`` with ``thermal:``), ``trend``, ``modelled``, ``summary``.
     """
-    from torlab.model.creep import predict_creep as _predict
+    from torlab.model.predict import predict_creep as _predict
 
     return _predict(_scene(scene, params), _grid(creepage, "dimensionless", "creepage"),
                     _si(lateral, "dimensionless", "lateral", "creepage"),
-                    _si(spin, "inverse_length", "spin", "spin"))
+                    _si(spin, "inverse_length", "spin", "spin"), method=method)
 
 
 def _amount(value: Any) -> tuple[float, str]:
@@ -868,7 +880,7 @@ def _amount(value: Any) -> tuple[float, str]:
 
 def creep_table(scene: SceneLike, creepage: Any, lateral: Any, spin: Any, *, speed: Any = None,
                 params: Any = None, amounts: Any = None, normalised: bool = False,
-                map_fn: Any = None) -> CreepTable:
+                map_fn: Any = None, load: Any = None, method: str | None = None) -> CreepTable:
     """Creep-force table of a dry scene over creepage x lateral x spin (x speed x amount),
     in SI units and Kalker's normalised form, for vehicle-dynamics codes
     (``torlab predict table``).
@@ -894,6 +906,11 @@ def creep_table(scene: SceneLike, creepage: Any, lateral: Any, spin: Any, *, spe
         The creepage axes are Kalker's ``xi*, eta*, phi*`` rather than fractions and 1/m.
     map_fn
         ``map``-like callable for the chunks of the table (an executor's ``map``).
+    load
+        Optional normal-load axis (``"10 kN, 20 kN, 80 kN"`` or N): one contact per load.
+    method
+        The boundary method (as :func:`predict_traction`; ``auto`` uses the exact
+        solver for a table, which has no band).
 
     Returns
     -------
@@ -922,12 +939,14 @@ def creep_table(scene: SceneLike, creepage: Any, lateral: Any, spin: Any, *, spe
         pairs = [(a, _scene(scene, [*base, p])) for (a, _), p in parsed]
     return scene_creep_table(sc, *axes, speed=v, amounts=pairs, amount_unit=unit,
                              normalised=normalised, map_fn=map_fn,
-                             provenance={"command": "torlab.creep_table"})
+                             provenance={"command": "torlab.creep_table"},
+                             loads=None if load is None else _grid(load, "force", "load"),
+                             method=method)
 
 
 def fit_polach(scene: SceneLike, creepage: Any = "0:0.05:41", speed: Any = "5 m/s, 20 m/s", *,
                lateral: Any = None, spin: Any = None, params: Any = None,
-               draws: int | None = None, seed: int = 0) -> FitResult:
+               draws: int | None = None, seed: int = 0, method: str | None = None) -> FitResult:
     """Polach's creep-force parameters ``mu0, A, B, kA, kS`` (Polach 2005; spin of 1999)
     fitted to torlab's creep forces of a dry scene over a creepage and speed range
     (``torlab fit polach``).
@@ -949,6 +968,8 @@ def fit_polach(scene: SceneLike, creepage: Any = "0:0.05:41", speed: Any = "5 m/
         :data:`torlab.fit.polach.N_DRAWS`; 0: the layer's uncertainty is not carried).
     seed
         Seed of the draws.
+    method
+        The boundary method of torlab's forces (as :func:`predict_traction`).
 
     Returns
     -------
@@ -966,7 +987,7 @@ def fit_polach(scene: SceneLike, creepage: Any = "0:0.05:41", speed: Any = "5 m/
                                                                        "lateral"),
                             spin=None if spin is None else _grid(spin, "inverse_length", "spin"),
                             draws=N_DRAWS if draws is None else draws, seed=seed,
-                            source=sc.name or "scene")
+                            source=sc.name or "scene", method=method)
 
 
 def run_protocol(protocol: PathLike, out: PathLike, *, force: bool = False,

@@ -370,7 +370,8 @@ class Roughness(_Section):
 
 
 class Grid(_Section):
-    """``grid:``: numerical resolution of FASTSIM (defaults meet the 0.1 % accuracy goal).
+    """``grid:``: numerical resolution of FASTSIM (defaults meet the 0.1 % accuracy goal)
+    and the boundary method.
 
     Attributes
     ----------
@@ -382,12 +383,23 @@ class Grid(_Section):
         ``gauss`` (torlab's default, see :mod:`torlab.model.fastsim`).
     temperature_nodes
         Nodes per strip of the temperature grid.
+    method
+        The boundary method (``docs/model/boundary.md``): ``fastsim`` (default,
+        FASTSIM corrected by Kalker's exact theory, :mod:`torlab.model.calibrated`),
+        ``fastsim-kalker`` (Kalker's FASTSIM, the thesis's model), ``exact`` (Kalker's
+        exact theory, :mod:`torlab.model.exact`) or ``auto`` (``fastsim`` where its
+        theory error is below the band's half-width, ``exact`` elsewhere).
+    exact_n
+        Elements across each axis of the ellipse for the exact solver (its error is
+        estimated from a second grid of ``0.6 exact_n``).
     """
 
     n: int = Field(default=6, ge=2, le=2000)
     m: int = Field(default=4, ge=2, le=64)
     scheme: Literal["gauss"] = "gauss"
     temperature_nodes: int = Field(default=48, ge=8, le=4000)
+    method: Literal["fastsim", "fastsim-kalker", "exact", "auto"] = "fastsim"
+    exact_n: int = Field(default=25, ge=8, le=200)
 
 
 class FitCovariance(_Section):

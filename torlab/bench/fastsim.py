@@ -115,7 +115,17 @@ def scene_problem(a_over_b: float | None = None, layer: bool = True,
         ``mu_c1 = mu_c2 = 0.3``).
     boundary
         Overrides of the ``boundary:`` section.
+
+    Returns
+    -------
+    FastsimProblem
+        Kalker's FASTSIM (``calibrated=False``): the scheme this benchmark measures
+        against the simplified theory's grid-free reference (the default method's
+        correction by the exact theory is a factor on its result, measured in
+        :mod:`torlab.bench.method`).
     """
+    import dataclasses
+
     from torlab.model.prediction import fastsim_problem
     from torlab.scene import scene_from_dict
 
@@ -128,7 +138,7 @@ def scene_problem(a_over_b: float | None = None, layer: bool = True,
         d["boundary"] = dict(NO_LAYER)
     if boundary:
         d["boundary"].update(boundary)
-    return fastsim_problem(scene_from_dict(d))
+    return dataclasses.replace(fastsim_problem(scene_from_dict(d)), calibrated=False)
 
 
 @lru_cache(maxsize=4096)

@@ -29,6 +29,7 @@ __all__ = [
     "parse_values",
     "print_renderable",
     "print_table",
+    "print_theory_error",
     "require_files",
     "session",
 ]
@@ -56,6 +57,13 @@ QuietOpt = Annotated[bool, typer.Option(
     "terminal).")]
 
 
+MethodOpt = Annotated[str | None, typer.Option(
+    "--method", metavar="METHOD", help="Boundary method: fastsim (FASTSIM corrected by "
+    "Kalker's exact theory), fastsim-kalker (Kalker's FASTSIM, the thesis's model), exact "
+    "(Kalker's exact theory: slow), auto (fastsim where its theory error is below the band's "
+    "half-width, else exact); default the scene's grid: method (fastsim).")]
+
+
 HoldAboveOpt = Annotated[bool, typer.Option(
     "--hold-above", help="Above the largest amount the HPT series tested, hold the layer of "
     "that amount (said in the notes) instead of refusing: the layer is not known there.")]
@@ -72,6 +80,24 @@ def hold_above_hint() -> Iterator[None]:
     except AboveTestedError as e:
         key = "--" + e.key.replace("_", "-") if e.key and not e.key.startswith("-") else e.key
         raise e.with_hint("--hold-above", key=key) from None
+
+
+def print_theory_error(summary: dict) -> None:
+    """The boundary method and its theory error (beside the band, never in it)."""
+    m = summary.get("method")
+    te = summary.get("theory_error")
+    if not m:
+        return
+    c = console()
+    how = f" (auto: {m['why']})" if m.get("asked") == "auto" else ""
+    c.print(f"boundary method: [bold]{m['method']}[/bold]{how}")
+    if te and te.get("theory_error_95") is not None:
+        band = ""
+        if te.get("band_half_width_min") is not None:
+            band = f"; the band's half-width is {te['band_half_width_min']:.2g} or more"
+        c.print(f"theory error (95 %, against Kalker's exact theory, not in the band): "
+                f"{te['theory_error_95']:.2g} in mu at most ({100 * te['relative_95']:.2g} % "
+                f"of mu){band}")
 
 
 def console() -> Any:

@@ -26,6 +26,7 @@ from torlab.cli._common import (
     FormatsOpt,
     HoldAboveOpt,
     JobsOpt,
+    MethodOpt,
     OutOpt,
     QuietOpt,
     SchedulerOpt,
@@ -277,12 +278,17 @@ def traction_cmd(
     dry: Annotated[bool, typer.Option("--dry", help="Dry test: ignore the scene's lubricant: and "
                                       "roughness: (automatic for a dry_traction optical log).")]
     = False,
+    method: MethodOpt = None,
     force: ForceOpt = False,
     xlsx: XlsxOpt = False,
     formats: FormatsOpt = None,
 ) -> None:
-    """Layer parameters from measured traction curves mu(SRR), fitted with FASTSIM
-    (the model of 'torlab predict traction', thesis Eqs. 5.14-5.30).
+    """Layer parameters from measured traction curves mu(SRR), fitted with the model of
+    'torlab predict traction' (thesis Eqs. 5.14-5.30) by the boundary method (--method):
+    FASTSIM corrected by Kalker's exact theory (default), the thesis's FASTSIM, the exact
+    theory, or auto (the exact theory where the fast one's theory error exceeds the fitted
+    curve's band); params.yaml's fit: section names it (boundary_method) and the fit's
+    theory error (theory_error_95; fit_data.csv's mu_theory_error_95).
 
     A lubricated scene is fitted with the mixed model (film + asperities + layer); a dry
     test (--dry, or a torlab-optical log of test dry_traction) with the dry model.  Every
@@ -290,11 +296,13 @@ def traction_cmd(
     and fit_summary.csv), or with --joint one parameter set: the curves' fits pooled with
     random effects (the intervals hold the scatter between the repeats).
     """
+    from torlab.model.predict import with_method
     from torlab.outputs import OutputDir
     from torlab.scene import load_scene
 
     (scene,) = require_files([scene], "scene")
-    sc = load_scene(scene)
+    with option_keys(traction_cmd):
+        sc = with_method(load_scene(scene), method)
     keep, loaded = loads(traction_data)
     files = require_files(data, "traction-curve", keep=keep)
     curves = [(f, *(loaded[f] if f in loaded else traction_data(f))) for f in files]
@@ -340,9 +348,13 @@ def _traction_fits(sc: Scene, curves: list[tuple[Path, Any, Any, str, Any]], *, 
         name = _stem(f, names)
         if len(res.meta.get("speeds_m_s", [])) <= 1:  # one speed: the model as a dense curve
             xi = np.asarray(data[0], dtype=float)
-            dense = np.linspace(float(np.min(xi)), float(np.max(xi)), 201)
-            model_curves[name] = (dense, traction_model(tested_contact(sc, data[2], dry=dry))(
-                res.params, dense))
+            exact = res.meta.get("boundary_method") == "exact"
+            dense = np.linspace(float(np.min(xi)), float(np.max(xi)), 41 if exact else 201)
+            scm = tested_contact(sc, data[2], dry=dry)
+            if exact:
+                scm = scm.model_copy(update={"grid": scm.grid.model_copy(
+                    update={"method": "exact"})})
+            model_curves[name] = (dense, traction_model(scm)(res.params, dense))
         fits.append((name, res))
     if joint and len(fits) > 1:  # repeats: each curve's fit, pooled with their scatter
         return _pooled(fits), {}
@@ -608,6 +620,7 @@ def polach_cmd(
     spin: Annotated[str | None, typer.Option(help="Optional spins (1/m) added likewise.")] = None,
     draws: Annotated[int, typer.Option(min=0, help="Draws of the layer from its fit's "
                                        "covariance, Polach refitted to each (0: off).")] = 200,
+    method: MethodOpt = None,
     force: ForceOpt = False,
     xlsx: XlsxOpt = False,
     formats: FormatsOpt = None,
@@ -624,16 +637,21 @@ def polach_cmd(
     parameter file carries its fit's covariance, the layer is drawn from it (--draws) and
     Polach refitted per draw: layer_intervals.csv and summary.json's layer_uncertainty give
     each parameter's 95 % interval from the layer, the dominant layer parameters and the
-    correlations (fit_table.csv's intervals are the approximation's).
+    correlations (fit_table.csv's intervals are the approximation's).  torlab's forces
+    come from the boundary method (--method; exact: Kalker's exact theory, isothermal);
+    summary.json names it (boundary_method) and their theory error (theory_error_95;
+    fit_data.csv's mu_theory_error_95).
     """
     from torlab.cli._common import session
     from torlab.fit.polach import fit_polach_scene, layer_interval_table
     from torlab.grids import parse_values
+    from torlab.model.predict import with_method
     from torlab.outputs import OutputDir
     from torlab.scene import load_scene
 
     files = require_files(scene, "scene")
-    sc = load_scene(*files)
+    with option_keys(polach_cmd):
+        sc = with_method(load_scene(*files), method)
     xi = parse_values(creepage, "dimensionless", "--creepage", "creepage")
     v = parse_values(speed, "velocity", "--speed", "speed")
     eta = None if lateral is None else parse_values(lateral, "dimensionless", "--lateral",
@@ -657,6 +675,12 @@ def polach_cmd(
                       "dominant": r.dominant or "—"} for r in lay.itertuples()],
                     title=f"Layer uncertainty ({lu['method']}, {lu['n_draws']} draws, "
                           f"{lu['n_failed']} failed)")
+    te = res.meta.get("theory_error_95")
+    console().print(f"torlab's forces by [bold]{res.meta.get('boundary_method')}[/bold]"
+                    + (f" (auto: {res.meta['boundary_method_auto']})"
+                       if res.meta.get("boundary_method_auto") else "")
+                    + (f"; their theory error (95 %, against Kalker's exact theory): up to "
+                       f"{te:.2g} in mu" if te is not None else ""))
     console().print(f"largest difference Polach - torlab: {res.meta['max_abs_residual']:.3g} "
                     f"(F/N); wrote {', '.join(_FILES)}, layer_intervals.csv to {out}")
 

@@ -13,6 +13,7 @@ from torlab.cli._common import (
     FormatsOpt,
     HoldAboveOpt,
     JobsOpt,
+    MethodOpt,
     NoPlotOpt,
     OutOpt,
     QuietOpt,
@@ -21,6 +22,7 @@ from torlab.cli._common import (
     console,
     hold_above_hint,
     option_keys,
+    print_theory_error,
     require_files,
 )
 
@@ -180,6 +182,7 @@ def traction_cmd(
     pass_interval: Annotated[str | None, typer.Option(help="With --sweep: time between "
                                                       "passes on a rail.")] = None,
     hold_above: HoldAboveOpt = False,
+    method: MethodOpt = None,
     force: ForceOpt = False,
     no_plot: NoPlotOpt = False,
     formats: FormatsOpt = None,
@@ -199,7 +202,10 @@ def traction_cmd(
     When a parameter file from 'torlab fit' carries its covariance, the fit's uncertainty
     is propagated: mu_low95/mu_high95 (and the film thickness and temperature bands) in
     the CSV, the band in the figure, the method and the dominant parameters in
-    summary.json, and the trend with the probability of each class.
+    summary.json, and the trend with the probability of each class.  Every prediction
+    names its boundary method (--method) and states its theory error against Kalker's
+    exact theory apart from the band: mu_theory_error_95 in the CSV (Fx/Fy/Mz too with
+    --lateral/--spin), method and theory_error in summary.json.
     """
     from torlab.reports.render import early_drawing, parse_formats
 
@@ -217,25 +223,28 @@ def traction_cmd(
     with early_drawing(not no_plot, jobs, scheduler) as drawer:
         pred, names = _traction(files, out, creepage, lateral, spin, force=force,
                                 formats=None if no_plot else fmts, drawer=drawer, jobs=jobs,
-                                scheduler=scheduler, quiet=quiet)
+                                scheduler=scheduler, quiet=quiet, method=method)
     _print_modelled(pred.modelled, pred.summary.get("notes", []))
     _print_band(pred.summary)
+    print_theory_error(pred.summary)
     _print_trend(pred)
     console().print(f"wrote {_written(names)} to {out}")
 
 
 def _traction(files: list[Path], out: Path, creepage: str, lateral: str, spin: str, *,
               force: bool, formats: Sequence[str] | None, drawer: Any, jobs: int | None,
-              scheduler: str | None, quiet: bool) -> tuple[Any, list[str]]:
+              scheduler: str | None, quiet: bool, method: str | None = None
+              ) -> tuple[Any, list[str]]:
     """``predict traction``'s work: the prediction, and the names of the files written
     (``formats`` None: no figure; ``drawer``: where the figure is drawn)."""
     from torlab.cli._common import parse_values, session
-    from torlab.model.predict import predict_traction
+    from torlab.model.predict import predict_creep, predict_traction, with_method
     from torlab.outputs import OutputDir
     from torlab.scene import load_scene
 
     _no_retention_file(files)
-    sc = load_scene(*files)
+    with option_keys(traction_cmd):
+        sc = with_method(load_scene(*files), method)
     xi = parse_values(creepage, "dimensionless", "--creepage", "creepage")
     eta = float(parse_values(lateral, "dimensionless", "--lateral", "creepage")[0])
     phi = float(parse_values(spin, "inverse_length", "--spin", "spin")[0])
@@ -243,13 +252,13 @@ def _traction(files: list[Path], out: Path, creepage: str, lateral: str, spin: s
     names = ["traction.csv", "summary.json"]
     with dest, session(jobs, scheduler, quiet):
         if eta or phi:
-            from torlab.model.creep import predict_creep
-
             pred = predict_creep(sc, xi, eta, phi)
         else:
             pred = predict_traction(sc, xi, as_frame=False)
         dest.write_csv("traction.csv", pred.table,
-                       allow_missing=("max_temperature_low95_C", "max_temperature_high95_C"))
+                       allow_missing=("max_temperature_low95_C", "max_temperature_high95_C",
+                                      "mu_theory_error_95", "Fx_theory_error_95_N",
+                                      "Fy_theory_error_95_N", "Mz_theory_error_95_Nm"))
         summary = dict(pred.summary, creepage_range=[float(xi.min()), float(xi.max())],
                        n_points=int(xi.size))
         dest.write_json("summary.json", summary)
@@ -661,15 +670,25 @@ def table_cmd(
     normalised: Annotated[bool, typer.Option(help="Axes in Kalker's normalised creepages "
                                              "xi*, eta*, phi* instead of fractions and 1/m.")]
     = False,
+    load: Annotated[str | None, typer.Option(help="Optional normal-load axis ('10 kN, 20 kN, "
+                                             "80 kN'): one contact per load (Hertz); with a "
+                                             "layer the normalised forces depend on it.")]
+    = None,
+    method: MethodOpt = None,
     force: ForceOpt = False,
     jobs: JobsOpt = None,
     scheduler: SchedulerOpt = None,
     quiet: QuietOpt = False,
 ) -> None:
-    """Creep-force table over creepage x lateral x spin (x speed x amount) for a dry scene.
+    """Creep-force table over creepage x lateral x spin (x speed x amount x load) for a dry
+    scene.
 
-    Writes creep_table.nc (netCDF3: axes, units, Kalker's normalisation, the scene's
-    provenance), creep_table.csv (one row per point) and summary.json.
+    Writes creep_table.nc (netCDF3, CF conventions: axes, units, Kalker's normalisation,
+    the contact it holds for, the boundary method, the scene's provenance), creep_table.csv
+    (one row per point) and summary.json.  Every force comes with its theory error
+    against Kalker's exact theory (Fx_theory_error_95_N ...).  With a layer Kalker's
+    normalised forces hold for the table's contact only (its load_N and a_over_b
+    coordinates; --load adds a load axis).
     """
     from torlab.cli._common import parse_values, session
     from torlab.model.creep_table import scene_creep_table
@@ -684,12 +703,14 @@ def table_cmd(
             zip((creepage, lateral, spin), kinds, ("creepage", "lateral", "spin"), ranges,
                 strict=True)]
     v = parse_values(speed, "velocity", "--speed", "speed") if speed is not None else None
+    loads = parse_values(load, "force", "--load", "load") if load is not None else None
     pairs, unit, extra = _parse_amounts(amount or [])
     amounts = [(a, load_scene(*files, p)) for a, p in pairs] if pairs else None
     sc = load_scene(*files)
-    with session(jobs, scheduler, quiet):
+    with session(jobs, scheduler, quiet), option_keys(table_cmd):
         tab = scene_creep_table(sc, *axes, speed=v, amounts=amounts, amount_unit=unit,
-                                normalised=normalised, provenance={
+                                normalised=normalised, loads=loads, method=method,
+                                provenance={
                                     "scene_files": [str(f) for f in [*files, *extra]],
                                     "command": command_line()})
     dest = OutputDir(out, force=force, inputs=[*files, *extra], command=command_line())
@@ -701,6 +722,11 @@ def table_cmd(
                                                         if isinstance(v, (str, int, float))}})
     for n in tab.notes:
         console().print(f"[yellow]note:[/yellow] {n}")
+    at = tab.dataset.attrs
+    console().print(f"boundary method: [bold]{at['boundary_method']}[/bold]; theory error "
+                    f"(95 %, against Kalker's exact theory): up to "
+                    f"{at['theory_error_95_max_mu']:.2g} in mu (Fx_theory_error_95_N ...)")
+    console().print(f"normalised forces hold for {at['normalisation_valid_for']}")
     console().print(f"table {' x '.join(f'{k} {v}' for k, v in dims.items())}; wrote "
                     f"{', '.join(names)}, summary.json to {out}")
 

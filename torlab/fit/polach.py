@@ -76,12 +76,17 @@ NOT_CARRIED = "layer uncertainty not carried"
 
 
 def polach_data(problem: CreepProblem, creepage: Any, speed: Any, *, lateral: Any = None,
-                spin: Any = None, grid: CreepGrid | None = None) -> Any:
+                spin: Any = None, grid: CreepGrid | None = None, exact: Any = None,
+                shift: Any = None) -> Any:
     """torlab's creep forces on the fit grid: a long DataFrame.
 
     Columns ``creepage, lateral, spin_1_m, speed_m_s, mu_x, mu_y`` (``mu = F/N``); one
     row per (creepage, speed), plus, where given, the lateral creepages and spins at
-    each creepage and speed.
+    each creepage and speed.  FASTSIM (corrected by the exact theory where
+    ``problem.calibrated``), or with ``exact`` -- ``(ExactContact, ExactGrid)`` -- Kalker's
+    exact theory (isothermal: the same forces at every speed; columns ``mu_x_error``,
+    ``mu_y_error``, its discretisation errors).  ``shift`` (rows x 2) is added to
+    ``mu_x, mu_y`` (a layer draw moved onto the exact theory, :func:`layer_uncertainty`).
     """
     from dataclasses import replace
 
@@ -97,12 +102,28 @@ def polach_data(problem: CreepProblem, creepage: Any, speed: Any, *, lateral: An
     ph = np.atleast_1d(np.asarray(spin if spin is not None else [0.0], dtype=float))
     X, E, P = (g.ravel() for g in np.meshgrid(xi, et, ph, indexing="ij"))
     rows = []
+    ex = None
+    if exact is not None:
+        from torlab.model.exact.rolling import exact_creep_forces
+
+        ex = exact_creep_forces(exact[0], X, E, P, exact[1])
     for vv in v:
+        if ex is not None:
+            rows.append(pd.DataFrame({"creepage": X, "lateral": E, "spin_1_m": P,
+                                      "speed_m_s": vv, "mu_x": ex.mu_x, "mu_y": ex.mu_y,
+                                      "mu_x_error": ex.Fx_error / ex.load,
+                                      "mu_y_error": ex.Fy_error / ex.load}))
+            continue
         pv = replace(problem, speed=float(vv))
         r = creep_forces(pv, X, E, P, grid)
         rows.append(pd.DataFrame({"creepage": X, "lateral": E, "spin_1_m": P,
                                   "speed_m_s": vv, "mu_x": r.mu_x, "mu_y": r.mu_y}))
-    return pd.concat(rows, ignore_index=True)
+    df = pd.concat(rows, ignore_index=True)
+    if shift is not None:
+        sh = np.asarray(shift, dtype=float)
+        df["mu_x"] = df["mu_x"].to_numpy() + sh[:, 0]
+        df["mu_y"] = df["mu_y"].to_numpy() + sh[:, 1]
+    return df
 
 
 def _start(df: Any, contact: Any) -> np.ndarray:
@@ -129,7 +150,7 @@ def _start(df: Any, contact: Any) -> np.ndarray:
 
 def fit_polach(problem: CreepProblem, creepage: Any, speed: Any, *, lateral: Any = None,
                spin: Any = None, grid: CreepGrid | None = None, source: str = "",
-               ordered: bool = True) -> FitResult:
+               ordered: bool = True, exact: Any = None, shift: Any = None) -> FitResult:
     """Fit Polach's ``mu0, A, B, kA, kS`` to torlab's creep forces of ``problem``.
 
     Parameters
@@ -150,6 +171,9 @@ def fit_polach(problem: CreepProblem, creepage: Any, speed: Any, *, lateral: Any
     ordered
         Keep Polach's ``kS <= kA`` (fitted as ``kA`` and ``kS/kA`` in (0, 1]); False lets
         both range over (0, 1] (then a violation is reported).
+    exact, shift
+        torlab's forces by Kalker's exact theory, or FASTSIM's shifted
+        (:func:`polach_data`).
 
     Returns
     -------
@@ -165,10 +189,11 @@ def fit_polach(problem: CreepProblem, creepage: Any, speed: Any, *, lateral: Any
     FitError
         The optimiser failed.
     """
-    df = polach_data(problem, creepage, speed, lateral=lateral, spin=spin, grid=grid)
+    df = polach_data(problem, creepage, speed, lateral=lateral, spin=spin, grid=grid,
+                     exact=exact, shift=shift)
     res = fit_polach_data(df, polach_contact(problem), source=source, ordered=ordered)
     lay = problem.layer
-    if len(np.unique(df["speed_m_s"])) > 1 and (
+    if len(np.unique(df["speed_m_s"])) > 1 and (exact is not None or
             problem.thermal is None or not any(lay.law.temperature_coefficients(lay))):
         res.warnings.append(
             "torlab's forces do not depend on speed here (no thermal: section or zero "
@@ -303,12 +328,13 @@ class _PolachRefit:
     spin: np.ndarray | None
     grid: CreepGrid | None
     ordered: bool
+    shift: np.ndarray | None = None
 
     def __call__(self, p: dict[str, float]) -> dict[str, np.ndarray]:
         layer = self.problem.layer.replace(**{k: float(v) for k, v in p.items()})
         res = fit_polach(replace(self.problem, layer=layer), self.creepage, self.speed,
                          lateral=self.lateral, spin=self.spin, grid=self.grid,
-                         ordered=self.ordered)
+                         ordered=self.ordered, shift=self.shift)
         return {n: np.asarray(res.params[n], dtype=float) for n in NAMES}
 
 
@@ -328,7 +354,8 @@ def _not_carried(reason: str, notes: list[str] | None = None, *, draws: int = 0,
 def layer_uncertainty(scene: Scene, estimate: FitResult, creepage: Any, speed: Any, *,
                       lateral: Any = None, spin: Any = None, grid: CreepGrid | None = None,
                       draws: int = N_DRAWS, seed: int = 0, ordered: bool = True,
-                      problem: CreepProblem | None = None) -> dict[str, Any]:
+                      problem: CreepProblem | None = None, shift: Any = None
+                      ) -> dict[str, Any]:
     """The layer's uncertainty carried into Polach's parameters (module docstring).
 
     The layer's parameters are drawn from the scene's ``fit: covariance:`` blocks
@@ -353,6 +380,10 @@ def layer_uncertainty(scene: Scene, estimate: FitResult, creepage: Any, speed: A
         Seed of the draws.
     problem
         The scene's :class:`~torlab.model.creep.CreepProblem` if the caller has it.
+    shift
+        Added to each draw's forces (rows x 2: the exact theory minus the fast method at
+        the estimate, when the estimate is the exact theory's): the draws are computed by
+        the fast method and moved onto the exact curve.
 
     Returns
     -------
@@ -390,7 +421,7 @@ def layer_uncertainty(scene: Scene, estimate: FitResult, creepage: Any, speed: A
         return None if x is None else np.atleast_1d(np.asarray(x, dtype=float))
 
     model = _PolachRefit(prob, arr(creepage), arr(speed), arr(lateral), arr(spin), grid,
-                         ordered)
+                         ordered, None if shift is None else np.asarray(shift, dtype=float))
     f0 = {n: np.asarray(estimate.params[n], dtype=float) for n in NAMES}
     try:
         band = propagate(model, su.dist, method="sampling", n_samples=draws, seed=seed, f0=f0)
@@ -427,7 +458,8 @@ def layer_uncertainty(scene: Scene, estimate: FitResult, creepage: Any, speed: A
 
 def fit_polach_scene(scene: Scene, creepage: Any, speed: Any, *, lateral: Any = None,
                      spin: Any = None, grid: CreepGrid | None = None, draws: int = N_DRAWS,
-                     seed: int = 0, source: str = "", ordered: bool = True) -> FitResult:
+                     seed: int = 0, source: str = "", ordered: bool = True,
+                     method: str | None = None) -> FitResult:
     """Polach's parameters of a dry scene's product, with the layer's uncertainty.
 
     :func:`fit_polach` at the layer's estimate, then :func:`layer_uncertainty`
@@ -445,20 +477,70 @@ def fit_polach_scene(scene: Scene, creepage: Any, speed: Any, *, lateral: Any = 
         As :func:`fit_polach`.
     draws, seed
         As :func:`layer_uncertainty`.
+    method
+        The boundary method of torlab's forces (None: the scene's ``grid: method``):
+        ``fastsim``, ``fastsim-kalker``, ``exact`` (Kalker's exact theory, isothermal;
+        the layer's draws by the fast method moved onto it) or ``auto`` (the exact theory
+        where the fast forces' theory error exceeds the half-width of the scene's traction
+        band, :func:`torlab.model.predict.choose_method`'s rule; without a band, exact).
 
     Returns
     -------
     FitResult
         As :func:`fit_polach`, its ``stderr`` and ``ci95`` those of the approximation,
-        plus ``meta["layer_uncertainty"]``.
+        plus ``meta["layer_uncertainty"]``, ``meta["boundary_method"]`` and
+        ``meta["theory_error_95"]`` (the largest theory error of torlab's forces in
+        ``mu``; per point ``mu_theory_error_95`` in the data).
     """
+    from torlab.model.calibrated import creep_error
     from torlab.model.creep import creep_problem
+    from torlab.model.predict import with_method
 
+    scene = with_method(scene, method)
+    asked = scene.grid.method
     prob = creep_problem(scene)
+    used, why = asked, ""
+    if asked == "auto":
+        used, why = _auto_polach(scene, prob, creepage, speed, lateral, spin, grid)
+    exact = shift = None
+    if used == "exact":
+        from torlab.model.exact.rolling import ExactGrid
+        from torlab.model.exact.scene import exact_contact
+
+        exact = (exact_contact(scene), ExactGrid(n=scene.grid.exact_n))
     res = fit_polach(prob, creepage, speed, lateral=lateral, spin=spin, grid=grid,
-                     source=source, ordered=ordered)
+                     source=source, ordered=ordered, exact=exact)
+    df = res.data
+    fast = None
+    if exact is not None:
+        fast = polach_data(prob, creepage, speed, lateral=lateral, spin=spin, grid=grid)
+        ex = polach_data(prob, creepage, speed, lateral=lateral, spin=spin, grid=grid,
+                         exact=exact)
+        shift = np.stack([ex["mu_x"] - fast["mu_x"], ex["mu_y"] - fast["mu_y"]], axis=1)
+        te = np.hypot(ex["mu_x_error"].to_numpy(), ex["mu_y_error"].to_numpy())
+        if scene.thermal is not None:
+            res.warnings.append("the exact solver is isothermal: torlab's forces carry no "
+                                "contact temperature here")
+    else:
+        fast = polach_data(prob, creepage, speed, lateral=lateral, spin=spin, grid=grid)
+        X, E, P = (fast[c].to_numpy() for c in ("creepage", "lateral", "spin_1_m"))
+        ex_, ey_, _ = creep_error(prob, X, E, P, fast["mu_x"].to_numpy() * prob.load,
+                                  fast["mu_y"].to_numpy() * prob.load, np.zeros(len(X)),
+                                  calibrated=prob.calibrated)
+        te = np.hypot(ex_, ey_) / prob.load
+    if "component" in df and len(df) == 2 * len(te):
+        df["mu_theory_error_95"] = np.concatenate([te, te])
+    elif len(df) == len(te):
+        df["mu_theory_error_95"] = te
+    res.meta["boundary_method"] = used
+    if asked == "auto":
+        res.meta["boundary_method_auto"] = why
+    res.meta["theory_error_95"] = float(np.max(te)) if len(te) else None
     lu = layer_uncertainty(scene, res, creepage, speed, lateral=lateral, spin=spin, grid=grid,
-                           draws=draws, seed=seed, ordered=ordered, problem=prob)
+                           draws=draws, seed=seed, ordered=ordered, problem=prob, shift=shift)
+    if shift is not None and lu.get("carried"):
+        lu["notes"].append("the layer's draws are computed by the fast method (FASTSIM "
+                           "corrected by the exact theory) and moved onto the exact curve")
     res.meta["layer_uncertainty"] = lu
     if not lu["carried"]:
         res.warnings.append(lu["reason"])
@@ -468,6 +550,18 @@ def fit_polach_scene(scene: Scene, creepage: Any, speed: Any, *, lateral: Any = 
         res.warnings.append(f"{lu['n_failed']} of {lu['n_draws']} layer draws failed in the "
                             "Polach refit and were left out")
     return res
+
+
+def _auto_polach(scene: Any, prob: CreepProblem, creepage: Any, speed: Any, lateral: Any,
+                 spin: Any, grid: CreepGrid | None) -> tuple[str, str]:
+    """``auto`` for Polach's fit: the fast forces where their theory error (longitudinal
+    creepage) is below the half-width of the scene's traction band there; else exact."""
+    from torlab.model.predict import choose_method, predict_traction, with_method
+
+    xi = np.atleast_1d(np.asarray(creepage, dtype=float))
+    sc = with_method(scene, "fastsim")
+    pred = predict_traction(sc, xi)
+    return choose_method(scene, pred)
 
 
 def layer_interval_table(result: FitResult) -> Any:

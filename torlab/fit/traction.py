@@ -94,8 +94,10 @@ def layer_values(values: dict[str, Any], where: str = "fix") -> dict[str, float]
 def traction_model(scene: Scene) -> Any:
     """``f(params: dict, creepage) -> mu`` for the scene with the layer replaced by ``params``.
 
-    A dry scene calls FASTSIM directly (no table, no summary); a lubricated
-    one goes through :func:`~torlab.model.predict.predict_traction`.
+    A dry scene calls FASTSIM directly (no table, no summary; corrected by the exact
+    theory unless the scene's method is ``fastsim-kalker``), or with method ``exact`` the
+    exact solver; a lubricated one goes through
+    :func:`~torlab.model.predict.predict_traction`.
     """
     from torlab.model.contact import build_contact
     from torlab.model.fastsim import boundary_traction
@@ -105,6 +107,17 @@ def traction_model(scene: Scene) -> Any:
     if scene.boundary is None:
         raise TorlabInputError("the scene needs a boundary: section (its values are the fit's "
                                "defaults for fixed parameters)", key="boundary")
+    if scene.lubricant is None and scene.grid.method == "exact":
+        from torlab.model.exact.rolling import ExactGrid
+        from torlab.model.exact.scene import predict_exact
+
+        def e(params: dict[str, float], xi: np.ndarray) -> np.ndarray:
+            sc = with_params(scene, params)
+            return predict_exact(sc, xi, grid=ExactGrid(n=scene.grid.exact_n)).table[
+                "mu"].to_numpy()
+
+        e.contact = build_contact(scene)  # type: ignore[attr-defined]
+        return e
     if scene.lubricant is None:
         contact = build_contact(scene)
         prob = fastsim_problem(scene, contact)
@@ -219,10 +232,180 @@ def speed_model(scene: Scene, speed: Any) -> tuple[Any, list[float], np.ndarray]
 
 
 @small_problem  # one BLAS thread: small matrices (torlab.threads)
-def fit_layer_traction(scene: Scene, creepage: Any, mu: Any, *, fixed: dict[str, float] | None = None,  # noqa: C901 (each input form, fixed parameter and fallback is a case, said in the result)
+def fit_layer_traction(scene: Scene, creepage: Any, mu: Any, *, fixed: dict[str, float] | None = None,
                        x0: dict[str, float] | None = None, max_nfev: int = 200,
-                       speed: Any = None) -> FitResult:
-    """Fit the layer parameters to a traction curve with FASTSIM (thesis Eqs. 5.14-5.30).
+                       speed: Any = None, method: str | None = None) -> FitResult:
+    """Fit the layer parameters to a traction curve by the boundary method.
+
+    ``fastsim`` (the scene's default: FASTSIM corrected by Kalker's exact theory) and
+    ``fastsim-kalker`` (the thesis's FASTSIM) fit that model (:func:`fit_layer_fastsim`);
+    ``exact`` fits Kalker's exact theory (:func:`fit_layer_exact`); ``auto`` fits the
+    fast method and refits by the exact theory where the fitted curve's theory error
+    exceeds its band's half-width (:func:`torlab.model.predict.choose_method`'s rule,
+    the band from the fit's covariance).  The result's ``meta["boundary_method"]`` (also
+    in ``params.yaml``'s ``fit:``) names the method and ``meta["theory_error"]`` its
+    theory error along the data.
+    """
+    from torlab.model.predict import with_method
+
+    scene = with_method(scene, method)
+    asked = scene.grid.method
+    if asked in ("exact", "auto") and scene.lubricant is not None:
+        if asked == "exact":
+            raise TorlabInputError("the exact solver models dry contacts: fit a lubricated "
+                                   "scene with method fastsim", key="method")
+    res = fit_layer_fastsim(scene, creepage, mu, fixed=fixed, x0=x0, max_nfev=max_nfev,
+                            speed=speed)
+    used, why = asked, ""
+    if asked == "auto":
+        used, why = _auto_fit(scene, res)
+    elif asked == "exact":
+        used = "exact"
+    if used == "exact":
+        res = fit_layer_exact(scene, creepage, mu, res, fixed=fixed, max_nfev=max_nfev)
+    res.meta["boundary_method"] = used
+    if asked == "auto":
+        res.meta["boundary_method_auto"] = why
+    _fit_theory_error(scene, res, used)
+    return res
+
+
+def _band_half_width(scene: Any, res: FitResult) -> np.ndarray | None:
+    """The fitted curve's 95 % half-width at the data (linearised from the covariance)."""
+    from torlab._stats import t_ppf
+
+    names = list(res.names)
+    cov = np.asarray(res.covariance, dtype=float)
+    if not np.all(np.isfinite(cov)):
+        return None
+    xi = res.data["creepage"].to_numpy(dtype=float)
+    model = traction_model(scene)
+    base = dict(res.fixed) | dict(res.params)
+    f0 = model(base, xi)
+    J = np.empty((xi.size, len(names)))
+    for j, n in enumerate(names):
+        h = 1e-4 * max(abs(base[n]), 1e-12)
+        J[:, j] = (model({**base, n: base[n] + h}, xi) - f0) / h
+    var = np.einsum("ij,jk,ik->i", J, cov, J)
+    t = float(t_ppf(0.975, res.dof)) if math.isfinite(res.dof) else 1.959963984540054
+    return t * np.sqrt(np.clip(var, 0.0, None))
+
+
+def _auto_fit(scene: Any, res: FitResult) -> tuple[str, str]:
+    """``auto``: the fast method's fit stays where its theory error along the data is
+    below the fitted curve's band half-width, else the exact theory's fit."""
+    from torlab.model.calibrated import longitudinal_error
+    from torlab.model.prediction import fastsim_problem
+
+    if scene.lubricant is not None:
+        return "fastsim", "the exact solver models dry contacts"
+    lay = scene.boundary.layer
+    if scene.thermal is not None and any(lay.law.temperature_coefficients(lay)):
+        return "fastsim", "the exact solver has no contact temperature"
+    xi = res.data["creepage"].to_numpy(dtype=float)
+    mu = res.data["mu_model"].to_numpy(dtype=float)
+    sc = with_params(scene, {**res.fixed, **res.params})
+    err = longitudinal_error(fastsim_problem(sc), xi, mu, calibrated=True)
+    hw = _band_half_width(sc, res)
+    if hw is None:
+        return "exact", "the fit's band is not determined: the exact theory"
+    worst = int(np.argmax(err - hw))
+    if err[worst] < hw[worst]:
+        return "fastsim", (f"its theory error is below the fitted curve's band half-width at "
+                           f"every point (largest {float(np.max(err)):.2g})")
+    return "exact", (f"its theory error {float(err[worst]):.2g} exceeds the fitted curve's band "
+                     f"half-width {float(hw[worst]):.2g} at creepage {float(xi[worst]):.4g}")
+
+
+def _fit_theory_error(scene: Any, res: FitResult, method: str) -> None:
+    """``meta["theory_error"]``: the fitted curve's theory error along the data."""
+    from torlab.model.calibrated import longitudinal_error
+    from torlab.model.prediction import fastsim_problem
+
+    if scene.lubricant is not None:
+        res.meta["theory_error"] = ("lubricated: the boundary part's theory error is in the "
+                                    "predictions (predict traction)")
+        return
+    xi = res.data["creepage"].to_numpy(dtype=float)
+    mu = res.data["mu_model"].to_numpy(dtype=float)
+    if method == "exact":
+        e = np.abs(res.data["mu_model_error"].to_numpy(dtype=float)) \
+            if "mu_model_error" in res.data else np.full(xi.size, np.nan)
+    else:
+        sc = with_params(scene, {**res.fixed, **res.params})
+        e = longitudinal_error(fastsim_problem(sc), xi, mu,
+                               calibrated=method != "fastsim-kalker")
+    res.data["mu_theory_error_95"] = e
+    fin = np.isfinite(e)
+    res.meta["theory_error_95"] = float(np.max(e[fin])) if fin.any() else None
+
+
+def fit_layer_exact(scene: Scene, creepage: Any, mu: Any, start: FitResult, *,
+                    fixed: dict[str, float] | None = None, max_nfev: int = 200,
+                    iterations: int = 6) -> FitResult:
+    """Fit the layer by Kalker's exact theory, from the fast method's fit ``start``.
+
+    The exact theory is FASTSIM times the ratio exact/FASTSIM; the ratio depends little
+    on the parameters, so it is computed once per round at the current estimate
+    (:func:`torlab.model.exact.scene.predict_exact` on the data's creepages, the scene's
+    ``grid: exact_n``) and held while FASTSIM with it is fitted; the rounds stop when no
+    parameter moves by more than 1e-3 of its standard error.  At the end the model is
+    the exact theory at the estimate (the residuals and ``mu_model`` are the exact
+    theory's); the estimate solves the least-squares problem with the ratio's
+    dependence on the parameters left out, which the last round's step bounds.
+    """
+    from torlab.model.exact.rolling import ExactGrid
+    from torlab.model.exact.scene import predict_exact
+    from torlab.model.predict import with_method
+
+    xi, y = _check(creepage, mu)
+    fast = with_method(scene, "fastsim")
+    cur = start
+    ratio = np.ones_like(xi)
+    moved = math.inf
+    for k in range(iterations):
+        sc = with_params(scene, {**cur.fixed, **cur.params})
+        ex = predict_exact(sc, xi, grid=ExactGrid(n=scene.grid.exact_n))
+        fa = traction_model(fast)({**cur.fixed, **cur.params}, xi)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ratio = np.where(np.abs(fa) > 0, ex.table["mu"].to_numpy() / fa, 1.0)
+        new = fit_layer_fastsim(fast, xi, y, fixed=fixed, max_nfev=max_nfev,
+                                x0={**cur.fixed, **cur.params}, ratio=ratio)
+        se = {n: new.stderr[n] for n in new.names}
+        moved = max((abs(new.params[n] - cur.params.get(n, new.params[n]))
+                     / se[n] if se[n] and math.isfinite(se[n]) and se[n] > 0 else 0.0)
+                    for n in new.names)
+        cur = new
+        if moved < 1e-3 and k > 0:
+            break
+    sc = with_params(scene, {**cur.fixed, **cur.params})
+    ex = predict_exact(sc, xi, grid=ExactGrid(n=scene.grid.exact_n))
+    m = ex.table["mu"].to_numpy()
+    cur.data["mu_model"] = m
+    cur.data["residual"] = y - m
+    cur.data["mu_model_error"] = ex.table["mu_x_error"].to_numpy()
+    cur.residual_norm = float(np.sqrt(np.mean((y - m) ** 2)))
+    cur.meta["method"] = ("bounded least squares of Kalker's exact theory (FASTSIM times the "
+                          "ratio exact/FASTSIM at the estimate, refreshed each round: "
+                          f"{k + 1} rounds, last step {moved:.2g} standard errors)")
+    cur.meta["model"] = "dry: Hertz + Kalker's exact theory with the layer in series"
+    cur.meta["exact_grid"] = int(scene.grid.exact_n)
+    return cur
+
+
+def with_params(scene: Any, params: dict[str, float]) -> Any:
+    """The scene with its layer's parameters replaced (SI values)."""
+    b = scene.boundary.model_copy(update={k: float(v) for k, v in params.items()
+                                          if k in scene.boundary.layer.law.names})
+    return scene.model_copy(update={"boundary": b})
+
+
+def fit_layer_fastsim(scene: Scene, creepage: Any, mu: Any, *, fixed: dict[str, float] | None = None,  # noqa: C901 (each input form, fixed parameter and fallback is a case, said in the result)
+                      x0: dict[str, float] | None = None, max_nfev: int = 200,
+                      speed: Any = None, ratio: Any = None) -> FitResult:
+    """Fit the layer parameters to a traction curve with FASTSIM (thesis Eqs. 5.14-5.30),
+    corrected by the exact theory or not as the scene's ``grid: method`` says
+    (``ratio``: FASTSIM times these factors per point, :func:`fit_layer_exact`).
 
     Parameters
     ----------
@@ -281,10 +464,11 @@ def fit_layer_traction(scene: Scene, creepage: Any, mu: Any, *, fixed: dict[str,
                                f"at least {len(free) + 2}")
     model, speeds, group = speed_model(scene, speed)
     nfev = [0]
+    factor = 1.0 if ratio is None else np.asarray(ratio, dtype=float)
 
     def evaluate(p: dict[str, float]) -> np.ndarray:
         nfev[0] += 1
-        return model(p, xi)
+        return model(p, xi) * factor
 
     first = slice(None) if group is None else group == 0
     start = _start(model.first, scene, xi[first], y[first])
@@ -412,7 +596,8 @@ def tested_contact(scene: Any, test: str = "", *, dry: bool = False) -> Any:
 
 
 def fit_traction_test(scene: Any, data: Any, *, dry: bool = False,
-                      fixed: dict[str, float] | None = None) -> FitResult:
+                      fixed: dict[str, float] | None = None,
+                      method: str | None = None) -> FitResult:
     """The layer from one measured traction test, as every caller fits it.
 
     ``torlab fit traction``, :func:`torlab.fit_traction` and protocols'
@@ -434,6 +619,9 @@ def fit_traction_test(scene: Any, data: Any, *, dry: bool = False,
         Ignore the scene's lubricant and roughness (a dry test).
     fixed
         Parameters held fixed [SI].
+    method
+        The boundary method (``fastsim``, ``exact``, ``auto``; None: the scene's
+        ``grid: method``), :func:`fit_layer_traction`.
 
     Returns
     -------
@@ -441,7 +629,8 @@ def fit_traction_test(scene: Any, data: Any, *, dry: bool = False,
     """
     xi, mu, test, speed = data
     return fit_layer_traction(tested_contact(scene, test, dry=dry), np.asarray(xi, dtype=float),
-                              np.asarray(mu, dtype=float), fixed=fixed, speed=speed)
+                              np.asarray(mu, dtype=float), fixed=fixed, speed=speed,
+                              method=method)
 
 
 def _covariance(J: np.ndarray, r: np.ndarray, k: int) -> np.ndarray:

@@ -228,6 +228,10 @@ class CreepProblem:
     restick
         ``thesis`` (a yielded particle stays on the limit while loaded) or
         ``kalker`` (FASTSIM's rule); see the module docstring.
+    calibrated
+        Correct the forces by Kalker's exact theory (:mod:`torlab.model.calibrated`,
+        the ``fastsim`` boundary method, a scene's default; elliptic bound only); False:
+        Kalker's FASTSIM (``fastsim-kalker``).
     """
 
     a: float
@@ -242,6 +246,7 @@ class CreepProblem:
     thermal: ThermalParams | None = None
     traction_bound: Bound = "elliptic"
     restick: Restick = "thesis"
+    calibrated: bool = False
 
     @property
     def load(self) -> float:
@@ -254,7 +259,7 @@ class CreepProblem:
         """The creep problem of a longitudinal :class:`FastsimProblem` plus ``L2``, ``L3``."""
         return cls(a=prob.a, b=prob.b, p0=prob.p0, L1=prob.L1, L2=L2, L3=L3, layer=prob.layer,
                    speed=prob.speed, ambient_temperature=prob.ambient_temperature,
-                   thermal=prob.thermal, **kw)
+                   thermal=prob.thermal, **{"calibrated": prob.calibrated, **kw})
 
 
 @dataclass
@@ -1286,6 +1291,11 @@ def creep_forces(problem: CreepProblem, creepage: Any, lateral: Any = 0.0, spin:
             uniq = np.stack([xi[nz], eta[nz], phi[nz]], axis=1)
             inv, sx, sy = np.arange(uniq.shape[0]), np.ones(uniq.shape[0]), np.ones(uniq.shape[0])
         out = _solve_points(prob, grid, uniq[:, 0], uniq[:, 1], uniq[:, 2])
+        if prob.calibrated and prob.traction_bound == "elliptic":
+            from torlab.model.calibrated import correct_creep
+
+            out["Fx"], out["Fy"], out["Mz"] = correct_creep(
+                prob, uniq[:, 0], uniq[:, 1], uniq[:, 2], out["Fx"], out["Fy"], out["Mz"])
         Fx[nz] = sx * out["Fx"][inv]
         Fy[nz] = sy * out["Fy"][inv]
         Mz[nz] = sy * out["Mz"][inv]

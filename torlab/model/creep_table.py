@@ -71,7 +71,14 @@ VARIABLES: dict[str, tuple[str, str]] = {
     "Mz_norm": ("1", "Mz / (mu N c), c = sqrt(a b)"),
     "adhesion_fraction": ("1", "fraction of the load carried in stick"),
     "max_temperature_C": ("degC", "maximum flash temperature"),
+    "Fx_theory_error_95_N": ("N", "theory error of Fx (95 %) against Kalker's exact theory: "
+                             "the boundary method's own error, apart from any fit's"),
+    "Fy_theory_error_95_N": ("N", "theory error of Fy (95 %) against Kalker's exact theory"),
+    "Mz_theory_error_95_Nm": ("N m", "theory error of Mz (95 %) against Kalker's exact theory"),
 }
+#: the CF conventions the netCDF file follows (units, long_name; coordinates without
+#: _FillValue)
+CONVENTIONS = "CF-1.8"
 
 
 def require_xarray() -> Any:
@@ -130,11 +137,26 @@ def kalker_scales(prob: CreepProblem) -> dict[str, float]:
 
 
 def _chunk(prob: CreepProblem, grid: CreepGrid | None, xi: np.ndarray, eta: np.ndarray,
-           phi: np.ndarray) -> dict[str, np.ndarray]:
-    """Evaluate one chunk of creepage triples (a picklable unit of work for ``map_fn``)."""
+           phi: np.ndarray, exact: Any = None) -> dict[str, np.ndarray]:
+    """Evaluate one chunk of creepage triples (a picklable unit of work for ``map_fn``):
+    FASTSIM (corrected by the exact theory where ``prob.calibrated``), or with ``exact``
+    -- ``(ExactContact, ExactGrid)`` -- Kalker's exact theory; with each force's theory
+    error."""
+    if exact is not None:
+        from torlab.model.exact.rolling import exact_creep_forces
+
+        r = exact_creep_forces(exact[0], xi, eta, phi, exact[1])
+        return {"Fx_N": r.Fx, "Fy_N": r.Fy, "Mz_Nm": r.Mz, "mu_x": r.mu_x, "mu_y": r.mu_y,
+                "adhesion_fraction": r.adhesion_fraction, "Fx_theory_error_95_N": r.Fx_error,
+                "Fy_theory_error_95_N": r.Fy_error, "Mz_theory_error_95_Nm": r.Mz_error}
+    from torlab.model.calibrated import creep_error
+
     r = creep_forces(prob, xi, eta, phi, grid)
+    ex, ey, ez = creep_error(prob, xi, eta, phi, r.Fx, r.Fy, r.Mz, calibrated=prob.calibrated,
+                             adhesion=r.adhesion_fraction)
     out = {"Fx_N": r.Fx, "Fy_N": r.Fy, "Mz_Nm": r.Mz, "mu_x": r.mu_x, "mu_y": r.mu_y,
-           "adhesion_fraction": r.adhesion_fraction}
+           "adhesion_fraction": r.adhesion_fraction, "Fx_theory_error_95_N": ex,
+           "Fy_theory_error_95_N": ey, "Mz_theory_error_95_Nm": ez}
     if r.max_temperature_C is not None:
         out["max_temperature_C"] = r.max_temperature_C
     return out
@@ -170,21 +192,24 @@ class CreepTable:
         :class:`~torlab.outputs.OutputDir`; returns the file names."""
         nc = f"{stem}.nc"
         path = out.path(nc)
-        self.dataset.to_netcdf(path, engine="scipy", format="NETCDF3_64BIT")
+        ds = self.dataset
+        # CF: coordinates carry no _FillValue (xarray would add NaN to float coordinates)
+        encoding = {name: {"_FillValue": None} for name in ds.coords}
+        ds.to_netcdf(path, engine="scipy", format="NETCDF3_64BIT", encoding=encoding)
         out.write_csv(f"{stem}.csv", self.to_long(), float_format="%.9g")
         return [nc, f"{stem}.csv"]
 
 
 def _column(ax: TableAxis) -> str:
     unit = {"1": "", "1/m": "_1_m", "m/s": "_m_s"}.get(ax.unit, "_" + ax.unit.replace("/", "_"))
-    return f"{ax.name}{unit}"
+    return ax.name if unit and ax.name.endswith(unit) else f"{ax.name}{unit}"
 
 
 def creep_table(problem: CreepProblem | Sequence[tuple[float, CreepProblem]], creepage: Any,  # noqa: C901 (each axis of the table and its checks is a case)
                 lateral: Any, spin: Any, *, speed: Any = None, amount_unit: str = "",
                 grid: CreepGrid | None = None, chunk: int = 256,
                 map_fn: Callable[[Callable[[Any], Any], Iterable[Any]], Iterable[Any]] | None = None,
-                provenance: dict[str, Any] | None = None) -> CreepTable:
+                provenance: dict[str, Any] | None = None, exact: Any = None) -> CreepTable:
     """N-dimensional creep-force table over creepage x lateral x spin (x speed x amount).
 
     Parameters
@@ -209,10 +234,19 @@ def creep_table(problem: CreepProblem | Sequence[tuple[float, CreepProblem]], cr
         ``--scheduler`` set one; the chunks are the same whatever evaluates them).
     provenance
         Extra attributes (scene name and files, command line ...), stored as JSON text.
+    exact
+        Solve by Kalker's exact theory: ``(contacts, grid)``, one
+        :class:`~torlab.model.exact.rolling.ExactContact` per problem (the problems still
+        give the normalisation) and the :class:`~torlab.model.exact.rolling.ExactGrid`.
+        None: FASTSIM, corrected by the exact theory where the problems are
+        ``calibrated`` (the ``fastsim`` method).
 
     Returns
     -------
     CreepTable
+        With each force's theory error (``Fx_theory_error_95_N`` ...), the method, and
+        as coordinates the contact (``load_N``, ``a_over_b``) the normalised variables
+        hold for.
 
     Raises
     ------
@@ -260,15 +294,24 @@ def creep_table(problem: CreepProblem | Sequence[tuple[float, CreepProblem]], cr
     UX, UE, UP = (uniq[:, k].copy() for k in range(3))
     work = []
     variants = []
-    for amount, p in problems:
+    if exact is not None:
+        if len(exact[0]) != len(problems):
+            raise ValueError("exact: one contact per problem")
+        if speeds is not None:
+            notes.append("speed axis: the exact solver is isothermal, so the forces do not "
+                         "depend on speed (the values repeat along it)")
+    for ip, (amount, p) in enumerate(problems):
+        ex = None if exact is None else (exact[0][ip], exact[1])
         for v in (speeds if speeds is not None else [None]):
             pv = p if v is None else _with_speed(p, float(v))
             variants.append((amount, v, pv))
             for s in range(0, UX.size, chunk):
-                work.append((pv, grid, UX[s:s + chunk], UE[s:s + chunk], UP[s:s + chunk]))
+                work.append((pv, grid, UX[s:s + chunk], UE[s:s + chunk], UP[s:s + chunk], ex))
     results = list((map_fn or _executor_map)(_chunk_star, work))
     per_variant = math.ceil(UX.size / chunk)
     sign = {"Fx_N": sx, "mu_x": sx, "Fy_N": sy, "mu_y": sy, "Mz_Nm": sy}
+    method = ("exact" if exact is not None else
+              "fastsim" if problems[0][1].calibrated else "fastsim-kalker")
     names = list(results[0])
     shape_extra = ([speeds.size] if speeds is not None else []) + \
         ([len(problems)] if problems[0][0] is not None else [])
@@ -314,11 +357,28 @@ def creep_table(problem: CreepProblem | Sequence[tuple[float, CreepProblem]], cr
     ds = ds.transpose(*dims)
     p0 = problems[0][1]
     law = p0.layer.law
+    # the contact the normalised variables hold for (scalar coordinates)
+    ds = ds.assign_coords(load_N=p0.load, a_over_b=p0.a / p0.b)
+    ds["load_N"].attrs = {"units": "N", "long_name": "normal load of the contact"}
+    ds["a_over_b"].attrs = {"units": "1", "long_name": "aspect ratio a/b of the contact "
+                                                        "(a along the rolling direction)"}
+    fastsim = ("FASTSIM with the third-body layer in longitudinal creepage, lateral creepage "
+               f"and spin (Kalker's three flexibilities, {law.limit_text}; torlab.model.creep)")
+    model = {"fastsim-kalker": fastsim,
+             "fastsim": fastsim + ", corrected by Kalker's exact theory (torlab.model.calibrated)",
+             "exact": ("Kalker's exact theory (torlab.model.exact): quasi-identical elastic "
+                       "half-spaces, the layer in series, isothermal")}[method]
+    err = np.hypot(data["Fx_theory_error_95_N"], data["Fy_theory_error_95_N"])
     attrs: dict[str, Any] = {
+        "Conventions": CONVENTIONS,
         "title": "creep-force table (torlab)",
-        "model": ("FASTSIM with the third-body layer in longitudinal creepage, lateral "
-                  f"creepage and spin (Kalker's three flexibilities, {law.limit_text}; "
-                  "torlab.model.creep)"),
+        "model": model,
+        "boundary_method": method,
+        "theory_error": ("each force's theory error (95 %) against Kalker's exact theory is "
+                         "the variable <force>_theory_error_95_<unit>, apart from any fit's "
+                         "uncertainty"),
+        "theory_error_95_max_mu": float(np.nanmax(err) / p0.load),
+        "normalisation_valid_for": _validity(p0),
         "sign_convention": ("forces along positive creepage are positive; Kalker's and "
                             "CONTACT's forces have the opposite sign"),
         "normalisation": ("Kalker's book of tables: xi* = G c^2 C11 xi/(3 mu N), "
@@ -351,6 +411,28 @@ def creep_table(problem: CreepProblem | Sequence[tuple[float, CreepProblem]], cr
     return CreepTable(dataset=ds, axes=axes, notes=notes)
 
 
+def _layered(layer: Any) -> bool:
+    """Whether a layer makes Kalker's normalised forces depend on the contact: an elastic
+    length, or a limit other than one Coulomb coefficient."""
+    if float(layer.L_mue) > 0:
+        return True
+    mu1 = float(layer.mu_c1)
+    return float(layer.get("mu_c2", mu1)) != mu1
+
+
+def _validity(p: CreepProblem) -> str:
+    """For which contacts the normalised variables hold (the attribute's text)."""
+    if _layered(p.layer):
+        return (f"this contact only: a = {p.a:.6g} m, b = {p.b:.6g} m, N = {p.load:.6g} N "
+                "(coordinates a_over_b, load_N) with this layer. The layer's compliance "
+                "L_mue/p and its limits make the normalised forces depend on the load and "
+                "the contact: for another contact use the dimensional variables of a table "
+                "made for it, or a table over --load")
+    return ("any contact of this aspect ratio and Poisson ratio: without an elastic layer "
+            "and with one friction coefficient the normalised forces are Kalker's, the same "
+            "for every load")
+
+
 def _with_speed(p: CreepProblem, v: float) -> CreepProblem:
     from dataclasses import replace
 
@@ -360,8 +442,10 @@ def _with_speed(p: CreepProblem, v: float) -> CreepProblem:
 def scene_creep_table(scene: Scene, creepage: Any, lateral: Any, spin: Any, *, speed: Any = None,
                       amounts: Sequence[tuple[float, Any]] | None = None, amount_unit: str = "",
                       normalised: bool = False, map_fn: Any = None,
-                      provenance: dict[str, Any] | None = None) -> CreepTable:
-    """:func:`creep_table` of a scene (or, with ``amounts``, of one scene per amount).
+                      provenance: dict[str, Any] | None = None, loads: Any = None,
+                      method: str | None = None) -> CreepTable:
+    """:func:`creep_table` of a scene (or, with ``amounts``, of one scene per amount; with
+    ``loads``, of one contact per load).
 
     Parameters
     ----------
@@ -370,8 +454,8 @@ def scene_creep_table(scene: Scene, creepage: Any, lateral: Any, spin: Any, *, s
     creepage, lateral, spin
         Axis values: fractions and 1/m, or with ``normalised`` Kalker's ``xi*``, ``eta*``,
         ``phi*`` (converted with the scene's contact and the layer's reference coefficient,
-        Voce's ``mu_c2``; with an amount axis,
-        with the first amount's).
+        Voce's ``mu_c2``; with an amount axis, with the first amount's; with a load axis,
+        with each load's, so that the normalised axes are the same at every load).
     speed
         Optional speed axis [m/s].
     amounts
@@ -384,10 +468,66 @@ def scene_creep_table(scene: Scene, creepage: Any, lateral: Any, spin: Any, *, s
         ``map``-like callable for the chunks (e.g. an executor's ``map``).
     provenance
         Attributes to store (scene files, command).
+    loads
+        Optional normal-load axis (N, increasing, two at least): the contact of each load
+        by Hertz from the scene's radii, or, where the scene gives the semi-axes, with
+        ``a`` and ``b`` scaled as ``load^(1/3)`` (Hertz's law); the dimension ``load_N``.
+        With a layer the normalised forces depend on the load: this is the table that
+        carries it.
+    method
+        The boundary method (``fastsim``, ``fastsim-kalker``, ``exact``, ``auto``); None:
+        the scene's ``grid: method``.  ``auto`` has no band to weigh a table's theory
+        error against and so uses the exact solver, except where the contact temperature
+        changes the layer's limits (the exact solver is isothermal).
     """
-    from torlab.model.creep import creep_problem, scene_grid
+    from torlab.model.predict import with_method
 
     first = amounts[0][1] if amounts else scene
+    method = method or first.grid.method
+    if loads is not None:
+        ax = TableAxis.make("load_N", loads, "N", "normal load")
+        if np.any(ax.values <= 0):
+            raise TorlabInputError("table axis 'load' must be positive", key="load")
+        xr = require_xarray()
+        parts = [scene_creep_table(_at_load(scene, v), creepage, lateral, spin, speed=speed,
+                                   amounts=None if not amounts else
+                                   [(a, _at_load(sc, v)) for a, sc in amounts],
+                                   amount_unit=amount_unit, normalised=normalised,
+                                   map_fn=map_fn, provenance=provenance, method=method)
+                 for v in ax.values]
+        sets = [p.dataset for p in parts]
+        if normalised:  # the normalised axes are the same at every load, the creepages not
+            norm = {"creepage": "xi_norm", "lateral": "eta_norm", "spin": "phi_norm"}
+            sets = [d.swap_dims(norm) for d in sets]
+            sets = [d.assign_coords({k: sets[0][k].values for k in norm.values()})
+                    for d in sets]
+        ds = xr.concat(sets, dim="load_N", coords="different", compat="equals",
+                       combine_attrs="override", join="exact")
+        ds = ds.transpose(..., "load_N")
+        ds["load_N"].attrs = {"units": "N", "long_name": "normal load of the contact"}
+        for k in ("a_m", "b_m", "p0_Pa", "L1_m_Pa", "L2_m_Pa", "L3_m_Pa", "load_N"):
+            ds.attrs.pop(k, None)
+        ds.attrs["contacts"] = json.dumps([{k: p.dataset.attrs.get(k) for k in
+                                            ("a_m", "b_m", "p0_Pa", "L1_m_Pa", "L2_m_Pa",
+                                             "L3_m_Pa", "load_N")} for p in parts])
+        valid = parts[0].dataset.attrs["normalisation_valid_for"]
+        ds.attrs["normalisation_valid_for"] = (
+            "each load's contact (dimension load_N; its a, b, p0 in the attribute contacts; "
+            "the same aspect ratio at every load)" + (
+                ": " + valid.split("with this layer. ", 1)[1] if "with this layer. " in valid
+                else ": " + valid))
+        ds.attrs["theory_error_95_max_mu"] = max(p.dataset.attrs["theory_error_95_max_mu"]
+                                                 for p in parts)
+        if any(sc.contact.a is not None for sc in [scene, *(s for _, s in amounts or [])]):
+            parts[0].notes.append("load axis: the scene gives the semi-axes, scaled with "
+                                  "load^(1/3) as Hertz's solution scales them")
+        axes = [*parts[0].axes, ax]
+        return CreepTable(dataset=ds, axes=axes, notes=parts[0].notes)
+    first = with_method(first, method)
+    if amounts:
+        amounts = [(a, with_method(sc, method)) for a, sc in amounts]
+    from torlab.model.creep import creep_problem, scene_grid
+
     prob0 = creep_problem(first)
     xi, eta, phi = (np.atleast_1d(np.asarray(v, dtype=float)) for v in (creepage, lateral, spin))
     if normalised:
@@ -395,6 +535,36 @@ def scene_creep_table(scene: Scene, creepage: Any, lateral: Any, spin: Any, *, s
         xi, eta, phi = xi / s["xi"], eta / s["eta"], phi / s["phi"]
     prov = {"scene": getattr(first, "name", ""), "axes_given_normalised": int(normalised),
             **(provenance or {})}
+    scenes = [first] if not amounts else [sc for _, sc in amounts]
     target: Any = prob0 if not amounts else [(float(a), creep_problem(sc)) for a, sc in amounts]
+    exact = None
+    used = method
+    if method == "auto":
+        lay = first.boundary.layer
+        hot = first.thermal is not None and any(lay.law.temperature_coefficients(lay))
+        used = "fastsim" if hot else "exact"
+        prov["method_auto"] = ("fastsim: the contact temperature changes the layer's limits "
+                               "and the exact solver is isothermal" if hot else
+                               "exact: a table has no band to weigh the theory error against")
+    if used == "exact":
+        from torlab.model.exact.rolling import ExactGrid
+        from torlab.model.exact.scene import exact_contact
+
+        exact = ([exact_contact(sc) for sc in scenes], ExactGrid(n=first.grid.exact_n))
+    prov["method_asked"] = method
+    # the exact solver's points are a thousand times dearer: smaller units of work spread
+    # them over the workers (each point of a unit starts from its predecessor's tractions)
     return creep_table(target, xi, eta, phi, speed=speed, amount_unit=amount_unit,
-                       grid=scene_grid(first), map_fn=map_fn, provenance=prov)
+                       grid=scene_grid(first), map_fn=map_fn, provenance=prov, exact=exact,
+                       chunk=16 if exact is not None else 256)
+
+
+def _at_load(scene: Any, load: float) -> Any:
+    """The scene at another normal load: Hertz from its radii, or its semi-axes scaled by
+    ``(load/load0)^(1/3)``."""
+    c = scene.contact
+    upd: dict[str, Any] = {"load": float(load)}
+    if c.a is not None:
+        k = (float(load) / c.load) ** (1.0 / 3.0)
+        upd.update(a=c.a * k, b=c.b * k)
+    return scene.model_copy(update={"contact": c.model_copy(update=upd)})

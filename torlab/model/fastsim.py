@@ -179,6 +179,10 @@ class FastsimProblem:
         ``T_A`` [degC].
     thermal
         Flash-temperature model, or None for no temperature.
+    calibrated
+        Correct the traction by Kalker's exact theory (:mod:`torlab.model.calibrated`,
+        the ``fastsim`` boundary method, a scene's default); False: Kalker's FASTSIM
+        as the thesis computes it (``fastsim-kalker``).
     """
 
     a: float
@@ -189,6 +193,7 @@ class FastsimProblem:
     speed: float = 1.0
     ambient_temperature: float = 20.0
     thermal: ThermalParams | None = None
+    calibrated: bool = False
 
     @property
     def load(self) -> float:
@@ -786,6 +791,10 @@ def boundary_traction(prob: FastsimProblem, creepage: Any, grid: FastsimGrid | N
         F, st = solver.force(th_y, dT_grid)
         mu[nz] = F / prob.load
         stick[nz] = st
+        if prob.calibrated:
+            from torlab.model.calibrated import correct_longitudinal
+
+            mu[nz] = correct_longitudinal(prob, xi, mu[nz])
     _check_finite("traction coefficient", mu)
     if tmax is not None:
         _check_finite("flash temperature", tmax)
@@ -898,6 +907,11 @@ def boundary_traction_draws(prob: FastsimProblem, layers: Any, creepage: Any,
             F[sl], st[sl] = sub.force(th_y[sl], None if dT_grid is None else dT_grid[sl])
         mu[rows] = F / prob.load
         stick[rows] = st
+        if prob.calibrated:
+            from torlab.model.calibrated import correct_longitudinal
+
+            lay_rows = glay.map(lambda v: np.asarray(v)[gid_all[rows]])
+            mu[rows] = correct_longitudinal(prob, mag[rows], mu[rows], layer=lay_rows)
     mu = (sign * mu).reshape(m, n)
     stick = stick.reshape(m, n)
     tmax = None if tmax is None else tmax.reshape(m, n)

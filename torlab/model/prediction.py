@@ -60,7 +60,8 @@ class TractionPrediction:
 
 
 def fastsim_problem(scene: Scene, contact: ContactModel | None = None) -> FastsimProblem:
-    """The :class:`FastsimProblem` of a scene's boundary part."""
+    """The :class:`FastsimProblem` of a scene's boundary part: corrected by the exact theory
+    (``calibrated``) unless the scene's ``grid: method`` is ``fastsim-kalker``."""
     contact = contact or build_contact(scene)
     layer = scene.boundary.layer
     th = scene.thermal
@@ -70,7 +71,8 @@ def fastsim_problem(scene: Scene, contact: ContactModel | None = None) -> Fastsi
     p = contact.patch
     return FastsimProblem(a=p.a, b=p.b, p0=p.p0, L1=contact.L1, layer=layer,
                           speed=scene.kinematics.speed,
-                          ambient_temperature=scene.kinematics.ambient_temperature, thermal=thermal)
+                          ambient_temperature=scene.kinematics.ambient_temperature, thermal=thermal,
+                          calibrated=scene.grid.method != "fastsim-kalker")
 
 
 def fastsim_grid(scene: Scene) -> FastsimGrid:

@@ -306,6 +306,8 @@ def traction(ctx: RunContext) -> Any:
                 "hpt:*", f"hpt:{setname}"), speed_m_s=speed, modelled=pred.modelled,
             group=f"{ci}:{speed:.3g}" if c.speeds == "measured" else
             (f"{ci}:" if one_set else f"{ci}:{setname}"), band=pred.summary.get("band", {}),
+            theory={"method": pred.summary.get("method"),
+                    "theory_error": pred.summary.get("theory_error")},
             choices=ctx.selection_choices([p.replace("hpt:*", f"hpt:{setname}")
                                            for p in c.params])))
         if sc.boundary is not None:

@@ -54,6 +54,10 @@ class TractionCurve:
         Model-selection choices of the fits behind a modelled curve (a
         coefficient fixed to 0 is exact in the prediction): the verdict is
         conditional on them, and the report says so.
+    theory
+        A modelled curve's boundary method and theory error (``summary["method"]`` and
+        ``summary["theory_error"]`` of the prediction): the model's own error against
+        Kalker's exact theory, apart from the band.
     """
 
     label: str
@@ -67,6 +71,7 @@ class TractionCurve:
     group: str = ""
     band: dict[str, Any] = field(default_factory=dict)
     choices: list[str] = field(default_factory=list)
+    theory: dict[str, Any] = field(default_factory=dict)
 
 
 def _f(v: Any) -> Any:
@@ -123,6 +128,10 @@ def traction_section(curves: list[TractionCurve], cfg: Any) -> Section:
                      "relative_change_low95": _nanf(t.get("relative_change_low95")),
                      "relative_change_high95": _nanf(t.get("relative_change_high95")),
                      "band_method": c.band.get("method", "") if c.kind == "model" else "",
+                     "boundary_method": (c.theory.get("method") or {}).get("method", "")
+                     if c.kind == "model" else "",
+                     "mu_max_theory_error95": float(c.table["mu_theory_error_95"].iloc[i])
+                     if "mu_theory_error_95" in c.table else float("nan"),
                      "band_dominated_by": _dominant_text(c.band) if c.kind == "model" else "",
                      **({"law": c.boundary.get("law", DEFAULT_LAW)} if several_laws else {}),
                      **{f"{n}{p.column}": c.boundary.get(n, float("nan"))
@@ -137,7 +146,9 @@ def traction_section(curves: list[TractionCurve], cfg: Any) -> Section:
                            or curves_df[c].notna().any()]]
     show = {"curve": ("curve", ""), "kind": ("kind", ""), "speed (m/s)": ("speed_m_s", ".3g"),
             "μ max": ("mu_max", ".4f"), "95 % low": ("mu_max_low95", ".4f"),
-            "95 % high": ("mu_max_high95", ".4f"), "at creepage": ("creepage_at_mu_max", ".4g"),
+            "95 % high": ("mu_max_high95", ".4f"),
+            "theory error (95 %)": ("mu_max_theory_error95", ".2g"),
+            "method": ("boundary_method", ""), "at creepage": ("creepage_at_mu_max", ".4g"),
             "trend after saturation": ("trend", ""),
             "P(negative)": ("p_negative", ".3f"), "P(neutral)": ("p_neutral", ".3f"),
             "P(positive)": ("p_positive", ".3f"),
@@ -160,6 +171,11 @@ def traction_section(curves: list[TractionCurve], cfg: Any) -> Section:
         f"points about the trend line. Each class gets its probability, and a class is called "
         f"only when its probability is at least {threshold:g}; otherwise the trend is "
         f"'undetermined' and the probabilities say how it leans.",
+        "Theory error: a modelled curve's boundary method (fastsim: FASTSIM corrected by "
+        "Kalker's exact theory; fastsim-kalker: the thesis's FASTSIM; exact: Kalker's exact "
+        "theory) has an error of its own at exact parameters, stated apart from the band "
+        "(column mu_theory_error_95 in curves.csv; 'theory error' at the maximum above), "
+        "never added to it.",
     ]
     for r, c in zip(rows, curves, strict=True):
         paragraphs.append(_curve_sentence(r, c))

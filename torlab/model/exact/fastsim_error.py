@@ -1,11 +1,12 @@
 """The error of torlab's FASTSIM against Kalker's exact theory, case by case.
 
-torlab's default boundary method (FASTSIM with Kalker's three flexibilities and the
-elliptical traction bound, :mod:`torlab.model.creep`) reproduces Kalker's
-*simplified* theory; this module measures how far that theory lies from the *exact*
-one (:mod:`torlab.model.exact`) on a fixed set of cases, so that a better default
-method can be built and checked against the same numbers (``docs/model/exact.md``,
-"FASTSIM's error").
+Kalker's FASTSIM (three flexibilities and the elliptical traction bound,
+:mod:`torlab.model.creep`; the ``fastsim-kalker`` boundary method, the thesis's model)
+reproduces Kalker's *simplified* theory; this module measures how far that theory lies
+from the *exact* one (:mod:`torlab.model.exact`) on a fixed set of cases, against which
+the default method, FASTSIM corrected by the exact theory
+(:mod:`torlab.model.calibrated`), is checked too (``docs/model/exact.md``, "FASTSIM's
+error"; ``docs/model/boundary.md``).
 
 Every case is a Coulomb contact (``mu = 0.3``, ``nu = 0.28``, no layer) given by its
 aspect ratio ``a/b`` and Kalker's normalised creepages

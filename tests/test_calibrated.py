@@ -1,0 +1,296 @@
+"""torlab's default boundary method, FASTSIM corrected by Kalker's exact theory
+(torlab.model.calibrated), against references it was not built from: the exact values of an
+independent solver on CONTACT's discretisation (docs/model/exact.md), Kalker's linear-theory
+coefficients (his Table E.3), full slip along the rigid slip (a quadrature of Hertz's
+pressure), the exact solver itself on the FASTSIM-error table's cases, and fresh exact
+solutions away from the tables' nodes (slow step).  The tables themselves are checked against
+a fresh regeneration on a few rows."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from torlab.model.calibrated import DATA
+from torlab.model.calibration_build import (
+    fastsim_longitudinal,
+    fastsim_spin,
+    full_slip,
+    method_values,
+    twin,
+)
+from torlab.model.exact.fastsim_error import CASES, ErrorCase
+
+CASE = {c.name: c for c in CASES}
+
+
+# -------------------------------------------------------------------------------- references
+#: the exact values of an independent solver on CONTACT's discretisation
+#: (docs/model/exact.md): (case, quantity) -> value
+INDEPENDENT = {("xi_small", "Fx"): 0.273, ("xi_large", "Fx"): 0.997,
+               ("traction_curve_A2", "Fx"): 0.981, ("spin", "Fy"): 0.302,
+               ("lateral_spin", "Fy"): 0.786, ("lateral_spin", "Mz"): -0.384}
+#: the targets: pure creepage 1 %, forces with spin 3 %, the moment 5 %
+TARGET = {"Fx": 0.01, "Fy": 0.03, "Mz": 0.05, "C33": 0.05, "C32": 0.05}
+
+
+def _target(case: ErrorCase, q: str) -> float:
+    pure = case.eta == 0 and case.phi == 0
+    return TARGET["Fx"] if pure and q == "Fx" else TARGET[q] if q != "Fx" else 0.03
+
+
+@pytest.mark.parametrize("key", sorted(INDEPENDENT))
+def test_issue_table_against_the_independent_exact_values(key):
+    """The default method within 1 % (pure creepage), 3 % (Fy with spin), 5 % (Mz) of the
+    independent solver's values; plain FASTSIM misses the same targets."""
+    name, q = key
+    case = CASE[name]
+    ref = INDEPENDENT[key]
+    got = method_values(case, "fastsim")[q]
+    # the quoted values have three digits: half a unit of the last one is their own error
+    assert abs(got / ref - 1) <= _target(case, q) + 0.0005 / abs(ref)
+    plain = method_values(case, "fastsim-kalker")[q]
+    assert abs(plain / ref - 1) > _target(case, q)
+
+
+@pytest.mark.slow  # the exact solver on 40 x 40 and 24 x 24 elements for twelve cases (~1 min)
+def test_fastsim_error_table_rerun_against_the_exact_solver():
+    """Every row of the FASTSIM-error table (docs/model/exact.md: pure creepage small and
+    large, CONTACT's traction-curve example A2, pure spin, lateral creepage with and against
+    spin, C33 and C32 at a/b 0.5/1/2, full slip with lateral creepage and spin) by the
+    default method against torlab's exact solver: within 1 % in pure creepage, 3 % in Fx
+    and Fy with spin, 5 % in Mz, C33 and C32 (plus the exact value's own discretisation
+    error); plain FASTSIM misses at least one target in every class."""
+    from torlab.model.exact.fastsim_error import exact_values
+
+    missed = set()
+    for case in CASES:
+        ref = exact_values(case)
+        got = method_values(case, "fastsim")
+        plain = method_values(case, "fastsim-kalker")
+        for q in case.quantities:
+            v, e = ref[q]
+            tol = _target(case, q)
+            assert abs(got[q] - v) <= tol * abs(v) + abs(e), (case.name, q, got[q], v, e)
+            if abs(plain[q] - v) > tol * abs(v) + abs(e):
+                missed.add("pure" if case.eta == case.phi == 0 and q == "Fx" else q)
+    assert {"pure", "Fy", "Mz", "C33", "C32"} <= missed
+
+
+@pytest.mark.parametrize("name", ["C33_0.5", "C33_1", "C33_2"])
+def test_linear_theory_spin_moment_is_kalkers(name):
+    """C33 and C32 = C23 of Kalker's Table E.3 within 5 % (plain FASTSIM: 7-33 % off)."""
+    from torlab.model.kalker import C23, C33
+
+    case = CASE[name]
+    got = method_values(case, "fastsim")
+    assert got["C33"] == pytest.approx(C33(case.a_over_b, 0.28), rel=0.05)
+    assert got["C32"] == pytest.approx(C23(case.a_over_b, 0.28), rel=0.05)
+
+
+@pytest.mark.parametrize("a_over_b, v", [(1.0, (0.0, 6.0, 2.0)), (0.5, (0.0, 6.0, 2.0)),
+                                         (2.0, (0.0, 6.0, -2.0)), (0.2, (0.3, 1.0, -0.5)),
+                                         (5.0, (1.0, 0.0, 1.0))])
+def test_full_slip_is_the_rigid_slip_direction(a_over_b, v):
+    """At a creepage far beyond full slip (|v*| = 1e5, ten times the tables' FASTSIM stand-in
+    for infinity) the default's traction is mu p against the rigid slip everywhere: its forces
+    are the quadrature of Hertz's pressure along the rigid slip within 1 % of mu N (the spin
+    share's interpolation between the table's directions leaves up to 0.4 %); plain FASTSIM's
+    follow its three flexibilities (5-13 % off where there is spin and lateral creepage)."""
+    from torlab.model.creep import CreepProblem, creep_forces
+    from torlab.model.layers import LayerParams
+
+    u = np.asarray(v, dtype=float)
+    u = u / np.linalg.norm(u)
+    ref = full_slip(a_over_b, u[None, :])[0]
+    t = twin(a_over_b)
+    muN, c = t["mu"] * t["load"], math.sqrt(t["a"] * t["b"])
+    cr = [1e5 * u[i] / t["scale"][i] for i in range(3)]
+    got = {}
+    for cal in (True, False):
+        prob = CreepProblem(a=t["a"], b=t["b"], p0=t["p0"], L1=t["L1"], L2=t["L2"], L3=t["L3"],
+                            layer=LayerParams(t["mu"], t["mu"], 0.0, 0.0), calibrated=cal)
+        r = creep_forces(prob, *cr)
+        got[cal] = np.array([float(r.Fx) / muN, float(r.Fy) / muN, float(r.Mz) / (muN * c)])
+    np.testing.assert_allclose(got[True], ref, atol=0.01)
+    if u[1] != 0 and u[2] != 0:
+        assert np.max(np.abs(got[False] - ref)) > 0.05
+
+
+def test_tables_fastsim_columns_are_this_fastsim():
+    """The tables' FASTSIM columns are what FASTSIM computes now (a change of the scheme
+    makes the correction stale: regenerate with --fastsim-only)."""
+    long = pd.read_csv(DATA / "longitudinal.csv")
+    rows = long[(long.a_over_b == 0.5) & (long.layer_ratio.isin([0.0, 0.3]))]
+    for lam, g in rows.groupby("layer_ratio"):
+        fs, _ = fastsim_longitudinal(0.5, lam, g.x.to_numpy())
+        np.testing.assert_allclose(fs, g.fastsim_Fx, rtol=2e-6, atol=1e-9)
+    spin = pd.read_csv(DATA / "spin.csv")
+    g = spin[(spin.a_over_b == 2.0) & (spin.alpha_deg == 36.0) & np.isfinite(spin.rho)
+             & (spin.rho > 0)]
+    v = g[["xi_star", "eta_star", "phi_star"]].to_numpy()
+    np.testing.assert_allclose(fastsim_spin(2.0, v), g[["fastsim_Fx", "fastsim_Fy",
+                                                         "fastsim_Mz"]], rtol=2e-6, atol=2e-7)
+
+
+def test_full_slip_rows_are_the_quadrature():
+    spin = pd.read_csv(DATA / "spin.csv")
+    g = spin[(spin.a_over_b == 1.0) & np.isinf(spin.rho)].iloc[::5]
+    v = g[["xi_star", "eta_star", "phi_star"]].to_numpy()
+    np.testing.assert_allclose(full_slip(1.0, v), g[["exact_Fx", "exact_Fy", "exact_Mz"]],
+                               atol=2e-6)
+
+
+@pytest.mark.slow  # exact solutions on eight grids (about a minute)
+def test_longitudinal_table_rows_against_a_fresh_regeneration():
+    from torlab.model.calibration_build import GRIDS_LONGITUDINAL, exact_longitudinal
+
+    long = pd.read_csv(DATA / "longitudinal.csv")
+    for ab, lam, xs in ((1.0, 0.0, [0.1, 0.5]), (3.3, 0.5, [0.3])):
+        g = long[(long.a_over_b == ab) & (long.layer_ratio == lam) & long.x.isin(xs)]
+        ex, _ = exact_longitudinal(ab, lam, g.x.to_numpy(), GRIDS_LONGITUDINAL)
+        np.testing.assert_allclose(ex, g.exact_Fx, rtol=1e-5)
+
+
+# ---------------------------------------------------------- away from the nodes (slow step)
+#: between the table's aspect ratios 3.3 and 5 the interpolated ratio misses 1 % (1.8 % at
+#: small creepage): a known shortfall, docs/model/boundary.md
+_BETWEEN_3_3_AND_5 = pytest.mark.xfail(strict=True, reason="linear interpolation in log a/b "
+                                       "between the table's nodes 3.3 and 5 (docs/model/"
+                                       "boundary.md: accuracy between the nodes)")
+
+
+#: where lateral creepage and spin oppose each other (spin share about -0.7) the lateral
+#: force changes sign within a few hundredths of the share, and between the spin table's
+#: nodes its interpolated correction misses 3 % of max(|Fy|, 0.1 mu N): a known shortfall,
+#: docs/model/boundary.md
+_OPPOSED = pytest.mark.xfail(strict=True, reason="interpolation between the spin table's "
+                             "nodes where lateral creepage and spin oppose (docs/model/"
+                             "boundary.md: accuracy between the nodes)")
+
+
+@pytest.mark.slow  # exact solutions on three grids
+def test_spin_table_rows_against_a_fresh_regeneration():
+    from torlab.model.calibration_build import exact_spin
+
+    spin = pd.read_csv(DATA / "spin.csv")
+    g = spin[(spin.a_over_b == 0.5) & (spin.alpha_deg == 36.0) & (spin.sigma == -0.35)
+             & spin.rho.isin([0.3, 1.3])]
+    ex, _ = exact_spin(0.5, g[["xi_star", "eta_star", "phi_star"]].to_numpy())
+    np.testing.assert_allclose(ex, g[["exact_Fx", "exact_Fy", "exact_Mz"]], rtol=1e-5,
+                               atol=1e-7)
+
+
+@pytest.mark.slow  # fresh exact solutions, eight grids each
+@pytest.mark.parametrize("a_over_b", [0.25, 0.6, 1.2, 2.5,
+                                      pytest.param(4.2, marks=_BETWEEN_3_3_AND_5)])
+def test_pure_creepage_within_one_percent_between_the_nodes(a_over_b):
+    """Coulomb contacts at aspect ratios and creepages between the table's nodes: the
+    default within 1 % of the exact theory extrapolated from eight grids (whose own 95 %
+    error is added: it is the reference's, not the method's)."""
+    from torlab.model.calibration_build import GRIDS_LONGITUDINAL, exact_longitudinal
+
+    x = np.array([0.07, 0.25, 0.45, 0.65, 0.85])
+    ex, err = exact_longitudinal(a_over_b, 0.0, x, GRIDS_LONGITUDINAL)
+    t = twin(a_over_b)
+    from torlab.model.fastsim import FastsimProblem, boundary_traction
+    from torlab.model.layers import LayerParams
+
+    prob = FastsimProblem(a=t["a"], b=t["b"], p0=t["p0"], L1=t["L1"],
+                          layer=LayerParams(t["mu"], t["mu"], 0.0, 0.0), calibrated=True)
+    got = boundary_traction(prob, x / t["scale"][0]).mu / t["mu"]
+    assert np.all(np.abs(got / ex - 1) <= 0.01 + err / ex)
+
+
+@pytest.mark.slow  # fresh exact solutions on three grids
+@pytest.mark.parametrize("a_over_b", [pytest.param(0.25, marks=_OPPOSED), 0.7,
+                                      pytest.param(1.6, marks=_OPPOSED),
+                                      pytest.param(3.8, marks=_OPPOSED)])
+def test_spin_within_targets_between_the_nodes(a_over_b):
+    """Lateral creepage and spin at directions and aspect ratios between the spin table's
+    nodes: Fx, Fy within 3 % and Mz within 5 % of the exact theory, relative to the larger
+    of the value and a tenth of its full-slip scale (a force crossing zero has no relative
+    error)."""
+    from torlab.model.calibration_build import exact_spin
+
+    v = np.array([[0.2, 0.25, 0.35], [0.0, 0.5, -0.4], [0.45, 0.1, -0.15], [0.0, 2.0, -0.7],
+                  [0.15, 0.0, 0.9], [0.6, 0.6, 0.2]])
+    ex, err = exact_spin(a_over_b, v)
+    t = twin(a_over_b)
+    from torlab.model.creep import CreepProblem, creep_forces
+    from torlab.model.layers import LayerParams
+
+    prob = CreepProblem(a=t["a"], b=t["b"], p0=t["p0"], L1=t["L1"], L2=t["L2"], L3=t["L3"],
+                        layer=LayerParams(t["mu"], t["mu"], 0.0, 0.0), calibrated=True)
+    r = creep_forces(prob, *(v[:, i] / t["scale"][i] for i in range(3)))
+    muN, c = t["mu"] * t["load"], math.sqrt(t["a"] * t["b"])
+    got = np.stack([r.Fx / muN, r.Fy / muN, r.Mz / (muN * c)], -1)
+    scale = np.maximum(np.abs(ex), 0.1)
+    tol = np.array([0.03, 0.03, 0.05])
+    assert np.all(np.abs(got - ex) <= tol * scale + err)
+
+
+# ------------------------------------------------------------------- layers: the validation
+def test_theory_error_covers_the_layer_validation_set():
+    """Voce layers (hardening and softening, a/b 0.25-4, lambda 0.02-3; a Latin hypercube,
+    exact values shipped in validation.csv): the stated theory error covers at least 90 % of
+    the points (it is meant as 95 %; measured: all 140).  The default is within 6 %
+    everywhere (measured 5.3 % at most, at the knee of strongly hardening or softening
+    layers, where the onset's correction is carried over; 3.5 % at the 95th percentile);
+    plain FASTSIM is off by up to 8.5 %."""
+    from torlab.model.calibrated import longitudinal_error
+    from torlab.model.calibration_build import _validation_layer
+    from torlab.model.fastsim import FastsimProblem, boundary_traction
+
+    df = pd.read_csv(DATA / "validation.csv").dropna()
+    err, covered, plain = [], [], []
+    for _, g in df.groupby("scene"):
+        s = g.iloc[0]
+        t = twin(s.a_over_b, s.layer_ratio, mu=s.mu_c1)
+        prob = FastsimProblem(a=t["a"], b=t["b"], p0=t["p0"], L1=t["L1"],
+                              layer=_validation_layer(t, s.to_dict()), calibrated=True)
+        r = boundary_traction(prob, g.creepage.to_numpy())
+        e = longitudinal_error(prob, g.creepage.to_numpy(), r.mu, calibrated=True,
+                               adhesion=r.adhesion_fraction)
+        ex = g.exact_mu.to_numpy()
+        err.append(np.abs(r.mu / ex - 1))
+        covered.append(np.abs(r.mu - ex) <= e + g.exact_mu_error.to_numpy())
+        plain.append(np.abs(g.fastsim_kalker_mu.to_numpy() / ex - 1))
+    err, covered, plain = (np.concatenate(v) for v in (err, covered, plain))
+    assert err.size >= 100
+    assert err.max() < 0.06
+    assert np.quantile(err, 0.95) < 0.04
+    assert covered.mean() >= 0.9
+    assert plain.max() > 0.07
+
+
+def test_theory_error_covers_the_layer_validation_set_with_spin():
+    """Voce layers with lateral creepage and spin (validation_spin.csv: eight of the layers
+    above, seven creepage vectors each): the correction is carried over from the Coulomb
+    contact, and its stated theory error (which counts the whole lateral/spin correction as
+    possibly wrong) covers at least 90 % of each force and of the moment."""
+    from torlab.model.calibrated import creep_error
+    from torlab.model.calibration_build import _validation_layer
+    from torlab.model.creep import CreepProblem, creep_forces
+
+    df = pd.read_csv(DATA / "validation_spin.csv").dropna()
+    covered = []
+    for _, g in df.groupby("scene"):
+        s = g.iloc[0]
+        t = twin(s.a_over_b, s.layer_ratio, mu=s.mu_c1)
+        prob = CreepProblem(a=t["a"], b=t["b"], p0=t["p0"], L1=t["L1"], L2=t["L2"],
+                            L3=t["L3"], layer=_validation_layer(t, s.to_dict()),
+                            calibrated=True)
+        cr = [g.creepage.to_numpy(), g.lateral.to_numpy(), g.spin_1_m.to_numpy()]
+        r = creep_forces(prob, *cr)
+        e = np.stack(creep_error(prob, *cr, r.Fx, r.Fy, r.Mz, calibrated=True,
+                                 adhesion=r.adhesion_fraction), -1)
+        ex = g[["exact_Fx_N", "exact_Fy_N", "exact_Mz_Nm"]].to_numpy()
+        er = g[["exact_Fx_error_N", "exact_Fy_error_N", "exact_Mz_error_Nm"]].to_numpy()
+        covered.append(np.abs(np.stack([r.Fx, r.Fy, r.Mz], -1) - ex) <= e + er)
+    covered = np.concatenate(covered)
+    assert covered.shape[0] >= 50
+    assert np.all(covered.mean(axis=0) >= 0.9)
