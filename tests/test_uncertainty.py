@@ -260,6 +260,10 @@ def test_second_order_band_of_a_lognormal_curve_matches_its_exact_quantiles():
     err = np.maximum(np.abs(r.low() - lo), np.abs(r.high() - hi)) / (0.5 * (hi - lo))
     assert float(np.max(err)) <= 0.15
     assert r.summary()["quadratic_draws"] > 0
+    # the parameters' shares add up to the part of the variance linear in them: for a
+    # log-normal y = exp(L), corr(y, L)^2 = s^2 / (exp(s^2) - 1)
+    total = sum(r.contributions["value"].values())
+    np.testing.assert_allclose(total, s**2 / np.expm1(s**2), atol=0.05)
 
 
 def test_lattice_draws_have_the_distributions_moments():

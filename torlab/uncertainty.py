@@ -746,6 +746,9 @@ def _second_order_from_design(design: dict[str, Any], confidence: float, eta: fl
     theta0, _ = dist.transformed()
     lo_q, hi_q = 50.0 * (1 - confidence), 50.0 * (1 + confidence)
     center, sd, lower, upper, contrib, stacked = {}, {}, {}, {}, {}, {}
+    # the draws' own covariance (a Student-t block's is wider than its scale matrix)
+    dth = draws - theta0[None, :]
+    cdd = dth.T @ dth / dth.shape[0]
     for key, q in quads.items():
         v0 = np.asarray(f0[key], dtype=float)
         x = np.ascontiguousarray(_quadratic_at(q, draws - theta0[None, :]).T)  # (n, N)
@@ -758,8 +761,8 @@ def _second_order_from_design(design: dict[str, Any], confidence: float, eta: fl
         # shares: the Shapley effects of the first-order part over the quadratic's whole
         # variance (adding up to its linear part, as a sampled band's)
         vx = np.var(x, axis=1)
-        c = shapley_shares(q["G"], cov, np.maximum(vx, np.einsum(
-            "it,ij,jt->t", q["G"], cov, q["G"])))
+        g = q["G"] + q["W"].T @ q["slope"]  # the quadratic's linear part (k, n)
+        c = shapley_shares(g, cdd, np.maximum(vx, np.einsum("it,ij,jt->t", g, cdd, g)))
         contrib[key] = {n: c[i].reshape(v0.shape) for i, n in enumerate(names)}
         if func is not None:  # a derived quantity: its draws, for class_probabilities
             stacked[key] = x.T.reshape((x.shape[1], *v0.shape))
