@@ -172,3 +172,27 @@ def test_fit_polach_names_its_method_and_theory_error():
     assert 0 < cal.meta["theory_error_95"] < plain.meta["theory_error_95"]
     assert "mu_theory_error_95" in cal.data
     assert cal.params["kA"] != pytest.approx(plain.params["kA"], rel=1e-3)
+
+
+@pytest.mark.slow  # rounds of the exact solver (~6 s); the exact prediction and the fast fits are quick tests
+def test_fit_by_the_exact_theory_recovers_a_curve_of_the_exact_theory():
+    """A curve made by the exact solver (a coarse grid: the fit uses the same one, so the
+    model is the data's): the exact fit recovers the layer; Kalker's FASTSIM fits another
+    one; params.yaml names the method and mu_model_error the exact solver's own error."""
+    from torlab.fit.traction import fit_layer_traction
+    from torlab.model.exact.rolling import ExactGrid
+    from torlab.model.exact.scene import predict_exact
+
+    sc = wheel_rail(exact_n=10)
+    truth = {k: getattr(sc.boundary, k) for k in ("mu_c1", "mu_c2", "L_mue", "L_mup")}
+    xi = np.geomspace(3e-4, 0.02, 9)
+    mu = predict_exact(sc, xi, grid=ExactGrid(n=10)).table["mu"].to_numpy()
+    fixed = {"L_mup": truth["L_mup"]}
+    ex = fit_layer_traction(sc, xi, mu, fixed=fixed, method="exact")
+    assert ex.meta["boundary_method"] == "exact"
+    assert ex.to_params()["fit"]["boundary_method"] == "exact"
+    for k in ("mu_c1", "mu_c2", "L_mue"):
+        assert ex.params[k] == pytest.approx(truth[k], rel=0.02), k
+    assert np.all(np.isfinite(ex.data["mu_model_error"]))
+    plain = fit_layer_traction(sc, xi, mu, fixed=fixed, method="fastsim-kalker")
+    assert plain.params["L_mue"] != pytest.approx(truth["L_mue"], rel=0.05)
