@@ -42,7 +42,7 @@ from pathlib import Path
 from typing import Any
 
 __all__ = ["BadEntry", "NotCacheable", "decode_value", "decode_with_arrays", "digest_value",
-           "encode_value", "encode_with_arrays"]
+           "encode_value", "encode_with_arrays", "finite_tree"]
 
 
 class NotCacheable(Exception):
@@ -670,3 +670,21 @@ def decode_with_arrays(tree: Any, binary: Any) -> Any:
         raise BadEntry("nested too deeply") from None
     finally:
         _READING.reset(token)
+
+
+def finite_tree(obj: Any) -> Any:
+    """``obj`` with every non-finite number (an unbounded interval's end, an undetermined
+    estimate) replaced by None, in nested dicts, lists and tuples: what a result file
+    may hold (JSON has no infinity; a report says "unbounded" where it finds None)."""
+    import numpy as np
+
+    def walk(o: Any) -> Any:
+        if isinstance(o, dict):
+            return {k: walk(v) for k, v in o.items()}
+        if isinstance(o, (list, tuple)):
+            return [walk(v) for v in o]
+        if isinstance(o, (float, np.floating)):
+            return float(o) if math.isfinite(o) else None
+        return o
+
+    return walk(obj)

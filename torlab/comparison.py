@@ -38,6 +38,8 @@ from typing import Any
 
 import numpy as np
 
+from torlab.codec import finite_tree
+
 __all__ = ["COMPARE_PROBABILITY", "QUANTITIES", "CompareResult", "Comparison", "Estimate",
            "Item", "compare", "item_from_fit", "item_from_params", "items_from_path",
            "items_from_time_tests", "pool_items", "ranking"]
@@ -173,18 +175,6 @@ def _tq(dof: float, confidence: float = 0.95) -> float:
     from torlab._stats import t_ppf
 
     return float(t_ppf(0.5 + confidence / 2, min(max(float(dof), 1.0), 1e6)))
-
-
-def _finite_tree(obj: Any) -> Any:
-    """``obj`` with non-finite numbers as None (what a summary may hold; as
-    :func:`torlab.fit.result.finite_tree`, which sits a floor above this module)."""
-    if isinstance(obj, dict):
-        return {k: _finite_tree(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_finite_tree(v) for v in obj]
-    if isinstance(obj, (float, np.floating)):
-        return float(obj) if math.isfinite(obj) else None
-    return obj
 
 
 def _nan_if_inf(x: float) -> float:
@@ -397,7 +387,7 @@ class CompareResult:
 
     def summary(self) -> dict[str, Any]:
         """For ``summary.json`` (finite numbers or None)."""
-        return _finite_tree({
+        return finite_tree({
             "reference": self.reference, "probability": self.probability,
             "confidence": self.confidence, "better": dict(self.better),
             "items": {it.label: {"sources": it.sources, "notes": it.notes,
@@ -761,7 +751,7 @@ def _merge_labels(items: list[Item]) -> list[Item]:
 
 def item_to_dict(it: Item) -> dict[str, Any]:
     """An item as data (a protocol's summary keeps its estimates for ``torlab compare``)."""
-    return _finite_tree({"label": it.label, "sources": it.sources, "estimates": {
+    return finite_tree({"label": it.label, "sources": it.sources, "estimates": {
         q: {"value": e.value, "se": e.se, "dof": e.dof, "log": e.log, "runs": e.runs,
             "holds": e.holds} for q, e in it.estimates.items()}})
 

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from torlab.codec import finite_tree
 from torlab.model.layers import DEFAULT_LAW, all_params
 from torlab.model.parameters import BOUNDARY_KEYS, LUBRICANT_KEYS
 from torlab.model.removal import LAW_UNITS
@@ -478,19 +479,6 @@ def log_interval(value: float, se: float, tq: float) -> tuple[float, float]:
 
 def _finite_or_none(x: float) -> float | None:
     return float(x) if x is not None and math.isfinite(x) else None
-
-
-def finite_tree(obj: Any) -> Any:
-    """``obj`` with every non-finite number (an unbounded interval's end, an undetermined
-    estimate) replaced by None, in nested dicts, lists and tuples: what a result file
-    may hold (JSON has no infinity; a report says "unbounded" where it finds None)."""
-    if isinstance(obj, dict):
-        return {k: finite_tree(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [finite_tree(v) for v in obj]
-    if isinstance(obj, (float, np.floating)):
-        return float(obj) if math.isfinite(obj) else None
-    return obj
 
 
 def viscosity_result(vf: Any) -> FitResult:

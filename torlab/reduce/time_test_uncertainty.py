@@ -54,6 +54,10 @@ from typing import Any
 
 import numpy as np
 
+# the pooled one-way random-effects scatter of one test's figure (module docstring): the
+# REML of every repeated measurement in torlab, under the name the time tests use
+from torlab.random_effects import one_way as repeat_scatter
+
 __all__ = ["MEAN_BATCHES", "REPEAT_FIGURES", "TIME_TEST_PROBABILITY", "apply_repeats",
            "hac_mean", "measured_retention", "repeat_scatter", "time_test_uncertainty"]
 
@@ -303,35 +307,6 @@ def _bootstrap_figures(t: np.ndarray, mu: np.ndarray, result: Any, options: dict
 REPEAT_FIGURES = {"mean_after_recovery": "mean_after_recovery", "minimum": "minimum",
                   "recovery_time": "recovery_time_s",
                   "time_below_threshold": "time_below_threshold_s"}
-
-
-def repeat_scatter(values: Any, groups: Any, record_sd: Any = None) -> dict[str, Any]:
-    """Pooled one-way random-effects scatter of one test's figure (module docstring):
-    :func:`torlab.random_effects.one_way`, the REML of every repeated measurement in
-    torlab.
-
-    Parameters
-    ----------
-    values
-        The figure of every test.
-    groups
-        The composition of every test (tests of one composition are repeats).
-    record_sd
-        Each test's standard error from its own record (NaN where unknown).
-
-    Returns
-    -------
-    dict
-        ``sd_test`` (scatter of one test about its composition's mean, record noise
-        included; NaN without a repeat), ``dof`` (``sum (n_i - 1)``), ``sd_record``
-        (root mean square of the repeated tests' own standard errors), ``sd_between``
-        (``sqrt(max(0, sd_test^2 - sd_record^2))``: the part the records do not
-        explain), ``n_tests``, ``n_compositions`` (with at least two finite values),
-        ``means`` (``{composition: (mean, n)}``).
-    """
-    from torlab.random_effects import one_way
-
-    return one_way(values, groups, record_sd)
 
 
 def apply_repeats(evidence: dict[Any, dict[str, Any]], results: dict[Any, Any],
