@@ -442,15 +442,23 @@ class ResultCache:
             return False, None
         t0 = time.perf_counter()
         try:
-            name = f"{self.key(kind, **parts)}{SUFFIX}"
-            self.used.add(name)
-            self._load_index()
-            assert self._present is not None
-            if name not in self._present:
-                return False, None
-            return self._load(name, kind)
+            return self._find(self._entry(kind, parts), kind)
         finally:
             self.io_seconds += time.perf_counter() - t0
+
+    def _entry(self, kind: str, parts: dict[str, Any]) -> str:
+        """The entry name of ``(kind, parts)``, counted as used; the index read (once)."""
+        name = f"{self.key(kind, **parts)}{SUFFIX}"
+        self.used.add(name)
+        self._load_index()
+        return name
+
+    def _find(self, name: str, kind: str) -> tuple[bool, Any]:
+        """Entry ``name`` read, authenticated and decoded, if the folder holds it."""
+        assert self._present is not None
+        if name not in self._present:
+            return False, None
+        return self._load(name, kind)
 
     def _load(self, name: str, kind: str) -> tuple[bool, Any]:
         """Read, authenticate and decode entry ``name``."""
@@ -484,9 +492,7 @@ class ResultCache:
             return False, None
         t0 = time.perf_counter()
         try:
-            name = f"{self.key(kind, **parts)}{SUFFIX}"
-            self.used.add(name)
-            self._load_index()
+            name = self._entry(kind, parts)
             rec = self._unchanged(name)
             if rec is not None and rec.get("kind") == kind and "light" in rec:
                 try:
@@ -497,9 +503,9 @@ class ResultCache:
                     self.hits += 1
                     self._next[name] = rec
                     return True, value
+            hit, value = self._find(name, kind)  # the entry itself (its name known)
         finally:
             self.io_seconds += time.perf_counter() - t0
-        hit, value = self.lookup(kind, **parts)
         if not hit:
             return False, None
         small = light.light(value)
