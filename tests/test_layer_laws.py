@@ -476,6 +476,18 @@ def test_fit_hpt_law_and_resolution_options_refuse_bad_values(cli, tmp_path):
     assert "did you mean 'linear'" in r.output and not (tmp_path / "a").exists()
     r = cli("fit", "hpt", log, "-o", tmp_path / "b", "--law", "auto", "--resolution", "-5 MPa")
     assert r.exit_code == 2 and "--resolution" in r.output
+    # a resolution only the comparison of several laws uses: refused, not ignored
+    r = cli("fit", "hpt", log, "-o", tmp_path / "c", "--law", "linear", "--resolution", "2 MPa")
+    assert r.exit_code == 2 and "--resolution" in r.output and "linear law alone" in r.output
+    assert "Traceback" not in r.output and not (tmp_path / "c").exists()
+
+
+def test_fit_layer_hpt_refuses_a_resolution_with_one_law():
+    from torlab.errors import TorlabInputError
+    from torlab.fit.layer import fit_layer_hpt
+
+    with pytest.raises(TorlabInputError, match="several layer laws"):
+        fit_layer_hpt([], law="voce", resolution=1e6)
 
 
 def test_a_protocol_fits_the_law_it_names(tmp_path):

@@ -221,7 +221,7 @@ def hpt_cmd(
     With --law auto (or a list) every law is fitted and the one with the smallest AICc
     kept; the console and law_selection.csv give the comparison.
     """
-    from torlab.fit.layer import fit_layer_hpt, fit_layers_hpt, law_choice
+    from torlab.fit.layer import check_resolution, fit_layer_hpt, fit_layers_hpt, law_choice
     from torlab.instruments.measured import hpt_curves
     from torlab.outputs import OutputDir
     from torlab.units import check_range, to_si
@@ -229,9 +229,12 @@ def hpt_cmd(
     files = require_files(inputs, "HPT", keep=is_hpt_input)
     extra: list[Path] = []
     comp = _compliance(compliance, extra)
-    law_choice(law, key="--law")  # an unknown law: one error line before anything is read
+    # an unknown law, or a resolution no law comparison uses: one error line before anything
+    # is read
+    laws = law_choice(law, key="--law")
     res_pa = None if resolution is None else check_range(
         "stress", to_si(resolution, "pressure", where="--resolution"), where="--resolution")
+    check_resolution(laws, res_pa, key="--resolution")
     curves = hpt_curves(files, compliance=comp)
     results = [fit_layer_hpt(curves, law=law, resolution=res_pa)] if joint or len(curves) == 1 \
         else fit_layers_hpt(curves, law=law, resolution=res_pa)

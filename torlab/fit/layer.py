@@ -318,6 +318,22 @@ def law_choice(law: Any, key: str = "law") -> list[LayerLaw]:
     return out
 
 
+def check_resolution(laws: Sequence[LayerLaw], resolution: float | None,
+                     key: str = "resolution") -> None:
+    """Refuse a stress ``resolution`` where only one law is fitted: it enters only the AICc
+    comparison of several laws (:func:`select_law`), so with one law it would be ignored.
+
+    Raises
+    ------
+    TorlabInputError
+        ``resolution`` given with a single law.
+    """
+    if resolution is not None and len(laws) == 1:
+        raise TorlabInputError(f"applies only when several layer laws are compared (law "
+                               f"'auto' or a list), not with the {laws[0].name} law alone",
+                               key=key)
+
+
 @small_problem  # one BLAS thread: small matrices (torlab.threads)
 def fit_layer_hpt(curves: Any, *, sigma: float | None = None, compliance: Any = None,
                   joint: bool = True, law: Any = None, between: str = "random",
@@ -390,6 +406,7 @@ def fit_layer_hpt(curves: Any, *, sigma: float | None = None, compliance: Any = 
         raise TorlabInputError(f"between must be 'random' or 'none', not {between!r}",
                                key="between")
     laws = law_choice(law)
+    check_resolution(laws, resolution)
     items = list(curves) if isinstance(curves, (list, tuple)) else [curves]
     if not items:
         raise TorlabInputError("no HPT curve given")
