@@ -355,9 +355,13 @@ def _reduce_hpt(df: Any, meta: HptMetadata, *, window: float, source: str,
     fm, fs, n = window_mean(u, f, window)
     if not abs(fm) <= MAX_FRICTION:
         what = "torque (or arm_force and arm_length)"
+        # the location: the log's first reading beyond the bound (the line of the error)
+        beyond = np.flatnonzero(~(np.abs(f) <= MAX_FRICTION))
+        first = int(cols["line"][beyond[0]]) if beyond.size else None
         raise TorlabInputError(f"the friction coefficient over the window is {fm:.3g}, which no "
-                               f"contact has (|f| <= {MAX_FRICTION:g}): check the {what} and "
-                               "the normal_force columns and their units", path=path)
+                               f"contact has (|f| <= {MAX_FRICTION:g}; the first reading beyond "
+                               f"it is on this line): check the {what} and the normal_force "
+                               "columns and their units", path=path, line=first)
     tm, _, _ = window_mean(u, tau, window)
     desc = ""
     if compliance is not None:
