@@ -252,3 +252,95 @@ def test_joint_fit_title_fits_in_the_figure():
     from figure_checks import figure_problems
 
     assert figure_problems(fig, file_names=tuple(f.name for f in files)) == []
+
+
+def _pixels(png):
+    from PIL import Image
+
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGBA"))
+
+
+def _matplotlib_png(fig):
+    """The figure through matplotlib's own PNG writer (Pillow), as torlab wrote it before."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=STYLE["savefig.dpi"])
+    return buf.getvalue()
+
+
+def test_png_writer_round_trips_pixels_resolution_and_software():
+    """:func:`png_bytes` writes what Pillow reads back pixel for pixel: RGB when every
+    pixel is opaque, RGBA otherwise (both checked on odd sizes and a partly transparent
+    image), with the resolution and the program."""
+    from PIL import Image
+
+    from torlab.reports.render import png_bytes
+
+    rng = np.random.default_rng(3)
+    img = rng.integers(0, 256, size=(37, 53, 4), dtype=np.uint8)
+    img[..., 3] = 255
+    png = png_bytes(img, 150, "torlab test")
+    im = Image.open(io.BytesIO(png))
+    assert im.mode == "RGB" and im.size == (53, 37)
+    assert im.info["Software"] == "torlab test"
+    assert im.info["dpi"] == pytest.approx((150, 150), abs=0.02)
+    np.testing.assert_array_equal(np.asarray(im), img[..., :3])
+    img[5, 7, 3] = 10  # one pixel not opaque: the alpha channel is kept
+    im = Image.open(io.BytesIO(png_bytes(img, 72)))
+    assert im.mode == "RGBA" and "Software" not in im.info
+    np.testing.assert_array_equal(np.asarray(im), img)
+    big = np.full((3000, 700, 4), 255, np.uint8)  # several blocks of rows
+    big[::7, ::3, :3] = rng.integers(0, 256, size=(429, 234, 3), dtype=np.uint8)
+    np.testing.assert_array_equal(np.asarray(Image.open(io.BytesIO(png_bytes(big, 150)))),
+                                  big[..., :3])
+
+
+def test_png_figure_has_the_pixels_of_matplotlibs_writer():
+    """A figure written by torlab's PNG writer shows exactly the pixels matplotlib's own
+    writer gives (a fit figure of the fixed layout, with an outside legend)."""
+    from torlab.reports.plotting import finish, legend
+    from torlab.reports.render import render
+
+    x, y = _walk(3_000, seed=2)
+    fig, (ax, axr) = subplots(2, 1, sharex=True, figsize=(7.0, 5.6), height_ratios=[3, 1])
+    ax.plot(x, y, "o", ms=2, alpha=0.55, label="measured")
+    ax.plot(x, y * 0.9, "-", label="model")
+    axr.plot(x, y * 0.1, "o", ms=2)
+    ax.set_ylabel("shear stress τ (MPa)")
+    axr.set_xlabel("layer displacement u (µm)")
+    ax.set_title("Third-body layer\nμc1 = 0.15")
+    legend(ax)
+    finish(fig)
+    ours, theirs = render(fig, "png"), _matplotlib_png(fig)
+    assert ours[:8] == b"\x89PNG\r\n\x1a\n" and ours != theirs
+    np.testing.assert_array_equal(_pixels(ours), _pixels(theirs))
+
+
+def test_facets_laid_out_once_show_what_matplotlibs_layout_shows():
+    """A figure of facets (constrained layout) laid out once and kept
+    (:func:`torlab.reports.render.fix_layout`) has the same pixels as matplotlib's save,
+    which lays it out on each of its two drawings; the layout engine is gone after, and
+    a second format needs no layout."""
+    from torlab.reports.plotting import facet_legend, facets
+    from torlab.reports.render import render_all
+
+    def make():
+        fig, axes = facets(5, ncols=2, strips=[0.8, 0, 0.8, 0.8, 0])
+        for k, (ax, *strip) in enumerate(axes):
+            x, y = _walk(200, seed=k)
+            ax.plot(x, y, label=f"curve {k} with a long name")
+            ax.set_xscale("log" if k % 2 else "linear")
+            ax.set_ylabel("traction coefficient μ (–)")
+            ax.set_title(f"panel {k}")
+            facet_legend(ax)
+            if strip and strip[0].get_visible():
+                strip[0].plot(x, y * 0.01, "o", ms=2)
+                strip[0].set_xlabel("creepage ξ (%)")
+        fig.suptitle("Traction curves in facets")
+        return fig
+
+    theirs = _matplotlib_png(make())
+    fig = make()
+    out = render_all(fig, ["png", "svg"])
+    assert fig.get_layout_engine() is None
+    np.testing.assert_array_equal(_pixels(out["png"]), _pixels(theirs))
+    assert b"<svg" in out["svg"][:400]
