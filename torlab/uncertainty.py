@@ -111,6 +111,8 @@ from typing import Any
 
 import numpy as np
 
+from torlab.threads import small_problem
+
 __all__ = [
     "CONFIDENCE",
     "NONLINEARITY_TOL",
@@ -397,6 +399,7 @@ class Propagation:
         }
 
     # -- derived quantities -----------------------------------------------------------------
+    @small_problem  # one BLAS thread: small matrices (torlab.threads)
     def derive(self, func: Callable[[dict[str, np.ndarray]], Any], *,
                nonlinearity_tol: float | None = None) -> Propagation:
         """Propagate ``func(outputs)`` (a function of the model's outputs) with the same design.
@@ -505,6 +508,7 @@ class Propagation:
 # ---------------------------------------------------------------------------------------------
 # the propagation
 # ---------------------------------------------------------------------------------------------
+@small_problem  # one BLAS thread: small matrices (torlab.threads)
 def propagate(model: Model, dist: ParameterDistribution, *, confidence: float = CONFIDENCE,
               method: str = "auto", n_samples: int = N_SAMPLES, seed: int = 0,
               nonlinearity_tol: float = NONLINEARITY_TOL, vectorized: bool = False,
@@ -702,8 +706,20 @@ def _quadratic(design: dict[str, Any], key: str, f0: np.ndarray, steps: list[np.
 
 def _quadratic_at(q: dict[str, np.ndarray], offsets: np.ndarray) -> np.ndarray:
     """The quadratic model at parameter offsets ``(N, k)`` (theta): ``(N, n)``."""
+    return _quadratic_draws(q, offsets).T
+
+
+def _quadratic_draws(q: dict[str, np.ndarray], offsets: np.ndarray) -> np.ndarray:
+    """The quadratic model at parameter offsets ``(N, k)`` as ``(n, N)`` (each output point's
+    draws contiguous): one product of the features ``[offsets, a, a^2 / 2]`` (``a`` the
+    coordinates along the directions) with the stacked coefficients ``[G; slope; curv]``,
+    so the only ``(n, N)`` array made is the result."""
     a = offsets @ q["W"].T
-    return q["f0"][None, :] + offsets @ q["G"] + a @ q["slope"] + 0.5 * (a * a) @ q["curv"]
+    z = np.concatenate([offsets, a, 0.5 * a * a], axis=1)  # (N, k + 2m)
+    coef = np.concatenate([q["G"], q["slope"], q["curv"]], axis=0)  # (k + 2m, n)
+    x = coef.T @ z.T
+    x += q["f0"][:, None]
+    return x
 
 
 def _second_order_from_design(design: dict[str, Any], confidence: float, eta: float,
@@ -751,16 +767,16 @@ def _second_order_from_design(design: dict[str, Any], confidence: float, eta: fl
     cdd = dth.T @ dth / dth.shape[0]
     for key, q in quads.items():
         v0 = np.asarray(f0[key], dtype=float)
-        x = np.ascontiguousarray(_quadratic_at(q, draws - theta0[None, :]).T)  # (n, N)
+        x = _quadratic_draws(q, dth)  # (n, N)
         lo, hi = np.percentile(x, [lo_q, hi_q], axis=1)
         v = v0.reshape(-1)  # the band always contains the model at the estimate
         center[key] = v0
-        sd[key] = np.std(x, axis=1, ddof=1).reshape(v0.shape)
+        vx = np.var(x, axis=1)
+        sd[key] = np.sqrt(vx * (x.shape[1] / max(x.shape[1] - 1, 1))).reshape(v0.shape)
         lower[key] = np.minimum(lo, v).reshape(v0.shape)
         upper[key] = np.maximum(hi, v).reshape(v0.shape)
         # shares: the Shapley effects of the first-order part over the quadratic's whole
         # variance (adding up to its linear part, as a sampled band's)
-        vx = np.var(x, axis=1)
         g = q["G"] + q["W"].T @ q["slope"]  # the quadratic's linear part (k, n)
         c = shapley_shares(g, cdd, np.maximum(vx, np.einsum("it,ij,jt->t", g, cdd, g)))
         contrib[key] = {n: c[i].reshape(v0.shape) for i, n in enumerate(names)}
@@ -1307,30 +1323,29 @@ def _groups(cov: np.ndarray, live: np.ndarray, sd: np.ndarray) -> list[list[int]
 def _group_effects(group: np.ndarray, cov: np.ndarray, b: np.ndarray) -> np.ndarray:
     """The Shapley effects ``(m, t)`` of one correlated group (:func:`shapley_shares`)."""
     m = group.size
+    if m <= _SHAPLEY_EXACT:
+        # every subset's v at once (one batched solve per subset size), then each
+        # parameter's weighted marginal contributions over the subsets without it
+        V = _subset_values(group, cov, b)
+        size = np.array([bin(u).count("1") for u in range(1 << m)])
+        w = np.array([math.factorial(s) * math.factorial(m - s - 1) / math.factorial(m)
+                      for s in range(m)])
+        out = np.zeros((m, b.shape[1]))
+        masks = np.arange(1 << m)
+        for j in range(m):
+            without = masks[(masks >> j & 1) == 0]
+            out[j] = w[size[without]] @ (V[without | 1 << j] - V[without])
+        return out
     cache: dict[int, np.ndarray] = {0: np.zeros(b.shape[1])}
 
     def v(mask: int) -> np.ndarray:
         got = cache.get(mask)
         if got is None:
             idx = group[[i for i in range(m) if mask >> i & 1]]
-            bu = b[idx]
-            cu = cov[np.ix_(idx, idx)]
-            try:
-                x = np.linalg.solve(cu, bu)
-            except np.linalg.LinAlgError:
-                x = np.linalg.lstsq(cu, bu, rcond=None)[0]
-            got = cache[mask] = np.sum(bu * x, axis=0)
+            got = cache[mask] = _explained(cov[np.ix_(idx, idx)], b[idx])
         return got
 
     out = np.zeros((m, b.shape[1]))
-    if m <= _SHAPLEY_EXACT:
-        w = [math.factorial(s) * math.factorial(m - s - 1) / math.factorial(m) for s in range(m)]
-        for mask in range(1 << m):
-            s = bin(mask).count("1")
-            for j in range(m):
-                if not mask >> j & 1:
-                    out[j] += w[s] * (v(mask | 1 << j) - v(mask))
-        return out
     rng = np.random.default_rng(20170101)
     for _ in range(_SHAPLEY_ORDERS):
         mask = 0
@@ -1339,6 +1354,36 @@ def _group_effects(group: np.ndarray, cov: np.ndarray, b: np.ndarray) -> np.ndar
             out[j] += v(nxt) - v(mask)
             mask = nxt
     return out / _SHAPLEY_ORDERS
+
+
+def _explained(cu: np.ndarray, bu: np.ndarray) -> np.ndarray:
+    """``v(u) = b_u^T C_uu^-1 b_u`` per output point (least squares where ``C_uu`` is
+    singular)."""
+    try:
+        x = np.linalg.solve(cu, bu)
+    except np.linalg.LinAlgError:
+        x = np.linalg.lstsq(cu, bu, rcond=None)[0]
+    return np.sum(bu * x, axis=0)
+
+
+def _subset_values(group: np.ndarray, cov: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``v(u)`` ``(2^m, t)`` of every subset ``u`` of ``group`` (bit ``i`` of the row index:
+    parameter ``group[i]`` in ``u``), the subsets of one size in one batched solve."""
+    m = group.size
+    V = np.zeros((1 << m, b.shape[1]))
+    members = [[i for i in range(m) if u >> i & 1] for u in range(1 << m)]
+    for s in range(1, m + 1):
+        us = [u for u in range(1 << m) if len(members[u]) == s]
+        idx = group[np.array([members[u] for u in us])]  # (n_s, s)
+        cu = cov[idx[:, :, None], idx[:, None, :]]  # (n_s, s, s)
+        bu = b[idx]  # (n_s, s, t)
+        try:
+            x = np.linalg.solve(cu, bu)
+        except np.linalg.LinAlgError:  # a singular subset: each on its own
+            V[us] = [_explained(c, bb) for c, bb in zip(cu, bu, strict=True)]
+            continue
+        V[us] = np.sum(bu * x, axis=1)
+    return V
 
 
 def _linear_checked(dist: ParameterDistribution, h: np.ndarray, f0: dict[str, np.ndarray],
