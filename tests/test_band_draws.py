@@ -350,3 +350,91 @@ def test_automatic_band_of_the_thermal_curve_within_015_of_3000_draws():
     ref = traction_band(sc, xi, t, scene_uncertainty(sc), method="sampling", n_samples=3000,
                         seed=12345)
     assert _edge_error(p.band, {k: (ref.low(k), ref.high(k)) for k in ref.center}) <= 0.15
+
+
+# ---------------------------------------------------------------------------------------
+# the design points of a band start from the estimate's temperature (evaluate_near)
+# ---------------------------------------------------------------------------------------
+def _near_model(sc, xi: np.ndarray, outs: tuple[str, ...], prob=None) -> DryTractionModel:
+    """The band model of ``sc`` with the curve's converged temperature as its start."""
+    state: dict = {}
+    traction_curve(sc, xi, state=state)
+    assert state["temperature_rise"].shape == (xi.size, fastsim_grid(sc).n,
+                                               fastsim_grid(sc).temperature_nodes)
+    return DryTractionModel(prob or fastsim_problem(sc), fastsim_grid(sc), xi, outs,
+                            state["temperature_rise"])
+
+
+def test_design_points_start_from_the_estimates_temperature(monkeypatch):
+    """evaluate_near (the steps, probes and check points of a band) starts each point's
+    temperature iteration from the estimate's solution: it reaches the same fixed points as
+    the iteration from zero -- both within 0.05 K and 1e-5 (relative mu) of the fixed
+    point the loop gives at a 1e-7 K tolerance, the independent reference -- in fewer
+    relaxed steps, at two standard deviations along each parameter."""
+    import torlab.model.flash as flash
+    from torlab.model.bands import scene_uncertainty
+
+    sc = _wfm_wet()
+    xi = np.linspace(0.0, 0.05, 51)
+    outs = ("mu", "max_temperature_C")
+    model = _near_model(sc, xi, outs)
+    prob = model.prob
+    tight = DryTractionModel(replace(prob, thermal=replace(prob.thermal, tolerance=1e-7)),
+                             model.grid, xi, outs)
+    dist = scene_uncertainty(sc).dist
+    th0, cov = dist.transformed()
+    sd = np.diag(np.sqrt(np.diag(cov)))
+    p = dist.params(np.vstack([th0 + 2 * sd, th0 - 2 * sd]))
+    steps = []
+    step = flash._relaxed_step
+
+    def counted(*a, **k):
+        steps[-1] += 1
+        return step(*a, **k)
+
+    monkeypatch.setattr(flash, "_relaxed_step", counted)
+    got = {}
+    for name, call in (("near", model.evaluate_near), ("zero", model.evaluate_many),
+                       ("tight", tight.evaluate_many)):
+        steps.append(0)
+        out, errors = call(p)
+        assert errors == [None] * 12
+        got[name] = out
+    assert steps[0] < steps[1] < steps[2]
+    for name in ("near", "zero"):
+        assert np.max(np.abs(got[name]["max_temperature_C"] -
+                             got["tight"]["max_temperature_C"])) < 0.05
+        _rel = np.abs(got[name]["mu"] - got["tight"]["mu"]) / np.maximum(
+            np.abs(got["tight"]["mu"]), 1e-12)
+        assert np.max(_rel[:, 1:]) < 1e-5  # (zero creepage: mu = 0 in both)
+
+
+def test_design_points_near_a_runaway_fail_as_from_zero():
+    """A start from the estimate's temperature does not hide a thermal runaway: the draws
+    whose heating is self-amplifying fail from the start as they fail from zero, the
+    others are the same fixed points (1e-5 relative)."""
+    sc = load_scene(SCENES / "wheel_rail_tab54.yaml")
+    model = _near_model(sc, XI, ("mu", "max_temperature_C"))
+    rng = np.random.default_rng(4)
+    p = _draws(rng, 10, mu_c1_T=(-1e-3, 0.0), mu_c2_T=(-1e-3, 0.0))
+    p["mu_c1_T"][[2, 7]] = [0.02, 0.03]
+    p["mu_c2_T"][[2, 7]] = [0.02, 0.01]
+    near, e_near = model.evaluate_near(p)
+    zero, e_zero = model.evaluate_many(p)
+    assert [e is None for e in e_near] == [e is None for e in e_zero]
+    assert e_near[2] is not None and e_near[7] is not None
+    ok = [i for i, e in enumerate(e_near) if e is None]
+    assert len(ok) == 8
+    np.testing.assert_allclose(near["mu"][ok], zero["mu"][ok], rtol=1e-5, atol=1e-12)
+
+
+def test_band_model_is_pickled_without_its_start():
+    """A sampled band's blocks go to workers with the model: its start (the estimate's
+    temperature grid) stays behind, so the draws start from zero there as here."""
+    import pickle
+
+    sc = load_scene(SCENES / "wheel_rail_tab54.yaml")
+    model = _near_model(sc, XI, ("mu",))
+    back = pickle.loads(pickle.dumps(model))
+    assert model.start is not None and back.start is None
+    np.testing.assert_array_equal(back.xi, model.xi)

@@ -851,11 +851,14 @@ def _eval1(model: Model, dist: ParameterDistribution, theta: np.ndarray,
 
 def _evaluate_rows(model: Model, dist: ParameterDistribution, thetas: np.ndarray,
                    vectorized: bool) -> list[dict[str, np.ndarray]]:
-    """Model outputs at each row of ``thetas`` (errors propagate: a model with
-    ``evaluate_many`` raises the error of the first row that failed)."""
+    """Model outputs at each row of ``thetas``, the design points of the linear and
+    second-order methods (errors propagate: a model with ``evaluate_many`` raises the
+    error of the first row that failed).  A model's ``evaluate_near`` (``evaluate_many``
+    for parameter sets near the estimate, e.g. starting an iteration from the
+    estimate's solution) is preferred to its ``evaluate_many``."""
     if thetas.shape[0] == 0:
         return []
-    many = getattr(model, "evaluate_many", None)
+    many = getattr(model, "evaluate_near", None) or getattr(model, "evaluate_many", None)
     if many is not None and not vectorized:
         outs, errors = many(dist.params(thetas))
         for e in errors:

@@ -226,6 +226,11 @@ class BoundaryResult:
         passes): a few when the solve converges as it should.
     notes
         Remarks about the computation.
+    temperature_rise
+        The converged flash-temperature rise on the strips' temperature grid, (creepages,
+        strips, temperature nodes) [K] (zero at zero creepage), None without thermal: where
+        an evaluation at nearby parameters starts its iteration
+        (:func:`boundary_traction_draws`' ``start``).
     """
 
     creepage: np.ndarray
@@ -236,6 +241,7 @@ class BoundaryResult:
     temperature_loop: str = "off"
     yield_iterations: int = 0
     notes: list[str] = field(default_factory=list)
+    temperature_rise: np.ndarray | None = field(default=None, repr=False)
 
 
 # -------------------------------------------------------------------------------------------
@@ -775,6 +781,9 @@ def boundary_traction(prob: FastsimProblem, creepage: Any, grid: FastsimGrid | N
     loop = "off" if prob.thermal is None else "single pass"
     notes: list[str] = []
     stats = {"yield_iterations": 0}
+    rise = None
+    if prob.thermal is not None:
+        rise = np.zeros((mag.size, grid.n, grid.temperature_nodes))
     if nz.any():
         xi = mag[nz]
         solver = _Solver(prob, grid, xi, stats)
@@ -784,6 +793,7 @@ def boundary_traction(prob: FastsimProblem, creepage: Any, grid: FastsimGrid | N
             dT_grid, it, loop, tm = _temperature(solver, prob, grid, xi, v[nz], flux)
             iters[nz] = it
             tmax[nz] = tm
+            rise[nz] = dT_grid
             if loop == "single pass":
                 lay = prob.layer
                 dT_grid = None if not any(lay.law.temperature_coefficients(lay)) else dT_grid
@@ -804,7 +814,7 @@ def boundary_traction(prob: FastsimProblem, creepage: Any, grid: FastsimGrid | N
                           max_temperature_C=None if tmax is None else tmax.reshape(shape),
                           temperature_iterations=None if iters is None else iters.reshape(shape),
                           temperature_loop=loop, yield_iterations=stats["yield_iterations"],
-                          notes=notes)
+                          notes=notes, temperature_rise=rise)
 
 
 @dataclass
@@ -832,7 +842,7 @@ class BoundaryDraws:
 
 def boundary_traction_draws(prob: FastsimProblem, layers: Any, creepage: Any,
                             grid: FastsimGrid | None = None, *,
-                            extra_heat_flux: Any = None) -> BoundaryDraws:
+                            extra_heat_flux: Any = None, start: Any = None) -> BoundaryDraws:
     """:func:`boundary_traction` for many layers at once (the draws of a prediction band).
 
     Every (draw, creepage) pair is one point of a single vectorised evaluation, each
@@ -856,6 +866,13 @@ def boundary_traction_draws(prob: FastsimProblem, layers: Any, creepage: Any,
     extra_heat_flux
         As in :func:`boundary_traction` (called once, for every point: draws x
         creepages, draw-major); the rolling speed is ``prob.speed``.
+    start
+        Where every draw's contact-temperature iteration starts: the flash-temperature
+        rise (creepages, strips, temperature nodes) [K] of a nearby layer (the estimate's,
+        :attr:`BoundaryResult.temperature_rise`); default zero.  Each point still
+        iterates until its own residual is below the tolerance, so the result is the
+        same fixed point to that tolerance, in fewer steps when the layers are close
+        (a band's design points, :meth:`torlab.model.bands.DryTractionModel.evaluate_near`).
 
     Returns
     -------
@@ -892,7 +909,14 @@ def boundary_traction_draws(prob: FastsimProblem, layers: Any, creepage: Any,
             v = np.full(rows.size, float(prob.speed))
             if not (math.isfinite(prob.speed) and prob.speed >= 0):
                 raise ValueError("speed must be finite and >= 0")
-            dT_grid, _, _, tm = _temperature(solver, prob, grid, mag[nz], v, flux)
+            warm = None
+            if start is not None:  # the same start for every draw, at each creepage
+                warm = np.asarray(start, dtype=float)
+                if warm.shape != (n, grid.n, grid.temperature_nodes):
+                    raise ValueError(f"start has the shape {warm.shape}, not (creepages, "
+                                     f"strips, nodes) = {(n, grid.n, grid.temperature_nodes)}")
+                warm = np.tile(warm, (m, 1, 1))[nz]
+            dT_grid, _, _, tm = _temperature(solver, prob, grid, mag[nz], v, flux, warm)
             tmax[nz] = tm
         if stats["failed"]:  # the failed draws' points take no further part
             keep = ~np.isin(gid_all[nz], np.fromiter(stats["failed"], dtype=int))
@@ -945,7 +969,8 @@ def _extra_flux(extra_heat_flux: Any, grid: FastsimGrid, solver: _Solver, mag: n
 
 
 def _temperature(solver: _Solver, prob: FastsimProblem, grid: FastsimGrid, xi: np.ndarray,
-                 speed: np.ndarray, flux: tuple[np.ndarray, np.ndarray] | None
+                 speed: np.ndarray, flux: tuple[np.ndarray, np.ndarray] | None,
+                 start: np.ndarray | None = None
                  ) -> tuple[np.ndarray, np.ndarray, str, np.ndarray]:
     """Converge the flash temperature on the per-strip grid, every point at once.
 
@@ -958,6 +983,9 @@ def _temperature(solver: _Solver, prob: FastsimProblem, grid: FastsimGrid, xi: n
     coefficients are the point's own, and a point that runs away or does not converge
     marks its group failed (``solver.stats["failed"]``) and leaves the iteration, with
     the other points of its group, instead of raising.
+
+    With a layer per point, ``start`` (nx, ns, nT) [K] is where the iteration starts (a
+    nearby solution, :func:`boundary_traction_draws`); zero without one.
 
     Returns
     -------
@@ -1015,6 +1043,8 @@ def _temperature(solver: _Solver, prob: FastsimProblem, grid: FastsimGrid, xi: n
         return dT, its, "single pass", np.full(nx, prob.ambient_temperature)
     if grouped:  # a layer per point: failures are recorded per group, not raised
         rows = np.flatnonzero(moving)
+        if start is not None:  # a nearby solution (the first pass is G there)
+            dT = np.where(moving[:, None, None], start, 0.0)
         new = np.zeros_like(dT)
         new[rows] = G(dT[rows], rows)
         peak = np.max(np.abs(new).reshape(nx, -1), axis=1)
@@ -1026,7 +1056,7 @@ def _temperature(solver: _Solver, prob: FastsimProblem, grid: FastsimGrid, xi: n
             return np.isin(solver.gid, np.fromiter(solver.stats["failed"], dtype=int))
 
         return converge_flash_temperature_groups(G, new, single, peak, sens, its, moving, where,
-                                                 th, prob.ambient_temperature, fail)
+                                                 th, prob.ambient_temperature, fail, dT)
     return converge_flash_temperature(G, dT, its, moving, th, lay, where,
                                       prob.ambient_temperature)
 

@@ -221,22 +221,24 @@ def _rows(rows: np.ndarray, n: int) -> np.ndarray | slice:
 def converge_flash_temperature_groups(G: Any, new: np.ndarray, single: np.ndarray,
                                       peak: np.ndarray, sens: np.ndarray, its: np.ndarray,
                                       moving: np.ndarray, where: Any, th: ThermalParams,
-                                      ambient: float, fail: Any
+                                      ambient: float, fail: Any, start: np.ndarray | None = None
                                       ) -> tuple[np.ndarray, np.ndarray, str, np.ndarray]:
     """:func:`converge_flash_temperature` with a layer per point (a band's draws): the same
     steps for each point, a failure recorded for its group instead of raised.
 
-    ``new`` is the first pass ``G(0)``, ``single`` the points it settles, ``peak`` and
-    ``sens`` each point's heating [K] and largest temperature coefficient [1/K];
-    ``fail(mask, why)`` records a failure of the points ``mask`` and returns every point
-    that leaves with them (their whole group).
+    ``new`` is the first pass ``G(start)`` (``G(0)`` without a start), ``single`` the points
+    it settles, ``peak`` and ``sens`` each point's heating [K] and largest temperature
+    coefficient [1/K]; ``fail(mask, why)`` records a failure of the points ``mask`` and
+    returns every point that leaves with them (their whole group).  ``start`` (the shape of
+    ``new``) is where the iteration starts (a nearby solution: the points then leave it
+    after fewer steps, converged to the same tolerance); zero without one.
     """
     nx = new.shape[0]
 
     def drop(bad: np.ndarray, why: str) -> None:
         active[fail(bad, why)] = False
 
-    dT = np.zeros_like(new)
+    dT = np.zeros_like(new) if start is None else np.array(start, dtype=float)
     dT[single] = new[single]
     active = moving & ~single
     runaway = active & (peak * sens > _MAX_EXPONENT)

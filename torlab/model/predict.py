@@ -123,9 +123,11 @@ def predict_traction(scene: Scene, creepage: ArrayLike, *,
         ``summary["theory_error"]``; the table's ``mu_theory_error_95``.
     """
     scene = with_method(scene, method)
-    pred = traction_curve(scene, creepage, trend_tolerance=trend_tolerance, as_frame=as_frame)
+    state: dict[str, Any] = {}  # the solver's state at the estimate, where the band starts
+    pred = traction_curve(scene, creepage, trend_tolerance=trend_tolerance, as_frame=as_frame,
+                          state=state)
     if band:
-        _attach_band(scene, pred, trend_tolerance, trend_threshold, seed)
+        _attach_band(scene, pred, trend_tolerance, trend_threshold, seed, state=state)
     _finish_method(scene, pred, lambda: _exact_traction(scene, creepage), trend_tolerance)
     _attach_theory_error(scene, pred)
     return pred
@@ -158,11 +160,12 @@ def predict_creep(scene: Scene, creepage: ArrayLike, lateral: float = 0.0, spin:
 
 
 def _attach_band(scene: Scene, pred: TractionPrediction, tolerance: float, threshold: float,
-                 seed: int, defer: bool = False) -> Any:
+                 seed: int, defer: bool = False, state: dict[str, Any] | None = None) -> Any:
     """The band, its summary and the trend with probabilities (:mod:`torlab.model.bands`).
 
     With ``defer`` a band that samples is not finished: the :class:`_PendingBand` is
-    returned (None otherwise).
+    returned (None otherwise).  ``state`` is the curve's solver state
+    (:func:`~torlab.model.traction.traction_curve`), where the band's evaluations start.
     """
     fit = getattr(scene, "fit", None)
     if fit is None or not fit.covariances:  # nothing to propagate (the band code stays unloaded)
@@ -182,7 +185,8 @@ def _attach_band(scene: Scene, pred: TractionPrediction, tolerance: float, thres
         pred.table = pd.DataFrame(pred.table)
     xi = pred.table["creepage"].to_numpy(dtype=float)
     try:
-        band = traction_band(scene, xi, pred.table, su, seed=seed, defer=defer)
+        band = traction_band(scene, xi, pred.table, su, seed=seed, defer=defer,
+                             start=(state or {}).get("temperature_rise"))
     except NumericalError as e:
         _no_band(pred, su, e)
         return None
@@ -260,8 +264,10 @@ def predict_traction_deferred(scene: Scene, creepage: ArrayLike, *,
     if scene.grid.method in ("exact", "auto"):  # the choice needs the finished band
         return predict_traction(scene, creepage, trend_tolerance=trend_tolerance,
                                 trend_threshold=trend_threshold, seed=seed)
-    pred = traction_curve(scene, creepage, trend_tolerance=trend_tolerance)
-    pending = _attach_band(scene, pred, trend_tolerance, trend_threshold, seed, defer=True)
+    state: dict[str, Any] = {}
+    pred = traction_curve(scene, creepage, trend_tolerance=trend_tolerance, state=state)
+    pending = _attach_band(scene, pred, trend_tolerance, trend_threshold, seed, defer=True,
+                           state=state)
     _finish_method(scene, pred, None, trend_tolerance)
     _attach_theory_error(scene, pred)
     if pending is None:

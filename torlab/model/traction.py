@@ -49,7 +49,8 @@ __all__ = ["dry_traction_curve", "traction_curve"]
 
 def traction_curve(scene: Scene, creepage: ArrayLike, *,
                    trend_tolerance: float = TREND_TOLERANCE,
-                   as_frame: bool = True) -> TractionPrediction:
+                   as_frame: bool = True, state: dict[str, Any] | None = None
+                   ) -> TractionPrediction:
     """Predicted ``mu`` against creepage for a scene, without a band.
 
     Parameters
@@ -64,6 +65,9 @@ def traction_curve(scene: Scene, creepage: ArrayLike, *,
     as_frame
         ``table`` as a pandas DataFrame (default); False: a dict of numpy columns
         (no pandas import).
+    state
+        A dict that receives the solver's converged state where a band's evaluations
+        can start from it (a dry scene: :func:`dry_traction_curve`); None: not kept.
 
     Returns
     -------
@@ -76,12 +80,13 @@ def traction_curve(scene: Scene, creepage: ArrayLike, *,
         return mixed_traction_curve(scene, creepage, trend_tolerance=trend_tolerance,
                                     as_frame=as_frame)
     return dry_traction_curve(scene, creepage, trend_tolerance=trend_tolerance,
-                              as_frame=as_frame)
+                              as_frame=as_frame, state=state)
 
 
 def dry_traction_curve(scene: Scene, creepage: ArrayLike, *,
                        trend_tolerance: float = TREND_TOLERANCE,
-                       as_frame: bool = True) -> TractionPrediction:
+                       as_frame: bool = True, state: dict[str, Any] | None = None
+                       ) -> TractionPrediction:
     """Traction curve of a dry scene: Hertz contact and FASTSIM with the third-body layer
     (thesis 5.2.2, Eqs. 5.26-5.29), with the flash temperature under ``thermal:``.
 
@@ -95,6 +100,11 @@ def dry_traction_curve(scene: Scene, creepage: ArrayLike, *,
         See :func:`~torlab.model.prediction.classify_trend`.
     as_frame
         ``table`` as a pandas DataFrame; False: a dict of numpy columns.
+    state
+        A dict that receives ``temperature_rise``: FASTSIM's converged flash-temperature
+        rise (:attr:`~torlab.model.fastsim.BoundaryResult.temperature_rise`; None
+        without ``thermal:``), where the band's evaluations at nearby parameters start
+        their temperature iteration (:class:`torlab.model.bands.DryTractionModel`).
 
     Returns
     -------
@@ -111,6 +121,8 @@ def dry_traction_curve(scene: Scene, creepage: ArrayLike, *,
     contact = build_contact(scene)
     prob = fastsim_problem(scene, contact)
     res = boundary_traction(prob, xi, fastsim_grid(scene))
+    if state is not None:
+        state["temperature_rise"] = res.temperature_rise
     table: Any = {"creepage": xi, "mu": res.mu, "mu_boundary": res.mu,
                   "adhesion_fraction": res.adhesion_fraction}
     if res.max_temperature_C is not None:
