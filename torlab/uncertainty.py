@@ -49,6 +49,20 @@ Methods
 ``none``
     Every parameter variance is zero: the band is the curve itself.
 
+Evaluations and cost
+--------------------
+The design points of the linear and second-order methods (steps, probes, check
+points) go to the model in one call per stage: its ``evaluate_near`` where it has
+one (a model that starts an iteration from its solution at the estimate, e.g.
+:class:`torlab.model.bands.DryTractionModel`'s flash temperature), else its
+``evaluate_many``; the sampling method's draws always go to ``evaluate_many`` (in
+blocks, :func:`torlab.parallel.map_deferred`), so a sampled band does not depend on
+where it is evaluated.  :func:`propagate` and :meth:`Propagation.derive` run with
+one BLAS thread (:func:`torlab.threads.small_problem`): their matrices are small
+(``k + 2m`` features by :data:`N_SURROGATE` draws), and on a busy machine a
+multi-threaded BLAS made the same products tens of times slower
+(docs/performance.md).
+
 Nonlinearity check (``method="auto"``)
 --------------------------------------
 After the linear step the model is evaluated at the parameter sets that put
