@@ -86,18 +86,22 @@ def write_figures(dest: Any, sections: list[Section], formats: Any = None, *, st
 
     formats = tuple(formats or DEFAULT_FORMATS)
     items = [(f"{s.key}/{f.name}", f.fig) for s in sections for f in s.figures]
-    images, stats = render_figures(items, formats, store=store, executor=executor, ahead=ahead)
+    show = next((x for x in ("png", "svg") if x in formats), None)
+
+    def write(name: str, got: dict[str, bytes]) -> bytes | None:
+        """Each figure written as soon as it is drawn (none are all held at once)."""
+        for fmt in formats:  # an earlier result's file with the same bytes is kept
+            dest.write_bytes(f"{name}.{fmt}", got[fmt], keep_same=True)
+        return got[show] if images and show is not None else None
+
+    shown, stats = render_figures(items, formats, store=store, executor=executor, ahead=ahead,
+                                  each=write)
     for s in sections:
         for f in s.figures:
-            got = images[f"{s.key}/{f.name}"]
-            names = []
-            for fmt in formats:
-                dest.write_bytes(f"{s.key}/{f.name}.{fmt}", got[fmt], keep_same=True)
-                names.append(f"{s.key}/{f.name}.{fmt}")
-            show = next((x for x in ("png", "svg") if x in got), None)
+            names = [f"{s.key}/{f.name}.{fmt}" for fmt in formats]
             if show is not None:
                 if images:
-                    s.images[f.name] = got[show]
+                    s.images[f.name] = shown[f"{s.key}/{f.name}"]
                 s.image_types[f.name] = show
             s.figure_files[f.name] = names
             s.files += names

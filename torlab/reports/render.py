@@ -386,7 +386,19 @@ def draw_task(task: tuple[Plot, tuple[str, ...], float | None]) -> dict[str, byt
         try:
             return render_all(fig, formats, dpi)
         finally:
+            w, h = fig.get_size_inches() * (dpi or fig.dpi)
             _close(fig)
+            del fig
+            if w * h > _LARGE_PIXELS:  # a campaign-wide figure: its memory given back
+                from torlab.parallel import trim_memory
+
+                trim_memory()
+
+
+#: a figure of more pixels than this gives its memory back when drawn (a campaign's
+#: amount figure of 64 products, 2040 x 5266 pixels, left about 60 MB of freed but
+#: resident memory in the worker that drew it, on top of which the next one was drawn)
+_LARGE_PIXELS = 4e6
 
 
 def render_all(fig: Any, formats: Sequence[str], dpi: float | None = None) -> dict[str, bytes]:
@@ -446,8 +458,9 @@ class RenderStats:
 
 def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DEFAULT_FORMATS, *,
                    store: Any = None, executor: Any = None, dpi: float | None = None,
-                   description: str = "drawing figures", ahead: FiguresAhead | None = None
-                   ) -> tuple[dict[str, dict[str, bytes]], RenderStats]:
+                   description: str = "drawing figures", ahead: FiguresAhead | None = None,
+                   each: Callable[[str, dict[str, bytes]], Any] | None = None
+                   ) -> tuple[dict[str, Any], RenderStats]:
     """Every figure in every format: ``{name: {format: bytes}}`` and the statistics.
 
     Parameters
@@ -464,15 +477,19 @@ def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DE
     ahead
         Figures started earlier (:class:`FiguresAhead`, same formats and dpi): a figure
         that shows the same as one of them is taken from there.
+    each
+        ``each(name, images)`` is called as each figure is ready (stored, if there is a
+        store), in any order, and its return value is kept instead of the images: a
+        caller that writes the figures away holds only those still being written, not
+        every figure of a large run at once.
     """
     from torlab.parallel import current
 
     t0 = time.perf_counter()
     stats = RenderStats()
     formats = tuple(formats)
-    out: dict[str, dict[str, bytes]] = {}
+    out: dict[str, Any] = {}
     todo: list[tuple[str, Plot, dict[str, str | None]]] = []
-    new: list[tuple[str, dict[str, str | None], dict[str, bytes]]] = []  # drawn: to store
     for name, p in items:
         if not isinstance(p, Plot):  # a figure drawn by other code
             try:
@@ -480,9 +497,10 @@ def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DE
 
                 if not getattr(p, "_torlab_finished", False) and hasattr(p, "_torlab_margins"):
                     finish(p)
-                out[name] = render_all(p, formats, dpi)
+                res = render_all(p, formats, dpi)
             finally:
                 _close(p)
+            out[name] = res if each is None else each(name, res)
             stats.drawn += 1
             continue
         dg = (ahead.digest(p) if ahead is not None else plot_digest(p)) \
@@ -491,15 +509,16 @@ def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DE
                 for f in formats}
         early = ahead.take(dg) if ahead is not None and dg is not None else None
         if early is not None:  # drawn in the background while the run computed
-            new.append((name, keys, early))
+            out[name] = _new_figure(name, keys, early, store, each)
             stats.ahead += 1
+            stats.drawn += 1
             continue
         got = ahead.stored(dg) if ahead is not None and dg is not None else None
         if got is None:  # (what FiguresAhead found in the store is not read twice)
             got = {f: store.get(keys[f], f) for f in formats if keys[f] is not None} \
                 if store is not None else {}
         if len(got) == len(formats) and all(v is not None for v in got.values()):
-            out[name] = got  # type: ignore[assignment]
+            out[name] = got if each is None else each(name, got)  # type: ignore[arg-type]
             stats.reused += 1
             continue
         todo.append((name, p, keys))
@@ -509,18 +528,22 @@ def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DE
             from torlab.parallel import SerialExecutor
 
             ex = SerialExecutor()
-        drawn = ex.map(draw_task, [(p, formats, dpi) for _, p, _ in todo],
-                       description=description)
-        new += [(name, keys, res) for (name, _, keys), res in zip(todo, drawn, strict=True)]
-    for name, keys, res in new:  # drawn here or ahead: into the store
-        out[name] = res
-        if store is not None:
-            for f, k in keys.items():
-                if k is not None:
-                    store.put(k, f, res[f])
-    stats.drawn += len(new)
+        ex.map(draw_task, [(p, formats, dpi) for _, p, _ in todo], description=description,
+               each=lambda i, res: out.__setitem__(
+                   todo[i][0], _new_figure(todo[i][0], todo[i][2], res, store, each)))
+        stats.drawn += len(todo)
     stats.seconds = time.perf_counter() - t0
-    return out, stats
+    return {name: out[name] for name, _ in items if name in out}, stats
+
+
+def _new_figure(name: str, keys: dict[str, str | None], images: dict[str, bytes], store: Any,
+                each: Callable[[str, dict[str, bytes]], Any] | None) -> Any:
+    """A figure drawn (here or ahead): into the store, then to ``each``."""
+    if store is not None:
+        for f, k in keys.items():
+            if k is not None:
+                store.put(k, f, images[f])
+    return images if each is None else each(name, images)
 
 
 class FiguresAhead:
@@ -600,7 +623,8 @@ class FiguresAhead:
         if got is None:
             return None
         batch, i = got
-        return batch.results()[i]
+        del self._started[digest]
+        return batch.take(i)  # not kept here: the caller writes it away
 
     def cancel(self) -> None:
         """Drop the figures not started yet (a run that failed)."""
@@ -616,10 +640,10 @@ def write_figures(dest: Any, items: Sequence[tuple[str, Any]],
 
     Returns the file names written and the :class:`RenderStats`.
     """
-    images, stats = render_figures(items, formats, store=store, executor=executor, dpi=dpi)
-    written = []
-    for name, _ in items:
+    def write(name: str, images: dict[str, bytes]) -> None:  # as each figure is ready
         for f in formats:  # an earlier result's file with the same bytes is kept as it is
-            dest.write_bytes(f"{name}.{f}", images[name][f], keep_same=True)
-            written.append(f"{name}.{f}")
-    return written, stats
+            dest.write_bytes(f"{name}.{f}", images[f], keep_same=True)
+
+    _, stats = render_figures(items, formats, store=store, executor=executor, dpi=dpi,
+                              each=write)
+    return [f"{name}.{f}" for name, _ in items for f in formats], stats
