@@ -212,6 +212,61 @@ def test_figures_drawn_ahead_are_the_figures_drawn_at_the_end(tmp_path):
             assert store.hits - hits == 2
 
 
+def test_figures_handed_on_as_they_are_ready_and_not_held(tmp_path):
+    """With ``each``, every figure -- drawn ahead, drawn at the end or reused from the
+    store -- goes to it once, with the bytes of a plain drawing, and what it returns is
+    kept instead; a figure drawn ahead is no longer held by the background work once
+    taken."""
+    from torlab.protocols.cache import FigureStore, ResultCache
+    from torlab.reports.render import FiguresAhead, render_figures
+
+    items = _plots()
+    plain, _ = render_figures(items, ("png",))
+    with ProcessExecutor(2) as ex:
+        store = FigureStore(ResultCache(tmp_path / "cache"))
+        ahead = FiguresAhead(("png",), store=store, executor=ex)
+        ahead.start(items[:1])
+        batch = ahead._batches[0]
+        seen: dict[str, bytes] = {}
+
+        def each(name, images):
+            assert name not in seen
+            seen[name] = images["png"]
+            return len(images["png"])
+
+        got, st = render_figures(items, ("png",), store=store, executor=ex, ahead=ahead,
+                                 each=each)
+        assert (st.drawn, st.ahead) == (2, 1)
+        assert list(got) == [n for n, _ in items]  # in the items' order
+        assert seen == {n: v["png"] for n, v in plain.items()}
+        assert got == {n: len(v["png"]) for n, v in plain.items()}
+        assert batch.results() == [None]  # taken: not kept by the background work
+        seen.clear()
+        got, st = render_figures(items, ("png",), store=store, executor=ex, each=each)
+        assert (st.drawn, st.reused) == (0, 2) and seen == {n: v["png"] for n, v in plain.items()}
+
+
+@pytest.mark.skipif(not LINUX, reason="glibc's malloc_trim")
+def test_freed_memory_is_given_back_to_the_system():
+    """Memory freed among objects that stay (the heap's free pages) is resident until
+    :func:`torlab.parallel.trim_memory` gives it back."""
+    from torlab.parallel import trim_memory
+
+    def anon_mb():
+        with open("/proc/self/status") as f:
+            return next(int(x.split()[1]) for x in f if x.startswith("RssAnon")) / 1024
+
+    blocks = [bytearray(b"x" * 60_000) for _ in range(1500)]  # 90 MB from the heap
+    keep = [bytearray(64) for _ in range(1500)]  # small objects between them stay
+    before = anon_mb()
+    del blocks
+    freed = anon_mb()
+    trim_memory()
+    after = anon_mb()
+    assert before - after > 50, (before, freed, after)
+    assert keep
+
+
 def test_sections_built_in_report_order_with_the_fits_first_when_nothing_adds_to_them(
         monkeypatch):
     """The fitted sets are built (and their figures started) first unless the film or the
