@@ -98,6 +98,32 @@ def test_map_keeps_order_reissues_warnings_and_raises_the_first_error(executors)
         assert set(ex.map(_inner, range(4))) == {"serial"}, ex.kind
 
 
+def _thread_name() -> str:
+    import threading
+
+    return threading.current_thread().name
+
+
+def _same_here() -> str:
+    return "torlab"
+
+
+def test_background_on_every_executor_and_who_agrees(executors):
+    """Background tasks give :meth:`map`'s results, in order, with the first error; a
+    cluster agrees on what its workers compute as this process does, and not otherwise
+    (here: the workers' thread names), which decides where figures are drawn."""
+    for ex in executors:
+        bg = ex.background(_square, range(6))
+        assert bg.results() == [x * x for x in range(6)], ex.kind
+        assert bg.take(2) == 4 and bg.results()[2] is None, ex.kind
+        with pytest.raises(TorlabInputError, match="bad 3"):
+            ex.background(_fail, range(5)).results()
+        assert ex.agree(_same_here), ex.kind
+    dask = [ex for ex in executors if ex.kind == "dask"]
+    if dask:
+        assert not dask[0].agree(_thread_name)
+
+
 def test_get_executor_from_the_options():
     assert get_executor(1).kind == "serial"
     ex = get_executor(2)

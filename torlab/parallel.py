@@ -312,6 +312,12 @@ class Executor:
         """
         return Background(lambda: self.map(fn, items, description=description))
 
+    def agree(self, fn: Callable[[], Any]) -> bool:
+        """Whether ``fn()`` gives on every worker what it gives in this process (a figure
+        is drawn on the workers only where they draw as this process would).  Here, and on
+        local workers (forks or spawns of this install): yes."""
+        return True
+
     def close(self) -> None:
         """Release workers (nothing for the serial executor)."""
 
@@ -705,6 +711,7 @@ class DaskExecutor(Executor):
             self._own = True
         info = self.client.scheduler_info()
         self.workers = max(1, sum(int(w.get("nthreads", 1)) for w in info["workers"].values()))
+        self._agree: dict[Any, bool] = {}
         self.address = getattr(self.client.scheduler, "address", str(scheduler))
 
     def describe(self) -> str:
@@ -730,6 +737,45 @@ class DaskExecutor(Executor):
             self.client.cancel(futs)
             raise
         return _results(out)
+
+    def background(self, fn: Callable[[Any], Any], items: Iterable[Any], *,
+                   description: str = "") -> Background:
+        """The tasks submitted now at a lower priority than every :meth:`map`'s, so the
+        scheduler gives a worker a background task only when no other task waits."""
+        items = list(items)
+        if not items:
+            return Background(lambda: [])
+        futs = self.client.map(_dask_run, [fn] * len(items), items, pure=False, priority=-10)
+
+        def results() -> list[Any]:
+            from torlab.progress import current as progress
+
+            out = []
+            try:
+                with progress().task(description, len(items) if description else 0) as adv:
+                    for f in futs:  # in order: the first error in task order
+                        out.append(f.result())
+                        adv()
+            except BaseException:
+                self.client.cancel(futs)
+                raise
+            futs.clear()  # the results are the caller's now
+            return _results(out)
+
+        return Background(results, lambda: self.client.cancel(futs))
+
+    def agree(self, fn: Callable[[], Any]) -> bool:
+        """Whether ``fn()`` gives the same on every worker of the cluster as here (asked
+        once per function and cluster; no: when a worker cannot be asked)."""
+        known = self._agree.get(fn)
+        if known is None:
+            try:
+                got, here = self.client.run(fn), fn()
+                known = bool(got) and all(v == here for v in got.values())
+            except Exception:  # a worker that cannot answer does not agree
+                known = False
+            self._agree[fn] = known
+        return known
 
     def close(self) -> None:
         if self._own:

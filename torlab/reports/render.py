@@ -40,9 +40,9 @@ from dataclasses import dataclass, field
 from typing import Any
 
 __all__ = ["DEFAULT_FORMATS", "FORMATS", "PNG_LEVEL", "FiguresAhead", "Plot", "RenderStats",
-           "early_drawing", "figure_key", "fix_layout", "parse_formats", "plot", "plot_digest",
-           "png_bytes", "prepare_drawing", "render", "render_all", "render_figures",
-           "write_figures"]
+           "drawing_versions", "early_drawing", "figure_key", "fix_layout", "parse_formats",
+           "plot", "plot_digest", "png_bytes", "prepare_drawing", "render", "render_all",
+           "render_figures", "write_figures"]
 
 #: file formats torlab writes figures in
 FORMATS = ("png", "svg", "pdf")
@@ -123,6 +123,19 @@ def _versions() -> str:
             mpl = "?"
         _VERSIONS["v"] = f"torlab {__version__}, matplotlib {mpl}"
     return _VERSIONS["v"]
+
+
+def drawing_versions() -> str:
+    """What a figure's pixels depend on beside its data and torlab's source: the torlab,
+    matplotlib and FreeType versions of the process that draws it (figures are drawn on a
+    cluster's workers only where these are this process's, :meth:`Executor.agree
+    <torlab.parallel.Executor.agree>`: a stored figure is keyed by this process's)."""
+    from torlab.reports.plotting import _mpl
+
+    _mpl()
+    from matplotlib import ft2font
+
+    return f"{_versions()}, FreeType {ft2font.__freetype_version__}"
 
 
 def _source_hash(module: str) -> str:
@@ -524,7 +537,7 @@ def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DE
         todo.append((name, p, keys))
     if todo:
         ex = executor if executor is not None else current()
-        if getattr(ex, "kind", "") == "dask":  # figures are drawn here, not on a cluster
+        if not ex.agree(drawing_versions):  # a cluster that would draw otherwise: here
             from torlab.parallel import SerialExecutor
 
             ex = SerialExecutor()
@@ -561,8 +574,9 @@ class FiguresAhead:
     store
         A :class:`FigureStore`: figures it holds are not drawn ahead (they are reused).
     executor
-        Where they are drawn (default :func:`~torlab.parallel.current`); nothing is drawn
-        ahead on a Dask cluster (figures are drawn in this process there).
+        Where they are drawn (default :func:`~torlab.parallel.current`); on a Dask
+        cluster only if its workers draw as this process would (:func:`drawing_versions`),
+        else nothing is drawn ahead (:func:`render_figures` draws them here).
     """
 
     def __init__(self, formats: Sequence[str] = DEFAULT_FORMATS, *, store: Any = None,
@@ -586,7 +600,7 @@ class FiguresAhead:
 
     def start(self, items: Sequence[tuple[str, Any]]) -> int:
         """Start drawing the :class:`Plot` items not in the store; returns how many."""
-        if getattr(self.executor, "kind", "") == "dask":
+        if not self.executor.agree(drawing_versions):
             return 0
         todo: list[tuple[str, Plot]] = []
         for _, p in items:
