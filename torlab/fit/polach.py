@@ -84,7 +84,8 @@ def polach_data(problem: CreepProblem, creepage: Any, speed: Any, *, lateral: An
     row per (creepage, speed), plus, where given, the lateral creepages and spins at
     each creepage and speed.  FASTSIM (corrected by the exact theory where
     ``problem.calibrated``), or with ``exact`` -- ``(ExactContact, ExactGrid)`` -- Kalker's
-    exact theory (isothermal: the same forces at every speed; columns ``mu_x_error``,
+    exact theory (the same forces at every speed unless the contact temperature enters
+    the layer's limits, then solved at each speed; columns ``mu_x_error``,
     ``mu_y_error``, its discretisation errors).  ``shift`` (rows x 2) is added to
     ``mu_x, mu_y`` (a layer draw moved onto the exact theory, :func:`layer_uncertainty`).
     """
@@ -106,8 +107,11 @@ def polach_data(problem: CreepProblem, creepage: Any, speed: Any, *, lateral: An
     if exact is not None:
         from torlab.model.exact.rolling import exact_creep_forces
 
-        ex = exact_creep_forces(exact[0], X, E, P, exact[1])
+        if not exact[0].coupled:  # the same forces at every speed
+            ex = exact_creep_forces(exact[0], X, E, P, exact[1])
     for vv in v:
+        if exact is not None and exact[0].coupled:  # the heating, and so the forces, follow v
+            ex = exact_creep_forces(exact[0].at_speed(float(vv)), X, E, P, exact[1])
         if ex is not None:
             rows.append(pd.DataFrame({"creepage": X, "lateral": E, "spin_1_m": P,
                                       "speed_m_s": vv, "mu_x": ex.mu_x, "mu_y": ex.mu_y,
@@ -193,7 +197,7 @@ def fit_polach(problem: CreepProblem, creepage: Any, speed: Any, *, lateral: Any
                      exact=exact, shift=shift)
     res = fit_polach_data(df, polach_contact(problem), source=source, ordered=ordered)
     lay = problem.layer
-    if len(np.unique(df["speed_m_s"])) > 1 and (exact is not None or
+    if len(np.unique(df["speed_m_s"])) > 1 and (
             problem.thermal is None or not any(lay.law.temperature_coefficients(lay))):
         res.warnings.append(
             "torlab's forces do not depend on speed here (no thermal: section or zero "
@@ -479,8 +483,8 @@ def fit_polach_scene(scene: Scene, creepage: Any, speed: Any, *, lateral: Any = 
         As :func:`layer_uncertainty`.
     method
         The boundary method of torlab's forces (None: the scene's ``grid: method``):
-        ``fastsim``, ``fastsim-kalker``, ``exact`` (Kalker's exact theory, isothermal;
-        the layer's draws by the fast method moved onto it) or ``auto`` (the exact theory
+        ``fastsim``, ``fastsim-kalker``, ``exact`` (Kalker's exact theory, with the contact
+        temperature where the scene couples it to the limits; the layer's draws by the fast method moved onto it) or ``auto`` (the exact theory
         where the fast forces' theory error exceeds the half-width of the scene's traction
         band, :func:`torlab.model.predict.choose_method`'s rule; without a band, exact).
 
@@ -518,9 +522,6 @@ def fit_polach_scene(scene: Scene, creepage: Any, speed: Any, *, lateral: Any = 
                          exact=exact)
         shift = np.stack([ex["mu_x"] - fast["mu_x"], ex["mu_y"] - fast["mu_y"]], axis=1)
         te = np.hypot(ex["mu_x_error"].to_numpy(), ex["mu_y_error"].to_numpy())
-        if scene.thermal is not None:
-            res.warnings.append("the exact solver is isothermal: torlab's forces carry no "
-                                "contact temperature here")
     else:
         fast = polach_data(prob, creepage, speed, lateral=lateral, spin=spin, grid=grid)
         X, E, P = (fast[c].to_numpy() for c in ("creepage", "lateral", "spin_1_m"))

@@ -299,9 +299,6 @@ def _auto_fit(scene: Any, res: FitResult) -> tuple[str, str]:
 
     if scene.lubricant is not None:
         return "fastsim", "the exact solver models dry contacts"
-    lay = scene.boundary.layer
-    if scene.thermal is not None and any(lay.law.temperature_coefficients(lay)):
-        return "fastsim", "the exact solver has no contact temperature"
     xi = res.data["creepage"].to_numpy(dtype=float)
     mu = res.data["mu_model"].to_numpy(dtype=float)
     sc = with_params(scene, {**res.fixed, **res.params})

@@ -146,9 +146,12 @@ def _chunk(prob: CreepProblem, grid: CreepGrid | None, xi: np.ndarray, eta: np.n
         from torlab.model.exact.rolling import exact_creep_forces
 
         r = exact_creep_forces(exact[0], xi, eta, phi, exact[1])
-        return {"Fx_N": r.Fx, "Fy_N": r.Fy, "Mz_Nm": r.Mz, "mu_x": r.mu_x, "mu_y": r.mu_y,
-                "adhesion_fraction": r.adhesion_fraction, "Fx_theory_error_95_N": r.Fx_error,
-                "Fy_theory_error_95_N": r.Fy_error, "Mz_theory_error_95_Nm": r.Mz_error}
+        out = {"Fx_N": r.Fx, "Fy_N": r.Fy, "Mz_Nm": r.Mz, "mu_x": r.mu_x, "mu_y": r.mu_y,
+               "adhesion_fraction": r.adhesion_fraction, "Fx_theory_error_95_N": r.Fx_error,
+               "Fy_theory_error_95_N": r.Fy_error, "Mz_theory_error_95_Nm": r.Mz_error}
+        if r.max_temperature_C is not None:
+            out["max_temperature_C"] = r.max_temperature_C
+        return out
     from torlab.model.calibrated import creep_error
 
     r = creep_forces(prob, xi, eta, phi, grid)
@@ -297,16 +300,18 @@ def creep_table(problem: CreepProblem | Sequence[tuple[float, CreepProblem]], cr
     if exact is not None:
         if len(exact[0]) != len(problems):
             raise ValueError("exact: one contact per problem")
-        if speeds is not None:
-            notes.append("speed axis: the exact solver is isothermal, so the forces do not "
-                         "depend on speed (the values repeat along it)")
+        if speeds is not None and not any(c.coupled for c in exact[0]):
+            notes.append("speed axis: the contact temperature does not enter the layer's "
+                         "limits, so the exact solver's forces do not depend on speed (the "
+                         "values repeat along it)")
     for ip, (amount, p) in enumerate(problems):
         ex = None if exact is None else (exact[0][ip], exact[1])
         for v in (speeds if speeds is not None else [None]):
             pv = p if v is None else _with_speed(p, float(v))
             variants.append((amount, v, pv))
+            exv = ex if ex is None or v is None else (ex[0].at_speed(float(v)), ex[1])
             for s in range(0, UX.size, chunk):
-                work.append((pv, grid, UX[s:s + chunk], UE[s:s + chunk], UP[s:s + chunk], ex))
+                work.append((pv, grid, UX[s:s + chunk], UE[s:s + chunk], UP[s:s + chunk], exv))
     results = list((map_fn or _executor_map)(_chunk_star, work))
     per_variant = math.ceil(UX.size / chunk)
     sign = {"Fx_N": sx, "mu_x": sx, "Fy_N": sy, "mu_y": sy, "Mz_Nm": sy}
@@ -477,8 +482,8 @@ def scene_creep_table(scene: Scene, creepage: Any, lateral: Any, spin: Any, *, s
     method
         The boundary method (``fastsim``, ``fastsim-kalker``, ``exact``, ``auto``); None:
         the scene's ``grid: method``.  ``auto`` has no band to weigh a table's theory
-        error against and so uses the exact solver, except where the contact temperature
-        changes the layer's limits (the exact solver is isothermal).
+        error against and so uses the exact solver (with the contact temperature coupled
+        to the layer's limits where the scene has them).
     """
     from torlab.model.predict import with_method
 
@@ -540,12 +545,8 @@ def scene_creep_table(scene: Scene, creepage: Any, lateral: Any, spin: Any, *, s
     exact = None
     used = method
     if method == "auto":
-        lay = first.boundary.layer
-        hot = first.thermal is not None and any(lay.law.temperature_coefficients(lay))
-        used = "fastsim" if hot else "exact"
-        prov["method_auto"] = ("fastsim: the contact temperature changes the layer's limits "
-                               "and the exact solver is isothermal" if hot else
-                               "exact: a table has no band to weigh the theory error against")
+        used = "exact"
+        prov["method_auto"] = "exact: a table has no band to weigh the theory error against"
     if used == "exact":
         from torlab.model.exact.rolling import ExactGrid
         from torlab.model.exact.scene import exact_contact

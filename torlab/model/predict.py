@@ -377,19 +377,15 @@ def choose_method(scene: Scene, pred: Any) -> tuple[str, str]:
     half-width at every point; ``exact`` elsewhere -- and where there is no band (no fit
     covariance, creep forces with lateral creepage or spin), since then nothing says the
     theory error is negligible.  The fast method stays where the exact solver does not
-    model the scene: a lubricated contact, or a contact temperature that changes the
-    layer's limits (the exact solver is isothermal).
+    model the scene: a lubricated contact.  A contact temperature that changes the
+    layer's limits is modelled by both (:mod:`torlab.model.exact.thermal`), so such a
+    scene follows the same rule.
     """
     import numpy as np
 
     if scene.lubricant is not None:
         return "fastsim", ("the exact solver models dry contacts; the boundary part of a "
                            "lubricated contact is FASTSIM's")
-    lay = scene.boundary.layer if scene.boundary is not None else None
-    if scene.thermal is not None and lay is not None and any(
-            lay.law.temperature_coefficients(lay)):
-        return "fastsim", ("the exact solver has no contact temperature, and the layer's "
-                           "limits depend on it here")
     err = _theory_error_points(scene, pred, "fastsim")
     hw = _half_width(pred.table)
     if err is None:
@@ -451,9 +447,13 @@ def _use_exact(pred: Any, ex: Any, tolerance: float) -> None:
     fast = pd.DataFrame(pred.table) if not hasattr(pred.table, "columns") else pred.table
     et = ex.table
     table = et.copy()
-    for col in ("mu_low95", "mu_high95"):
-        if col in fast:
-            table[col] = et["mu"].to_numpy() + (fast[col].to_numpy() - fast["mu"].to_numpy())
+    for centre, cols in (("mu", ("mu_low95", "mu_high95")),
+                         ("max_temperature_C", ("max_temperature_low95_C",
+                                                "max_temperature_high95_C"))):
+        for col in cols:
+            if col in fast and centre in fast and centre in et:
+                table[col] = et[centre].to_numpy() + (fast[col].to_numpy()
+                                                      - fast[centre].to_numpy())
     if "mu_boundary" in fast and "mu_boundary" not in table:
         table.insert(2, "mu_boundary", et["mu"].to_numpy())
     pred.table = table
@@ -533,6 +533,11 @@ def theory_error(scene: Scene, pred: TractionPrediction | StribeckPrediction
         e = np.asarray(table["mu_x_error"], dtype=float)
         basis = ("the exact solver's discretisation error: Richardson's rule from its two "
                  "grids (docs/model/exact.md)")
+        if "max_temperature_C" in table:
+            notes.append("the contact temperature is the exact solver's (Ertz-Knothe on its "
+                         "grid, coupled to the limits on both grids): the Richardson estimate "
+                         "covers the coupled solution; the coupling's tolerance on the "
+                         "temperature is not added")
         if "Fx_error_N" in table:
             extra = {"Fx_theory_error_95_N": table["Fx_error_N"],
                      "Fy_theory_error_95_N": table["Fy_error_N"],

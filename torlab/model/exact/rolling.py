@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -35,6 +35,7 @@ from torlab.model.exact.grid import ellipse_grid, hertz_pressure
 from torlab.model.exact.local import ADHESION, PLASTIC, YieldLaw
 from torlab.model.exact.normal import hertz_curvatures, solve_normal
 from torlab.model.exact.solver import Layer, Solution, rigid_slip, solve
+from torlab.model.exact.thermal import ExactThermal, ThermalPoint, solve_thermal, thermal_note
 
 __all__ = ["ExactContact", "ExactGrid", "ExactLayer", "ExactResult", "exact_creep_forces",
            "normalised_creepages", "solve_point"]
@@ -110,6 +111,12 @@ class ExactContact:
         bounds the traction, or, without a layer law, no slip: the linear theory).
     layer
         Third-body layer, or None.
+    thermal
+        The contact temperature and its coupling to the layer's limits
+        (:mod:`torlab.model.exact.thermal`), or None: isothermal.  With a non-zero
+        ``sensitivity`` the layer's law must take the element's temperature rise as its
+        parameter ``c2`` (``takes_temperature``, as
+        :class:`~torlab.model.exact.scene.LawYield` does).
     """
 
     a: float
@@ -119,6 +126,20 @@ class ExactContact:
     nu: float
     mu: float = math.inf
     layer: ExactLayer | None = None
+    thermal: ExactThermal | None = None
+
+    def at_speed(self, speed: float) -> ExactContact:
+        """The contact rolling at ``speed`` [m/s] (only the contact temperature depends on
+        it; the same contact without ``thermal``)."""
+        if self.thermal is None:
+            return self
+        return replace(self, thermal=replace(self.thermal, speed=float(speed)))
+
+    @property
+    def coupled(self) -> bool:
+        """Whether the contact temperature enters the layer's limits."""
+        return (self.thermal is not None and self.thermal.sensitivity > 0
+                and self.layer is not None and self.layer.law is not None)
 
     @property
     def p0(self) -> float:
@@ -135,6 +156,9 @@ class ExactContact:
             raise ValueError(f"Poisson ratio must be in [0, 0.5), got {self.nu}")
         if not self.mu > 0:
             raise ValueError(f"friction coefficient must be positive, got {self.mu}")
+        if self.coupled and not getattr(self.layer.law, "takes_temperature", False):
+            raise ValueError("a contact temperature coupled to the layer needs a yield law "
+                             "that takes the element's temperature rise as c2 (LawYield)")
 
 
 @dataclass(frozen=True)
@@ -193,6 +217,14 @@ class ExactResult:
         What was modelled, for the output.
     solutions
         The fine-grid solutions (tractions, slip, element division), when kept.
+    max_temperature_C
+        The largest contact temperature of each point on the fine grid [°C] (None
+        without ``thermal``; :mod:`torlab.model.exact.thermal`).
+    temperature_iterations
+        Solves of each point on the fine grid (1: one pass; None without ``thermal``).
+    temperature_loop
+        ``"off"`` (no ``thermal``), ``"single pass"`` (the heating cannot change the
+        limits) or ``"iterated"`` (some point iterated the coupling).
     """
 
     creepage: np.ndarray
@@ -212,6 +244,9 @@ class ExactResult:
     grid: ExactGrid
     notes: list[str] = field(default_factory=list)
     solutions: list[Solution] | None = None
+    max_temperature_C: np.ndarray | None = None
+    temperature_iterations: np.ndarray | None = None
+    temperature_loop: str = "off"
 
     def table(self) -> Any:
         """Long DataFrame with units in the column names."""
@@ -223,6 +258,8 @@ class ExactResult:
                 "Mz_error_Nm": self.Mz_error, "mu_x": self.mu_x, "mu_y": self.mu_y,
                 "adhesion_fraction": self.adhesion_fraction,
                 "plastic_fraction": self.plastic_fraction}
+        if self.max_temperature_C is not None:
+            cols["max_temperature_C"] = self.max_temperature_C
         return pd.DataFrame({k: np.asarray(v).ravel() for k, v in cols.items()})
 
 
@@ -265,13 +302,34 @@ class RollingSetup:
         self.contact = contact
         self.tol = grid.tol
 
-    def solve(self, xi: float, eta: float, phi: float, p0: np.ndarray | None) -> Solution:
+    def solve(self, xi: float, eta: float, phi: float, p0: np.ndarray | None,
+              dT: np.ndarray | None = None) -> Solution:
+        """One point with the layer's limits at the temperature rise ``dT`` ``(mx, my)``
+        [K] (None: at the ambient temperature), starting from the traction ``p0``."""
         c = self.contact
         g = self.grid
         # CONTACT's rolling convention: the force on body 1 opposes the creepage; its spin
         # term is taken at x + dx/6
         W = rigid_slip(g, xi, eta, phi, x_spin=g.dx / 6)
-        return solve(g, c.G, c.nu, self.pn, c.mu, W, layer=self.layer, p0=p0, tol=self.tol)
+        layer = self.layer if dT is None else replace(self.layer, c2=dT)
+        return solve(g, c.G, c.nu, self.pn, c.mu, W, layer=layer, p0=p0, tol=self.tol)
+
+    def solve_thermal(self, xi: float, eta: float, phi: float, p0: np.ndarray | None,
+                      dT0: np.ndarray | None = None) -> ThermalPoint:
+        """One point with the contact temperature (:mod:`torlab.model.exact.thermal`),
+        starting from the traction ``p0`` and the temperature rise ``dT0`` (None: the
+        ambient temperature); with a ``thermal`` whose heating cannot enter the limits,
+        one solve and its temperature."""
+        g = self.grid
+        where = (f"creepage {xi:.4g}" + (f", lateral {eta:.4g}" if eta else "")
+                 + (f", spin {phi:.4g} 1/m" if phi else "")
+                 + f" ({g.mx}x{g.my} elements)")
+        th = self.contact.thermal
+        if not self.contact.coupled:
+            th = replace(th, sensitivity=0.0)
+        W = rigid_slip(g, xi, eta, phi, x_spin=g.dx / 6)
+        return solve_thermal(lambda dT, p: self.solve(xi, eta, phi, p, dT), th, W, where, p0,
+                             dT0 if self.contact.coupled else None)
 
 
 def solve_point(contact: ExactContact, xi: float, eta: float = 0.0, phi: float = 0.0,
@@ -292,11 +350,21 @@ def _solve_chunk(args: tuple) -> dict[str, np.ndarray]:
     out = {name: np.zeros((len(setups), k)) for name in ("Fx", "Fy", "Mz")}
     out["adh"] = np.zeros(k)
     out["pl"] = np.zeros(k)
+    out["tmax"] = np.zeros(k)
+    out["its"] = np.zeros(k, dtype=int)
+    out["looped"] = np.zeros(k, dtype=bool)
     sols = []
     for j, st in enumerate(setups):
-        prev = None
+        prev = rise = None
         for i, (xi, eta, phi) in enumerate(pts):
-            s = st.solve(xi, eta, phi, prev)
+            if contact.thermal is None:
+                s = st.solve(xi, eta, phi, prev)
+            else:  # from the previous point's tractions and temperature
+                pt = st.solve_thermal(xi, eta, phi, prev, rise)
+                s, rise = pt.solution, pt.rise
+                if j == 0:
+                    out["tmax"][i], out["its"][i] = pt.max_temperature, pt.iterations
+                    out["looped"][i] = pt.loop == "iterated"
             prev = s.p
             out["Fx"][j, i], out["Fy"][j, i], out["Mz"][j, i] = -s.Fx, -s.Fy, -s.Mz
             if j == 0:
@@ -355,7 +423,8 @@ def exact_creep_forces(contact: ExactContact, creepage: Any, lateral: Any = 0.0,
         raise ValueError("creepages must be finite")
     tasks = [(contact, grid, pts[s], keep_solutions) for s in parallel.chunks(len(pts), chunk)]
     outs = parallel.current().map(_solve_chunk, tasks, description="exact creep forces")
-    cat = {k: np.concatenate([o[k] for o in outs], axis=-1) for k in ("Fx", "Fy", "Mz", "adh", "pl")}
+    cat = {k: np.concatenate([o[k] for o in outs], axis=-1)
+           for k in ("Fx", "Fy", "Mz", "adh", "pl", "tmax", "its", "looped")}
     nf, nc = grid.n, grid.n_coarse
     res = {}
     for k in ("Fx", "Fy", "Mz"):
@@ -376,6 +445,12 @@ def exact_creep_forces(contact: ExactContact, creepage: Any, lateral: Any = 0.0,
              else "friction: no Coulomb bound"]
     if contact.layer is not None:
         notes.append(f"{contact.layer.name} in series with the half-space")
+    tmax = its = None
+    loop = "off"
+    if contact.thermal is not None:
+        tmax, its = cat["tmax"].reshape(shape), cat["its"].reshape(shape)
+        loop = "iterated" if np.any(cat["looped"]) else "single pass"
+        notes.append(thermal_note(loop, contact.thermal, contact.coupled))
     sols = [s for o in outs for s in o["solutions"]] if keep_solutions else None
     return ExactResult(creepage=xi_in.copy(), lateral=eta_in.copy(), spin=phi_in.copy(),
                        Fx=res["Fx"], Fy=res["Fy"], Mz=res["Mz"], Fx_error=res["Fx_error"],
@@ -383,4 +458,5 @@ def exact_creep_forces(contact: ExactContact, creepage: Any, lateral: Any = 0.0,
                        mu_x=res["Fx"] / N, mu_y=res["Fy"] / N,
                        adhesion_fraction=cat["adh"].reshape(shape),
                        plastic_fraction=cat["pl"].reshape(shape), load=N, grid=grid,
-                       notes=notes, solutions=sols)
+                       notes=notes, solutions=sols, max_temperature_C=tmax,
+                       temperature_iterations=its, temperature_loop=loop)

@@ -13,9 +13,13 @@ the scene names):
   (:meth:`~torlab.model.layers.LayerLaw.yield_stress`: for Voce's law, the stress of one
   element loaded at a constant pressure along the law's HPT curve) and the plastic step
   of a yielding element (:meth:`~torlab.model.layers.LayerLaw.return_map` with the
-  element's own stiffness in the scheme), at the ambient temperature: the exact solver
-  has no thermal model, the limits' temperature coefficients are not applied, and the
-  output says so.
+  element's own stiffness in the scheme), at each element's temperature: with a
+  ``thermal:`` section the contact temperature (Ertz and Knothe's strip solution on the
+  solver's grid, the scene's partition and slip velocity, thesis Eqs. 5.49-5.50) enters
+  the limits through their temperature coefficients (Eqs. 5.26-5.27) and the coupling
+  is iterated to the scene's tolerance (:mod:`torlab.model.exact.thermal`); without one,
+  or with zero coefficients, the limits are the ambient temperature's, and the output
+  says which.
 
 The layer's yield stress is the friction: there is no separate Coulomb coefficient
 (``mu = inf``).  :func:`predict_exact` returns the same
@@ -33,30 +37,48 @@ import numpy as np
 
 from torlab.errors import TorlabInputError
 from torlab.model.exact.rolling import ExactContact, ExactGrid, ExactLayer, exact_creep_forces
+from torlab.model.exact.temperature import ThermalBody
+from torlab.model.exact.thermal import ExactThermal
 
 if TYPE_CHECKING:
     from torlab.scene import Scene
 
-__all__ = ["LawYield", "exact_contact", "predict_exact", "scene_layer"]
+__all__ = ["LawYield", "exact_contact", "predict_exact", "scene_layer", "scene_thermal"]
 
 
 class LawYield:
     """A layer law of :mod:`torlab.model.layers` as the exact solver's yield law
     (:class:`~torlab.model.exact.local.YieldLaw`): the element parameter ``c1`` is the
-    pressure [Pa]; ``lay`` the law's values (:class:`~torlab.model.layers.LayerParams`)."""
+    pressure [Pa], ``c2`` the element's temperature rise above the ambient [K] (the
+    limits' ``exp(mu_T dT)`` of thesis Eqs. 5.26-5.27; 0 without a contact temperature);
+    ``lay`` the law's values (:class:`~torlab.model.layers.LayerParams`)."""
+
+    #: ``c2`` is the element's temperature rise (:mod:`torlab.model.exact.thermal`)
+    takes_temperature = True
 
     def __init__(self, lay: Any) -> None:
         self.lay = lay
         self.law = lay.law
 
+    @property
+    def sensitivity(self) -> float:
+        """The largest ``|temperature coefficient|`` [1/K]."""
+        return float(self.law.temperature_sensitivity(self.lay))
+
+    @property
+    def growth(self) -> float:
+        """The largest positive temperature coefficient [1/K] (0 where none is)."""
+        return float(max([0.0, *(float(np.max(c)) for c in
+                                  self.law.temperature_coefficients(self.lay))]))
+
     def stress(self, kappa, c1, c2):
-        return (self.law.yield_stress(self.lay, c1, kappa),
-                self.law.hardening_modulus(self.lay, c1, kappa))
+        return (self.law.yield_stress(self.lay, c1, kappa, c2),
+                self.law.hardening_modulus(self.lay, c1, kappa, c2))
 
     def plastic_step(self, mag, kappa0, r, c1, c2):
         """The law's return map with the element's stiffness ``r`` [Pa/m]."""
-        tau, dk = self.law.return_map(self.lay, c1, mag, kappa0, r)
-        return np.abs(tau), dk, self.law.hardening_modulus(self.lay, c1, kappa0 + dk)
+        tau, dk = self.law.return_map(self.lay, c1, mag, kappa0, r, c2)
+        return np.abs(tau), dk, self.law.hardening_modulus(self.lay, c1, kappa0 + dk, c2)
 
     def reaching(self, tau, c1, c2):
         """The plastic deformation at which the yield stress reaches ``tau`` (bisection up to
@@ -79,7 +101,7 @@ def scene_layer(boundary: Any) -> ExactLayer:
     law = lay.law
     return ExactLayer(flexibility=None,
                       flexibility_of=lambda p: law.elastic_flexibility(lay, p),
-                      law=LawYield(lay), c1=1.0, per_pressure=True,
+                      law=LawYield(lay), c1=1.0, c2=0.0, per_pressure=True,
                       name=f"third-body layer ({law.name} law: "
                            f"{', '.join(law.names)})")
 
@@ -102,8 +124,27 @@ def exact_contact(scene: Scene, contact: Any = None) -> ExactContact:
                                "remove the lubricant: section", key="lubricant")
     contact = contact or build_contact(scene)
     p = contact.patch
+    layer = scene_layer(scene.boundary)
     return ExactContact(a=p.a, b=p.b, load=p.F, G=contact.G, nu=contact.nu, mu=math.inf,
-                        layer=scene_layer(scene.boundary))
+                        layer=layer, thermal=scene_thermal(scene, layer))
+
+
+def scene_thermal(scene: Scene, layer: ExactLayer) -> ExactThermal | None:
+    """The contact temperature of a scene's ``thermal:`` section on the exact solver's
+    grid (:class:`~torlab.model.exact.thermal.ExactThermal`; None without one): the
+    bodies' thermal data, the rolling speed, the ambient temperature, the heat partition,
+    the slip velocity, the tolerance and the iteration budget as FASTSIM's path takes
+    them, and the layer's largest temperature coefficient."""
+    th = scene.thermal
+    if th is None:
+        return None
+    body = ThermalBody(conductivity=th.conductivity, density=th.density,
+                       heat_capacity=th.heat_capacity,
+                       bulk_temperature=scene.kinematics.ambient_temperature)
+    return ExactThermal(speed=scene.kinematics.speed, body=body, partition=th.partition,
+                        slip_velocity=th.slip_velocity, sensitivity=layer.law.sensitivity,
+                        growth=layer.law.growth,
+                        tolerance=th.tolerance, max_iterations=th.max_iterations)
 
 
 def predict_exact(scene: Scene, creepage: Any, lateral: float = 0.0, spin: float = 0.0,
@@ -127,7 +168,14 @@ def predict_exact(scene: Scene, creepage: Any, lateral: float = 0.0, spin: float
         ``table`` with ``creepage``, ``mu`` (= ``mu_x``), ``lateral``, ``spin_1_m``,
         ``mu_x``, ``mu_y``, ``Fx_N``, ``Fy_N``, ``Mz_Nm``, their errors ``Fx_error_N``,
         ``Fy_error_N``, ``Mz_error_Nm`` and ``mu_x_error``, ``adhesion_fraction``,
-        ``plastic_fraction``.
+        ``plastic_fraction`` and, with ``thermal:``, ``max_temperature_C`` (the largest
+        contact temperature the layer sees [°C]).
+
+    Raises
+    ------
+    ConvergenceError
+        The solver, or the contact temperature's coupling to the limits, did not
+        converge on a point.
     """
     from torlab import __version__
     from torlab.model.contact import build_contact
@@ -141,12 +189,12 @@ def predict_exact(scene: Scene, creepage: Any, lateral: float = 0.0, spin: float
     table = r.table()
     table.insert(1, "mu", r.mu_x)
     table.insert(table.columns.get_loc("mu_y") + 1, "mu_x_error", r.Fx_error / r.load)
-    thermal = ("contact temperature: not modelled (the exact solver is isothermal; the "
-               "layer's limits at the ambient temperature)" if scene.thermal is not None
-               else "contact temperature: not modelled (no thermal: section)")
-    modelled = [f"Hertz contact ({contact.patch.method})", *r.notes,
-                "EHL film: not modelled (dry scene, no lubricant:)", thermal]
-    trend = scene_trend(scene, xi, r.mu_x, temperature=False)  # isothermal solver
+    notes = [n for n in r.notes if not n.startswith("contact temperature")]
+    thermal = ([n for n in r.notes if n.startswith("contact temperature")]
+               or ["contact temperature: not modelled (no thermal: section)"])
+    modelled = [f"Hertz contact ({contact.patch.method})", *notes,
+                "EHL film: not modelled (dry scene, no lubricant:)", *thermal]
+    trend = scene_trend(scene, xi, r.mu_x)
     summary = {"torlab_version": __version__, "scene": scene.name, "method": "exact",
                "contact": contact.summary(), "modelled": modelled, "notes": list(contact.notes),
                "lateral": float(lateral), "spin_1_m": float(spin),
@@ -154,5 +202,7 @@ def predict_exact(scene: Scene, creepage: Any, lateral: float = 0.0, spin: float
                "mu_max": float(np.max(np.hypot(r.mu_x, r.mu_y))),
                "discretisation_error_mu_max": float(np.max(r.Fx_error / r.load)),
                "trend_after_saturation": trend, "boundary": scene.boundary.model_dump()}
+    if r.temperature_iterations is not None:
+        summary["temperature_iterations_max"] = int(np.max(r.temperature_iterations))
     return TractionPrediction(table=table, contact=contact, modelled=modelled, trend=trend,
                               summary=summary)

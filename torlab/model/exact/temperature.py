@@ -191,7 +191,8 @@ def _conduction(contact: np.ndarray, dx: float, bulk: float, entry: float) -> np
 
 def surface_temperature(solution: Solution, speed: float, body1: ThermalBody | None = None,
                         body2: ThermalBody | None = None, *, plastic_heat: float = 1.0,
-                        own_element: Literal["centre", "contact"] = "centre"
+                        own_element: Literal["centre", "contact"] = "centre",
+                        partition: float | None = None, heat_flux: np.ndarray | None = None
                         ) -> SurfaceTemperature:
     """Surface temperatures of both bodies of a solved steady rolling contact (module
     docstring; Ertz and Knothe 2002, Eqs. 5.49-5.50 of the thesis per strip).
@@ -212,6 +213,15 @@ def surface_temperature(solution: Solution, speed: float, body1: ThermalBody | N
         ``"centre"`` (default, converged): an element's own flux counts up to its
         centre; ``"contact"``: with CONTACT's weight, twice that, to compare with its
         printed temperatures.
+    partition
+        Share of the frictional heat that goes into body 1 [-], the rest into body 2
+        (the thesis's Eq. 5.50 sends all of it into the body it describes: 1).  None
+        (default): by the effusivities, ``beta1 / (beta1 + beta2)``, which keeps both
+        surfaces at one temperature in the contact (Ertz and Knothe).
+    heat_flux
+        The heat flux ``(mx, my)`` [W/m^2] to use instead of the solution's
+        :func:`frictional_heat` (e.g. the thesis's ``q = tau w`` with the rigid slip
+        velocity ``w``, Eq. 5.49).
 
     Returns
     -------
@@ -227,13 +237,22 @@ def surface_temperature(solution: Solution, speed: float, body1: ThermalBody | N
     body2.check()
     b1, b2 = body1.effusivity, body2.effusivity
     grid = solution.grid
-    q = frictional_heat(solution, speed, plastic_heat)
+    if partition is not None and not 0.0 <= partition <= 1.0:
+        raise ValueError(f"partition must lie in [0, 1], got {partition!r}")
+    q = frictional_heat(solution, speed, plastic_heat) if heat_flux is None else heat_flux
     contact = solution.state != EXTERIOR
     K = _march_weights(grid.mx, grid.dx, own_element)
-    rise = (K @ q) / ((b1 + b2) * math.sqrt(math.pi * speed))
+    if partition is None:  # by effusivity: both surfaces at one temperature
+        rise1 = rise2 = (K @ q) / ((b1 + b2) * math.sqrt(math.pi * speed))
+        share = b1 / (b1 + b2)
+    else:
+        integral = (K @ q) / math.sqrt(math.pi * speed)
+        rise1 = partition * integral / b1
+        rise2 = (1.0 - partition) * integral / b2
+        share = float(partition)
     entry = (b1 * body1.bulk_temperature + b2 * body2.bulk_temperature) / (b1 + b2)
-    T1 = _conduction(contact, grid.dx, body1.bulk_temperature, entry) + rise
-    T2 = _conduction(contact, grid.dx, body2.bulk_temperature, entry) + rise
+    T1 = _conduction(contact, grid.dx, body1.bulk_temperature, entry) + rise1
+    T2 = _conduction(contact, grid.dx, body2.bulk_temperature, entry) + rise2
     return SurfaceTemperature(body1=T1, body2=T2, contact=contact, heat_flux=q,
                               power=float(q.sum() * grid.area), entry_temperature=entry,
-                              partition=b1 / (b1 + b2), own_element=own_element)
+                              partition=share, own_element=own_element)
