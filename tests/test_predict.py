@@ -398,8 +398,9 @@ def test_every_models_curve_classifies_its_trend_with_the_same_rule():
 
 @pytest.mark.slow  # the exact solver along a curve (3 s); the same rule, quick: the test above
 def test_the_exact_solvers_curve_classifies_its_trend_with_the_same_rule():
-    """predict_exact (isothermal: the layer's limits at the ambient temperature even with
-    thermal:) applies the isothermal rule; a softening layer does not."""
+    """predict_exact on a layer without temperature coefficients (its thermal: section
+    computes the temperature but cannot change the limits) applies the isothermal rule; a
+    softening layer does not."""
     from torlab.model.exact.scene import ExactGrid, predict_exact
 
     xi = np.linspace(0.0, 0.05, 11)

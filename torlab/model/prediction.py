@@ -285,7 +285,7 @@ def rises_only(scene: Any, *, temperature: bool | None = None) -> bool:
         The validated scene.
     temperature
         Whether the model computes the contact temperature (None: it does when the scene
-        has ``thermal:``; the exact solver does not).
+        has ``thermal:``, FASTSIM's path and the exact solver alike).
     """
     b = scene.boundary
     if b is None or scene.lubricant is not None:

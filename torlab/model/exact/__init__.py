@@ -5,7 +5,8 @@ products), :mod:`.grid` (the grid, Hertz's pressure), :mod:`.normal` (the
 normal problem), :mod:`.local` (the friction and layer law of one element),
 :mod:`.solver` (steady rolling and shifts on the grid), :mod:`.rolling` (creep
 forces of a Hertzian contact with their discretisation error), :mod:`.temperature` (the
-surface temperatures of both bodies from a solution's frictional heat).
+surface temperatures of both bodies from a solution's frictional heat), :mod:`.thermal`
+(the contact temperature fed back into a third-body layer's limits).
 ``docs/model/exact.md`` explains the theory, the solver and its accuracy.
 
 References
