@@ -72,13 +72,15 @@ class LawYield:
                                   self.law.temperature_coefficients(self.lay))]))
 
     def stress(self, kappa, c1, c2):
-        return (self.law.yield_stress(self.lay, c1, kappa, c2),
-                self.law.hardening_modulus(self.lay, c1, kappa, c2))
+        dT = 0.0 if c2 is None else c2
+        return (self.law.yield_stress(self.lay, c1, kappa, dT),
+                self.law.hardening_modulus(self.lay, c1, kappa, dT))
 
     def plastic_step(self, mag, kappa0, r, c1, c2):
         """The law's return map with the element's stiffness ``r`` [Pa/m]."""
-        tau, dk = self.law.return_map(self.lay, c1, mag, kappa0, r, c2)
-        return np.abs(tau), dk, self.law.hardening_modulus(self.lay, c1, kappa0 + dk, c2)
+        dT = 0.0 if c2 is None else c2
+        tau, dk = self.law.return_map(self.lay, c1, mag, kappa0, r, dT)
+        return np.abs(tau), dk, self.law.hardening_modulus(self.lay, c1, kappa0 + dk, dT)
 
     def reaching(self, tau, c1, c2):
         """The plastic deformation at which the yield stress reaches ``tau`` (bisection up to
