@@ -283,3 +283,15 @@ def test_exact_creep_table_follows_the_speed_of_a_hot_scene():
     fx = t.dataset["Fx_N"].sel(creepage=1e-2, lateral=0.0, spin=0.0)
     assert float(fx.sel(speed=20.0)) == float(fx.sel(speed=1.0))
     assert any("do not depend on speed" in n for n in t.notes)
+
+
+def test_a_scenes_exact_contact_goes_to_worker_processes():
+    """A scene's exact contact (its layer law, flexibility and thermal model) pickles, as
+    the chunks of a curve on worker processes need (--jobs), and solves alike after."""
+    import pickle
+
+    ec = exact_contact(_scene(VOCE, thermal={}))
+    back = pickle.loads(pickle.dumps(ec))
+    a = exact_creep_forces(ec, [5e-3], 0.0, 0.0, GRID)
+    b = exact_creep_forces(back, [5e-3], 0.0, 0.0, GRID)
+    assert np.array_equal(a.Fx, b.Fx) and np.array_equal(a.max_temperature_C, b.max_temperature_C)

@@ -97,12 +97,22 @@ class LawYield:
         return np.where(ok, 0.5 * (lo + hi), np.inf)
 
 
+class LawFlexibility:
+    """The layer law's elastic flexibility [m/Pa] against the pressure [Pa] (thesis Eq.
+    5.28), a picklable callable: a curve's chunks go to worker processes."""
+
+    def __init__(self, lay: Any) -> None:
+        self.lay = lay
+
+    def __call__(self, p: Any) -> Any:
+        return self.lay.law.elastic_flexibility(self.lay, p)
+
+
 def scene_layer(boundary: Any) -> ExactLayer:
     """The exact solver's layer of a scene's ``boundary:`` section (module docstring)."""
     lay = boundary.layer
     law = lay.law
-    return ExactLayer(flexibility=None,
-                      flexibility_of=lambda p: law.elastic_flexibility(lay, p),
+    return ExactLayer(flexibility=None, flexibility_of=LawFlexibility(lay),
                       law=LawYield(lay), c1=1.0, c2=0.0, per_pressure=True,
                       name=f"third-body layer ({law.name} law: "
                            f"{', '.join(law.names)})")
