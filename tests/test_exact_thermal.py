@@ -295,3 +295,35 @@ def test_a_scenes_exact_contact_goes_to_worker_processes():
     a = exact_creep_forces(ec, [5e-3], 0.0, 0.0, GRID)
     b = exact_creep_forces(back, [5e-3], 0.0, 0.0, GRID)
     assert np.array_equal(a.Fx, b.Fx) and np.array_equal(a.max_temperature_C, b.max_temperature_C)
+
+
+def _with_band(scene, rel: float):
+    """The scene with a fit covariance of ``rel`` relative standard deviation on each of
+    the layer's four parameters (the temperature coefficients fixed)."""
+    b = scene.boundary
+    names = ["mu_c1", "mu_c2", "L_mue", "L_mup"]
+    vals = [getattr(b, n) for n in names]
+    d = scene.model_dump(exclude_none=True)
+    d["fit"] = {"kind": "test", "covariance": {"names": names, "values": vals,
+                                               "matrix": np.diag((rel * np.array(vals)) ** 2)
+                                               .tolist()}}
+    return scene_from_dict(d)
+
+
+def test_auto_weighs_a_hot_scenes_theory_error_against_its_band():
+    """A hot scene follows the same rule as any other: a narrow band (1 %) is narrower than
+    the default method's theory error, so auto takes the exact solver with its coupled
+    temperature, and the fast band of mu and of the contact temperature is moved onto the
+    exact curve (a wide band keeps the fast method by the same rule: tests/test_method.py)."""
+    from torlab.model.predict import predict_traction
+
+    sc = _scene(VOCE, thermal={}, method="auto")
+    sc = sc.model_copy(update={"grid": sc.grid.model_copy(update={"exact_n": 10})})
+    xi = np.array([2e-3, 1e-2, 3e-2])
+    pred = predict_traction(_with_band(sc, 0.01), xi)
+    assert pred.summary["method"]["method"] == "exact", pred.summary["method"]["why"]
+    t = pred.table
+    assert any("coupled to the limits" in m for m in pred.modelled)
+    for c, lo, hi in (("mu", "mu_low95", "mu_high95"),
+                      ("max_temperature_C", "max_temperature_low95_C", "max_temperature_high95_C")):
+        assert np.all(t[lo] <= t[c]) and np.all(t[c] <= t[hi]), c

@@ -18,11 +18,13 @@ the exact solver's elements:
    Ertz and Knothe's strip solution along each row of elements, Eq. 5.50, with the
    scene's partition: 1 in the thesis, into the body it describes; FASTSIM's path uses
    the same formula, partition and flux on its strips);
-4. under-relaxed fixed point on the field, ``dT <- dT + omega (G(dT) - dT)``, the
-   relaxation halved whenever the residual does not fall by 10 % (FASTSIM's rule),
-   until ``max |G(dT) - dT|`` over the contact is below the tolerance [K] (the scene's
-   ``thermal: tolerance``, 0.1 K).  The answer is the solution at ``dT`` and the
-   temperature it produces, ``G(dT)``.
+4. fixed point on the field, ``dT = G(dT)``: Anderson's mixing of the last three steps
+   (Walker and Ni 2011) while the largest residual falls by 10 % a step; where it does
+   not, the history is dropped and the step under-relaxed, ``dT <- dT + omega (G(dT) -
+   dT)``, ``omega`` halved each time (FASTSIM's rule); no step changes the limits by more
+   than a factor e (``s max |step| <= 1``).  Until ``max |G(dT) - dT|`` over the contact
+   is below the tolerance [K] (the scene's ``thermal: tolerance``, 0.1 K).  The answer is
+   the solution at ``dT`` and the temperature it produces, ``G(dT)``.
 
 No loop where one pass shows the heating cannot change the limits: with the largest
 temperature coefficient ``s`` [1/K] and the first pass's largest rise ``dT1``,
@@ -36,6 +38,8 @@ References
 .. [1] Ertz, M., Knothe, K. (2002). A comparison of analytical and numerical methods for
    the calculation of temperatures in wheel/rail contact. Wear 253(3-4), 498-508.
    https://doi.org/10.1016/S0043-1648(02)00120-3
+.. [2] Walker, H.F., Ni, P. (2011). Anderson acceleration for fixed-point iterations. SIAM
+   Journal on Numerical Analysis 49(4), 1715-1735. https://doi.org/10.1137/10078356X
 """
 
 from __future__ import annotations
@@ -188,6 +192,7 @@ def solve_thermal(solve_at: Callable[[np.ndarray | None, np.ndarray | None], Sol
             f"limits by a factor exp({_MAX_EXPONENT:g})", iterations=1)
     dT = np.zeros_like(new) if dT0 is None else dT0
     omega, res_prev = 1.0, np.inf
+    hist: list[tuple[np.ndarray, np.ndarray]] = []   # (residual, G) of the last steps
     for k in range(1, th.max_iterations):
         diff = new - dT
         res = float(np.max(np.abs(diff)))
@@ -195,9 +200,12 @@ def solve_thermal(solve_at: Callable[[np.ndarray | None, np.ndarray | None], Sol
             return ThermalPoint(sol, new, th.ambient + float(np.max(new)), k, "iterated")
         if res > 0.9 * res_prev:
             omega = max(0.5 * omega, 1.0 / 1024)
+            hist.clear()
         res_prev = res
+        step = _anderson(hist, diff, new, dT) if omega == 1.0 else omega * diff
         # a step changes the limits by at most a factor e (strong coefficients)
-        dT = dT + min(omega, 1.0 / (sens * res)) * diff
+        big = sens * float(np.max(np.abs(step)))
+        dT = dT + (step if big <= 1.0 else step / big)
         sol = solve_at(dT, sol.p)
         new = _rise(sol, th, w)
         if not np.all(np.isfinite(new)) or th.growth * float(np.max(new)) > _MAX_EXPONENT:
@@ -213,6 +221,24 @@ def solve_thermal(solve_at: Callable[[np.ndarray | None, np.ndarray | None], Sol
         f"{th.max_iterations} solves (relaxation {omega:.3g}); the layer's temperature "
         "coefficients make the heating unstable at this slip",
         iterations=th.max_iterations, residual=res)
+
+
+def _anderson(hist: list[tuple[np.ndarray, np.ndarray]], f: np.ndarray, g: np.ndarray,
+              x: np.ndarray, depth: int = 3) -> np.ndarray:
+    """The step of Anderson's mixing (Walker and Ni 2011) from ``x`` with the residual
+    ``f = G(x) - x`` and ``g = G(x)``: ``G(x) - x - dG gamma`` with ``gamma`` the least-squares
+    fit of ``f`` by the last ``depth`` differences of the residuals ``dF``; the plain step
+    ``f`` while there is no history.  ``hist`` is updated in place."""
+    hist.append((f.ravel().copy(), g.ravel().copy()))
+    if len(hist) > depth + 1:
+        del hist[0]
+    if len(hist) < 2:
+        return f
+    F = np.stack([h[0] for h in hist], axis=1)
+    G = np.stack([h[1] for h in hist], axis=1)
+    dF, dG = np.diff(F, axis=1), np.diff(G, axis=1)
+    gamma, *_ = np.linalg.lstsq(dF, f.ravel(), rcond=None)
+    return (g.ravel() - dG @ gamma).reshape(x.shape) - x
 
 
 def thermal_note(loop: str, th: ExactThermal, coupled: bool) -> str:
