@@ -98,6 +98,37 @@ def test_C11_published_checks_and_table_points():
     assert C11(1 / 0.3, 0.25) == pytest.approx(6.34, abs=1e-12)
 
 
+@pytest.mark.parametrize("name", ["C11", "C22", "C23", "C33"])
+def test_log_pchip_interpolation_is_scipys_pchip_of_log_c_over_log_g(name):
+    """The smooth interpolation of Kalker's table is SciPy's monotone cubic (PCHIP) of
+    ln C over ln g, column by column, then CONTACT's rule in nu; it passes through the
+    table's rows, where it equals the linear interpolation."""
+    from scipy.interpolate import PchipInterpolator
+
+    from torlab.model import kalker
+
+    nu = 0.28
+    rows = np.round(np.arange(0.1, 1.0001, 0.1), 10)
+    for half, abs_ in ((0, lambda g: g), (1, lambda g: 1 / g)):
+        table = kalker._TABLES[name][half]
+        fits = [PchipInterpolator(np.log(kalker._G), np.log(table[:, k])) for k in range(3)]
+        for g in np.linspace(0.1, 1.0, 37):
+            cols = [math.exp(float(f(math.log(g)))) for f in fits]
+            ref = kalker._nu_interp(*cols, nu)
+            got = kalker._coefficient(name, abs_(g), nu, False, "log-pchip")
+            assert got == pytest.approx(ref, rel=1e-12)
+        for g in rows:
+            assert kalker._coefficient(name, abs_(g), nu, False, "log-pchip") == pytest.approx(
+                kalker._coefficient(name, abs_(g), nu, False, "linear"), rel=1e-12)
+
+
+def test_interpolation_argument_checked():
+    with pytest.raises(ValueError, match="interpolation"):
+        C11(2.0, 0.28, interpolation="cubic")
+    # between the rows b/a = 0.2 and 0.3 the linear rule lies above the smooth one
+    assert C11(4.2, 0.28) / C11(4.2, 0.28, interpolation="log-pchip") - 1 > 0.015
+
+
 def test_C11_extreme_ellipse_warns_and_uses_asymptote():
     with pytest.warns(ExtremeContactWarning):
         c = C11(0.05, 0.3)
