@@ -42,6 +42,28 @@ def test_default_method_is_fastsim_corrected_and_says_so():
     assert s["band"]["method"] == "not computed"
 
 
+def test_methods_interpolate_kalkers_table_their_own_way():
+    """Kalker's FASTSIM keeps CONTACT's linear interpolation of Kalker's table (the thesis's
+    model); the default's FASTSIM base, on which its tables are built, the monotone cubic of
+    ln C over ln g, in L1 and in the creep problem's L2, L3 (docs/model/kalker.md)."""
+    from torlab.model.contact import build_contact
+    from torlab.model.creep import creep_problem
+    from torlab.model.kalker import L1, L2, L3, creepage_coefficients
+
+    d = wheel_rail().model_dump(exclude_none=True)
+    d["contact"] = {**d["contact"], "a": 8.4e-3, "b": 2e-3}  # a/b 4.2: b/a between rows
+    for method, how in (("fastsim", "log-pchip"), ("fastsim-kalker", "linear")):
+        sc = scene_from_dict({**d, "grid": {**d["grid"], "method": method}})
+        con = build_contact(sc)
+        c11, c22, c23 = creepage_coefficients(4.2, con.nu, interpolation=how)
+        prob = creep_problem(sc, con)
+        assert con.C11 == pytest.approx(c11, rel=1e-12)
+        assert prob.L1 == pytest.approx(L1(8.4e-3, c11, con.G), rel=1e-12)
+        assert prob.L2 == pytest.approx(L2(8.4e-3, c22, con.G), rel=1e-12)
+        assert prob.L3 == pytest.approx(L3(8.4e-3, 2e-3, c23, con.G), rel=1e-12)
+        assert prob.calibrated == (method == "fastsim")
+
+
 def test_thesis_fastsim_differs_and_its_theory_error_is_the_correction():
     sc = wheel_rail()
     cal = predict_traction(sc, XI)

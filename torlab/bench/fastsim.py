@@ -119,12 +119,12 @@ def scene_problem(a_over_b: float | None = None, layer: bool = True,
     Returns
     -------
     FastsimProblem
-        Kalker's FASTSIM (``calibrated=False``): the scheme this benchmark measures
+        Kalker's FASTSIM (``grid: method: fastsim-kalker``: ``calibrated=False``, CONTACT's
+        interpolation of Kalker's table): the scheme this benchmark measures
         against the simplified theory's grid-free reference (the default method's
         correction by the exact theory is a factor on its result, measured in
         :mod:`torlab.bench.method`).
     """
-    import dataclasses
 
     from torlab.model.prediction import fastsim_problem
     from torlab.scene import scene_from_dict
@@ -138,7 +138,8 @@ def scene_problem(a_over_b: float | None = None, layer: bool = True,
         d["boundary"] = dict(NO_LAYER)
     if boundary:
         d["boundary"].update(boundary)
-    return dataclasses.replace(fastsim_problem(scene_from_dict(d)), calibrated=False)
+    d["grid"] = {"method": "fastsim-kalker"}  # its flexibility too (docs/model/kalker.md)
+    return fastsim_problem(scene_from_dict(d))
 
 
 @lru_cache(maxsize=4096)

@@ -46,7 +46,8 @@ def thermal_problem(mu_T: float = MU_T) -> FastsimProblem:
     d["thermal"] = {"conductivity": "50 W/(m*K)", "density": "7850 kg/m^3",
                     "heat_capacity": "450 J/(kg*K)"}
     d["boundary"].update(mu_c1_T=mu_T, mu_c2_T=mu_T)
-    return dataclasses.replace(fastsim_problem(scene_from_dict(d)), calibrated=False)
+    d["grid"] = {"method": "fastsim-kalker"}
+    return fastsim_problem(scene_from_dict(d))
 
 
 def _with_tolerance(prob: FastsimProblem, tol: float, max_iterations: int | None = None) -> FastsimProblem:

@@ -5,9 +5,11 @@ FASTSIM (:mod:`torlab.model.fastsim`, :mod:`torlab.model.creep`) solves Kalker's
 *exact* half-space theory (:mod:`torlab.model.exact`) its forces are 2--6 % off in pure
 creepage, up to 10 % with a third-body layer, and 10--40 % in the lateral force and the
 spin moment with spin (``docs/model/exact.md``).  The method ``fastsim`` (the default)
-keeps FASTSIM -- its layer, Voce limit, temperature and speed -- and corrects its forces
-by the exact theory's, read from two tables the exact solver computed once
-(:mod:`torlab.model.calibration_build` regenerates them):
+keeps FASTSIM -- its layer, Voce limit, temperature and speed, with Kalker's coefficients
+interpolated smoothly between the rows of his table (:data:`TABLE_INTERPOLATION`,
+:mod:`torlab.model.kalker`) -- and corrects its forces by the exact theory's, read from two
+tables the exact solver computed once (:mod:`torlab.model.calibration_build` regenerates
+them):
 
 * **Longitudinal creepage** (``longitudinal.csv``): the exact force over FASTSIM's on a
   contact with the layer's elastic compliance in series and a Coulomb bound, over the
@@ -60,9 +62,9 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["DEFAULT_METHOD", "FAST_METHODS", "METHODS", "METHOD_TEXT", "correct_creep",
-           "correct_longitudinal", "layer_ratio", "longitudinal_ratio", "method_note",
-           "normalised_longitudinal", "spin_correction"]
+__all__ = ["DEFAULT_METHOD", "FAST_METHODS", "METHODS", "METHOD_TEXT", "TABLE_INTERPOLATION",
+           "coefficient_interpolation", "correct_creep", "correct_longitudinal", "layer_ratio",
+           "longitudinal_ratio", "method_note", "normalised_longitudinal", "spin_correction"]
 
 #: the boundary methods: FASTSIM corrected by the exact theory (the default), Kalker's
 #: FASTSIM as the thesis uses it, the exact solver, and the choice between them
@@ -78,6 +80,11 @@ METHOD_TEXT = {
                       "simplified theory, not corrected)",
     "exact": "Kalker's exact theory (torlab.model.exact)",
 }
+
+#: how the default method's FASTSIM interpolates Kalker's coefficients between the rows of
+#: his table (:mod:`torlab.model.kalker`): the monotone cubic of ``ln C`` over ``ln g``,
+#: which follows the exact theory between the rows; its tables are built with it
+TABLE_INTERPOLATION = "log-pchip"
 
 DATA = Path(__file__).with_name("data")
 _AB_RANGE = (0.2, 5.0)
@@ -298,7 +305,8 @@ def spin_correction(a_over_b: float, v: np.ndarray,
     """The Coulomb table at normalised creepages ``v`` (..., 3): exact minus FASTSIM,
     FASTSIM's own forces (normalised ``Fx, Fy`` by ``mu N``, ``Mz`` by ``mu N c``) and the
     exact values' errors, each (..., 3).  ``coefficients``: Kalker's ``C11, C22, C23`` of
-    the contact (default: at ``a/b`` and ``nu = 0.28``, the tables' own).
+    the contact (default: at ``a/b`` and ``nu = 0.28``, interpolated as the tables' own,
+    :data:`TABLE_INTERPOLATION`).
 
     Uses the symmetries: ``xi* -> -xi*`` reverses ``Fx``; ``(eta*, phi*) -> -(eta*, phi*)``
     reverses ``Fy`` and ``Mz``.
@@ -313,8 +321,9 @@ def spin_correction(a_over_b: float, v: np.ndarray,
     if coefficients is None:
         from torlab.model.kalker import C11, C22, C23
 
-        coefficients = (C11(a_over_b, 0.28, warn=False), C22(a_over_b, 0.28, warn=False),
-                        C23(a_over_b, 0.28, warn=False))
+        kw = {"warn": False, "interpolation": TABLE_INTERPOLATION}
+        coefficients = (C11(a_over_b, 0.28, **kw), C22(a_over_b, 0.28, **kw),
+                        C23(a_over_b, 0.28, **kw))
     sigma = spin_share(a_over_b, np.stack([xs, es, ps], axis=-1), *coefficients)
     la = np.log(max(a_over_b, 1e-9))
     c = (la, _compact(rho), alpha, sigma)
@@ -395,6 +404,15 @@ def _flex_coefficients(prob: Any) -> tuple[float, float, float]:
     L2 = prob.L2 if prob.L2 is not None else prob.L1
     L3 = prob.L3 if prob.L3 is not None else prob.L1
     return (8 * a / (3 * prob.L1), 8 * a / (3 * L2), math.pi * a * math.sqrt(a / b) / (4 * L3))
+
+
+def coefficient_interpolation(method: str) -> str:
+    """How a boundary method interpolates Kalker's coefficients between his table's rows
+    (:mod:`torlab.model.kalker`): ``"linear"`` in ``g`` for Kalker's FASTSIM
+    (``fastsim-kalker``, CONTACT's rule, as the thesis used it), :data:`TABLE_INTERPOLATION`
+    for the others (the default's FASTSIM base, on which its tables were built; ``exact``
+    and ``auto`` need the coefficients only for that base and for normalisation)."""
+    return "linear" if method == "fastsim-kalker" else TABLE_INTERPOLATION
 
 
 def method_note(method: str) -> str:

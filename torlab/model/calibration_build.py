@@ -8,6 +8,7 @@ computes with the exact solver (:mod:`torlab.model.exact`) and FASTSIM
     python -m torlab.model.calibration_build            # both tables (hours of CPU)
     python -m torlab.model.calibration_build --only longitudinal --jobs 2
     python -m torlab.model.calibration_build --fastsim-only   # FASTSIM columns only
+    python -m torlab.model.calibration_build --only spin --a-over-b 2.6 4.1   # these rows
 
 * ``longitudinal.csv``: pure longitudinal creepage on a contact with an elastic layer in
   series (flexibility ``L_mue/p``, thesis Eq. 5.28) and a Coulomb bound ``mu p``, over
@@ -35,7 +36,11 @@ validation sets): the scheme is first order, and a straight line in ``1/n`` thro
 values leaves residuals of a few 1e-4 of ``mu N`` (the staircase's jitter,
 ``docs/model/exact.md``).  The error column (:func:`_extrapolate`) is twice the
 intercept's standard error with eight grids, the largest difference from the pairs'
-extrapolations with three.  ``nu`` is 0.28 (steel); ``docs/model/boundary.md`` states
+extrapolations with three.  Kalker's coefficients (the flexibilities and the
+normalisation) are interpolated between the rows of his table as the default method's
+FASTSIM does (:data:`torlab.model.calibrated.TABLE_INTERPOLATION`; at an aspect ratio
+between the rows a change of it changes both columns: regenerate that aspect ratio's
+rows, ``--a-over-b``).  ``nu`` is 0.28 (steel); ``docs/model/boundary.md`` states
 the error for other values.  Near ``x = 0`` of a contact without a layer the exact and
 FASTSIM's forces are both Kalker's linear theory (``C11``, which FASTSIM's flexibility
 reproduces exactly and the exact solver within its 0.5 %): the table's first node
@@ -98,21 +103,27 @@ GRIDS_LONGITUDINAL = (20, 24, 28, 32, 36, 40, 44, 48)
 RHO_FULL_SLIP = 1e4
 
 
-def twin(a_over_b: float, layer_ratio: float = 0.0, mu: float = MU) -> dict[str, Any]:
+def twin(a_over_b: float, layer_ratio: float = 0.0, mu: float = MU,
+         interpolation: str | None = None) -> dict[str, Any]:
     """The tables' contact at an aspect ratio: ``sqrt(ab)`` = 6 mm, 100 kN, ``G`` = 82 GPa.
 
     Returns ``a, b, load, G, nu, p0, L1, L2, L3, L_mue`` (the layer's elastic length for
     ``lambda = layer_ratio``) and the scales ``s`` turning ``xi, eta, phi`` into Kalker's
-    normalised creepages (module docstring).
+    normalised creepages (module docstring).  Kalker's coefficients are interpolated
+    between his table's rows by ``interpolation`` (:mod:`torlab.model.kalker`; default the
+    default method's, :data:`torlab.model.calibrated.TABLE_INTERPOLATION`, on which the
+    tables are built; the validation sets' layers were defined with ``"linear"``).
     """
+    from torlab.model.calibrated import TABLE_INTERPOLATION
     from torlab.model.kalker import C11, C22, C23, L1, L2, L3
 
+    how = interpolation or TABLE_INTERPOLATION
     c = 6e-3
     g = float(a_over_b)
     a, b = c * math.sqrt(g), c / math.sqrt(g)
     load, G = 100e3, 82e9
     p0 = 3 * load / (2 * math.pi * a * b)
-    c11, c22, c23 = C11(g, NU), C22(g, NU), C23(g, NU)
+    c11, c22, c23 = (C(g, NU, interpolation=how) for C in (C11, C22, C23))
     l1 = L1(a, c11, G)
     s = G * a * b / (3 * mu * load)
     return {"a": a, "b": b, "load": load, "G": G, "nu": NU, "p0": p0, "mu": mu, "L1": l1,
@@ -206,9 +217,10 @@ def direction(rho: Any, alpha_deg: Any, sigma: Any, a_over_b: float) -> np.ndarr
 
 
 def _coefficients(a_over_b: float) -> tuple[float, float, float]:
-    from torlab.model.kalker import C11, C22, C23
+    from torlab.model.calibrated import TABLE_INTERPOLATION
+    from torlab.model.kalker import creepage_coefficients
 
-    return C11(a_over_b, NU), C22(a_over_b, NU), C23(a_over_b, NU)
+    return creepage_coefficients(a_over_b, NU, interpolation=TABLE_INTERPOLATION)
 
 
 def exact_spin(a_over_b: float, v: np.ndarray, grids: tuple[int, ...] = GRIDS
@@ -248,10 +260,11 @@ def linear_slopes(a_over_b: float, u: np.ndarray) -> tuple[np.ndarray, np.ndarra
     ``Fx = 3 xi*``, ``Fy = 3 (eta* + phi*)``, ``Mz = 3 (C33/C23) phi* - 3 (C32/C22) eta*``
     with ``C32 = C23`` (his Table E.3, :func:`torlab.model.kalker.C33`); FASTSIM's from its
     forces at ``|v*| = 1e-6`` (its ``C33`` and ``C32`` are not Kalker's)."""
+    from torlab.model.calibrated import TABLE_INTERPOLATION
     from torlab.model.kalker import C33
 
     _, c22, c23 = _coefficients(a_over_b)
-    c33 = C33(a_over_b, NU)
+    c33 = C33(a_over_b, NU, interpolation=TABLE_INTERPOLATION)
     u = np.asarray(u, dtype=float)
     ex = np.stack([3 * u[:, 0], 3 * (u[:, 1] + u[:, 2]),
                    3 * (c33 / c23) * u[:, 2] - 3 * (c23 / c22) * u[:, 1]], -1)
@@ -410,7 +423,8 @@ def validation_rows(scenes: list[dict] | None = None, x: Any = VALIDATION_X,
 
     rows = []
     for k, s in enumerate(scenes or validation_scenes()):
-        t = twin(s["a_over_b"], s["layer_ratio"], mu=s["mu_c1"])
+        # the layers defined, and Kalker's FASTSIM computed, with CONTACT's coefficients
+        t = twin(s["a_over_b"], s["layer_ratio"], mu=s["mu_c1"], interpolation="linear")
         lay = _validation_layer(t, s)
         xs = np.asarray(x, dtype=float)
         xi = xs * (1.0 + s["layer_ratio"]) / t["scale"][0]
@@ -459,7 +473,8 @@ def validation_spin_rows(scenes: list[dict] | None = None, v: Any = VALIDATION_S
     rows = []
     vs = np.asarray(v, dtype=float)
     for k, s in enumerate((scenes or validation_scenes())[:VALIDATION_SPIN_SCENES]):
-        t = twin(s["a_over_b"], s["layer_ratio"], mu=s["mu_c1"])
+        # the layers defined, and Kalker's FASTSIM computed, with CONTACT's coefficients
+        t = twin(s["a_over_b"], s["layer_ratio"], mu=s["mu_c1"], interpolation="linear")
         lay = _validation_layer(t, s)
         cr = [vs[:, i] * (1.0 + s["layer_ratio"]) / t["scale"][i] for i in range(3)]
         con = ExactContact(a=t["a"], b=t["b"], load=t["load"], G=t["G"], nu=t["nu"],
@@ -544,7 +559,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--out", type=Path, default=DATA)
     ap.add_argument("--a-over-b", type=float, nargs="*", default=None,
-                    help="only these aspect ratios (a partial table, for checks)")
+                    help="only these aspect ratios: their rows replace (or join) those of "
+                         "the table in --out, the others are kept")
     args = ap.parse_args(argv)
     import pandas as pd
 
@@ -567,17 +583,27 @@ def main(argv: list[str] | None = None) -> int:
             if name.startswith("validation") and (args.fastsim_only or args.a_over_b):
                 continue
             path = args.out / f"{name}.csv"
+            old = pd.read_csv(path) if path.exists() else None
+            mine = (np.zeros(0, bool) if old is None else
+                    np.isclose(old["a_over_b"].to_numpy()[:, None], given).any(axis=1)
+                    if given else np.ones(len(old), bool))
             if args.fastsim_only:
-                old = pd.read_csv(path)
+                if old is None:
+                    raise SystemExit(f"{path}: no table to take the exact columns from")
                 new = build(a_over_b=given or default_ab[name], exact=False,
                             progress=progress)
                 keep = [c for c in old.columns if c.startswith("exact")]
-                new[keep] = old[keep].to_numpy()
+                if len(new) != int(mine.sum()):
+                    raise SystemExit(f"{path}: the table's rows are not this build's grid")
+                new[keep] = old.loc[mine, keep].to_numpy()
                 df = new
             elif name.startswith("validation"):
                 df = build(progress=progress)
             else:
                 df = build(a_over_b=given or default_ab[name], progress=progress)
+            if given and old is not None:  # the other aspect ratios' rows are kept
+                df = pd.concat([old[~mine], df], ignore_index=True)
+                df = df.sort_values("a_over_b", kind="stable", ignore_index=True)
             tmp = path.with_suffix(".csv.tmp")
             df.to_csv(tmp, index=False, float_format="%.7g")
             tmp.replace(path)

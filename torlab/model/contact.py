@@ -22,6 +22,7 @@ import warnings
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+from torlab.model.calibrated import coefficient_interpolation
 from torlab.model.hertz import ContactPatch, E_star, hertz_approximate, hertz_exact, patch_from_axes
 from torlab.model.kalker import C11, L1, ExtremeContactWarning, combined_G_nu
 
@@ -42,7 +43,9 @@ class ContactModel:
     E_star, G, nu
         Reduced modulus (Eq. 5.10); Kalker's combined shear modulus and Poisson ratio.
     C11, L1
-        Kalker's coefficient and flexibility ``8a/(3 C11 G)``.
+        Kalker's coefficient and flexibility ``8a/(3 C11 G)``; C11 interpolated between
+        the rows of Kalker's table as the scene's boundary method does
+        (:func:`torlab.model.calibrated.coefficient_interpolation`).
     rx, ry
         Reduced radii [m], ``inf`` if not given.
     hertz_check
@@ -94,7 +97,8 @@ def build_contact(scene: Scene) -> ContactModel:
     notes = []
     with warnings.catch_warnings(record=True) as wlist:
         warnings.simplefilter("always", ExtremeContactWarning)
-        c11 = C11(patch.a / patch.b, nu)
+        c11 = C11(patch.a / patch.b, nu,
+                  interpolation=coefficient_interpolation(scene.grid.method))
     notes += [str(w.message) for w in wlist]
     return ContactModel(patch=patch, E_star=Es, G=G, nu=nu, C11=c11, L1=L1(patch.a, c11, G),
                         rx=c.rx, ry=c.ry, hertz_check=check, notes=tuple(notes))

@@ -342,6 +342,7 @@ def creep_problem(scene: Scene, contact: Any = None) -> CreepProblem:
     """
     import warnings
 
+    from torlab.model.calibrated import coefficient_interpolation
     from torlab.model.contact import build_contact
     from torlab.model.kalker import C22, C23, L2, L3, ExtremeContactWarning
     from torlab.model.prediction import fastsim_problem
@@ -359,8 +360,9 @@ def creep_problem(scene: Scene, contact: Any = None) -> CreepProblem:
     p = contact.patch
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ExtremeContactWarning)  # build_contact noted it
-        c22 = C22(p.a / p.b, contact.nu)
-        c23 = C23(p.a / p.b, contact.nu)
+        how = coefficient_interpolation(scene.grid.method)
+        c22 = C22(p.a / p.b, contact.nu, interpolation=how)
+        c23 = C23(p.a / p.b, contact.nu, interpolation=how)
     return CreepProblem.from_fastsim(prob, L2=L2(p.a, c22, contact.G), L3=L3(p.a, p.b, c23, contact.G))
 
 
