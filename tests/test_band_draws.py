@@ -365,13 +365,9 @@ def _near_model(sc, xi: np.ndarray, outs: tuple[str, ...], prob=None) -> DryTrac
                             state["temperature_rise"])
 
 
-def test_design_points_start_from_the_estimates_temperature(monkeypatch):
-    """evaluate_near (the steps, probes and check points of a band) starts each point's
-    temperature iteration from the estimate's solution: it reaches the same fixed points as
-    the iteration from zero -- both within 0.05 K and 1e-5 (relative mu) of the fixed
-    point the loop gives at a 1e-7 K tolerance, the independent reference -- in fewer
-    relaxed steps, at two standard deviations along each parameter."""
-    import torlab.model.flash as flash
+def _wfm_wet_near_and_tight():
+    """The WFM-wet curve's band model started from its temperature, the same model with
+    its loop converged to 1e-7 K (the reference), and the fit's distribution."""
     from torlab.model.bands import scene_uncertainty
 
     sc = _wfm_wet()
@@ -381,7 +377,18 @@ def test_design_points_start_from_the_estimates_temperature(monkeypatch):
     prob = model.prob
     tight = DryTractionModel(replace(prob, thermal=replace(prob.thermal, tolerance=1e-7)),
                              model.grid, xi, outs)
-    dist = scene_uncertainty(sc).dist
+    return sc, xi, outs, model, tight, scene_uncertainty(sc).dist
+
+
+def test_design_points_start_from_the_estimates_temperature(monkeypatch):
+    """evaluate_near (the steps, probes and check points of a band) starts each point's
+    temperature iteration from the estimate's solution: it reaches the same fixed points as
+    the iteration from zero -- both within 0.05 K and 1e-5 (relative mu) of the fixed
+    point the loop gives at a 1e-7 K tolerance, the independent reference -- in fewer
+    relaxed steps, at two standard deviations along each parameter."""
+    import torlab.model.flash as flash
+
+    _, _, _, model, tight, dist = _wfm_wet_near_and_tight()
     th0, cov = dist.transformed()
     sd = np.diag(np.sqrt(np.diag(cov)))
     p = dist.params(np.vstack([th0 + 2 * sd, th0 - 2 * sd]))
@@ -446,16 +453,8 @@ def test_linear_band_from_the_estimates_temperature_matches_a_tight_loop():
     independent reference (measured: 0.013 for the temperature, at 0.5 % creepage where
     the half-width is 0.13 K and the curve's own temperature is 0.002 K off; from zero
     0.008, where the steps' errors cancel more of the curve's; 5e-5 for mu)."""
-    from torlab.model.bands import scene_uncertainty
 
-    sc = _wfm_wet()
-    xi = np.linspace(0.0, 0.05, 51)
-    outs = ("mu", "max_temperature_C")
-    model = _near_model(sc, xi, outs)
-    prob = model.prob
-    tight = DryTractionModel(replace(prob, thermal=replace(prob.thermal, tolerance=1e-7)),
-                             model.grid, xi, outs)
-    dist = scene_uncertainty(sc).dist
+    sc, xi, outs, model, tight, dist = _wfm_wet_near_and_tight()
     table = traction_curve(sc, xi).table
     a = propagate(model, dist, method="linear", f0={k: table[k].to_numpy() for k in outs})
     b = propagate(tight, dist, method="linear")
