@@ -11,6 +11,19 @@ ROOT = Path(__file__).resolve().parents[1]
 DATA = Path(__file__).resolve().parent / "data"
 REAL_PCS = ROOT.parent / "shared" / "real-data" / "pcs"
 
+#: the smallest protocol: the sample HPT logs and the amount report (tests of runs, re-runs
+#: and trust)
+SMALL_PROTOCOL = """\
+version: 1
+name: small
+data:
+  hpt:
+    files: [hpt_*.txt]
+reports:
+  amount:
+    curve: interpolation
+"""
+
 
 def pytest_configure(config):
     """Keep the cache's HMAC key (torlab.protocols.cache) out of the tester's home folder;

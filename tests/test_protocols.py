@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
+from conftest import SMALL_PROTOCOL as SMALL
 
 from tests.conftest import REAL_PCS, ROOT, error_lines, sha
 
@@ -528,16 +529,6 @@ def test_summary_diff_is_readable():
 
 
 # --------------------------------------------------------------------------- re-runs
-SMALL = """\
-version: 1
-name: small
-data:
-  hpt:
-    files: [hpt_*.txt]
-reports:
-  amount:
-    curve: interpolation
-"""
 
 
 def test_rerun_reuses_cache_and_refuses_overwrite(tmp_path):

@@ -14,20 +14,11 @@ import shutil
 from pathlib import Path
 
 import pytest
+from conftest import SMALL_PROTOCOL as AMOUNT
 
 ROOT = Path(__file__).resolve().parents[1]
 HPT = ROOT / "sample_data" / "hpt"
 
-AMOUNT = """\
-version: 1
-name: small
-data:
-  hpt:
-    files: [hpt_*.txt]
-reports:
-  amount:
-    curve: interpolation
-"""
 
 FITS = """\
 version: 1

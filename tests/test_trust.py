@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import ROOT, error_lines
+from conftest import SMALL_PROTOCOL as SMALL
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -29,17 +30,6 @@ from torlab.errors import (
 
 SCENE = ROOT / "protocols" / "scenes" / "wheel_rail_tab54.yaml"
 HPT = ROOT / "sample_data" / "hpt"
-
-SMALL = """\
-version: 1
-name: small
-data:
-  hpt:
-    files: [hpt_*.txt]
-reports:
-  amount:
-    curve: interpolation
-"""
 
 
 def _small_protocol(tmp_path: Path) -> Path:
