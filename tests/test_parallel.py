@@ -98,6 +98,68 @@ def test_map_keeps_order_reissues_warnings_and_raises_the_first_error(executors)
         assert set(ex.map(_inner, range(4))) == {"serial"}, ex.kind
 
 
+def test_map_in_blocks_keeps_order_each_index_and_the_first_error(executors):
+    """``chunksize`` sends short tasks in blocks (local workers and a Dask cluster alike):
+    the same results in order, ``each`` told every task's own index, and the first error
+    in task order raised as itself, not as the block's."""
+    for ex in executors:
+        seen = []
+
+        def each(i, v, seen=seen):
+            seen.append(i)
+            return v + 1
+
+        got = ex.map(_square, range(11), chunksize=4, each=each)
+        assert got == [x * x + 1 for x in range(11)], ex.kind
+        assert sorted(seen) == list(range(11)), ex.kind
+        with pytest.raises(TorlabInputError, match="bad 3"):
+            ex.map(_fail, range(11), chunksize=4)
+        with pytest.raises(TorlabInputError, match="bad 3"):
+            ex.map(_fail, range(11), chunksize=2)
+
+
+def _read_relative(name: str) -> str:
+    with open(name, encoding="utf-8") as f:
+        return f.read()
+
+
+def test_a_dask_task_runs_in_the_drivers_directory(tmp_path, monkeypatch):
+    """A Dask worker started in another directory runs each task in the driver's working
+    directory (passed with the task), so a relative path names the same file there; the
+    worker's own directory is restored after the task, and a directory the worker does
+    not have is left alone."""
+    from torlab.parallel import _dask_run, _dask_run_block
+
+    (tmp_path / "data").mkdir()
+    (tmp_path / "data" / "a.txt").write_text("here", encoding="utf-8")
+    elsewhere = tmp_path / "worker"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    with pytest.raises(FileNotFoundError):
+        _dask_run(_read_relative, "data/a.txt")
+    assert _dask_run(_read_relative, "data/a.txt", cwd=str(tmp_path)) == ("here", [])
+    assert _dask_run_block(_read_relative, ["data/a.txt"] * 2, str(tmp_path)) == \
+        [("here", []), ("here", [])]
+    assert Path.cwd() == elsewhere
+    with pytest.raises(FileNotFoundError):
+        _dask_run(_read_relative, "data/a.txt", cwd=str(tmp_path / "not-here"))
+    assert Path.cwd() == elsewhere
+
+
+def test_relative_paths_on_every_executor(tmp_path, monkeypatch, request):
+    """Tasks of every executor read a file by a path relative to the run's directory."""
+    (tmp_path / "a.txt").write_text("here", encoding="utf-8")
+    monkeypatch.chdir(tmp_path)
+    try:
+        client = request.getfixturevalue("dask_client")
+    except pytest.skip.Exception:
+        client = None
+    for ex in _executors(client):
+        with ex:
+            assert ex.map(_read_relative, ["a.txt", "a.txt"]) == ["here", "here"], ex.kind
+            assert ex.map(_read_relative, ["a.txt"] * 3, chunksize=2) == ["here"] * 3, ex.kind
+
+
 def _thread_name() -> str:
     import threading
 

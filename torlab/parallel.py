@@ -680,7 +680,10 @@ class DaskExecutor(Executor):
     Tasks and their results travel between this process and the workers as
     pickles (that is how Dask works): connect only to a cluster you control.
     The workers read input files by the paths this process gives them, so they
-    must see the same file system (a cluster on this machine, or a shared disk).
+    must see the same file system (a cluster on this machine, or a shared disk);
+    each task runs in this process's working directory where the worker has it, so
+    relative paths name the same files.  Short tasks (``map(..., chunksize=n)``) go
+    in blocks, as to local workers.
     """
 
     kind = "dask"
@@ -725,14 +728,28 @@ class DaskExecutor(Executor):
             return []
         from torlab.progress import current as progress
 
-        futs = self.client.map(_dask_run, [fn] * len(items), items, pure=False)
+        # short tasks go in blocks, as to local workers: the scheduler's and the
+        # workers' cost per task (a few ms of Dask's bookkeeping and transfers) would
+        # otherwise be larger than the task
+        blocks = chunks(len(items), chunksize)
+        cwd = os.getcwd()
+        if len(blocks) == len(items):
+            futs = self.client.map(_dask_run, [fn] * len(items), items, pure=False, cwd=cwd)
+        else:
+            futs = self.client.map(_dask_run_block, [fn] * len(blocks),
+                                   [items[b] for b in blocks], pure=False, cwd=cwd)
         out = []
         try:
             with progress().task(description, len(items) if description else 0) as advance:
-                for i, f in enumerate(futs):  # in order: the first error in task order
-                    res, ws = f.result()
-                    out.append((res if each is None else each(i, res), ws))
-                    advance()
+                for f, b in zip(futs, blocks, strict=True):  # in order: the first error first
+                    try:
+                        got = f.result()
+                    except _BlockError as e:
+                        raise e.error from None
+                    for j, (res, ws) in enumerate(got if len(blocks) < len(items)
+                                                  else [got]):
+                        out.append((res if each is None else each(b.start + j, res), ws))
+                    advance(b.stop - b.start)
         except BaseException:
             self.client.cancel(futs)
             raise
@@ -745,7 +762,8 @@ class DaskExecutor(Executor):
         items = list(items)
         if not items:
             return Background(lambda: [])
-        futs = self.client.map(_dask_run, [fn] * len(items), items, pure=False, priority=-10)
+        futs = self.client.map(_dask_run, [fn] * len(items), items, pure=False, priority=-10,
+                               cwd=os.getcwd())
 
         def results() -> list[Any]:
             from torlab.progress import current as progress
@@ -789,16 +807,34 @@ class DaskExecutor(Executor):
 _DASK_TASK_LOCK = threading.Lock()
 
 
-def _dask_run(fn: Callable[[Any], Any], item: Any) -> tuple[Any, list[tuple[Any, ...]]]:
-    """A task on a Dask worker (:func:`_run`), one at a time in its process.
+def _dask_run(fn: Callable[[Any], Any], item: Any, cwd: str | None = None
+              ) -> tuple[Any, list[tuple[Any, ...]]]:
+    """A task on a Dask worker (:func:`_run`), one at a time in its process, in the
+    driver's working directory ``cwd`` where the worker has it (so that the relative
+    paths the driver was given name the same files).
 
     Run workers as processes with one thread each (``dask worker --nthreads 1``,
     ``LocalCluster(processes=True, threads_per_worker=1)``) to use every core:
     threads of one process take torlab's tasks in turn.
     """
+    return _dask_run_block(fn, [item], cwd, block=False)
+
+
+def _dask_run_block(fn: Callable[[Any], Any], items: Sequence[Any], cwd: str | None = None,
+                    *, block: bool = True) -> Any:
+    """A block of tasks on a Dask worker (:func:`_run_block`; ``block=False``: one task,
+    :func:`_run`), in the driver's working directory (:func:`_dask_run`)."""
     _CURRENT.set(None)  # a task on a threaded worker starts no tasks of its own
     with _DASK_TASK_LOCK:
-        return _run(fn, item)
+        here = os.getcwd()
+        move = cwd is not None and cwd != here and os.path.isdir(cwd)
+        if move:
+            os.chdir(cwd)  # process-wide: one task at a time in this process (the lock)
+        try:
+            return _run_block(fn, items) if block else _run(fn, items[0])
+        finally:
+            if move:
+                os.chdir(here)
 
 
 # ------------------------------------------------------------------------------ choosing
