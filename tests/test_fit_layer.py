@@ -47,6 +47,25 @@ def test_model_without_compliance_is_the_layer_law():
     assert np.max(np.abs(got - ref)) < 1e-4 * (0.22 - 0.14) * 750e6
 
 
+def test_the_fits_grids_are_numpys_to_the_bit():
+    """The residuals' own grids (without numpy's generic set-up) are numpy.geomspace and
+    numpy.linspace(0, stop) bit for bit, over ends from 1e-15 to 1e11 and any length."""
+    from torlab.fit.layer import _geomspace, _linspace0
+
+    rng = np.random.default_rng(3)
+    for _ in range(3000):
+        a = 10 ** rng.uniform(-15, 3)
+        b = a * 10 ** rng.uniform(-6, 8)
+        n = int(rng.integers(2, 500))
+        assert np.array_equal(_geomspace(a, b, n), np.geomspace(a, b, n)), (a, b, n)
+        assert np.array_equal(_linspace0(b, n), np.linspace(0.0, b, n)), (b, n)
+        assert np.array_equal(_linspace0(-b, n), np.linspace(0.0, -b, n)), (-b, n)
+    for a, b, n in ((1.0, 1.0, 5), (2.0, 3.0, 1), (1e-300, 1e300, 7)):
+        assert np.array_equal(_geomspace(a, b, n), np.geomspace(a, b, n))
+    for b, n in ((0.0, 5), (5e-324, 4), (1.0, 1), (1.0, 0)):
+        assert np.array_equal(_linspace0(b, n), np.linspace(0.0, b, n))
+
+
 @pytest.mark.skipif(not (HPT / "truth.yaml").exists(), reason="sample data absent")
 @pytest.mark.parametrize("file", ["hpt_OFM1_4uL_25C.txt", "hpt_SFM_8mg_25C.txt",
                                   "hpt_OFM2_4uL_105C.txt"])
@@ -161,6 +180,27 @@ def test_joint_fit_of_repeats():
     assert isinstance(per, list) and len(per) == 3
     assert all(isinstance(r, FitResult) for r in per)
     assert per[0].params == pytest.approx(single.params)
+
+
+def test_repeats_are_their_own_fits_pooled_and_the_joint_fit_only_where_used():
+    """With one law, repeats give the pooled fits of the curves alone (the same numbers as
+    pooling the single fits); a non-default law is named; a curve that cannot be fitted
+    alone falls back to the fit of all curves together (``between="none"``), with the
+    warning that the scatter is not estimated."""
+    from torlab.fit.repeats import pool_fits
+
+    p = LayerParams(0.16, 0.30, 6e-6, 30e-6)
+    runs = [_run(p, s) for s in (21, 22)]
+    pooled = fit_layer_hpt(runs)
+    alone = pool_fits([fit_layer_hpt(r) for r in runs])
+    assert pooled.params == alone.params and pooled.stderr == alone.stderr
+    assert "law" not in pooled.meta
+    assert fit_layer_hpt(runs, law="linear").meta["law"] == "linear"
+    q = LayerParams(0.5, 0.6, 40e-6, 19e-6)
+    mixed = [_run(q, 23), _run(q, 24, u_max=12e-6)]  # the second never yields
+    res = fit_layer_hpt(mixed)
+    assert any(w.startswith("run-to-run scatter not estimated") for w in res.warnings)
+    assert res.params == fit_layer_hpt(mixed, between="none").params
 
 
 def test_without_compliance_warns_that_L_mue_includes_the_rig():

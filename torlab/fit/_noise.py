@@ -47,8 +47,9 @@ import numpy as np
 
 from torlab.fit.result import _scaled_inverse
 
-__all__ = ["NoiseModel", "VarianceFunction", "effective_points", "estimate_noise",
-           "estimate_variance_function", "parameter_dof", "sandwich_covariance"]
+__all__ = ["BlockMeat", "NoiseModel", "VarianceFunction", "block_meats", "effective_points",
+           "estimate_noise", "estimate_variance_function", "parameter_dof",
+           "sandwich_covariance"]
 
 #: fewest points of the stationary part for a correlated-noise model
 MIN_POINTS_CORRELATED = 40
@@ -202,19 +203,55 @@ def estimate_noise(residuals: np.ndarray, scale: np.ndarray) -> NoiseModel:
     return NoiseModel(vw, vc, rho, n_used=n, theta_cov=cov, floor_var=floor, floor_ref=ref)
 
 
+class BlockMeat:
+    """``J^T Sigma J`` of one block (rows ``J``, scales ``scale``) for any noise model of it.
+
+    ``Sigma`` is a white part (:meth:`NoiseModel.white_row_var`) plus ``v_c`` times the
+    AR(1) correlation at ``rho``; each part is kept by the values it depends on, so the
+    noise models of :func:`parameter_dof`'s differences (which change one of ``v_w``,
+    ``v_c``, ``rho`` at a time) reuse the others' parts: the same numbers, from the same
+    operations, in half the AR(1) recursions.
+    """
+
+    def __init__(self, J: np.ndarray, scale: np.ndarray) -> None:
+        self.J = J
+        self.scale = np.asarray(scale, dtype=float)
+        self.sj = J * self.scale[:, None]
+        self._white: dict[tuple[float, float, float], np.ndarray] = {}
+        self._ar: dict[float, np.ndarray] = {}
+
+    def __call__(self, nm: NoiseModel) -> np.ndarray:
+        key = (nm.white_var, nm.floor_var, nm.floor_ref)
+        meat = self._white.get(key)
+        if meat is None:
+            meat = (self.J * nm.white_row_var(self.scale)[:, None]).T @ self.J
+            self._white[key] = meat
+        if not nm.correlated:
+            return meat
+        ar = self._ar.get(nm.rho)
+        if ar is None:
+            # AR(1) covariance applied by a forward and a backward recursion (O(n k))
+            from torlab._stats import ar1_recursion  # scipy.signal.lfilter, without its import
+
+            sj = self.sj
+            fwd = ar1_recursion(sj, nm.rho)
+            bwd = ar1_recursion(sj[::-1], nm.rho)[::-1]
+            # sum_{s,t} rho^|s-t| a_s a_t^T = sum_t a_t (fwd_t + bwd_t - a_t)^T
+            ar = sj.T @ (fwd + bwd - sj)
+            self._ar[nm.rho] = ar
+        return meat + nm.correlated_var * ar
+
+
 def _meat(J: np.ndarray, scale: np.ndarray, nm: NoiseModel) -> np.ndarray:
     """``J^T Sigma J`` of one block."""
-    sj = J * scale[:, None]
-    meat = (J * nm.white_row_var(scale)[:, None]).T @ J
-    if nm.correlated:
-        # AR(1) covariance applied by a forward and a backward recursion (O(n k))
-        from torlab._stats import ar1_recursion  # scipy.signal.lfilter, without its import
+    return BlockMeat(J, scale)(nm)
 
-        fwd = ar1_recursion(sj, nm.rho)
-        bwd = ar1_recursion(sj[::-1], nm.rho)[::-1]
-        # sum_{s,t} rho^|s-t| a_s a_t^T = sum_t a_t (fwd_t + bwd_t - a_t)^T
-        meat = meat + nm.correlated_var * (sj.T @ (fwd + bwd - sj))
-    return meat
+
+def block_meats(jac: np.ndarray, blocks: list[tuple[slice, np.ndarray, NoiseModel]]
+                ) -> list[BlockMeat]:
+    """One :class:`BlockMeat` per block, for :func:`sandwich_covariance` and
+    :func:`parameter_dof` of one fit to share."""
+    return [BlockMeat(jac[rows], scale) for rows, scale, _ in blocks]
 
 
 def effective_points(blocks: list[tuple[slice, np.ndarray, NoiseModel]]) -> float:
@@ -222,16 +259,17 @@ def effective_points(blocks: list[tuple[slice, np.ndarray, NoiseModel]]) -> floa
     return float(sum(nm.effective_points(rows.stop - rows.start) for rows, _, nm in blocks))
 
 
-def sandwich_covariance(jac: np.ndarray, blocks: list[tuple[slice, np.ndarray, NoiseModel]]
-                        ) -> np.ndarray:
+def sandwich_covariance(jac: np.ndarray, blocks: list[tuple[slice, np.ndarray, NoiseModel]],
+                        parts: list[BlockMeat] | None = None) -> np.ndarray:
     """``n_eff/(n_eff - k) B J^T Sigma J B`` with ``Sigma`` block diagonal, one
     :class:`NoiseModel` per block.
 
     ``blocks`` lists ``(rows, scale, model)``; rows of different blocks (curves)
-    are independent.
+    are independent.  ``parts``: the blocks' :func:`block_meats` (made here if not given).
     """
     k = jac.shape[1]
-    meat = sum((_meat(jac[rows], scale, nm) for rows, scale, nm in blocks),
+    parts = block_meats(jac, blocks) if parts is None else parts
+    meat = sum((part(nm) for part, (_, _, nm) in zip(parts, blocks, strict=True)),
                np.zeros((k, k)))
     bread = _scaled_inverse(jac.T @ jac)
     if not np.all(np.isfinite(bread)):
@@ -241,14 +279,16 @@ def sandwich_covariance(jac: np.ndarray, blocks: list[tuple[slice, np.ndarray, N
     return 0.5 * (out + out.T)
 
 
-def parameter_dof(jac: np.ndarray, blocks: list[tuple[slice, np.ndarray, NoiseModel]]
-                  ) -> np.ndarray:
+def parameter_dof(jac: np.ndarray, blocks: list[tuple[slice, np.ndarray, NoiseModel]],
+                  parts: list[BlockMeat] | None = None) -> np.ndarray:
     """Satterthwaite degrees of freedom of each parameter's variance (module docstring).
 
     ``nu_j = 2 / var(ln sigma_j^2)``: for a white-noise block the variance of
     ``ln v_w`` is ``2/n``; for an AR(1) block the Whittle covariance of the
     noise parameters is propagated through ``ln sigma_j^2`` by central
-    differences.  Capped at ``n_eff - k`` and floored at 1.
+    differences.  Capped at ``n_eff - k`` and floored at 1.  ``parts``: the blocks'
+    :func:`block_meats` (made here if not given; shared with
+    :func:`sandwich_covariance`).
     """
     k = jac.shape[1]
     neff = effective_points(blocks)
@@ -256,20 +296,21 @@ def parameter_dof(jac: np.ndarray, blocks: list[tuple[slice, np.ndarray, NoiseMo
     bread = _scaled_inverse(jac.T @ jac)
     if not np.all(np.isfinite(bread)):
         return np.full(k, cap)
-    meats = [_meat(jac[rows], scale, nm) for rows, scale, nm in blocks]
+    parts = block_meats(jac, blocks) if parts is None else parts
+    meats = [part(nm) for part, (_, _, nm) in zip(parts, blocks, strict=True)]
     total = sum(meats, np.zeros((k, k)))
     var0 = np.diag(bread @ total @ bread)
     var_log = np.zeros(k)
     h = 1e-4
-    for b, (rows, scale, nm) in enumerate(blocks):
+    for b, (rows, _, nm) in enumerate(blocks):
         if nm.correlated and nm.theta_cov.shape == (3, 3):
             grad = np.empty((3, k))
             for i in range(3):
                 e = np.zeros(3)
                 e[i] = h
-                vp = np.diag(bread @ (total - meats[b] + _meat(jac[rows], scale, nm.with_theta(
+                vp = np.diag(bread @ (total - meats[b] + parts[b](nm.with_theta(
                     nm.theta + e))) @ bread)
-                vm = np.diag(bread @ (total - meats[b] + _meat(jac[rows], scale, nm.with_theta(
+                vm = np.diag(bread @ (total - meats[b] + parts[b](nm.with_theta(
                     nm.theta - e))) @ bread)
                 with np.errstate(divide="ignore", invalid="ignore"):
                     grad[i] = (np.log(vp) - np.log(vm)) / (2 * h)

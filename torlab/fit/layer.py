@@ -53,6 +53,7 @@ import numpy as np
 from torlab.errors import FitError, TorlabInputError
 from torlab.fit._noise import (
     NoiseModel,
+    block_meats,
     effective_points,
     estimate_noise,
     parameter_dof,
@@ -119,21 +120,31 @@ def tau_of_raw_displacement(u_raw: np.ndarray, sigma: float, x: Sequence[float],
     is inverted by monotone interpolation (piecewise-linear error below 1e-4 of
     ``tau_c2 - tau_c1``).
     """
-    law = get_law(law)
-    lay = LayerParams(law=law, **{n: float(v) for n, v in zip(law.fit_names, x, strict=True)})
     u_raw = np.asarray(u_raw, dtype=float)
+    c0 = float(compliance(np.zeros(1))[0]) if compliance is not None else 0.0
+    return _tau_raw(u_raw, float(np.max(u_raw)), sigma, x, compliance, c0, get_law(law),
+                    n_elastic, n_plastic)
+
+
+def _tau_raw(u_raw: np.ndarray, u_max: float, sigma: float, x: Sequence[float],
+             compliance: Callable[[np.ndarray], np.ndarray] | None, c0: float, law: LayerLaw,
+             n_elastic: int = 48, n_plastic: int = 320) -> np.ndarray:
+    """:func:`tau_of_raw_displacement` with what a fit keeps per curve computed once:
+    the largest displacement ``u_max`` [m] and the compliance at zero stress ``c0`` [m]
+    (the fit's residuals call it some thirty times per curve)."""
+    lay = LayerParams(law=law, **{n: float(v) for n, v in zip(law.fit_names, x, strict=True)})
     t1 = lay.mu_c1 * sigma
     le = lay.L_mue / sigma
-    tau_el = np.linspace(0.0, t1, n_elastic)
+    tau_el = _linspace0(t1, n_elastic)
     ul_el = tau_el * le
     uy = t1 * le
-    span = max(float(np.max(u_raw)) - uy, 0.0) * 1.05 + 1e-9
+    span = max(u_max - uy, 0.0) * 1.05 + 1e-9
     lp = law.hpt_length(lay) or span
-    s = np.geomspace(min(1e-4 * lp, 0.5 * span), max(span, 2e-4 * lp), n_plastic)
+    s = _geomspace(min(1e-4 * lp, 0.5 * span), max(span, 2e-4 * lp), n_plastic)
     tau_pl = law.hpt_plastic(s, sigma, lay)
     ul = np.concatenate((ul_el, uy + s))
     tau = np.concatenate((tau_el, tau_pl))
-    ur = ul + (np.asarray(compliance(tau), dtype=float) - float(compliance(np.zeros(1))[0])
+    ur = ul + (np.asarray(compliance(tau), dtype=float) - c0
                if compliance is not None else 0.0)
     ur = np.maximum.accumulate(ur)
     out = np.interp(u_raw, ur, tau)
@@ -141,6 +152,51 @@ def tau_of_raw_displacement(u_raw: np.ndarray, sigma: float, x: Sequence[float],
     if neg.any():
         slope = (tau[1] - tau[0]) / max(ur[1] - ur[0], 1e-30)
         out[neg] = u_raw[neg] * slope
+    return out
+
+
+_RAMPS: dict[int, np.ndarray] = {}
+
+
+def _ramp(n: int) -> np.ndarray:
+    """``0, 1, ..., n - 1`` as floats (read only; made once per length)."""
+    r = _RAMPS.get(n)
+    if r is None:
+        r = np.arange(0, n, dtype=float)
+        r.flags.writeable = False
+        _RAMPS[n] = r
+    return r
+
+
+def _linspace0(stop: float, n: int) -> np.ndarray:
+    """``numpy.linspace(0.0, stop, n)`` to the bit, without its generic set-up (the fit's
+    residuals make two grids per evaluation)."""
+    step = stop / (n - 1) if n > 1 else 0.0
+    if n < 2 or step == 0 or not math.isfinite(step):
+        return np.linspace(0.0, stop, n)
+    y = _ramp(n) * step  # the same operations as numpy's: ramp * step + start, last = stop
+    y += 0.0
+    y[-1] = stop
+    return y
+
+
+def _geomspace(start: float, stop: float, n: int) -> np.ndarray:
+    """``numpy.geomspace(start, stop, n)`` to the bit for positive finite ends, ``n >= 2``
+    (numpy's steps: ``10 ** linspace(log10 start, log10 stop)`` with the ends set exactly),
+    without its generic set-up: about 8 instead of 45 us."""
+    if not (n >= 2 and start > 0 and stop > 0 and math.isfinite(start) and math.isfinite(stop)):
+        return np.geomspace(start, stop, n)
+    ls = np.log10(np.asarray(start, dtype=float))
+    le = np.log10(np.asarray(stop, dtype=float))
+    step = (le - ls) / (n - 1)
+    if step == 0:
+        return np.geomspace(start, stop, n)
+    y = _ramp(n) * step
+    y += ls
+    y[-1] = le
+    out = np.power(10.0, y)
+    out[0] = start
+    out[-1] = stop
     return out
 
 
@@ -375,7 +431,9 @@ def fit_layer_hpt(curves: Any, *, sigma: float | None = None, compliance: Any = 
         once (the run-to-run scatter then only widens the residual noise model: the
         interval of the record, not of the product).  When a curve cannot be fitted
         alone (it never yields) the curves are fitted together and a warning says
-        that the scatter is not estimated.
+        that the scatter is not estimated.  The fit of all curves together is made
+        only where it is used (that case, ``"none"``, a choice among laws): whether it
+        would converge does not decide a result made of the curves' own fits.
     resolution
         With several laws: the stress resolution of the data [Pa] (a digitised curve's
         reading, a logger's step); a law whose residuals are below it fits as well as the
@@ -411,21 +469,30 @@ def fit_layer_hpt(curves: Any, *, sigma: float | None = None, compliance: Any = 
     if not items:
         raise TorlabInputError("no HPT curve given")
     cs = [hpt_curve(c, sigma=sigma, compliance=compliance) for c in items]
-    together = _fit(cs, laws[0]) if len(laws) == 1 else select_law(cs, laws, resolution=resolution)
-    if len(cs) == 1:
-        return pool_fits([together])
-    if between == "none":
-        return together
-    chosen = LAWS.get(str(together.meta.get("law", "")), laws[0]) if len(laws) > 1 else laws[0]
+    # the fit of all curves together is made where it is used: to choose among several
+    # laws, for between="none", and where a curve cannot be fitted alone (with one law and
+    # repeats that each fit, the result is the pooled fits alone)
+    together = select_law(cs, laws, resolution=resolution) if len(laws) > 1 else None
+    chosen = LAWS.get(str(together.meta.get("law", "")), laws[0]) if together is not None \
+        else laws[0]
+    if len(cs) == 1 or between == "none":
+        res = together if together is not None else _fit(cs, chosen)
+        return pool_fits([res]) if len(cs) == 1 else res
     try:
         fits = [_fit([c], chosen) for c in cs]
     except FitError as e:
+        if together is None:
+            together = _fit(cs, chosen)
         together.warnings.append(
             f"run-to-run scatter not estimated: a curve cannot be fitted alone ({e}); the "
             "curves are fitted together, and the intervals hold the noise within the records "
             "only")
         return together
     res = pool_fits(fits)
+    if together is None:
+        if chosen is not get_law():  # as _fit writes it (the default law is not written)
+            res.meta["law"] = chosen.name
+        return res
     for k in ("law", "law_selection", "criterion"):
         if k in together.meta:
             res.meta[k] = together.meta[k]
@@ -518,8 +585,14 @@ def _fit(cs: list[HptCurve], law: LayerLaw | None = None) -> FitResult:
     where = ", ".join(str(c.meta.get("source") or "curve") for c in cs)
     scale_tau = max(float(np.max(np.abs(c.tau))) for c in cs)
 
+    # per curve, once: its displacements, their largest and the compliance at zero stress
+    fixed = {id(c): (np.asarray(c.u_raw, dtype=float), float(np.max(c.u_raw)),
+                     float(c.compliance(np.zeros(1))[0]) if c.compliance is not None else 0.0)
+             for c in cs}
+
     def model(x: np.ndarray, c: HptCurve) -> np.ndarray:
-        return tau_of_raw_displacement(c.u_raw, c.sigma, x * SCALE, c.compliance, law=law)
+        u, u_max, c0 = fixed[id(c)]
+        return _tau_raw(u, u_max, c.sigma, x * SCALE, c.compliance, c0, law)
 
     def resid(x: np.ndarray) -> np.ndarray:
         return np.concatenate([(model(x, c) - c.tau) / scale_tau for c in cs])
@@ -578,12 +651,13 @@ def _fit(cs: list[HptCurve], law: LayerLaw | None = None) -> FitResult:
              "friction_model": tau_m / c.sigma}
         data_frames.append(pd.DataFrame(d))
         rows.append(r)
-    cov = sandwich_covariance(J, blocks)
+    parts = block_meats(J, blocks)  # the noise's parts, shared by the two below
+    cov = sandwich_covariance(J, blocks, parts)
     neff = effective_points(blocks)
     n = off
     k = len(names)
     dof = max(math.floor(neff) - k, 2)
-    pdof = np.maximum(parameter_dof(J, blocks), 2.0)
+    pdof = np.maximum(parameter_dof(J, blocks, parts), 2.0)
     all_r = np.concatenate(rows)
     first = cs[0].meta
     meta: dict[str, Any] = {
