@@ -203,6 +203,23 @@ def test_repeats_are_their_own_fits_pooled_and_the_joint_fit_only_where_used():
     assert res.params == fit_layer_hpt(mixed, between="none").params
 
 
+def test_a_series_reads_each_runs_estimates_as_the_whole_fit_gives_them():
+    """run_estimates (what the temperature series reads of each run) is fit_layer_hpt's
+    estimates, standard errors, covariance and keys bit for bit, for the default law and
+    another one; lists and law choices are fit_layer_hpt itself."""
+    from torlab.fit.layer import run_estimates
+
+    r = _run(LayerParams(0.16, 0.30, 6e-6, 30e-6), 31, temperature_C=60.0)
+    for law in (None, "linear"):
+        full, light = fit_layer_hpt(r, law=law), run_estimates(r, law=law)
+        assert light.params == full.params and light.stderr == full.stderr
+        assert np.array_equal(light.covariance, full.covariance)
+        for k in ("source", "product", "temperature_C", "law"):
+            assert light.meta.get(k) == full.meta.get(k), k
+        assert light.data is None and full.data is not None
+    assert run_estimates([r], law="auto").meta["law_selection"]
+
+
 def test_without_compliance_warns_that_L_mue_includes_the_rig():
     res = fit_layer_hpt(_run(LayerParams(0.135, 0.223, 8e-6, 19e-6), 3, compliance=None))
     assert any("rig's own compliance" in w for w in res.warnings)

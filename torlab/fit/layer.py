@@ -64,7 +64,7 @@ from torlab.model.layers import LAWS, LayerLaw, LayerParams, get_law
 from torlab.threads import small_problem
 
 __all__ = ["AUTO", "LAYER_NAMES", "HptCurve", "fit_layer_hpt", "fit_layers_hpt", "hpt_curve",
-           "law_choice", "select_law", "tau_of_raw_displacement"]
+           "law_choice", "run_estimates", "select_law", "tau_of_raw_displacement"]
 
 #: the parameters of the default (Voce) law
 LAYER_NAMES = get_law().fit_names
@@ -509,6 +509,28 @@ def fit_layers_hpt(curves: Any, *, sigma: float | None = None, compliance: Any =
                           resolution=resolution) for c in items]
 
 
+@small_problem  # one BLAS thread, as fit_layer_hpt
+def run_estimates(curve: Any, *, law: Any = None) -> FitResult:
+    """One run's layer estimates and their covariance, as a series of runs (the
+    temperature coefficients, :func:`torlab.fit.temperature.fit_temperature_coefficients`)
+    reads them: :func:`fit_layer_hpt` of the one curve, with the same estimates, standard
+    errors, covariance and ``meta`` keys ``source``, ``product``, ``condition``,
+    ``temperature_C`` (and ``law``) bit for bit, without what the series does not read
+    (the data table, the per-parameter degrees of freedom, the warnings).  A list of
+    curves (repeats at one temperature) or a choice among laws is :func:`fit_layer_hpt`
+    itself.
+
+    Raises
+    ------
+    TorlabInputError, FitError
+        As :func:`fit_layer_hpt`.
+    """
+    laws = law_choice(law)
+    if isinstance(curve, (list, tuple)) or len(laws) > 1:
+        return fit_layer_hpt(curve, law=law)
+    return _fit([hpt_curve(curve)], laws[0], light=True)
+
+
 def select_law(cs: list[HptCurve], laws: Sequence[LayerLaw], *,
                resolution: float | None = None) -> FitResult:
     """Fit every law of ``laws`` to the curves and keep the one with the smallest AICc.
@@ -575,7 +597,15 @@ def select_law(cs: list[HptCurve], laws: Sequence[LayerLaw], *,
     return res
 
 
-def _fit(cs: list[HptCurve], law: LayerLaw | None = None) -> FitResult:
+def _fit(cs: list[HptCurve], law: LayerLaw | None = None, *, light: bool = False
+         ) -> FitResult:
+    """The least-squares fit of ``law`` to the curves ``cs`` together, with its covariance.
+
+    ``light``: the estimates and their covariance only, as a series of runs reads them
+    (:func:`run_estimates`): no data table, no per-parameter degrees of freedom (the
+    intervals on the common ``dof``), no warnings.  The estimates and standard errors are
+    those of the whole fit, bit for bit.
+    """
     import pandas as pd
     from scipy.optimize import least_squares
 
@@ -643,6 +673,9 @@ def _fit(cs: list[HptCurve], law: LayerLaw | None = None) -> FitResult:
         sl = slice(off, off + r.size)
         blocks.append((sl, sc, nm))
         off += r.size
+        rows.append(r)
+        if light:
+            continue
         ul = c.u_raw - (c.compliance(c.tau) - c.compliance(np.zeros(1))[0]
                         if c.compliance is not None else 0.0)
         d = {"curve": i, "displacement_raw_m": c.u_raw, "displacement_m": ul,
@@ -650,16 +683,26 @@ def _fit(cs: list[HptCurve], law: LayerLaw | None = None) -> FitResult:
              "residual_Pa": r, "friction_measured": c.tau / c.sigma,
              "friction_model": tau_m / c.sigma}
         data_frames.append(pd.DataFrame(d))
-        rows.append(r)
     parts = block_meats(J, blocks)  # the noise's parts, shared by the two below
     cov = sandwich_covariance(J, blocks, parts)
     neff = effective_points(blocks)
     n = off
     k = len(names)
     dof = max(math.floor(neff) - k, 2)
-    pdof = np.maximum(parameter_dof(J, blocks, parts), 2.0)
     all_r = np.concatenate(rows)
     first = cs[0].meta
+    if light:
+        lmeta = {k2: first.get(k2) for k2 in ("product", "condition", "temperature_C")
+                 if k2 in first}
+        lmeta["source"] = where
+        if law is not get_law():
+            lmeta["law"] = law.name
+        return FitResult.from_covariance(
+            "layer_hpt", names, p, cov, dof=dof,
+            log_scale=tuple(n_ for n_, ps in zip(names, pos, strict=True) if ps),
+            residual_norm=float(np.sqrt(np.mean(all_r**2))), n_points=n, warnings=[],
+            data=None, meta=lmeta, residual_unit="Pa", n_evaluations=int(sol.nfev))
+    pdof = np.maximum(parameter_dof(J, blocks, parts), 2.0)
     meta: dict[str, Any] = {
         "method": "least squares (trf, bounds) on tau(u_raw), layer law + rig compliance; "
                   "covariance from a residual noise model (absolute floor + relative white + AR(1), "

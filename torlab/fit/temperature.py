@@ -108,7 +108,7 @@ def fit_temperature_coefficients(fits_or_curves: Any, temperatures_K: Any = None
     import pandas as pd
 
     from torlab._stats import f_sf  # scipy.stats.f.sf, without its import
-    from torlab.fit.layer import fit_layer_hpt
+    from torlab.fit.layer import run_estimates
 
     if selection == "test":
         selection = "lr"
@@ -116,7 +116,8 @@ def fit_temperature_coefficients(fits_or_curves: Any, temperatures_K: Any = None
         raise TorlabInputError(f"selection must be 'test' (or 'lr') or 'none', not "
                                f"{selection!r}", key="selection")
     items = list(fits_or_curves)
-    fits = [it if isinstance(it, FitResult) else fit_layer_hpt(it, law=law) for it in items]
+    # of each run the estimates and standard errors (the whole fit's, without its table)
+    fits = [it if isinstance(it, FitResult) else run_estimates(it, law=law) for it in items]
     laws = {f.meta.get("law") for f in fits}
     if len(laws) > 1:
         raise TorlabInputError(f"the runs were fitted with different layer laws "
