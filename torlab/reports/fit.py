@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable, Hashable
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-__all__ = ["KIND_TITLES", "fit_figure", "result_figure"]
+__all__ = ["KIND_TITLES", "fit_figure", "redraw_result_figure", "result_figure"]
 
 #: per kind: (x column, x label, x factor, y measured, y model, y label, y factor, residual, log-log)
 _LAYOUT: dict[str, tuple[str, str, float, str, str, str, float, str, bool]] = {
@@ -67,9 +69,47 @@ def fit_figure(result: Any, title: str | None = None,
     -------
     matplotlib.figure.Figure
     """
-    from torlab.reports.plotting import colours, fit_units, legend, param_text, subplots
+    return _draw(_spec(result, title, model_curve))
 
-    fig, (ax, axr) = subplots(2, 1, sharex=True, figsize=(7.0, 5.6), height_ratios=[3, 1])
+
+@dataclass
+class _Spec:
+    """What a fit figure shows: its lines in drawing order (axes 0: data and model, 1: the
+    residuals; data, format, style, legend label), its texts and scales, and the marks
+    drawn after the lines (the film temperature scaling's error bars and note)."""
+
+    lines: list[tuple[int, Any, Any, str, dict[str, Any], str | None]] = field(
+        default_factory=list)
+    texts: tuple[str, str, str, str] = ("", "", "", "")  # y label, residual label, x label, title
+    loglog: bool = False
+    marks: Callable[[Any], None] | None = None
+
+    def add(self, axes: int, x: Any, y: Any, fmt: str, label: str | None = None,
+            **style: Any) -> None:
+        self.lines.append((axes, np.asarray(x, dtype=float), np.asarray(y, dtype=float), fmt,
+                           style, label))
+
+    def layout(self) -> Hashable | None:
+        """Everything of the figure but its numbers and texts: two figures of the same
+        layout differ only in their lines' data, their texts and their legend labels
+        (:func:`_refill`).  None for a figure with marks (never refilled)."""
+        if self.marks is not None:
+            return None
+        return (self.loglog, tuple((a, fmt, tuple(sorted(style.items())), _shown(label),
+                                    x.size == 0, y.size == 0)
+                                   for a, x, y, fmt, style, label in self.lines))
+
+
+def _shown(label: str | None) -> bool:
+    """Whether a line's label is a legend entry (matplotlib leaves out ``_``-names)."""
+    return label is not None and not label.startswith("_")
+
+
+def _spec(result: Any, title: str | None, model_curve: tuple[Any, Any] | None) -> _Spec:
+    """What :func:`fit_figure` draws for ``result``, as data (:class:`_Spec`)."""
+    from torlab.reports.plotting import colours, fit_units, param_text
+
+    s = _Spec()
     d = result.data
     xc, xl, xf, ym, ymod, yl, yf, rc, loglog = _layout(result)
     groups = [(None, d)] if "curve" not in d or d["curve"].nunique() == 1 else list(d.groupby("curve"))
@@ -86,56 +126,142 @@ def fit_figure(result: Any, title: str | None = None,
         c = col[g]
         dense = len(x) > 200
         ms, alpha = (2.0, 0.55) if dense else (4.5, 1.0)
-        ax.plot(x, sub[ym].to_numpy() * yf, "o", ms=ms, mew=0, alpha=alpha, color=c,
-                label=data_name if g is None else names[g])
+        s.add(0, x, sub[ym].to_numpy() * yf, "o", ms=ms, mew=0, alpha=alpha, color=c,
+              label=data_name if g is None else names[g])
         if result.kind == "film_temperature":
             pass  # the fitted exponential on a dense grid (_film_temperature_marks)
         elif model_curve is None or g is not None:
             # several curves of one fit: each curve's model in its colour, one legend entry
-            ax.plot(x[order], sub[ymod].to_numpy()[order] * yf, "-", lw=1.3,
-                    color="0.1" if not many else c, label=None if many else model_name)
+            s.add(0, x[order], sub[ymod].to_numpy()[order] * yf, "-", lw=1.3,
+                  color="0.1" if not many else c, label=None if many else model_name)
         else:
-            ax.plot(np.asarray(model_curve[0]) * xf, np.asarray(model_curve[1]) * yf, "-", lw=1.3,
-                    color="0.1", label="model")
-        axr.plot(x, sub[rc].to_numpy() * _res_label(result)[1], "o", ms=ms, mew=0, alpha=alpha,
-                 color=c)
+            s.add(0, np.asarray(model_curve[0]) * xf, np.asarray(model_curve[1]) * yf, "-",
+                  lw=1.3, color="0.1", label="model")
+        s.add(1, x, sub[rc].to_numpy() * _res_label(result)[1], "o", ms=ms, mew=0, alpha=alpha,
+              color=c)
     if many and result.kind != "film_temperature":
-        ax.plot([], [], "-", lw=1.3, color="0.1",
-                label=f"{model_name} (each curve's line in its colour)")
+        s.add(0, [], [], "-", lw=1.3, color="0.1",
+              label=f"{model_name} (each curve's line in its colour)")
     if result.kind == "temperature":
         x = d[xc].to_numpy()
         order = np.argsort(x)
         for key in _temperature_keys(result)[:-1]:
             sym = _symbol(key)
-            ax.plot(x, d[f"{key}_measured"], "s", ms=5, color=col[groups[0][0]], mfc="white",
-                    label=f"{sym} measured")
-            ax.plot(x[order], d[f"{key}_model"].to_numpy()[order], "--", color="0.1",
-                    label=f"{sym} model")
-            axr.plot(x, d[f"residual_{key}"], "s", ms=4.5, mfc="white", color=col[groups[0][0]])
+            s.add(0, x, d[f"{key}_measured"], "s", ms=5, color=col[groups[0][0]], mfc="white",
+                  label=f"{sym} measured")
+            s.add(0, x[order], d[f"{key}_model"].to_numpy()[order], "--", color="0.1",
+                  label=f"{sym} model")
+            s.add(1, x, d[f"residual_{key}"], "s", ms=4.5, mfc="white", color=col[groups[0][0]])
     if result.kind == "film" and "film_thickness_hamrock_dowson_m" in d:
         x = d[xc].to_numpy()
         order = np.argsort(x)
-        ax.plot(x[order], d["film_thickness_hamrock_dowson_m"].to_numpy()[order] * yf, ":",
-                color="0.3",
-                label=f"Hamrock–Dowson, α = {result.params['alpha'] * 1e9:.3g} 1/GPa")
+        s.add(0, x[order], d["film_thickness_hamrock_dowson_m"].to_numpy()[order] * yf, ":",
+              color="0.3",
+              label=f"Hamrock–Dowson, α = {result.params['alpha'] * 1e9:.3g} 1/GPa")
     if result.kind == "film_temperature":
-        _film_temperature_marks(ax, result, yf, col[groups[0][0]])
-    if loglog:
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        axr.set_xscale("log")
-    axr.axhline(0.0, color="k", lw=0.6)
-    ax.set_ylabel(yl)
-    axr.set_ylabel(_res_label(result)[0])
-    axr.set_xlabel(xl)
-    legend(ax)
+        colour = col[groups[0][0]]
+        s.marks = lambda ax: _film_temperature_marks(ax, result, yf, colour)
+    s.loglog = loglog
     units = fit_units(result)
     txt = ", ".join(param_text(n, result.params[n], si=units.get(n)) for n in result.names[:4])
     src = _short_source(result.meta.get("source", ""))
     head = title or (KIND_TITLES.get(result.kind, f"{result.kind.replace('_', ' ')} fit")
                      + (f": {src}" if src else ""))
-    ax.set_title(f"{head}\n{txt}" if txt and not title else head, fontsize=9)
+    s.texts = (yl, _res_label(result)[0], xl, f"{head}\n{txt}" if txt and not title else head)
+    return s
+
+
+def _draw(s: _Spec) -> Any:
+    """A new figure of ``s``; its lines, in the order of ``s.lines``, are kept on it for
+    :func:`_refill`."""
+    from torlab.reports.plotting import legend, subplots
+
+    fig, (ax, axr) = subplots(2, 1, sharex=True, figsize=(7.0, 5.6), height_ratios=[3, 1])
+    fig._torlab_lines = [(ax, axr)[a].plot(x, y, fmt, label=label, **style)[0]
+                         for a, x, y, fmt, style, label in s.lines]
+    if s.marks is not None:
+        s.marks(ax)
+    if s.loglog:
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        axr.set_xscale("log")
+    axr.axhline(0.0, color="k", lw=0.6)
+    # the residuals' range always holds the zero line (matplotlib widens it for the line
+    # only when zero is outside the range the residuals alone give): the same range as the
+    # line's data limits give when a kept figure is refilled
+    axr.autoscale(axis="y")
+    yl, rl, xl, title = s.texts
+    ax.set_ylabel(yl)
+    axr.set_ylabel(rl)
+    axr.set_xlabel(xl)
+    legend(ax)
+    ax.set_title(title, fontsize=9)
     return fig
+
+
+def _refill(fig: Any, s: _Spec) -> None:
+    """Make a figure drawn by :func:`_draw` from a spec of the same layout
+    (:meth:`_Spec.layout`) show ``s``: the lines' data and labels, the legend's labels and
+    the texts; the data limits recomputed and autoscaled as a new figure's are; the layout
+    (:func:`torlab.reports.plotting.finish`) done again from the figure's first size."""
+    from torlab.reports.plotting import pretty
+
+    ax, axr = fig.axes[:2]
+    shown = []
+    for line, (_, x, y, _, _, label) in zip(fig._torlab_lines, s.lines, strict=True):
+        line.set_data(x, y)
+        if label is not None:  # (an unlabelled line keeps the name matplotlib gave it)
+            line.set_label(label)
+        if _shown(label):
+            shown.append(label)
+    lg = ax.get_legend()
+    for text, label in zip(lg.get_texts() if lg is not None else [], shown, strict=True):
+        text.set_text(pretty(label))
+    for a in (ax, axr):
+        a.relim()
+        a.autoscale()
+    yl, rl, xl, title = s.texts
+    ax.set_ylabel(yl)
+    axr.set_ylabel(rl)
+    axr.set_xlabel(xl)
+    ax.set_title(title, fontsize=9)
+    fig._torlab_finished = False
+
+
+def redraw_result_figure(take: Callable[[Hashable], Any], result: Any,
+                         title: str | None = None,
+                         model_curve: tuple[Any, Any] | None = None) -> tuple[Any, Hashable | None]:
+    """:func:`result_figure` drawn into a figure kept from an earlier one where there is one
+    of its layout (:func:`torlab.reports.render.draw_task`): the same pixels as a new
+    figure, at less of matplotlib's work (its tick objects are made once, the text layout
+    of unchanged labels is reused).
+
+    Parameters
+    ----------
+    take
+        ``take(layout)``: the figure of that layout kept from before (drawn by this
+        function and rendered since), or None.
+    result, title, model_curve
+        As for :func:`result_figure`.
+
+    Returns
+    -------
+    (figure, layout)
+        The kept figure refilled (:func:`_refill`) when there is one of this figure's layout
+        (:meth:`_Spec.layout`: the kind of each line, its style and legend entry, the
+        scales), else a new one; the layout, or None for a figure that is never refilled
+        (a removal fit's, the film temperature scaling's).  The figure is not finished
+        (:func:`torlab.reports.plotting.finish`).
+    """
+    if result.kind == "removal":
+        return result_figure(result, title=title), None
+    s = _spec(result, title, model_curve)
+    layout = s.layout()
+    kept = take(layout) if layout is not None else None
+    if kept is not None:
+        _refill(kept, s)
+        return kept, layout
+    return _draw(s), layout
 
 
 def _curve_names(result: Any, groups: list[Any], data_name: str) -> dict[Any, str]:
@@ -197,6 +323,10 @@ def result_figure(result: Any, title: str | None = None,
 
         return removal_figure(result, title=title)
     return fit_figure(result, title=title, model_curve=model_curve)
+
+
+#: how :func:`torlab.reports.render.draw_task` draws it into a kept figure
+result_figure.redraw = redraw_result_figure  # type: ignore[attr-defined]
 
 
 def _layout(result: Any) -> tuple[str, str, float, str, str, str, float, str, bool]:

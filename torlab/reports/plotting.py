@@ -269,7 +269,9 @@ def finish(fig: Any) -> Any:
     """Final layout: margins for multi-line labels and titles, room for outside legends.
 
     An outside legend's width is measured with the Agg renderer's font metrics
-    (no drawing) and the figure is widened by it.  Returns ``fig``.
+    (no drawing) and the figure is widened by it.  A figure finished again (its texts
+    changed: :func:`torlab.reports.fit.redraw_result_figure`) is laid out anew from the
+    size it had when it was first finished.  Returns ``fig``.
     """
     for ax in fig.axes:
         if ax.get_title():
@@ -279,6 +281,11 @@ def finish(fig: Any) -> Any:
     if fig.get_layout_engine() is not None:  # a grid of facets (:func:`facets`) lays itself out
         fig._torlab_finished = True  # type: ignore[attr-defined]
         return fig
+    base = getattr(fig, "_torlab_size", None)
+    if base is None:
+        fig._torlab_size = tuple(fig.get_size_inches())  # type: ignore[attr-defined]
+    else:  # finished again (a kept figure refilled): laid out from the size it was made with
+        fig.set_size_inches(*base)
     need = 0.0
     outside = [ax.get_legend() for ax in fig.axes
                 if ax.get_legend() is not None and getattr(ax.get_legend(), "_torlab_outside",
