@@ -111,6 +111,30 @@ def test_json_tree_outside_an_entry_is_unchanged():
     assert "b64" in tree["v"][0][1] and "ref" not in json.dumps(tree)
 
 
+def test_plain_leaves_encode_as_the_generic_path_does(tmp_path, monkeypatch):
+    """Plain leaves (None, bool, int, float, str) skip the search for shared objects; the
+    entry is byte for byte the one the generic path writes, subclasses (numpy scalars, an
+    IntEnum) included, and non-finite and big numbers keep their nodes."""
+    import enum
+
+    from torlab import codec
+
+    class Level(enum.IntEnum):
+        LOW = 1
+
+    c = _cache(tmp_path)
+    v = {"x": [None, True, False, 0, -7, 2 ** 60, 1.5, -0.0, math.nan, math.inf, "s", ""],
+         "np": (np.float64(2.5), np.int64(3), np.bool_(True)), "table": _mixed_table(),
+         "again": [1.0, 1.0], "lvl": 7}
+    fast = c.dumps("k-1.tlc", "k", v)
+    monkeypatch.setattr(codec, "_PLAIN", frozenset())
+    assert c.dumps("k-1.tlc", "k", v) == fast
+    assert codec.encode_value(Level.LOW) == 1  # an int subclass: the generic path
+    monkeypatch.undo()
+    assert codec.encode_value([2 ** 60, math.nan]) == [{"__t": "bigint", "v": str(2 ** 60)},
+                                                       {"__t": "float", "v": "nan"}]
+
+
 @pytest.mark.parametrize("breakage", ["offset past the end", "negative offset", "shape too big",
                                       "offset not a number", "no binary part",
                                       "block misses a column", "column twice",

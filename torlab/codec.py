@@ -87,6 +87,10 @@ _SINK: contextvars.ContextVar[_Sink | None] = contextvars.ContextVar("torlab_cod
                                                                     default=None)
 
 
+#: the exact types :func:`_encode` writes as themselves or as one small node (never shared)
+_PLAIN = frozenset({type(None), bool, int, float, str})
+
+
 def _shareable(v: Any) -> bool:
     """Objects stored once however often a value holds them (arrays, tables, result classes)."""
     mod = type(v).__module__
@@ -97,6 +101,8 @@ def _shareable(v: Any) -> bool:
 
 def encode_value(v: Any) -> Any:
     """A JSON-ready tree for ``v`` (see the module docstring); raises :class:`NotCacheable`."""
+    if type(v) in _PLAIN:  # most of a value's leaves: no sharing to look for
+        return _encode(v)
     sink = _SINK.get()
     if sink is not None and _shareable(v):
         seen = sink.seen.get(id(v))
