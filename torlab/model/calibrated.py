@@ -20,8 +20,14 @@ them):
   traction is multiplied by the ratio ``R(a/b, lambda, x)`` at its own ``lambda`` and
   ``x`` with ``mu`` the layer's onset coefficient ``mu_c1``: where the stick zone ends.
   For a Coulomb contact and for an elastic-perfectly plastic layer this is the exact
-  theory (to the table's accuracy); for a hardening or softening layer the ratio of the
-  layer's onset is applied (the measured error is in ``docs/model/boundary.md``).
+  theory (to the table's accuracy).
+* **A hardening or softening Voce layer** (``hardening.csv``): the factor
+  ``Q = exact/(FASTSIM R)`` left on Voce layers, over ``a/b``, ``lambda``, the hardening
+  ``mu_c2/mu_c1``, the Voce ratio ``L_mup/(mu_c1 (L1 p0 + L_mue))`` (the Voce length over
+  the elastic displacement at the onset at the centre) and ``x``; the traction is
+  ``mu R Q``.  ``Q = 1`` exactly at ``mu_c2 = mu_c1`` and for the other laws, so that a
+  Coulomb contact and an elastic-perfectly plastic layer keep ``R`` alone.  Its measured
+  error on an independent validation set is in ``docs/model/boundary.md``.
 * **Lateral creepage and spin** (``spin.csv``): the exact forces and FASTSIM's on a
   Coulomb contact over ``a/b`` and the normalised creepage vector
   ``v* = (xi*, eta*, phi*)``: its length ``rho``, the direction ``alpha`` of its
@@ -38,7 +44,8 @@ them):
   slip in the rigid-slip direction; with a layer the correction fades as the layer's
   own (local, FASTSIM-like) compliance takes over.
 
-Interpolation is multilinear on the tables' grids (``log a/b``; the compactified
+Interpolation is multilinear on the tables' grids (``log a/b``; ``log lambda``, ``log``
+of the Voce ratio and ``mu_c2/mu_c1`` for the hardening table; the compactified
 creepage ``x/(1 + x)``, ``rho/(1 + rho)``, so that full slip is the grid's end), written
 here with numpy rather than :mod:`scipy.interpolate`, whose import alone costs more
 than a traction curve.  Outside ``0.2 <= a/b <= 5`` and ``lambda <= 5`` the table's edge
@@ -264,6 +271,87 @@ def longitudinal_ratio(a_over_b: Any, lam: Any, x: Any, *, error: bool = True
     return ratio(la, lam, cx)[..., 0], (err(la, lam, cx)[..., 0] if error else None)
 
 
+@cache
+def _hardening_table() -> tuple[_Grid, _Grid]:
+    """The hardening factor ``Q = exact/(FASTSIM R)`` of Voce layers and its error
+    (relative: the difference of the Voce and the perfectly plastic layer's relative
+    extrapolation errors, whose common part cancels in the ratio) on (log a/b, log lambda,
+    mu_c2/mu_c1, log Voce ratio, x/(1+x)); ``Q = 1`` at ``mu_c2 = mu_c1`` (the
+    longitudinal table's own layer) and at full slip (both are ``mu_c2 N``).  A node the
+    exact solver did not converge on takes the next longer Voce length's value (or, failed
+    at every length, 1 with the error measured for the onset's correction alone)."""
+    t = _read_csv(DATA / "hardening.csv")
+    axes_v = [np.unique(t[k]) for k in ("a_over_b", "layer_ratio", "hardening", "voce_ratio",
+                                        "x")]
+    shape = tuple(a.size for a in axes_v)
+    order = np.lexsort(tuple(t[k] for k in ("x", "voce_ratio", "hardening", "layer_ratio",
+                                            "a_over_b")))
+
+    def col(name: str) -> np.ndarray:
+        return t[name][order].reshape(shape)
+
+    # exact/(FASTSIM R) with R = exact/FASTSIM of the elastic-perfectly plastic layer: the
+    # ratio of the exact values on the same grids, whose discretisation errors cancel
+    # largely, over FASTSIM's
+    ex, exp_ = col("exact_Fx"), col("exact_epp_Fx")
+    q = (ex / exp_) * (col("fastsim_epp_Fx") / col("fastsim_Fx"))
+    qerr = np.abs(col("exact_Fx_error") / ex - col("exact_epp_Fx_error") / exp_)
+    # a node the solver failed on: the next longer Voce length's value, its error the
+    # whole factor's departure from 1
+    for k in [*range(shape[3] - 2, -1, -1), shape[3] - 1]:
+        bad = np.isnan(q[:, :, :, k])
+        if bad.any() and shape[3] > 1:
+            near = q[:, :, :, k + 1 if k + 1 < shape[3] else k - 1]
+            q[:, :, :, k] = np.where(bad, near, q[:, :, :, k])
+            qerr[:, :, :, k] = np.where(bad, np.abs(near - 1.0), qerr[:, :, :, k])
+    # failed at every Voce length: the onset's correction alone, with the error measured
+    # for it before this table (15 % per unit of |mu_c2 - mu_c1|/max(mu_c1, mu_c2))
+    hv = axes_v[2]
+    none = np.isnan(q)
+    fallback = 0.15 * np.abs(hv - 1.0) / np.maximum(hv, 1.0)
+    qerr = np.where(none, fallback[None, None, :, None, None], qerr)
+    q = np.where(none, 1.0, q)
+    at = int(np.searchsorted(hv, 1.0))
+    q = np.insert(q, at, 1.0, axis=2)
+    qerr = np.insert(qerr, at, 0.0, axis=2)
+    q = np.concatenate([q, np.ones((*q.shape[:4], 1))], axis=4)
+    qerr = np.concatenate([qerr, np.zeros((*qerr.shape[:4], 1))], axis=4)
+    axes = (np.log(axes_v[0]), np.log(axes_v[1]), np.insert(hv, at, 1.0), np.log(axes_v[3]),
+            np.append(_compact(axes_v[4]), 1.0))
+    return _Grid(axes, q[..., None]), _Grid(axes, qerr[..., None])
+
+
+def _hardening_of(prob: Any, layer: Any = None) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(mu_c2/mu_c1, Voce ratio)`` of a Voce layer that hardens or softens (arrays per
+    draw with ``layer``); None for another law.  The Voce ratio is ``L_mup`` over the
+    elastic displacement at the onset at the centre, ``mu_c1 (L1 p0 + L_mue)``."""
+    lay = prob.layer if layer is None else layer
+    if getattr(lay.law, "name", None) != "voce":
+        return None
+    mu1 = np.asarray(lay.mu_c1, dtype=float)
+    pos = mu1 > 0
+    safe = np.where(pos, mu1, 1.0)
+    h = np.where(pos, np.asarray(lay.mu_c2, dtype=float) / safe, 1.0)
+    onset = safe * (prob.L1 * prob.p0 + np.asarray(lay.L_mue, dtype=float))
+    v = np.asarray(lay.L_mup, dtype=float) / onset
+    return h, v
+
+
+def hardening_factor(a_over_b: Any, lam: Any, h: Any, voce: Any, x: Any, *,
+                     error: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+    """The hardening table's factor ``Q`` (exact over the longitudinal table's corrected
+    FASTSIM of a Voce layer) and (with ``error``) its own relative error, at
+    ``(a/b, lambda, mu_c2/mu_c1, Voce ratio, x)``; exactly 1 where ``mu_c2 = mu_c1``."""
+    q, qe = _hardening_table()
+    h = np.asarray(h, dtype=float)
+    c = (np.log(np.maximum(np.asarray(a_over_b, dtype=float), 1e-9)),
+         np.log(np.maximum(np.asarray(lam, dtype=float), 1e-9)), h,
+         np.log(np.maximum(np.asarray(voce, dtype=float), 1e-12)), _compact(x))
+    flat = h == 1.0
+    out = np.where(flat, 1.0, q(*c)[..., 0])
+    return out, (np.where(flat, 0.0, qe(*c)[..., 0]) if error else None)
+
+
 def _layer_of(prob: Any, layer: Any = None) -> tuple[np.ndarray, np.ndarray]:
     """``(lambda, mu_c1)`` of a problem's layer (or of ``layer``: arrays per draw)."""
     lay = prob.layer if layer is None else layer
@@ -294,8 +382,12 @@ def correct_longitudinal(prob: Any, xi: Any, mu: Any, layer: Any = None) -> np.n
     mu = np.asarray(mu, dtype=float)
     lam, mu1 = _layer_of(prob, layer)
     x = normalised_longitudinal(prob.a, prob.L1, prob.p0, mu1, xi) / (1.0 + lam)
-    R, _ = longitudinal_ratio(prob.a / prob.b, np.broadcast_to(lam, np.broadcast(x, mu).shape),
-                              x, error=False)
+    shape = np.broadcast(x, mu).shape
+    R, _ = longitudinal_ratio(prob.a / prob.b, np.broadcast_to(lam, shape), x, error=False)
+    hv = _hardening_of(prob, layer)
+    if hv is not None:
+        Q, _ = hardening_factor(prob.a / prob.b, lam, hv[0], hv[1], x, error=False)
+        R = R * np.broadcast_to(Q, shape)
     return mu * R
 
 
@@ -378,6 +470,12 @@ def correct_creep(prob: Any, xi: Any, eta: Any, phi: Any, Fx: Any, Fy: Any, Mz: 
                   k * c * math.pi * a * math.sqrt(a / b) / (4 * L3) * phi], axis=-1)
     rho = np.linalg.norm(v, axis=-1)
     R, _ = longitudinal_ratio(a / b, lam, rho / (1.0 + lam), error=False)
+    hv = _hardening_of(prob)
+    if hv is not None:
+        # the hardening table holds in pure longitudinal creepage (as boundary_traction's
+        # correction); with lateral creepage or spin the onset's ratio is carried over
+        Q = hardening_factor(a / b, lam, hv[0], hv[1], rho / (1.0 + lam), error=False)[0]
+        R = np.where((eta == 0) & (phi == 0), R * Q, R)
     R0, _ = longitudinal_ratio(a / b, 0.0, rho, error=False)
     d, fsc, _ = spin_correction(a / b, v, _flex_coefficients(prob))
     # the scene's force level against the Coulomb contact's at the same normalised
@@ -427,10 +525,14 @@ def method_note(method: str) -> str:
 #: against the corrected FASTSIM of Coulomb and elastic-layer contacts
 #: (``tests/test_calibrated.py``, ``docs/model/boundary.md``)
 INTERPOLATION_ERROR = 0.004
-#: a hardening or softening layer: the correction is the onset's (an elastic-perfectly
-#: plastic layer at ``mu_c1``); the error left near the knee of the curve, relative, per
-#: unit of ``|mu_c2 - mu_c1| / max(mu_c1, mu_c2)`` (95 % of the validation set's points)
-HARDENING_ERROR = 0.15
+#: a hardening or softening Voce layer in pure longitudinal creepage, corrected by the
+#: hardening table: the error left between its nodes, relative, per unit of
+#: ``|mu_c2 - mu_c1| / max(mu_c1, mu_c2)``, where the contact slips (with the tables' own
+#: errors it covers 95 % of the validation set's points, ``docs/model/boundary.md``)
+HARDENING_ERROR = 0.04
+#: ... and where the onset's correction is carried over (with lateral creepage or spin;
+#: another law): the error measured for that at the knee of the curve, as above
+CARRIED_HARDENING_ERROR = 0.15
 #: the slip share (1 - adhesion fraction) from which the hardening error applies in full
 HARDENING_ONSET = 0.2
 #: the spin table's interpolation error (of mu N, or mu N c for the moment; 95 %)
@@ -467,16 +569,19 @@ def _plastic_share(adhesion: Any) -> Any:
 
 
 def longitudinal_error(prob: Any, xi: Any, mu: Any, *, calibrated: bool,
-                       adhesion: Any = None) -> np.ndarray:
+                       adhesion: Any = None, carried: Any = False) -> np.ndarray:
     """The theory error (95 %, absolute in ``mu``) of a FASTSIM traction coefficient
     ``mu`` at creepages ``xi``: of the corrected one (``calibrated``, the ``fastsim``
     method) or of Kalker's FASTSIM (``fastsim-kalker``).
 
     * ``fastsim``: the table's own error (the exact values' extrapolation), its
       interpolation error (:data:`INTERPOLATION_ERROR`), for a hardening or softening
-      layer the error of carrying the onset's correction over
+      Voce layer the hardening table's own error and its error between the nodes
       (:data:`HARDENING_ERROR`, where the contact slips: ``adhesion``, FASTSIM's
-      adhesion fraction, below ``1 -`` :data:`HARDENING_ONSET`; everywhere without it),
+      adhesion fraction, below ``1 -`` :data:`HARDENING_ONSET`; everywhere without it;
+      where ``carried``, the points with lateral creepage or spin, the onset's ratio
+      alone and :data:`CARRIED_HARDENING_ERROR`, which also applies beyond the hardening
+      table's ``mu_c2/mu_c1``, Voce ratio or ``lambda``, where its edge's factor is used),
       and outside the tables half the correction (:data:`OUTSIDE_ERROR`), added in
       quadrature.
     * ``fastsim-kalker``: the correction it leaves out, ``|mu R - mu|``, with the
@@ -487,12 +592,29 @@ def longitudinal_error(prob: Any, xi: Any, mu: Any, *, calibrated: bool,
     lam, mu1 = _layer_of(prob)
     x = normalised_longitudinal(prob.a, prob.L1, prob.p0, mu1, xi) / (1.0 + lam)
     R, Rerr = longitudinal_ratio(prob.a / prob.b, np.broadcast_to(lam, np.shape(x)), x)
+    Qerr = 0.0
+    carried = np.asarray(carried, dtype=bool)
+    hv = _hardening_of(prob)
+    if hv is not None:
+        Q, Qerr = hardening_factor(prob.a / prob.b, lam, hv[0], hv[1], x)
+        R = np.where(carried, R, R * Q)
+        Qerr = np.where(carried, 0.0, Qerr)
+        # beyond the hardening table's hardening, Voce ratio or lambda its edge's factor is
+        # used: the error stated is that of carrying a correction over
+        axes = _hardening_table()[0].axes
+        h_ax, log_v = axes[2], axes[3]
+        outside = ((hv[0] < h_ax[0]) | (hv[0] > h_ax[-1]) | (hv[1] < math.exp(log_v[0]))
+                   | (hv[1] > math.exp(log_v[-1])) | (lam > math.exp(axes[1][-1])))
+        carried = carried | outside
+    else:
+        carried = np.ones((), dtype=bool)
     R = np.broadcast_to(R, mu.shape)
     mu_cal = mu if calibrated else mu * R
     mu_plain = mu / R if calibrated else mu
     corr = np.abs(mu_cal - mu_plain)
-    rel = np.sqrt((Rerr / R) ** 2 + INTERPOLATION_ERROR**2
-                  + (HARDENING_ERROR * _hardening(lay) * _plastic_share(adhesion)) ** 2)
+    per_unit = np.where(carried, CARRIED_HARDENING_ERROR, HARDENING_ERROR)
+    rel = np.sqrt((Rerr / R) ** 2 + INTERPOLATION_ERROR**2 + Qerr**2
+                  + (per_unit * _hardening(lay) * _plastic_share(adhesion)) ** 2)
     e_cal = np.sqrt((np.abs(mu_cal) * rel) ** 2
                     + (OUTSIDE_ERROR * corr * _outside(prob.a / prob.b, lam)) ** 2)
     return e_cal if calibrated else np.hypot(corr, e_cal)
@@ -523,10 +645,10 @@ def creep_error(prob: Any, xi: Any, eta: Any, phi: Any, Fx: Any, Fy: Any, Mz: An
     scale = float(mu1) * prob.load * np.array([1.0, 1.0, c])
     mag = np.hypot(cal[..., 0], cal[..., 1])[..., None] * np.array([1.0, 1.0, c])
     # the longitudinal part's relative error, on the force's magnitude
-    e_long = longitudinal_error(prob, np.sqrt(xi**2 + eta**2), np.hypot(cal[..., 0], cal[..., 1]),
-                                calibrated=True, adhesion=adhesion) / np.maximum(
-                                    np.hypot(cal[..., 0], cal[..., 1]), 1e-300)
     spin_part = (eta != 0) | (phi != 0)
+    e_long = longitudinal_error(prob, np.sqrt(xi**2 + eta**2), np.hypot(cal[..., 0], cal[..., 1]),
+                                calibrated=True, adhesion=adhesion, carried=spin_part
+                                ) / np.maximum(np.hypot(cal[..., 0], cal[..., 1]), 1e-300)
     e = np.sqrt((mag * e_long[..., None]) ** 2
                 + (SPIN_INTERPOLATION_ERROR * scale * spin_part[..., None]) ** 2
                 + (LAYER_SPIN_ERROR * corr * (float(lam) > 0) * spin_part[..., None]) ** 2

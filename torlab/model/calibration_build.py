@@ -1,12 +1,13 @@
 """Regenerate the calibration tables of torlab's default boundary method.
 
 The default boundary method (:mod:`torlab.model.calibrated`) is FASTSIM corrected by
-Kalker's exact theory.  The correction is read from two tables, which this module
+Kalker's exact theory.  The correction is read from three tables, which this module
 computes with the exact solver (:mod:`torlab.model.exact`) and FASTSIM
 (:mod:`torlab.model.fastsim`, :mod:`torlab.model.creep`) on the same contacts::
 
-    python -m torlab.model.calibration_build            # both tables (hours of CPU)
+    python -m torlab.model.calibration_build            # every table (hours of CPU)
     python -m torlab.model.calibration_build --only longitudinal --jobs 2
+    python -m torlab.model.calibration_build --only hardening   # Voce layers (25 min)
     python -m torlab.model.calibration_build --fastsim-only   # FASTSIM columns only
     python -m torlab.model.calibration_build --only spin --a-over-b 2.6 4.1   # these rows
 
@@ -18,6 +19,15 @@ computes with the exact solver (:mod:`torlab.model.exact`) and FASTSIM
   dividing by ``1 + lambda`` puts the onset of full slip near the same ``x`` whatever
   the layer).  Columns: the exact force ``Fx/(mu N)`` with its discretisation error,
   FASTSIM's, and FASTSIM's adhesion fraction.
+* ``hardening.csv``: Voce layers that harden or soften (no Coulomb bound) in pure
+  longitudinal creepage, over ``a/b``, ``lambda``, the hardening ``mu_c2/mu_c1`` and the
+  Voce ratio ``L_mup/(mu_c1 (L1 p0 + L_mue))`` (:func:`voce_layer`), at the creepages
+  ``x`` (``xi*`` at ``mu_c1``).  Columns: the exact ``Fx/(mu_c1 N)`` with its error (three
+  grids), FASTSIM's and its adhesion fraction, and the same three of the elastic-perfectly
+  plastic layer at the onset on the same contact (``epp``): the default method's factor
+  is the exact ratio Voce/EPP over FASTSIM's, whose discretisation errors largely
+  cancel.  ``a/b`` and ``lambda`` are coarse (three and five nodes): the factor left
+  after the longitudinal table's ratio varies slowly in them.
 * ``spin.csv``: a Coulomb contact (no layer) in longitudinal creepage, lateral creepage
   and spin, over ``a/b`` and the normalised creepage vector
   ``v* = (xi*, eta*, phi*)`` (``phi* = G (ab)^(3/2) C23 phi/(3 mu N)``): its length
@@ -58,14 +68,17 @@ import math
 import sys
 import time
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
 
-__all__ = ["ALPHA_DEG", "A_OVER_B", "A_OVER_B_SPIN", "GRIDS", "GRIDS_LONGITUDINAL", "LAMBDA", "NU", "RHO", "SIGMA",
-           "X_NODES",
-           "exact_longitudinal", "exact_spin", "fastsim_longitudinal", "fastsim_spin",
-           "full_slip", "longitudinal_rows", "main", "spin_rows", "twin"]
+__all__ = ["ALPHA_DEG", "A_OVER_B", "A_OVER_B_SPIN", "GRIDS", "GRIDS_LONGITUDINAL",
+           "HARD_A_OVER_B", "HARD_LAMBDA", "HARD_RATIO", "HARD_VOCE", "HARD_X", "LAMBDA", "NU",
+           "RHO", "SIGMA", "X_NODES",
+           "epp_reference", "exact_layer_mu", "exact_longitudinal", "exact_spin", "fastsim_longitudinal",
+           "fastsim_spin", "full_slip", "hardening_rows", "longitudinal_rows", "main",
+           "spin_rows", "twin", "voce_layer"]
 
 #: Poisson's ratio of the tables
 NU = 0.28
@@ -375,6 +388,111 @@ def spin_rows(a_over_b: Any = A_OVER_B_SPIN, rho: Any = RHO, alpha_deg: Any = AL
     return pd.DataFrame(rows)
 
 
+#: the hardening table's nodes (``hardening.csv``): aspect ratios, the layer's compliance
+#: ratio ``lambda``, the hardening ``mu_c2/mu_c1`` (1 is the longitudinal table's own
+#: elastic-perfectly plastic layer, not computed), the Voce length over the elastic
+#: displacement at the onset (:func:`voce_ratio`) and the creepages ``x``; coarse in
+#: ``a/b`` and ``lambda``, where the ratio to the longitudinal table's correction varies
+#: slowly (``docs/model/boundary.md``)
+HARD_A_OVER_B = (0.2, 0.5, 1.4)
+HARD_LAMBDA = (0.02, 0.1, 0.3, 1.0, 3.0)
+HARD_RATIO = (0.6, 0.8, 1.25, 1.7)
+HARD_VOCE = (0.1, 0.3, 1.0, 3.0)
+HARD_X = (0.02, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.75, 0.9, 1.1, 1.4, 2.0, 3.0)
+#: the smallest Voce length the exact solver splits the layer's slip with, in units of
+#: ``|mu_c2 - mu_c1| L_mue`` (its plastic branch must be less steep than the elastic one)
+VOCE_FLOOR = 1.5
+
+
+def voce_layer(t: dict[str, Any], mu_c1: float, mu_c2: float, voce: float) -> Any:
+    """A Voce layer on the contact ``t`` (:func:`twin`): its elastic length ``t["L_mue"]``,
+    and ``L_mup = voce mu_c1 (L1 p0 + L_mue)`` (the elastic displacement at the onset at the
+    centre), at least :data:`VOCE_FLOOR` ``|mu_c2 - mu_c1| L_mue``."""
+    from torlab.model.layers import LayerParams
+
+    onset = mu_c1 * (t["L1"] * t["p0"] + t["L_mue"])
+    lp = max(voce * onset, VOCE_FLOOR * abs(mu_c2 - mu_c1) * t["L_mue"])
+    return LayerParams(mu_c1, mu_c2, t["L_mue"], lp)
+
+
+def exact_layer_mu(t: dict[str, Any], lay: Any, xi: Any, grids: tuple[int, ...] = GRIDS
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """The exact solver's traction coefficient ``Fx/N`` of the contact ``t`` with the layer
+    ``lay`` (no Coulomb bound) at creepages ``xi``, extrapolated from ``grids``, and its
+    error; NaN where the solver does not converge (the caller says so)."""
+    from torlab.errors import ConvergenceError
+    from torlab.model.exact import ExactContact, ExactGrid, exact_creep_forces
+    from torlab.model.exact.scene import scene_layer
+
+    con = ExactContact(a=t["a"], b=t["b"], load=t["load"], G=t["G"], nu=t["nu"],
+                       mu=math.inf, layer=scene_layer(SimpleNamespace(layer=lay)))
+    xi = np.asarray(xi, dtype=float)
+    try:
+        vals = np.array([exact_creep_forces(con, xi, 0.0, 0.0, ExactGrid(n=n, coarse=0)).mu_x
+                         for n in grids])
+    except ConvergenceError:
+        vals = np.full((len(grids), xi.size), np.nan)
+    return _extrapolate(vals, grids)
+
+
+def epp_reference(t: dict[str, Any], xi: Any, exact: bool = True,
+                  grids: tuple[int, ...] = GRIDS) -> tuple[np.ndarray, ...]:
+    """The hardening table's reference on the contact ``t``: the elastic-perfectly plastic
+    layer at the onset (a Voce layer with ``mu_c2 = mu_c1``), exact ``Fx/(mu N)`` and its
+    error on the same ``grids`` as the Voce layers (their discretisation errors largely
+    cancel in the ratio), and FASTSIM's."""
+    from torlab.model.fastsim import FastsimProblem, boundary_traction
+
+    lay = voce_layer(t, MU, MU, 1.0)
+    prob = FastsimProblem(a=t["a"], b=t["b"], p0=t["p0"], L1=t["L1"], layer=lay)
+    fs = boundary_traction(prob, xi).mu / MU
+    xi = np.asarray(xi, dtype=float)
+    ex, err = exact_layer_mu(t, lay, xi, grids) if exact else (np.nan * xi, np.nan * xi)
+    return ex / MU, err / MU, fs
+
+
+def hardening_rows(a_over_b: Any = HARD_A_OVER_B, layer_ratio: Any = HARD_LAMBDA,
+                   hardening: Any = HARD_RATIO, voce: Any = HARD_VOCE, x: Any = HARD_X,
+                   exact: bool = True, grids: tuple[int, ...] = GRIDS,
+                   progress: Any = None) -> Any:
+    """The hardening table: Voce layers in pure longitudinal creepage, exact and FASTSIM's
+    ``Fx/(mu_c1 N)`` over ``a/b``, ``lambda``, ``mu_c2/mu_c1``, the Voce ratio and
+    ``x = xi*/(1 + lambda)`` (``xi*`` at ``mu_c1``), with the elastic-perfectly plastic
+    layer's (:func:`epp_reference`), as a DataFrame.  The column
+    ``voce_ratio`` is the node; ``L_mup_m`` the layer's length (above the node's where the
+    exact solver needs it, :func:`voce_layer`)."""
+    import pandas as pd
+
+    from torlab.model.fastsim import FastsimProblem, boundary_traction
+
+    rows = []
+    xs = np.asarray(x, dtype=float)
+    for g, lam in itertools.product(a_over_b, layer_ratio):
+        t = twin(g, lam)
+        xi = xs * (1.0 + lam) / t["scale"][0]
+        ex_p, err_p, fs_p = epp_reference(t, xi, exact, grids)
+        for h, v in itertools.product(hardening, voce):
+            lay = voce_layer(t, MU, MU * h, v)
+            prob = FastsimProblem(a=t["a"], b=t["b"], p0=t["p0"], L1=t["L1"], layer=lay)
+            r = boundary_traction(prob, xi)
+            ex, err = (exact_layer_mu(t, lay, xi, grids) if exact
+                       else (np.nan * xs, np.nan * xs))
+            if exact and progress and np.isnan(ex).any():
+                progress(f"hardening a/b {g:g}, lambda {lam:g}, mu_c2/mu_c1 {h:g}, "
+                         f"Voce {v:g}: exact solver failed")
+            for i in range(xs.size):
+                rows.append({"a_over_b": g, "layer_ratio": lam, "hardening": h,
+                             "voce_ratio": v, "L_mup_m": lay.L_mup, "x": xs[i],
+                             "exact_Fx": ex[i] / MU, "exact_Fx_error": err[i] / MU,
+                             "fastsim_Fx": r.mu[i] / MU,
+                             "fastsim_adhesion": r.adhesion_fraction[i],
+                             "exact_epp_Fx": ex_p[i], "exact_epp_Fx_error": err_p[i],
+                             "fastsim_epp_Fx": fs_p[i]})
+        if progress:
+            progress(f"hardening a/b {g:g}, lambda {lam:g}")
+    return pd.DataFrame(rows)
+
+
 #: the validation set's scenes: (a/b, lambda, mu_c1, mu_c2, L_mup/(L1 p0 mu_c1)) drawn by a
 #: seeded Latin hypercube (:func:`validation_scenes`)
 VALIDATION_SEED = 28
@@ -431,7 +549,7 @@ def validation_rows(scenes: list[dict] | None = None, x: Any = VALIDATION_X,
         from torlab.model.exact import ExactContact
 
         con = ExactContact(a=t["a"], b=t["b"], load=t["load"], G=t["G"], nu=t["nu"],
-                           mu=math.inf, layer=scene_layer(lay))
+                           mu=math.inf, layer=scene_layer(SimpleNamespace(layer=lay)))
         try:
             vals = np.array([exact_creep_forces(con, xi, 0.0, 0.0,
                                                 ExactGrid(n=n, coarse=0)).mu_x
@@ -478,7 +596,7 @@ def validation_spin_rows(scenes: list[dict] | None = None, v: Any = VALIDATION_S
         lay = _validation_layer(t, s)
         cr = [vs[:, i] * (1.0 + s["layer_ratio"]) / t["scale"][i] for i in range(3)]
         con = ExactContact(a=t["a"], b=t["b"], load=t["load"], G=t["G"], nu=t["nu"],
-                           mu=math.inf, layer=scene_layer(lay))
+                           mu=math.inf, layer=scene_layer(SimpleNamespace(layer=lay)))
         try:
             vals = np.array([np.stack([r.Fx, r.Fy, r.Mz], -1) for r in
                              (exact_creep_forces(con, *cr, ExactGrid(n=n, coarse=0))
@@ -552,7 +670,7 @@ def main(argv: list[str] | None = None) -> int:
     """Command line (module docstring)."""
     ap = argparse.ArgumentParser(prog="python -m torlab.model.calibration_build",
                                  description=__doc__.split("\n\n")[0])
-    ap.add_argument("--only", choices=("longitudinal", "spin", "validation",
+    ap.add_argument("--only", choices=("longitudinal", "spin", "hardening", "validation",
                                        "validation_spin"))
     ap.add_argument("--fastsim-only", action="store_true",
                     help="recompute FASTSIM's columns, keep the exact ones")
@@ -573,10 +691,11 @@ def main(argv: list[str] | None = None) -> int:
 
     given = tuple(args.a_over_b) if args.a_over_b else None
     args.out.mkdir(parents=True, exist_ok=True)
-    default_ab = {"longitudinal": A_OVER_B, "spin": A_OVER_B_SPIN}
+    default_ab = {"longitudinal": A_OVER_B, "spin": A_OVER_B_SPIN,
+                  "hardening": HARD_A_OVER_B}
     with parallel.use(parallel.get_executor(args.jobs)):
         for name, build in (("longitudinal", longitudinal_rows), ("spin", spin_rows),
-                            ("validation", validation_rows),
+                            ("hardening", hardening_rows), ("validation", validation_rows),
                             ("validation_spin", validation_spin_rows)):
             if args.only and args.only != name:
                 continue
@@ -605,7 +724,7 @@ def main(argv: list[str] | None = None) -> int:
                 df = pd.concat([old[~mine], df], ignore_index=True)
                 df = df.sort_values("a_over_b", kind="stable", ignore_index=True)
             tmp = path.with_suffix(".csv.tmp")
-            df.to_csv(tmp, index=False, float_format="%.7g")
+            df.to_csv(tmp, index=False, float_format="%.7g", na_rep="nan")
             tmp.replace(path)
             progress(f"wrote {path}")
     return 0
