@@ -302,6 +302,31 @@ def test_band_draws_take_each_draws_hardening():
     assert not np.allclose(one[0], one[2])
 
 
+def test_hardening_correction_does_not_jump_as_lateral_creepage_or_spin_is_added():
+    """The hardening table holds in pure longitudinal creepage; with lateral creepage or
+    spin it is weighed on the longitudinal force by the longitudinal share of the
+    normalised creepage, so the force of a hardening layer is continuous as a small lateral
+    creepage or spin is added (it jumped by Q - 1 when the factor was dropped there)."""
+    from torlab.model.calibrated import hardening_factor
+    from torlab.model.creep import CreepProblem, creep_forces
+    from torlab.model.layers import LayerParams
+
+    t = twin(1.2, 0.3)
+    onset = 0.3 * (t["L1"] * t["p0"] + t["L_mue"])
+    lay = LayerParams(0.3, 0.4, t["L_mue"], 0.3 * onset)
+    prob = CreepProblem(a=t["a"], b=t["b"], p0=t["p0"], L1=t["L1"], L2=t["L2"], L3=t["L3"],
+                        layer=lay, calibrated=True)
+    xi = np.array([1.5e-3, 3e-3, 6e-3])
+    lam = t["L_mue"] / (t["L1"] * t["p0"])
+    Q = hardening_factor(t["a"] / t["b"], lam, 0.4 / 0.3, lay.L_mup / onset,
+                         xi * t["scale"][0] / (1 + lam), error=False)[0]
+    assert np.max(np.abs(Q - 1.0)) > 0.005  # the test point sees a real correction
+    pure = creep_forces(prob, xi, 0.0, 0.0)
+    for eta, phi in ((1e-9, 0.0), (0.0, 1e-7)):
+        near = creep_forces(prob, xi, eta, phi)
+        np.testing.assert_allclose(near.Fx, pure.Fx, rtol=1e-5)
+
+
 # ---------------------------------------------------------- away from the nodes (slow step)
 @pytest.mark.slow  # exact solutions on three grids
 def test_spin_table_rows_against_a_fresh_regeneration():

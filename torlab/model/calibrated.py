@@ -424,8 +424,8 @@ def spin_correction(a_over_b: float, v: np.ndarray,
     return d * flip, f * flip, e
 
 
-def correct_creep(prob: Any, xi: Any, eta: Any, phi: Any, Fx: Any, Fy: Any, Mz: Any
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def correct_creep(prob: Any, xi: Any, eta: Any, phi: Any, Fx: Any, Fy: Any, Mz: Any, *,
+                  hardening: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """FASTSIM's creep forces corrected by the exact theory (module docstring).
 
     ``F = (R - w (R0 - 1)) F_fs + w (|F_fs|/|F_c|) mu N D``: ``R`` the longitudinal
@@ -446,6 +446,9 @@ def correct_creep(prob: Any, xi: Any, eta: Any, phi: Any, Fx: Any, Fy: Any, Mz: 
         Creepages (fractions; spin in 1/m), broadcast.
     Fx, Fy, Mz
         FASTSIM's forces [N] and moment [N m].
+    hardening
+        Apply the hardening table's factor of a Voce layer (without it: the onset's
+        ratio alone, which :func:`creep_error` compares with).
 
     Returns
     -------
@@ -470,12 +473,18 @@ def correct_creep(prob: Any, xi: Any, eta: Any, phi: Any, Fx: Any, Fy: Any, Mz: 
                   k * c * math.pi * a * math.sqrt(a / b) / (4 * L3) * phi], axis=-1)
     rho = np.linalg.norm(v, axis=-1)
     R, _ = longitudinal_ratio(a / b, lam, rho / (1.0 + lam), error=False)
-    hv = _hardening_of(prob)
+    hv = _hardening_of(prob) if hardening else None
     if hv is not None:
         # the hardening table holds in pure longitudinal creepage (as boundary_traction's
-        # correction); with lateral creepage or spin the onset's ratio is carried over
+        # correction); with lateral creepage or spin it is weighed on the longitudinal
+        # force by the longitudinal share of the normalised creepage, (xi*/rho)^2, so that
+        # the force does not jump as a small lateral creepage or spin is added
         Q = hardening_factor(a / b, lam, hv[0], hv[1], rho / (1.0 + lam), error=False)[0]
-        R = np.where((eta == 0) & (phi == 0), R * Q, R)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            share = np.where(rho > 0, (v[..., 0] / np.where(rho > 0, rho, 1.0)) ** 2, 1.0)
+        Rx = np.where((eta == 0) & (phi == 0), R * Q, R * (1.0 + share * (Q - 1.0)))
+    else:
+        Rx = R
     R0, _ = longitudinal_ratio(a / b, 0.0, rho, error=False)
     d, fsc, _ = spin_correction(a / b, v, _flex_coefficients(prob))
     # the scene's force level against the Coulomb contact's at the same normalised
@@ -490,7 +499,11 @@ def correct_creep(prob: Any, xi: Any, eta: Any, phi: Any, Fx: Any, Fy: Any, Mz: 
         gain = np.where(ref > 0, level / np.where(ref > 0, ref, 1.0), 1.0)
     # the longitudinal ratio's part of the Coulomb difference is taken off with the
     # scene's own FASTSIM forces (not the table's, which interpolate steep components)
-    out = (R - w * (R0 - 1.0))[..., None] * Fn + (w * gain * muN)[..., None] * d
+    # the hardening factor on the longitudinal force only (Fy and Mz vanish with eta and
+    # phi, so no force jumps as they are added; on them the validation set with spin
+    # found the factor no help)
+    base = np.stack([Rx, R, R], axis=-1) - (w * (R0 - 1.0))[..., None]
+    out = base * Fn + (w * gain * muN)[..., None] * d
     out = out / scale
     return out[..., 0], out[..., 1], out[..., 2]
 
@@ -640,19 +653,29 @@ def creep_error(prob: Any, xi: Any, eta: Any, phi: Any, Fx: Any, Fy: Any, Mz: An
         plain = F
         cal = np.stack(correct_creep(prob, xi, eta, phi, Fx, Fy, Mz), axis=-1)
     corr = np.abs(cal - plain)
+    spin_part = (eta != 0) | (phi != 0)
+    # with lateral creepage or spin the hardening table's factor is carried over (weighed
+    # by the longitudinal share): the whole of what it changes is counted as possibly wrong
+    hard = np.zeros_like(F)
+    if _hardening_of(prob) is not None and np.any(spin_part):
+        onset = np.stack(correct_creep(prob, xi, eta, phi, *np.moveaxis(plain, -1, 0),
+                                       hardening=False), axis=-1)
+        with_q = cal if calibrated else np.stack(
+            correct_creep(prob, xi, eta, phi, Fx, Fy, Mz), axis=-1)
+        hard = np.abs(with_q - onset) * spin_part[..., None]
     lam, mu1 = _layer_of(prob)
     c = math.sqrt(prob.a * prob.b)
     scale = float(mu1) * prob.load * np.array([1.0, 1.0, c])
     mag = np.hypot(cal[..., 0], cal[..., 1])[..., None] * np.array([1.0, 1.0, c])
     # the longitudinal part's relative error, on the force's magnitude
-    spin_part = (eta != 0) | (phi != 0)
     e_long = longitudinal_error(prob, np.sqrt(xi**2 + eta**2), np.hypot(cal[..., 0], cal[..., 1]),
                                 calibrated=True, adhesion=adhesion, carried=spin_part
                                 ) / np.maximum(np.hypot(cal[..., 0], cal[..., 1]), 1e-300)
     e = np.sqrt((mag * e_long[..., None]) ** 2
                 + (SPIN_INTERPOLATION_ERROR * scale * spin_part[..., None]) ** 2
                 + (LAYER_SPIN_ERROR * corr * (float(lam) > 0) * spin_part[..., None]) ** 2
-                + (OUTSIDE_ERROR * corr * _outside(prob.a / prob.b, lam)) ** 2)
+                + (OUTSIDE_ERROR * corr * _outside(prob.a / prob.b, lam)) ** 2
+                + hard ** 2)
     if not calibrated:
         e = np.hypot(corr, e)
     return e[..., 0], e[..., 1], e[..., 2]
