@@ -594,7 +594,8 @@ def longitudinal_error(prob: Any, xi: Any, mu: Any, *, calibrated: bool,
       adhesion fraction, below ``1 -`` :data:`HARDENING_ONSET`; everywhere without it;
       where ``carried``, the points with lateral creepage or spin, the onset's ratio
       alone and :data:`CARRIED_HARDENING_ERROR`, which also applies beyond the hardening
-      table's ``mu_c2/mu_c1``, Voce ratio or ``lambda``, where its edge's factor is used),
+      table's ``mu_c2/mu_c1``, Voce ratio or ``lambda``, where its edge's factor is used,
+      and where the flash temperature moves the layer's limits: the table is isothermal),
       and outside the tables half the correction (:data:`OUTSIDE_ERROR`), added in
       quadrature.
     * ``fastsim-kalker``: the correction it leaves out, ``|mu R - mu|``, with the
@@ -625,7 +626,13 @@ def longitudinal_error(prob: Any, xi: Any, mu: Any, *, calibrated: bool,
     mu_cal = mu if calibrated else mu * R
     mu_plain = mu / R if calibrated else mu
     corr = np.abs(mu_cal - mu_plain)
-    per_unit = np.where(carried, CARRIED_HARDENING_ERROR, HARDENING_ERROR)
+    # the hardening table is isothermal: where the flash temperature moves the layer's
+    # limits over the contact, its factor is applied and the error of carrying a
+    # correction over is stated
+    hot = getattr(prob, "thermal", None) is not None and any(
+        np.any(np.asarray(getattr(lay, name, 0.0), dtype=float) != 0.0)
+        for name in ("mu_c1_T", "mu_c2_T"))
+    per_unit = np.where(carried | hot, CARRIED_HARDENING_ERROR, HARDENING_ERROR)
     rel = np.sqrt((Rerr / R) ** 2 + INTERPOLATION_ERROR**2 + Qerr**2
                   + (per_unit * _hardening(lay) * _plastic_share(adhesion)) ** 2)
     e_cal = np.sqrt((np.abs(mu_cal) * rel) ** 2
