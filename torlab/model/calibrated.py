@@ -667,9 +667,7 @@ def creep_error(prob: Any, xi: Any, eta: Any, phi: Any, Fx: Any, Fy: Any, Mz: An
     if _hardening_of(prob) is not None and np.any(spin_part):
         onset = np.stack(correct_creep(prob, xi, eta, phi, *np.moveaxis(plain, -1, 0),
                                        hardening=False), axis=-1)
-        with_q = cal if calibrated else np.stack(
-            correct_creep(prob, xi, eta, phi, Fx, Fy, Mz), axis=-1)
-        hard = np.abs(with_q - onset) * spin_part[..., None]
+        hard = np.abs(cal - onset) * spin_part[..., None]
     lam, mu1 = _layer_of(prob)
     c = math.sqrt(prob.a * prob.b)
     scale = float(mu1) * prob.load * np.array([1.0, 1.0, c])
