@@ -6,7 +6,8 @@ declared; the gallery makes each from the sample data as the commands and protoc
 and ``tests/figure_checks.py`` checks every one: text inside the canvas and clear of the
 other text and the data, legends without repeats, one unit per axis, symbols in titles,
 visible error bars and bands.  The quick suite checks a sample of the kinds
-(``tests/test_figures.py``); here, every figure of every sample protocol and command.
+(``tests/test_figures.py``); here, every figure of every sample protocol and command,
+each also drawn on matplotlib's own canvas to the same pixels (``tests/test_textcache.py``).
 """
 
 from __future__ import annotations
@@ -41,7 +42,7 @@ def test_declared_kinds_are_module_functions():
 
 @pytest.mark.slow  # the four sample protocols (warm re-runs of their session runs), every
 # instrument's reduction and the figure-drawing commands: about 70 figures drawn
-def test_every_figure_kind_is_drawn_and_publishable(tmp_path, shipped_run):
+def test_every_figure_kind_is_drawn_and_publishable(tmp_path, shipped_run, monkeypatch):
     earlier = {name: shipped_run(name)[0] for name in ("paper_a", "paper_b", "paper_c",
                                                         "retention")}
     plots = gallery(tmp_path, earlier=earlier)
@@ -56,3 +57,14 @@ def test_every_figure_kind_is_drawn_and_publishable(tmp_path, shipped_run):
         _, found = draw_checked(p, names)
         problems += [f"{name}: {x}" for x in found]
     assert not problems, "\n".join(problems)
+    # the same pixels with torlab's remembering canvas (torlab.reports.textcache; its
+    # tables filled by the figures drawn above) as with matplotlib's own Agg canvas
+    import torlab.reports.textcache as tc
+    from torlab.reports.render import render_all
+
+    assert tc.available()
+    ours = {name: render_all(p.draw(), ("png",))["png"] for name, p in plots.items()}
+    monkeypatch.setattr(tc, "_CLASSES", [None])
+    differ = [name for name, p in plots.items()
+              if render_all(p.draw(), ("png",))["png"] != ours[name]]
+    assert not differ, f"pixels differ from matplotlib's canvas: {differ}"

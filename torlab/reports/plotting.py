@@ -191,12 +191,13 @@ def subplots(nrows: int = 1, ncols: int = 1, *, figsize: tuple[float, float] | N
     Other keywords (``layout=`` of older callers) are ignored: the layout is fixed.
     """
     _mpl()
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
+
+    from torlab.reports.textcache import canvas
 
     w, h = figsize or STYLE["figure.figsize"]
     fig = Figure(figsize=(w, h))
-    FigureCanvasAgg(fig)
+    canvas(fig)
     gs = dict(gridspec_kw or {})
     if height_ratios is not None:
         gs["height_ratios"] = list(height_ratios)
@@ -333,8 +334,9 @@ def facets(n: int, *, ncols: int = 2, panel: tuple[float, float] = (3.4, 2.5),
         ``axes[i]`` is ``[panel]`` or ``[panel, strip]`` of facet ``i``.
     """
     _mpl()
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
+
+    from torlab.reports.textcache import canvas
 
     ncols = max(1, min(ncols, n))
     nrows = math.ceil(n / ncols)
@@ -345,7 +347,7 @@ def facets(n: int, *, ncols: int = 2, panel: tuple[float, float] = (3.4, 2.5),
         (legend_width if shared_legend else 0.0)
     height = 0.5 + sum(ph + 0.75 + (sh + 0.1 if sh else 0.0) for sh in row_strip)
     fig = Figure(figsize=(width, height), layout="constrained")
-    FigureCanvasAgg(fig)
+    canvas(fig)
     fig.get_layout_engine().set(h_pad=0.04, w_pad=0.06, hspace=0.02, wspace=0.04)
     ratios: list[float] = []
     for sh in row_strip:

@@ -238,14 +238,16 @@ def png_bytes(rgba: Any, dpi: float, software: str = "") -> bytes:
 
     img = np.asarray(rgba, dtype=np.uint8)
     h, w, _ = img.shape
-    c = 3 if bool((img[..., 3] == 255).all()) else 4
+    c = 3 if int(img[..., 3].min(initial=255)) == 255 else 4
     co = zlib.compressobj(PNG_LEVEL)
     step = max(1, (1 << 20) // (w * c + 1))  # about a megabyte of rows at a time
     rows = np.zeros((min(step, h), 1 + w * c), np.uint8)  # filter byte 0: none
     idat = []
     for r0 in range(0, h, step):
         k = min(step, h - r0)
-        rows[:k, 1:].reshape(k, w, c)[...] = img[r0:r0 + k, :, :c]
+        px = rows[:k, 1:].reshape(k, w, c)
+        for j in range(c):  # channel by channel: 3-4x faster than one strided copy
+            px[..., j] = img[r0:r0 + k, :, j]
         idat.append(co.compress(rows[:k].data))
     idat.append(co.flush())
 
