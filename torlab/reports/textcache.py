@@ -15,13 +15,18 @@ figures, :func:`torlab.reports.plotting.subplots` and ``facets``) keeps, per pro
   moved by whole pixels is the same bitmap, moved.
 
 Each table is bounded (:data:`LIMITS`; the oldest half is dropped when one is full).
-Mathematical text and TeX take matplotlib's own path.  Nothing here changes a pixel:
-``tests/test_textcache.py`` draws torlab's figures and free texts at random positions,
-angles and sizes with this canvas and with matplotlib's, and compares every pixel.
+A font's ascent, descent and line gap at a size (which ``Text`` reads from the font's
+tables for every text it lays out) are kept with the sizes.  Mathematical text and TeX
+take matplotlib's own path.  Nothing here changes a pixel: ``tests/test_textcache.py``
+draws texts at random positions, angles, sizes and weights with this canvas and with
+matplotlib's and compares every pixel; ``tests/test_figure_kinds.py`` does the same for
+every figure kind torlab draws.
 
-The renderer leans on four private parts of matplotlib's Agg backend (``_prepare_font``,
-``FT2Font._layout``, ``_set_transform`` and ``_render_glyph``, as in matplotlib 3.11);
-where one is missing the canvas is matplotlib's own (:func:`available`).
+The renderer leans on private parts of matplotlib's Agg backend (``_prepare_font``,
+``FT2Font._layout``, ``_set_transform`` and ``_render_glyph``, and the hook
+``_get_font_height_metrics`` that ``Text`` asks a renderer for, as in matplotlib 3.11);
+where one is missing the canvas is matplotlib's own (:func:`available`).  Fonts are
+matplotlib's per thread (``get_font``), and so are the tables' entries that hold them.
 """
 
 from __future__ import annotations
@@ -30,9 +35,10 @@ from typing import Any
 
 __all__ = ["LIMITS", "available", "canvas", "clear", "stats"]
 
-#: most entries of each table (metrics, layouts, glyph bitmaps) in one process: about
-#: 4 MB of glyph bitmaps at the limit (a campaign of 16 seeds fills about a tenth)
-LIMITS = {"metrics": 8192, "layouts": 8192, "glyphs": 32768}
+#: most entries of each table (metrics, layouts, glyph bitmaps) in one process: a glyph
+#: takes about 0.7 kB with its key, so at most about 11 MB; the 195 figures of a campaign
+#: of 16 seeds, drawn in one process, leave 9 800 glyphs (6.8 MB), 1 400 sizes, 1 000 layouts
+LIMITS = {"metrics": 8192, "layouts": 8192, "glyphs": 16384}
 
 _METRICS: dict[tuple, tuple[float, float, float]] = {}
 _LAYOUTS: dict[tuple, tuple[tuple[Any, int, float, float], ...]] = {}
@@ -101,11 +107,13 @@ def _classes() -> tuple[Any, Any] | None:
 def _make_classes() -> tuple[Any, Any] | None:
     from matplotlib.backends import backend_agg as agg
     from matplotlib.ft2font import FT2Font
+    from matplotlib.text import Text
 
     need = (all(hasattr(agg, a) for a in ("_fontManager", "get_font", "get_hinting_flag",
                                           "RenderMode"))
             and hasattr(agg.RendererAgg, "_prepare_font")
-            and all(hasattr(FT2Font, a) for a in ("_layout", "_set_transform", "_render_glyph")))
+            and all(hasattr(FT2Font, a) for a in ("_layout", "_set_transform", "_render_glyph"))
+            and all(hasattr(Text, a) for a in ("get_fontfeatures", "get_language")))
     if not need:
         return None
     from torlab.reports._textagg import Canvas, Renderer
