@@ -63,10 +63,12 @@ def test_texts_are_the_same_pixels_as_matplotlibs():
 
 
 def test_tables_are_bounded(monkeypatch):
+    from torlab.reports._texttables import _store
+
     monkeypatch.setitem(tc.LIMITS, "glyphs", 10)
     table: dict = {}
     for i in range(35):
-        tc._store(table, "glyphs", (i,), i)
+        _store(table, "glyphs", (i,), i)
         assert len(table) <= 10
     assert (34,) in table and (0,) not in table
 

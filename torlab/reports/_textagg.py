@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 from matplotlib.backends import backend_agg as agg
 
-from torlab.reports.textcache import _GLYPHS, _LAYOUTS, _METRICS, _STATS, _store
+from torlab.reports._texttables import _GLYPHS, _LAYOUTS, _METRICS, _STATS, _store
 
 RenderMode = agg.RenderMode
 get_hinting_flag = agg.get_hinting_flag
