@@ -268,3 +268,50 @@ def test_amount_probability_of_the_protocol_calls_the_crossing_verdicts(tmp_path
         assert (row["crossing_verdict"] == "undetermined") == (p < prob), name
         called[name] = p >= prob
     assert True in called.values() and False in called.values(), called
+
+
+def _pair_task(x: int) -> tuple[dict, list]:  # module level: a task for the executor
+    _pair_task.calls += 1
+    return {"square": x * x}, [x, -x]
+
+
+_pair_task.calls = 0
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_a_task_that_fills_two_entries(tmp_path, jobs):
+    """RunContext.cached_map with ``also``: one computation stored as two entries, each
+    found by a later run under its own kind and key (as another section looks for it); a
+    later map takes the pair from the cache only when both are there."""
+    from torlab.parallel import ProcessExecutor
+    from torlab.progress import Progress
+    from torlab.protocols.cache import ResultCache
+    from torlab.protocols.context import RunContext
+
+    ex = ProcessExecutor(jobs) if jobs > 1 else None
+    tasks = [({"x": 3}, 3), ({"x": 4}, 4)]
+    also = [("second", {"y": 3}), None]
+
+    def run():  # one run: its own cache object over the folder, the index written at the end
+        c = ResultCache(tmp_path / "c")
+        ctx = RunContext(lp=None, dest=None, cache=c, prog=Progress(), executor=ex)
+        got = ctx.cached_map("first", _pair_task, tasks, also=also)
+        c.write_index()
+        return got
+
+    try:
+        got = run()
+        assert got[0] == ({"square": 9}, [3, -3]) and got[1] == ({"square": 16}, [4, -4])
+        c = ResultCache(tmp_path / "c")
+        assert c.lookup("first", x=3) == (True, {"square": 9})
+        assert c.lookup("second", y=3) == (True, [3, -3])
+        _pair_task.calls = 0
+        assert run() == got
+        assert _pair_task.calls == 0  # both from the cache
+        (tmp_path / "c" / c.entry_name("second", y=3)).unlink()
+        assert run() == got  # the first task computed again, both its entries stored
+        assert (tmp_path / "c" / c.entry_name("second", y=3)).is_file()
+        assert ResultCache(tmp_path / "c").lookup("second", y=3) == (True, [3, -3])
+    finally:
+        if ex is not None:
+            ex.close()

@@ -220,6 +220,43 @@ def test_a_series_reads_each_runs_estimates_as_the_whole_fit_gives_them():
     assert run_estimates([r], law="auto").meta["law_selection"]
 
 
+def _same_estimates(a, b, keys=("source", "product", "temperature_C", "law")):
+    assert a.params == b.params and a.stderr == b.stderr
+    assert np.array_equal(a.covariance, b.covariance)
+    for k in keys:
+        assert a.meta.get(k) == b.meta.get(k), k
+
+
+def test_a_layer_fit_hands_its_runs_to_the_series_unchanged():
+    """fit_layer_hpt_runs: the layer fit_layer_hpt gives, and each run's own fit as
+    run_estimates gives it, bit for bit (one run and three; the default law and another);
+    so a temperature series made with those fits is the one made from the curves.  None
+    where the layer is not made of the runs' own fits (a choice among laws)."""
+    from torlab.fit.layer import fit_layer_hpt_runs, run_estimates
+    from torlab.fit.temperature import fit_temperature_coefficients
+
+    p = LayerParams(0.16, 0.30, 6e-6, 30e-6)
+    at_t = [_run(p, 40 + i) for i in range(3)]
+    others = [_run(p, 50 + i, temperature_C=t) for i, t in enumerate((65.0, 105.0, 145.0))]
+    for law in (None, "linear"):
+        for runs in (at_t[:1], at_t):
+            layer, own = fit_layer_hpt_runs(runs, law=law)
+            ref = fit_layer_hpt(runs, law=law)
+            _same_estimates(layer, ref, ("source", "product", "temperature_C", "law",
+                                         "scatter"))
+            assert own is not None and len(own) == len(runs)
+            for f, r in zip(own, runs, strict=True):
+                _same_estimates(f, run_estimates(r, law=law))
+                assert "scatter" not in f.meta  # the run's fit, not the pooled one
+    temps = [298.15] * 3 + [338.15, 378.15, 418.15]
+    _, own = fit_layer_hpt_runs(at_t)
+    shared = fit_temperature_coefficients(own + others, temps)
+    alone = fit_temperature_coefficients(at_t + others, temps)
+    _same_estimates(shared, alone, ("law",))
+    assert shared.meta.get("model_selection") == alone.meta.get("model_selection")
+    assert fit_layer_hpt_runs(at_t, law="auto")[1] is None
+
+
 def test_without_compliance_warns_that_L_mue_includes_the_rig():
     res = fit_layer_hpt(_run(LayerParams(0.135, 0.223, 8e-6, 19e-6), 3, compliance=None))
     assert any("rig's own compliance" in w for w in res.warnings)

@@ -42,6 +42,7 @@ References
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -63,7 +64,8 @@ from torlab.fit.result import FitResult
 from torlab.model.layers import LAWS, LayerLaw, LayerParams, get_law
 from torlab.threads import small_problem
 
-__all__ = ["AUTO", "LAYER_NAMES", "HptCurve", "fit_layer_hpt", "fit_layers_hpt", "hpt_curve",
+__all__ = ["AUTO", "LAYER_NAMES", "HptCurve", "fit_layer_hpt", "fit_layer_hpt_runs",
+           "fit_layers_hpt", "hpt_curve",
            "law_choice", "run_estimates", "select_law", "tau_of_raw_displacement"]
 
 #: the parameters of the default (Voce) law
@@ -458,6 +460,29 @@ def fit_layer_hpt(curves: Any, *, sigma: float | None = None, compliance: Any = 
     if not joint:
         raise TypeError("fit_layer_hpt fits the curves together; use fit_layers_hpt for one fit "
                         "per curve")
+    return _layer_fit(curves, sigma=sigma, compliance=compliance, law=law, between=between,
+                      resolution=resolution)[0]
+
+
+@small_problem  # one BLAS thread, as fit_layer_hpt
+def fit_layer_hpt_runs(curves: Any, *, law: Any = None) -> tuple[FitResult, list[FitResult] | None]:
+    """:func:`fit_layer_hpt` of ``curves`` and, where that result is made of the curves' own
+    fits, those fits (else None).
+
+    Each run's fit has the estimates, covariance and ``meta`` keys of :func:`run_estimates`
+    of that curve bit for bit (it is the same fit, with its data table), so a temperature
+    series that holds these runs takes them as they are
+    (:func:`torlab.fit.temperature.fit_temperature_coefficients` accepts fits) instead of
+    fitting them again.  None where the result is not made of them: a choice among laws
+    (each run is fitted again with the chosen law), or a curve that cannot be fitted alone.
+    """
+    return _layer_fit(curves, law=law, keep_runs=True)
+
+
+def _layer_fit(curves: Any, *, sigma: float | None = None, compliance: Any = None,
+               law: Any = None, between: str = "random", resolution: float | None = None,
+               keep_runs: bool = False) -> tuple[FitResult, list[FitResult] | None]:
+    """:func:`fit_layer_hpt` and the curves' own fits it was made of (``keep_runs``)."""
     from torlab.fit.repeats import pool_fits
 
     if between not in ("random", "none"):
@@ -477,7 +502,11 @@ def fit_layer_hpt(curves: Any, *, sigma: float | None = None, compliance: Any = 
         else laws[0]
     if len(cs) == 1 or between == "none":
         res = together if together is not None else _fit(cs, chosen)
-        return pool_fits([res]) if len(cs) == 1 else res
+        own = [res] if keep_runs and together is None and len(cs) == 1 else None
+        if own is not None:  # the run's fit as run_estimates gives it, before pooling marks it
+            own = [copy.copy(res)]
+            own[0].meta = dict(res.meta)
+        return (pool_fits([res]) if len(cs) == 1 else res), own
     try:
         fits = [_fit([c], chosen) for c in cs]
     except FitError as e:
@@ -487,16 +516,17 @@ def fit_layer_hpt(curves: Any, *, sigma: float | None = None, compliance: Any = 
             f"run-to-run scatter not estimated: a curve cannot be fitted alone ({e}); the "
             "curves are fitted together, and the intervals hold the noise within the records "
             "only")
-        return together
+        return together, None
     res = pool_fits(fits)
+    own = fits if keep_runs and together is None else None
     if together is None:
         if chosen is not get_law():  # as _fit writes it (the default law is not written)
             res.meta["law"] = chosen.name
-        return res
+        return res, own
     for k in ("law", "law_selection", "criterion"):
         if k in together.meta:
             res.meta[k] = together.meta[k]
-    return res
+    return res, own
 
 
 def fit_layers_hpt(curves: Any, *, sigma: float | None = None, compliance: Any = None,

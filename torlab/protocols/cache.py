@@ -846,6 +846,8 @@ class Encoded:
     value: Any
     payload: bytes | None
     light: bool = False  # ``value`` is the light form of the stored value
+    #: the payloads of the further entries the task filled (:class:`Encoding`'s ``also``)
+    also: tuple[bytes | None, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -868,20 +870,31 @@ class Encoding:
     fn: Any
     light: Light | None = None
 
-    def __call__(self, job: tuple[str, str, Any]) -> Any:
-        name, kind, arg = job
+    def __call__(self, job: tuple[Any, ...]) -> Any:
+        """``job``: ``(name, kind, arg)``, or ``(name, kind, arg, also)`` for a task that fills
+        further entries, ``also`` their ``(name, kind)``: ``fn(arg)`` then returns one value
+        per entry, the task's own first (all come back, each entry encoded)."""
+        name, kind, arg, *rest = job
+        also = rest[0] if rest else ()
         value = self.fn(arg)
         from torlab.parallel import Deferred
 
         if isinstance(value, Deferred):  # finished in the calling process, stored there
             return value
-        try:
-            payload: bytes | None = ResultCache.payload(name, kind, value)
-        except (NotCacheable, ValueError, TypeError):
-            payload = None
+        values = value if also else (value,)
+        payloads = [_payload(n, k, v) for (n, k), v in
+                    zip(((name, kind), *also), values, strict=True)]
         if self.light is None:
-            return Encoded(value, payload)
-        return Encoded(self.light.light(value), payload, True)
+            return Encoded(value, payloads[0], also=tuple(payloads[1:]))
+        return Encoded(self.light.light(value), payloads[0], True, tuple(payloads[1:]))
+
+
+def _payload(name: str, kind: str, value: Any) -> bytes | None:
+    """:meth:`ResultCache.payload`, None for a value that is not plain data."""
+    try:
+        return ResultCache.payload(name, kind, value)
+    except (NotCacheable, ValueError, TypeError):
+        return None
 
 
 def _jsonable(o: Any) -> Any:

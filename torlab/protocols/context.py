@@ -267,7 +267,8 @@ class RunContext:
 
     def cached_map(self, kind: str | list[str], fn: Any, tasks: list[tuple[dict[str, Any], Any]],
                    description: str = "", uses: Any = None, short: bool = False,
-                   light: Any = None) -> list[Any]:
+                   light: Any = None,
+                   also: list[tuple[str, dict[str, Any]] | None] | None = None) -> list[Any]:
         """``fn(arg)`` for ``(cache parts, arg)`` tasks: entries in the cache are reused, the
         others computed on the run's executor (:mod:`torlab.parallel`) and stored.
 
@@ -280,6 +281,11 @@ class RunContext:
         values themselves stay in the cache (:meth:`full`, :meth:`task_arg`), and a later
         run takes the light values from the cache's index without reading the entries.
 
+        ``also``: for each task None or the ``(kind, parts)`` of a second entry it fills
+        (two results of one computation, each stored where later runs and other sections
+        look for it): ``fn(arg)`` returns the pair, and the task's result is the pair; it is
+        taken from the cache only when both entries are there (not with ``light``).
+
         A computed value is encoded for the cache where it was computed (a worker,
         :class:`torlab.protocols.cache.Encoding`); this process signs and writes it as it
         arrives, so a long map's results are never all held here at once.
@@ -289,11 +295,17 @@ class RunContext:
         from torlab.parallel import current
 
         kinds = [kind] * len(tasks) if isinstance(kind, str) else list(kind)
+        also = list(also) if also is not None else [None] * len(tasks)
+        if light is not None and any(also):
+            raise ValueError("cached_map: a task with a second entry keeps its whole values")
         out: list[Any] = [None] * len(tasks)
         todo = []
         for i, (parts, _) in enumerate(tasks):
             hit, v = (self.cache.lookup(kinds[i], **parts) if light is None else
                       self.cache.lookup_light(kinds[i], light, **parts))
+            if hit and also[i] is not None:
+                hit, v2 = self.cache.lookup(also[i][0], **also[i][1])
+                v = (v, v2)
             if hit:
                 out[i] = v
             else:
@@ -306,6 +318,9 @@ class RunContext:
             t0 = time.perf_counter()
             cache = self.cache.folder is not None
             names = [self.cache.entry_name(kinds[i], **tasks[i][0]) for i in todo]
+            more = [() if also[i] is None else
+                    ((self.cache.entry_name(also[i][0], **also[i][1]), also[i][0]),)
+                    for i in todo]
 
             written: set[int] = set()
 
@@ -313,6 +328,8 @@ class RunContext:
                 if isinstance(v, Encoded):
                     self.cache.store_payload(names[j], kinds[todo[j]], v.payload,
                                              **({"light": v.value} if v.light else {}))
+                    for (name, k), payload in zip(more[j], v.also, strict=True):
+                        self.cache.store_payload(name, k, payload)
                     written.add(j)
                     return light.restore(v.value) if v.light else v.value
                 return v
@@ -321,8 +338,8 @@ class RunContext:
             # as tasks of their own, on every worker (torlab.parallel.Deferred)
             size = -(-len(todo) // (4 * max(1, ex.workers))) if short else 1
             task = Encoding(fn, light) if cache else fn
-            args = [(names[j], kinds[i], tasks[i][1]) for j, i in enumerate(todo)] if cache \
-                else [tasks[i][1] for i in todo]
+            args = [(names[j], kinds[i], tasks[i][1], *((more[j],) if more[j] else ()))
+                    for j, i in enumerate(todo)] if cache else [tasks[i][1] for i in todo]
             vals = map_deferred(ex, task, args, description=description,
                                 subtasks="band: parameter draws", uses=uses, chunksize=size,
                                 each=stored)
@@ -336,8 +353,15 @@ class RunContext:
             # stored while the next map's tasks run, or at the run's end
             # (torlab.parallel.Executor.meanwhile)
             if late:
-                ex.meanwhile(lambda late=late: [self.cache.store(kinds[i], v, **tasks[i][0])
-                                                for i, v in late])
+                def store_late(late: list[tuple[int, Any]] = late) -> None:
+                    for i, v in late:
+                        if also[i] is None:
+                            self.cache.store(kinds[i], v, **tasks[i][0])
+                        else:
+                            self.cache.store(kinds[i], v[0], **tasks[i][0])
+                            self.cache.store(also[i][0], v[1], **also[i][1])
+
+                ex.meanwhile(store_late)
         return out
 
 

@@ -145,16 +145,28 @@ def fit_hpt_layers(ctx: RunContext) -> None:
                              uses=_FITS_USE)
         temps = dict(zip([lab for lab, _ in temp_jobs], res, strict=True))
     else:
-        # the layer fits and the temperature fits do not depend on each other: one map, the
-        # longer temperature fits first, so that no worker waits between them
+        # a product with a temperature series: one task fits its layer and its series, the
+        # runs at the fit temperature once for both (fit_layer_hpt_runs), and fills both
+        # cache entries (the layer's is also the one the retention section looks for); the
+        # longer tasks first, so that no worker waits at the end
         if law:
             temp_jobs = [(lab, ({**key, **law}, ("temperature", (*arg, cfg.law))))
                          for lab, (key, (_, arg)) in temp_jobs]
-        res = ctx.cached_map(["fit_temperature"] * len(temp_jobs) + ["fit_hpt"] * len(layer_jobs),
-                             _fit_task, [j for _, j in temp_jobs] + layer_jobs,
-                             "fits: HPT layers and temperature coefficients", uses=_FITS_USE)
-        temps = dict(zip([lab for lab, _ in temp_jobs], res[:len(temp_jobs)], strict=True))
-        layers = res[len(temp_jobs):]
+        index = {lab: n for n, (lab, _, _) in enumerate(plan)}
+        both = [(tkey, ("both", (len(plan[index[lab]][1]), *targ)))
+                for lab, (tkey, (_, targ)) in temp_jobs]
+        alone = sorted(set(range(len(plan))) - {index[lab] for lab, _ in temp_jobs})
+        res = ctx.cached_map(["fit_temperature"] * len(both) + ["fit_hpt"] * len(alone),
+                             _fit_task, both + [layer_jobs[n] for n in alone],
+                             "fits: HPT layers and temperature coefficients", uses=_FITS_USE,
+                             also=[("fit_hpt", layer_jobs[index[lab]][0])
+                                   for lab, _ in temp_jobs] + [None] * len(alone))
+        temps = {lab: r[0] for (lab, _), r in zip(temp_jobs, res, strict=False)}
+        layers = [None] * len(plan)
+        for (lab, _), r in zip(temp_jobs, res, strict=False):
+            layers[index[lab]] = r[1]
+        for n, r in zip(alone, res[len(both):], strict=True):
+            layers[n] = r
     for (label, _, _), res in zip(plan, layers, strict=True):
         scene_dict = res.to_scene_dict()
         if label in temps:
@@ -164,13 +176,26 @@ def fit_hpt_layers(ctx: RunContext) -> None:
 
 def _fit_task(job: tuple[str, Any]) -> Any:
     """One product's HPT layer fit (``("layer", details)`` or ``("layer", (details,
-    law))``) or temperature coefficients (``("temperature", (details, temperatures_K,
-    selection[, law]))``): an executor task."""
+    law))``), temperature coefficients (``("temperature", (details, temperatures_K,
+    selection[, law]))``), or both (``("both", (k, details, ...))``: the layer of the first
+    ``k`` runs and the series of all, returned as ``(series, layer)``): an executor task."""
     from torlab.fit.layer import fit_layer_hpt
     from torlab.instruments.measured import hpt_curves
     from torlab.protocols.data import detail
 
     what, arg = job
+    if what == "both":  # (runs at the fit temperature, details, temperatures_K, selection[, law])
+        from torlab.fit.layer import fit_layer_hpt_runs
+        from torlab.fit.temperature import fit_temperature_coefficients
+
+        k, details, temps_K, selection, *law = arg
+        curves = hpt_curves([detail(x) for x in details])
+        lw = law[0] if law else None
+        layer, runs = fit_layer_hpt_runs(curves[:k], law=lw)
+        series = fit_temperature_coefficients((runs if runs is not None else curves[:k])
+                                              + curves[k:], temps_K, selection=selection,
+                                              law=lw)
+        return series, layer
     if what == "layer":
         if isinstance(arg, tuple):
             return fit_layer_hpt(hpt_curves([detail(x) for x in arg[0]]), law=arg[1])
