@@ -395,3 +395,67 @@ def test_traction_figure_of_a_large_campaign_in_facets(n):
     assert len(legends) == -(-n // PER_PANEL)
     shown = [t.get_text() for lg in legends for t in lg.get_texts()]
     assert sorted(x for x in shown if x.startswith("product")) == sorted(c.label for c in curves)
+
+
+def test_a_large_campaigns_traction_figures_come_in_pages():
+    """More curves than PANELS_PER_FIGURE panels of PER_PANEL hold: further figures
+    (traction_2, ...), every curve on exactly one, each page titled with its curves; up to
+    that many, one figure named traction as before."""
+    from types import SimpleNamespace
+
+    from torlab.reports.traction import (
+        PANELS_PER_FIGURE,
+        PER_PANEL,
+        TractionCurve,
+        traction_figures,
+    )
+
+    x = np.linspace(0, 0.05, 11)
+    per = PER_PANEL * PANELS_PER_FIGURE
+
+    def curves(n):
+        return [TractionCurve(f"product {k}", "measured",
+                              pd.DataFrame({"creepage": x, "mu": 0.3 * np.tanh(80 * x),
+                                            "mu_sd": np.full(x.size, 0.004)}), {}, "file")
+                for k in range(n)]
+
+    cfg = SimpleNamespace(band=(0.15, 0.25))
+    assert [n for n, _ in traction_figures(curves(per), cfg)] == ["traction"]
+    cs = curves(2 * per + 9)
+    figs = traction_figures(cs, cfg)
+    assert [n for n, _ in figs] == ["traction", "traction_2", "traction_3"]
+    on = [c.label for _, p in figs for c in p.args[0]]
+    assert sorted(on) == sorted(c.label for c in cs) and len(on) == len(cs)
+    fig = _draw(figs[2][1])  # the last page: 9 curves in two panels
+    assert figure_problems(fig) == []
+    assert "curves 197–205 of 205 (figure 3 of 3)" in fig._suptitle.get_text()
+    titles = [ax.get_title() for ax in fig.axes if ax.get_title()]
+    assert titles == ["curves 197–203 of 205", "curves 204–205 of 205"]
+
+
+def test_a_large_campaigns_amount_figures_come_in_pages(amount_inputs):
+    """More products than PANELS_PER_FIGURE panels hold: amount_applied, amount_applied_2,
+    ... each drawn from its own products' rows, every product on exactly one page."""
+    import dataclasses
+
+    from torlab.reports.amount import PANELS_PER_FIGURE, PER_PANEL, _pages
+
+    series, fits, cfg = amount_inputs
+    copies = -(-(PANELS_PER_FIGURE * PER_PANEL + 1) // len(fits))
+    k_series, k_fits = [], []
+    for k in range(copies):
+        k_series.append(series.assign(product=series["product"] + f"-{k + 1}"))
+        k_fits += [dataclasses.replace(cf, product=f"{cf.product}-{k + 1}") for cf in fits]
+    many = pd.concat(k_series, ignore_index=True)
+    assert len(_pages("amount_applied", series, fits, cfg, False, "c")) == 1
+    figs = _pages("amount_applied", many, k_fits, cfg, False, "caption")
+    assert [f.name for f in figs][:2] == ["amount_applied", "amount_applied_2"]
+    on = [cf.product for f in figs for cf in f.fig.args[1]]
+    assert sorted(on) == sorted(cf.product for cf in k_fits)
+    for f in figs:
+        rows = f.fig.args[0]
+        assert set(rows["product"]) == {cf.product for cf in f.fig.args[1]}
+    fig = _draw(figs[-1].fig)
+    assert figure_problems(fig) == []
+    assert f"(figure {len(figs)} of {len(figs)})" in fig._suptitle.get_text() + " ".join(
+        ax.get_title() for ax in fig.axes)

@@ -141,16 +141,16 @@ def amount_section(series: Any, cfg: Any, fits: list[CrossingFit] | None,
             f"at the 5 % level; common mass {same['mass_mg']:.3g} mg, 95 % interval "
             f"[{same['mass_low_mg']:.3g}, {same['mass_high_mg']:.3g}] mg; the crossings share "
             "the pooled scatter, which the test neglects).")
-    figs = [Figure("amount_applied", plot(amount_figure, series, fits, cfg, mass=False),
-                   "Friction f against the applied amount (µL for liquids, mg for solids, "
-                   "each unit in a panel of its own), error bars one standard deviation of f "
-                   "over the reduction window, with the fitted curves and their 95 % bands, "
-                   "the optimal band and, below, each product's crossing of the threshold "
-                   "with its interval"),]
+    figs = _pages("amount_applied", series, fits, cfg, False,
+                  "Friction f against the applied amount (µL for liquids, mg for solids, "
+                  "each unit in a panel of its own), error bars one standard deviation of f "
+                  "over the reduction window, with the fitted curves and their 95 % bands, "
+                  "the optimal band and, below, each product's crossing of the threshold "
+                  "with its interval")
     missing = sorted(set(series.loc[series["mass_mg"].isna(), "product"]))
     if cfg.basis == "mass" and series["mass_mg"].notna().any():
-        figs.append(Figure("amount_mass", plot(amount_figure, series, fits, cfg, mass=True),
-                           "Mass-based comparison across product types: f against applied mass"))
+        figs += _pages("amount_mass", series, fits, cfg, True,
+                       "Mass-based comparison across product types: f against applied mass")
         if missing:
             notes.append(f"no density for {', '.join(missing)}: left out of the mass comparison "
                          "(give products.<name>.density)")
@@ -187,9 +187,48 @@ def amount_section(series: Any, cfg: Any, fits: list[CrossingFit] | None,
 
 #: the most products in one panel of the amount figure (more: facets of this many)
 PER_PANEL = 7
+#: the most panels in one amount figure: more products go on to further figures
+#: (``amount_applied_2``, ...), each a page of at most 12 panels (about 2000 x 6000 pixels;
+#: one figure of 256 products was 2040 x 18192 pixels and 150 MB of canvas)
+PANELS_PER_FIGURE = 12
 
 
-def amount_figure(series: Any, fits: list[CrossingFit], cfg: Any, *, mass: bool) -> Any:
+def _panels(series: Any, fits: list[CrossingFit], mass: bool) -> list[tuple[str, list[CrossingFit]]]:
+    """The amount figure's panels: ``(unit, products)``, at most :data:`PER_PANEL` each,
+    the products of each unit in order."""
+    from torlab.reports.plotting import unit
+
+    shown = [cf for cf in fits if len(series[series["product"] == cf.product])
+             and math.isfinite(mass_factor(series, cf.product) if mass else 1.0)]
+    by_unit: dict[str, list[CrossingFit]] = {}
+    for cf in shown:
+        by_unit.setdefault("mg" if mass else unit(cf.unit), []).append(cf)
+    return [(u, group[i:i + PER_PANEL]) for u, group in by_unit.items()
+            for i in range(0, len(group), PER_PANEL)]
+
+
+def _pages(name: str, series: Any, fits: list[CrossingFit], cfg: Any, mass: bool,
+           caption: str) -> list[Figure]:
+    """The amount figure(s) of one basis, declared: ``name``, then ``name_2`` ... for every
+    :data:`PANELS_PER_FIGURE` panels, each drawn from its own products' rows."""
+    panels = _panels(series, fits, mass)
+    if len(panels) <= PANELS_PER_FIGURE:
+        return [Figure(name, plot(amount_figure, series, fits, cfg, mass=mass), caption)]
+    pages = [panels[i:i + PANELS_PER_FIGURE] for i in range(0, len(panels), PANELS_PER_FIGURE)]
+    out = []
+    for k, page in enumerate(pages):
+        mine = {cf.product for _, group in page for cf in group}
+        out.append(Figure(
+            name if k == 0 else f"{name}_{k + 1}",
+            plot(amount_figure, series[series["product"].isin(mine)],
+                 [cf for cf in fits if cf.product in mine], cfg, mass=mass,
+                 page=(k + 1, len(pages))),
+            caption + ("" if k == 0 else f" (continued, figure {k + 1} of {len(pages)})")))
+    return out
+
+
+def amount_figure(series: Any, fits: list[CrossingFit], cfg: Any, *, mass: bool,
+                  page: tuple[int, int] | None = None) -> Any:
     """Friction f against the applied amount (or mass) per product (:class:`Plot` function).
 
     Measured f with error bars (the standard deviation of f over the reduction's
@@ -198,19 +237,16 @@ def amount_figure(series: Any, fits: list[CrossingFit], cfg: Any, *, mass: bool)
     row per product (the crossings lie close together: drawn on the threshold line they
     overlapped).  One unit per axis: products applied in different units (µL of a
     liquid, mg of a solid) are drawn in panels side by side, and more than
-    :data:`PER_PANEL` products in facets of that many.
+    :data:`PER_PANEL` products in facets of that many; ``page``: this figure is page
+    ``(k, n)`` of the products' figures (:data:`PANELS_PER_FIGURE` panels each).
     """
-    from torlab.reports.plotting import facet_legend, facets, figure_legend, legend, unit
+    from torlab.reports.plotting import facet_legend, facets, figure_legend, legend
 
-    shown = [cf for cf in fits if len(series[series["product"] == cf.product])
-             and math.isfinite(mass_factor(series, cf.product) if mass else 1.0)]
-    by_unit: dict[str, list[CrossingFit]] = {}
-    for cf in shown:
-        by_unit.setdefault("mg" if mass else unit(cf.unit), []).append(cf)
-    panels = [(u, group[i:i + PER_PANEL]) for u, group in by_unit.items()
-              for i in range(0, len(group), PER_PANEL)] or [("mg" if mass else "–", [])]
+    panels = _panels(series, fits, mass) or [("mg" if mass else "–", [])]
+    shown = [cf for _, group in panels for cf in group]
     title = ("Friction against applied mass" if mass else
-             "Friction against applied amount") + f" at {cfg.temperature:g} °C"
+             "Friction against applied amount") + f" at {cfg.temperature:g} °C" + (
+        f" (figure {page[0]} of {page[1]})" if page is not None else "")
     strip = [0.3 + 0.19 * len(g) for _, g in panels]
     if len(panels) == 1:
         # room on the left for the strip's product names (8-pt labels, about 0.065 in a

@@ -18,7 +18,7 @@ import numpy as np
 
 from torlab.reports.html import Figure, Section, Table
 
-__all__ = ["TractionCurve", "traction_report_figure", "traction_section"]
+__all__ = ["TractionCurve", "traction_figures", "traction_report_figure", "traction_section"]
 
 
 @dataclass
@@ -93,9 +93,8 @@ def traction_section(curves: list[TractionCurve], cfg: Any) -> Section:
     import pandas as pd
 
     from torlab.model.layers import DEFAULT_LAW, get_law
-    from torlab.reports.render import plot
 
-    fig = plot(traction_report_figure, curves, cfg)
+    figs = traction_figures(curves, cfg)
     threshold = getattr(cfg, "trend_probability", 0.9)
     # the layer columns: the parameters of the laws of the modelled curves (in order)
     laws = list(dict.fromkeys(get_law(c.boundary.get("law")) for c in curves if c.boundary)) \
@@ -192,9 +191,11 @@ def traction_section(curves: list[TractionCurve], cfg: Any) -> Section:
                      if c not in ("curve", "kind", "source", "trend", "points_in_trend"))
     return Section(
         key="traction", title="Traction curves", paragraphs=paragraphs,
-        figures=[Figure("traction", fig, "Traction coefficient against creepage: modelled "
+        figures=[Figure(name, fig, "Traction coefficient against creepage: modelled "
                         "(lines, with the 95 % band of the fit's uncertainty where the "
-                        "parameters carry one) and measured (circles)")],
+                        "parameters carry one) and measured (circles)"
+                        + (f" (continued, figure {k + 1} of {len(figs)})" if k else ""))
+                 for k, (name, fig) in enumerate(figs)],
         tables=[Table("trends", table, "Trend after saturation per curve", show,
                       allow_missing=optional),
                 Table("curves", curves_df, "Every curve point (long format)", {
@@ -302,24 +303,52 @@ def _curve_sentence(r: dict[str, Any], c: TractionCurve) -> str:
 #: the most curve groups (a colour each) in one panel of the traction figure: more are
 #: drawn in facets of this many, each with its own legend
 PER_PANEL = 7
+#: the most panels in one traction figure: more curves go on to further figures
+#: (``traction_2``, ...), each a page of at most 14 panels (about 2000 x 5000 pixels; one
+#: figure of 384 curves was 1980 x 13725 pixels and 150 MB of canvas)
+PANELS_PER_FIGURE = 14
 
 
-def traction_report_figure(curves: list[TractionCurve], cfg: Any) -> Any:
+def traction_figures(curves: list[TractionCurve], cfg: Any) -> list[tuple[str, Any]]:
+    """The traction figure(s) of ``curves``, declared: ``[("traction", Plot), ("traction_2",
+    Plot), ...]``, a further figure for every :data:`PANELS_PER_FIGURE` panels."""
+    from torlab.reports.render import plot
+
+    groups = list(dict.fromkeys(c.group or c.label for c in curves))
+    per = PER_PANEL * PANELS_PER_FIGURE
+    if len(groups) <= per:
+        return [("traction", plot(traction_report_figure, curves, cfg))]
+    pages = [groups[i:i + per] for i in range(0, len(groups), per)]
+    out = []
+    for k, page in enumerate(pages):
+        mine = set(page)
+        out.append(("traction" if k == 0 else f"traction_{k + 1}",
+                    plot(traction_report_figure, [c for c in curves if (c.group or c.label) in mine],
+                         cfg, first=k * per, total=len(groups), page=(k + 1, len(pages)))))
+    return out
+
+
+def traction_report_figure(curves: list[TractionCurve], cfg: Any, *, first: int = 0,
+                           total: int | None = None,
+                           page: tuple[int, int] | None = None) -> Any:
     """|μ| against creepage (%): modelled lines with their 95 % bands, measured circles, one
     colour per group (:class:`~torlab.reports.render.Plot` function).
 
     More than :data:`PER_PANEL` groups are drawn in facets of :data:`PER_PANEL`, each with
     its own colours and legend (a campaign of 96 curves in one panel had a legend cut off
-    after 24 entries and repeated colours).
+    after 24 entries and repeated colours).  ``page``: this figure is page ``(k, n)`` of a
+    campaign's traction figures (:func:`traction_figures`), its curves the groups
+    ``first + 1`` onwards of ``total``.
     """
     from torlab.reports.plotting import facet_legend, facets, legend, subplots
 
     groups = list(dict.fromkeys(c.group or c.label for c in curves))
+    total = len(groups) if total is None else total
     kinds = {c.kind for c in curves}
     parts = [p for k, p in (("model", "modelled (lines)"), ("measured", "measured (circles)"))
              if k in kinds]
     title = "Traction curves: " + " and ".join(parts)
-    if len(groups) <= PER_PANEL:
+    if len(groups) <= PER_PANEL and page is None:
         fig, ax = subplots(figsize=(7.0, 4.6))
         _traction_panel(ax, curves, cfg)
         legend(ax)
@@ -331,9 +360,13 @@ def traction_report_figure(curves: list[TractionCurve], cfg: Any) -> Any:
         mine = set(chunk)
         _traction_panel(ax, [c for c in curves if (c.group or c.label) in mine], cfg)
         facet_legend(ax)
-        first = k * PER_PANEL + 1
-        ax.set_title(f"curves {first}–{first + len(chunk) - 1} of {len(groups)}", fontsize=9)
-    fig.suptitle(f"{title}, {len(groups)} curves in {len(chunks)} panels")
+        a = first + k * PER_PANEL + 1
+        ax.set_title(f"curves {a}–{a + len(chunk) - 1} of {total}", fontsize=9)
+    if page is None:
+        fig.suptitle(f"{title}, {len(groups)} curves in {len(chunks)} panels")
+    else:
+        fig.suptitle(f"{title}, curves {first + 1}–{first + len(groups)} of {total} "
+                     f"(figure {page[0]} of {page[1]})")
     return fig
 
 
