@@ -502,9 +502,9 @@ def _layer_fit(curves: Any, *, sigma: float | None = None, compliance: Any = Non
         else laws[0]
     if len(cs) == 1 or between == "none":
         res = together if together is not None else _fit(cs, chosen)
-        own = [res] if keep_runs and together is None and len(cs) == 1 else None
-        if own is not None:  # the run's fit as run_estimates gives it, before pooling marks it
-            own = [copy.copy(res)]
+        own = None
+        if keep_runs and together is None and len(cs) == 1:
+            own = [copy.copy(res)]  # the run's fit as run_estimates gives it: pooling marks res
             own[0].meta = dict(res.meta)
         return (pool_fits([res]) if len(cs) == 1 else res), own
     try:

@@ -161,12 +161,11 @@ def fit_hpt_layers(ctx: RunContext) -> None:
                              "fits: HPT layers and temperature coefficients", uses=_FITS_USE,
                              also=[("fit_hpt", layer_jobs[index[lab]][0])
                                    for lab, _ in temp_jobs] + [None] * len(alone))
-        temps = {lab: r[0] for (lab, _), r in zip(temp_jobs, res, strict=False)}
-        layers = [None] * len(plan)
-        for (lab, _), r in zip(temp_jobs, res, strict=False):
-            layers[index[lab]] = r[1]
-        for n, r in zip(alone, res[len(both):], strict=True):
-            layers[n] = r
+        temps, layers = {}, [None] * len(plan)
+        for (lab, _), (series, layer) in zip(temp_jobs, res[:len(both)], strict=True):
+            temps[lab], layers[index[lab]] = series, layer
+        for n, layer in zip(alone, res[len(both):], strict=True):
+            layers[n] = layer
     for (label, _, _), res in zip(plan, layers, strict=True):
         scene_dict = res.to_scene_dict()
         if label in temps:
