@@ -100,11 +100,11 @@ class Renderer(agg.RendererAgg):
         """matplotlib's ``_draw_text_glyphs_and_boxes`` for plain text (no slant or
         extension, no boxes), each glyph's bitmap taken from :data:`_GLYPHS` where it
         was rendered before at the same fraction of a pixel."""
-        # the same arithmetic as matplotlib's, so the same 26.6 positions
+        # the same arithmetic as matplotlib's, so the same 26.6 positions (its product
+        # with the identity of no slant or extension leaves the matrix as it is)
         cos = math.cos(math.radians(angle))
         sin = math.sin(math.radians(angle))
-        matrix = (0x10000 * np.array([[cos, -sin], [sin, cos]])
-                  @ [[1, 0], [0, 1]]).round().astype(int)
+        matrix = (0x10000 * np.array([[cos, -sin], [sin, cos]])).round().astype(int)
         mkey = tuple(matrix.ravel().tolist())
         aa = bool(gc.get_antialiased())
         height = self.height
@@ -132,6 +132,7 @@ class Renderer(agg.RendererAgg):
             buffer, left, top = got
             # draw_text_image's y is downwards and the bitmap's bottom side
             draw(buffer, left + (tx >> 6), ih - (top + (ty >> 6)) + buffer.shape[0], 0, gc)
+
 
 class Canvas(agg.FigureCanvasAgg):
     """matplotlib's Agg canvas drawing with :class:`Renderer`."""

@@ -63,23 +63,23 @@ def available() -> bool:
 def canvas(fig: Any) -> Any:
     """Give ``fig`` the remembering canvas (matplotlib's Agg canvas where it cannot be
     used); returns the canvas."""
-    classes = _classes()
-    if classes is None:
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-        return FigureCanvasAgg(fig)
-    return classes[1](fig)
+    return _canvas_class()(fig)
 
 
 def __getattr__(name: str) -> Any:  # Canvas is made on first use (matplotlib is heavy)
     if name == "Canvas":
-        classes = _classes()
-        if classes is None:
-            from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-            return FigureCanvasAgg
-        return classes[1]
+        return _canvas_class()
     raise AttributeError(name)
+
+
+def _canvas_class() -> Any:
+    """The remembering canvas class, or matplotlib's Agg canvas where it cannot be used."""
+    classes = _classes()
+    if classes is None:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+        return FigureCanvasAgg
+    return classes[1]
 
 
 def _classes() -> tuple[Any, Any] | None:
