@@ -118,6 +118,72 @@ def test_map_in_blocks_keeps_order_each_index_and_the_first_error(executors):
             ex.map(_fail, range(11), chunksize=2)
 
 
+class _Result:
+    """A task's result whose life this process can watch (a weak reference)."""
+
+    def __init__(self, i: int, early: bool) -> None:
+        self.i, self.early = i, early
+
+
+def _after_flag(job: tuple[str, int]) -> _Result:
+    """Task ``i`` waits (at most 20 s) for the flag file ``i - 1`` the caller writes when
+    it takes task ``i - 1``'s result: early only if results are taken as they arrive."""
+    import time
+
+    folder, i = job
+    flag = Path(folder) / f"took-{i - 1}"
+    end = time.monotonic() + 20
+    while i > 0 and not flag.exists() and time.monotonic() < end:
+        time.sleep(0.01)
+    return _Result(i, i == 0 or flag.exists())
+
+
+def test_local_map_takes_each_result_as_it_arrives_and_lets_it_go(tmp_path):
+    """Local workers: ``each`` sees a block's results as soon as that block is done, not
+    after the whole map (task ``i`` waits for ``each`` of task ``i - 1``), and the result
+    it was given is no longer held once the next one arrives (a map's results are never
+    all held at once)."""
+    import weakref
+
+    refs: list[weakref.ref] = []
+    dead_before: list[bool] = []
+
+    def each(i: int, v: _Result) -> bool:
+        dead_before.append(all(r() is None for r in refs))
+        refs.append(weakref.ref(v))
+        (tmp_path / f"took-{i}").write_text("")
+        return v.early
+
+    with ProcessExecutor(2) as ex:
+        got = ex.map(_after_flag, [(str(tmp_path), i) for i in range(5)], each=each)
+    assert got == [True] * 5
+    assert dead_before == [True] * 5
+
+
+def test_background_results_taken_one_at_a_time(tmp_path, executors):
+    """:meth:`Background.take` waits for that task only (the last one waits until the
+    first is taken), gives each task's own result or error, and lets it go."""
+    for ex in executors:
+        if ex.kind == "serial":  # runs the tasks when asked: take is results' item
+            assert ex.background(_square, range(3)).take(1) == 1
+            continue
+        folder = tmp_path / ex.kind
+        folder.mkdir()
+        bg = ex.background(_after_flag, [(str(folder), i) for i in (0, 1)])
+        first = bg.take(0)
+        (folder / "took-0").write_text("")
+        assert (first.i, bg.take(1).early) == (0, True), ex.kind
+        with pytest.raises(RuntimeError):
+            bg.take(1)  # taken: not kept
+        with pytest.raises(RuntimeError):
+            bg.results()  # not after some were taken one by one
+        bg = ex.background(_fail, range(5))
+        assert bg.take(4) == 4, ex.kind
+        with pytest.raises(TorlabInputError, match="bad 3"):
+            bg.take(3)
+        assert bg.take(2) == 2, ex.kind
+
+
 def _read_relative(name: str) -> str:
     with open(name, encoding="utf-8") as f:
         return f.read()

@@ -104,27 +104,44 @@ def _run_block(fn: Callable[[Any], Any], items: Sequence[Any]) -> list[tuple[Any
     return out
 
 
+def _cancel(futures: Sequence[Any]) -> None:
+    """Cancel the futures not yet let go (None: taken)."""
+    for f in futures:
+        if f is not None:
+            f.cancel()
+
+
 def _unwrap(e: BaseException) -> BaseException:
     return e.error if isinstance(e, _BlockError) else e
 
 
 class Background:
-    """Tasks started by :meth:`Executor.background`; :meth:`results` waits for them."""
+    """Tasks started by :meth:`Executor.background`; :meth:`results` waits for them all,
+    :meth:`take` for one."""
 
     def __init__(self, get: Callable[[], list[Any]],
-                 cancel: Callable[[], None] | None = None) -> None:
-        self._get, self._cancel, self._out = get, cancel, None
+                 cancel: Callable[[], None] | None = None,
+                 one: Callable[[int], Any] | None = None) -> None:
+        self._get, self._cancel, self._one, self._out = get, cancel, one, None
+        self._took = False
 
     def results(self) -> list[Any]:
         """The tasks' results in order (their warnings issued here); the first error in
         task order is raised."""
         if self._out is None:
+            if self._took:
+                raise RuntimeError("background results asked for after some were taken")
             self._out = self._get()
         return self._out
 
     def take(self, i: int) -> Any:
-        """The ``i``-th task's result (waiting as :meth:`results` does), no longer kept
-        here: a large result is held only by whoever took it."""
+        """The ``i``-th task's result (its warnings issued here, its error raised), no
+        longer kept here: a large result is held only by whoever took it.  Where the
+        executor can (a local pool, a Dask cluster), only that task is waited for, so
+        the results taken one by one are never all held at once."""
+        if self._one is not None and self._out is None:
+            self._took = True
+            return self._one(i)
         out = self.results()
         res, out[i] = out[i], None
         return res
@@ -133,7 +150,6 @@ class Background:
         """Drop the tasks not started (a run that failed)."""
         if self._cancel is not None:
             self._cancel()
-
 
 class _Feed:
     """Background tasks on a :class:`ProcessExecutor`'s pool: a thread submits them one at a
@@ -145,6 +161,7 @@ class _Feed:
         self.ex, self.pool, self.fn, self.items = ex, pool, fn, items
         self.futs: list[Any] = []
         self.stopped = False
+        self._submitted = threading.Condition()
         self.thread = threading.Thread(target=self._feed, name="torlab-background",
                                        daemon=True)
         self.thread.start()
@@ -157,12 +174,31 @@ class _Feed:
                 if self.stopped:
                     return
             try:
-                self.futs.append(self.ex._submit(self.pool, _run, self.fn, it))
+                fut = self.ex._submit(self.pool, _run, self.fn, it)
             except RuntimeError:  # the pool was shut down (a run that failed)
+                with self._submitted:
+                    self._submitted.notify_all()
                 return
+            with self._submitted:
+                self.futs.append(fut)
+                self._submitted.notify_all()
 
     def active(self) -> bool:
-        return self.thread.is_alive() or not all(f.done() for f in self.futs)
+        return self.thread.is_alive() or not all(f is None or f.done() for f in self.futs)
+
+    def take(self, i: int) -> Any:
+        """The ``i``-th task's result once it is done (submitted first, if need be); its
+        future is let go."""
+        with self._submitted:
+            while len(self.futs) <= i and not self.stopped and self.thread.is_alive():
+                self._submitted.wait(0.5)
+            if len(self.futs) <= i or self.futs[i] is None:
+                raise RuntimeError("background task cancelled or already taken")
+            f, self.futs[i] = self.futs[i], None
+        self.ex.flush()  # this process's waiting work, while the task runs
+        res, ws = f.result()
+        _reissue(ws)
+        return res
 
     def cancel(self) -> None:
         with self.ex._idle:
@@ -170,7 +206,8 @@ class _Feed:
             self.ex._idle.notify_all()
         self.thread.join()
         for f in self.futs:
-            f.cancel()
+            if f is not None:
+                f.cancel()
 
     def results(self, description: str) -> list[Any]:
         from torlab.progress import current as progress
@@ -431,7 +468,7 @@ class ProcessExecutor(Executor):
         items = list(items)
         if len(items) <= 1:  # one task: no round trip through a worker
             return super().map(fn, items, description=description, each=each)
-        from concurrent.futures import FIRST_EXCEPTION, wait
+        from concurrent.futures import FIRST_COMPLETED, wait
 
         from torlab.progress import current as progress
 
@@ -452,29 +489,37 @@ class ProcessExecutor(Executor):
                         self._load_needs([need])
                 pending = set(futs)
                 while pending:
-                    done, pending = wait(pending, return_when=FIRST_EXCEPTION)
+                    # each block's results taken as it finishes (FIRST_EXCEPTION would
+                    # wait for every block when none fails), and its future let go: a
+                    # map's results (a reduction's cache entry each) are never all held
+                    done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                    failed = []
                     for f in done:
-                        b = blocks[index[f]]
+                        i = index.pop(f)
+                        futs[i] = None
+                        b = blocks[i]
                         if f.exception() is None:
                             res = f.result()
                             if each is not None:
                                 res = [(each(b.start + j, r), ws) for j, (r, ws) in enumerate(res)]
-                            out[index[f]] = res
+                            out[i] = res
+                        else:
+                            failed.append((i, f.exception()))
                         advance(b.stop - b.start)
-                    failed = [index[f] for f in done if f.exception() is not None]
+                    del done
                     if failed:
                         # the first error in task order: later blocks are cancelled, earlier
                         # ones finish (one of them may fail first in order)
-                        first = min(failed)
-                        for f in futs[first + 1:]:
-                            f.cancel()
-                        wait(futs[:first])
-                        for f in futs[:first + 1]:
+                        first, error = min(failed, key=lambda x: x[0])
+                        _cancel(futs[first + 1:])
+                        earlier = [f for f in futs[:first] if f is not None]
+                        wait(earlier)
+                        for f in earlier:
                             if f.exception() is not None:
                                 raise _unwrap(f.exception())
+                        raise _unwrap(error)
         except BaseException:
-            for f in futs:
-                f.cancel()
+            _cancel(futs)
             raise
         trim_memory()  # the results' transfers (pickles, cache entries written) are freed
         return _results([r for block in out for r in block])
@@ -504,7 +549,7 @@ class ProcessExecutor(Executor):
         pool = self._start(None)  # every prepared need, before the feeding thread starts
         feed = _Feed(self, pool, fn, items)
         self._feeds = [f for f in self._feeds if f.active()] + [feed]
-        return Background(lambda: feed.results(description), feed.cancel)
+        return Background(lambda: feed.results(description), feed.cancel, feed.take)
 
     def close(self) -> None:
         self._chores = []  # not done: the caller did not flush (a run that failed)
@@ -780,7 +825,16 @@ class DaskExecutor(Executor):
             futs.clear()  # the results are the caller's now
             return _results(out)
 
-        return Background(results, lambda: self.client.cancel(futs))
+        def one(i: int) -> Any:
+            f, futs[i] = futs[i], None
+            if f is None:
+                raise RuntimeError("background task already taken")
+            res, ws = f.result()
+            _reissue(ws)
+            return res
+
+        return Background(results, lambda: self.client.cancel([f for f in futs if f is not None]),
+                          one)
 
     def agree(self, fn: Callable[[], Any]) -> bool:
         """Whether ``fn()`` gives the same on every worker of the cluster as here (asked

@@ -20,7 +20,11 @@ from torlab.errors import FitError, TorlabInputError
 from torlab.files import safe_name
 from torlab.progress import Progress
 
-__all__ = ["Progress", "RunContext", "add_covariance", "finite"]
+__all__ = ["SHORT_BLOCK", "Progress", "RunContext", "add_covariance", "finite"]
+
+#: the most tasks of one block of short tasks (:meth:`RunContext.cached_map`): a block of a
+#: reduce stage is 64 reductions' cache entries (about 3 MB for HPT logs) in transit
+SHORT_BLOCK = 64
 
 
 def finite(v: Any) -> Any:
@@ -276,7 +280,7 @@ class RunContext:
         one map, so that no worker waits between them).  ``uses``: which of the
         executor's prepared modules the tasks use (:meth:`torlab.parallel.Executor.map`;
         None: all).  ``short``: the tasks take milliseconds each, so they go to the
-        workers in blocks (four per worker).  ``light``: what this process keeps of a value
+        workers in blocks (four per worker, at most :data:`SHORT_BLOCK` tasks each).  ``light``: what this process keeps of a value
         (:class:`torlab.protocols.cache.Light`: a reduction's header and key figures): the
         values themselves stay in the cache (:meth:`full`, :meth:`task_arg`), and a later
         run takes the light values from the cache's index without reading the entries.
@@ -336,7 +340,10 @@ class RunContext:
 
             # a task may defer part of its work (a sampled band's draws): those parts run
             # as tasks of their own, on every worker (torlab.parallel.Deferred)
-            size = -(-len(todo) // (4 * max(1, ex.workers))) if short else 1
+            # short tasks go in blocks of at most SHORT_BLOCK tasks: a block's results are
+            # held here from its arrival until each is stored, so the memory of a map does
+            # not grow with its number of tasks
+            size = min(-(-len(todo) // (4 * max(1, ex.workers))), SHORT_BLOCK) if short else 1
             task = Encoding(fn, light) if cache else fn
             args = [(names[j], kinds[i], tasks[i][1], *((more[j],) if more[j] else ()))
                     for j, i in enumerate(todo)] if cache else [tasks[i][1] for i in todo]

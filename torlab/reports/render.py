@@ -575,7 +575,10 @@ def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DE
     formats = tuple(formats)
     out: dict[str, Any] = {}
     todo: list[tuple[str, Plot, dict[str, str | None]]] = []
-    for name, p in items:
+
+    def one(name: str, p: Any) -> None:
+        """A figure from elsewhere drawn here, one drawn ahead, one the store holds; the
+        others left to draw (``todo``)."""
         if not isinstance(p, Plot):  # a figure drawn by other code
             try:
                 from torlab.reports.plotting import finish
@@ -587,7 +590,7 @@ def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DE
                 _close(p)
             out[name] = res if each is None else each(name, res)
             stats.drawn += 1
-            continue
+            return
         dg = (ahead.digest(p) if ahead is not None else plot_digest(p)) \
             if store is not None or ahead is not None else None
         keys = {f: figure_key(p, f, dpi, digest=dg) if dg is not None else None
@@ -597,7 +600,7 @@ def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DE
             out[name] = _new_figure(name, keys, early, store, each)
             stats.ahead += 1
             stats.drawn += 1
-            continue
+            return
         got = ahead.stored(dg) if ahead is not None and dg is not None else None
         if got is None:  # (what FiguresAhead found in the store is not read twice)
             got = {f: store.get(keys[f], f) for f in formats if keys[f] is not None} \
@@ -605,8 +608,18 @@ def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DE
         if len(got) == len(formats) and all(v is not None for v in got.values()):
             out[name] = got if each is None else each(name, got)  # type: ignore[arg-type]
             stats.reused += 1
-            continue
+            return
         todo.append((name, p, keys))
+
+    from torlab.progress import current as progress
+
+    # the figures drawn ahead are waited for one at a time, in order (each written away
+    # by ``each`` before the next is taken)
+    with progress().task(description if ahead is not None else "",
+                         len(items) if ahead is not None else 0) as advance:
+        for name, p in items:
+            one(name, p)
+            advance()
     if todo:
         ex = executor if executor is not None else current()
         if not ex.agree(drawing_versions):  # a cluster that would draw otherwise: here
