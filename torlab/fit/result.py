@@ -30,6 +30,7 @@ from torlab.model.removal import LAW_UNITS
 __all__ = [
     "PARAM_UNITS",
     "FitResult",
+    "StoredFit",
     "covariance_from_jacobian",
     "finite_tree",
     "hac_covariance",
@@ -458,6 +459,67 @@ class FitResult:
             "warnings": list(self.warnings),
             "meta": finite_tree({k: v for k, v in self.meta.items() if k != "lubricant_extra"}),
         }
+
+
+@dataclass(frozen=True)
+class StoredFit:
+    """A fit result whose data table stays in a store (a protocol run's result cache):
+    what a figure of it is given instead of the whole result, read where it is drawn.
+
+    A protocol run keeps of each large fit (an HPT layer pooled over many runs: its
+    :attr:`FitResult.data` is a few hundred kB) only :attr:`light` (the result without its
+    data); the figure task reads the whole result through the reference (:meth:`whole`).
+    What the figure shows is named by the two fields (a figure's content key,
+    :func:`torlab.reports.render.plot_digest`): the stored entry's name (a content key of
+    the fit's inputs) and the light result (every estimate); the reference (the entry
+    file's place and status, which differ from run to run) is not a field.
+
+    Attributes
+    ----------
+    entry
+        The stored entry's name.
+    light
+        The result without its data (``data`` None).
+    """
+
+    entry: str
+    light: FitResult
+
+    @classmethod
+    def of(cls, result: FitResult, ref: Any) -> StoredFit:
+        """The stored form of ``result``, read back through ``ref`` (an object with
+        ``name`` and ``value()``: :class:`torlab.protocols.cache.EntryRef`)."""
+        import dataclasses
+
+        out = cls(ref.name, dataclasses.replace(result, data=None))
+        object.__setattr__(out, "ref", ref)  # not a field: not part of the content key
+        return out
+
+    def whole(self) -> FitResult:
+        """The whole result, read from the store.
+
+        Raises
+        ------
+        TorlabInputError
+            The entry is gone or changed since it was stored (the run's cache folder was
+            changed while it ran), or holds another result.
+        """
+        from torlab.codec import BadEntry
+        from torlab.errors import TorlabInputError
+
+        ref = getattr(self, "ref", None)
+        try:
+            if ref is None:
+                raise BadEntry("no reference to it")
+            value = ref.value()
+        except BadEntry as e:
+            raise TorlabInputError(f"the stored fit {self.entry} cannot be read back ({e}); "
+                                   "was the run's cache folder changed while it ran?") from None
+        if not isinstance(value, FitResult) or value.kind != self.light.kind \
+                or value.params != self.light.params:
+            raise TorlabInputError(f"the stored fit {self.entry} holds another result; was the "
+                                   "run's cache folder changed while it ran?")
+        return value
 
 
 def log_interval(value: float, se: float, tq: float) -> tuple[float, float]:

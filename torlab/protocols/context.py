@@ -89,6 +89,9 @@ class RunContext:
     #: (:func:`torlab.protocols.data.reduce_data`): an object with ``reduction()`` (the
     #: whole one, read here) and ``arg()`` (what a task takes instead: read there)
     stored: dict[int, Any] = field(default_factory=dict)
+    #: ``id(fit result)`` -> its :class:`~torlab.fit.result.StoredFit`, for a fit kept
+    #: without its data (:meth:`keep_fit`): what its figure is given (:meth:`fit_arg`)
+    stored_fits: dict[int, Any] = field(default_factory=dict)
     _by_source: dict[Path, Any] | None = field(default=None, repr=False)
 
     @property
@@ -125,6 +128,27 @@ class RunContext:
         turns either into the detail)."""
         s = self.stored.get(id(red))
         return red.detail if s is None else s.arg()
+
+    def keep_fit(self, res: Any, kind: str, parts: dict[str, Any]) -> Any:
+        """What this process keeps of a fit result stored in the cache as ``(kind,
+        parts)``: the result without its data table (:class:`~torlab.fit.result.StoredFit`;
+        a large fit's data stay in the cache, read where its figure is drawn), or the
+        result itself where it has no data or no entry."""
+        from torlab.fit.result import FitResult, StoredFit
+
+        if not isinstance(res, FitResult) or res.data is None:
+            return res
+        ref = self.cache.ref(kind, **parts)
+        if ref is None:
+            return res
+        stored = StoredFit.of(res, ref)
+        self.stored_fits[id(stored.light)] = stored
+        return stored.light
+
+    def fit_arg(self, res: Any) -> Any:
+        """What a figure of the fit result ``res`` takes: its
+        :class:`~torlab.fit.result.StoredFit` if it is kept without its data, else itself."""
+        return self.stored_fits.get(id(res), res)
 
     def labelled(self, section: str) -> list[tuple[str, Any]]:
         """``(label, reduction)`` of a data section (the protocol's labels, else file stems)."""
@@ -269,10 +293,21 @@ class RunContext:
                 out[i] = v
         return out
 
+    def _found(self, kind: str, parts: dict[str, Any], light: Any,
+               also: tuple[str, dict[str, Any]] | None) -> tuple[bool, Any]:
+        """``(hit, value)`` of one task of :meth:`cached_map` in the cache."""
+        hit, v = (self.cache.lookup(kind, **parts) if light is None else
+                  self.cache.lookup_light(kind, light, **parts))
+        if hit and also is not None:
+            hit, v2 = self.cache.lookup(also[0], **also[1])
+            v = (v, v2)
+        return hit, v
+
     def cached_map(self, kind: str | list[str], fn: Any, tasks: list[tuple[dict[str, Any], Any]],
                    description: str = "", uses: Any = None, short: bool = False,
                    light: Any = None,
-                   also: list[tuple[str, dict[str, Any]] | None] | None = None) -> list[Any]:
+                   also: list[tuple[str, dict[str, Any]] | None] | None = None,
+                   keep: Callable[[int, Any], Any] | None = None) -> list[Any]:
         """``fn(arg)`` for ``(cache parts, arg)`` tasks: entries in the cache are reused, the
         others computed on the run's executor (:mod:`torlab.parallel`) and stored.
 
@@ -290,6 +325,10 @@ class RunContext:
         look for it): ``fn(arg)`` returns the pair, and the task's result is the pair; it is
         taken from the cache only when both entries are there (not with ``light``).
 
+        ``keep``: ``keep(i, value)`` is what this process keeps of task ``i``'s value,
+        called as soon as the value is found in or written to the cache (a large fit kept
+        without its data: :meth:`keep_fit`), so that the whole values are never all held.
+
         A computed value is encoded for the cache where it was computed (a worker,
         :class:`torlab.protocols.cache.Encoding`); this process signs and writes it as it
         arrives, so a long map's results are never all held here at once.
@@ -305,13 +344,9 @@ class RunContext:
         out: list[Any] = [None] * len(tasks)
         todo = []
         for i, (parts, _) in enumerate(tasks):
-            hit, v = (self.cache.lookup(kinds[i], **parts) if light is None else
-                      self.cache.lookup_light(kinds[i], light, **parts))
-            if hit and also[i] is not None:
-                hit, v2 = self.cache.lookup(also[i][0], **also[i][1])
-                v = (v, v2)
+            hit, v = self._found(kinds[i], parts, light, also[i])
             if hit:
-                out[i] = v
+                out[i] = v if keep is None else keep(i, v)
             else:
                 todo.append(i)
         if todo:
@@ -335,7 +370,9 @@ class RunContext:
                     for (name, k), payload in zip(more[j], v.also, strict=True):
                         self.cache.store_payload(name, k, payload)
                     written.add(j)
-                    return light.restore(v.value) if v.light else v.value
+                    if v.light:
+                        return light.restore(v.value)
+                    return v.value if keep is None else keep(todo[j], v.value)
                 return v
 
             # a task may defer part of its work (a sampled band's draws): those parts run
@@ -356,7 +393,7 @@ class RunContext:
             for j, (i, v) in enumerate(zip(todo, vals, strict=True)):
                 out[i] = v
                 if cache and j not in written:
-                    late.append((i, v))
+                    late.append((i, v))  # (kept whole: not in the cache yet)
             # stored while the next map's tasks run, or at the run's end
             # (torlab.parallel.Executor.meanwhile)
             if late:

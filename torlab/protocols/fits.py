@@ -134,7 +134,8 @@ def fit_hpt_layers(ctx: RunContext) -> None:
         # every law is fitted and one chosen per product: its temperature runs are fitted
         # with the chosen law, after the layer fits
         layers = ctx.cached_map(["fit_hpt"] * len(layer_jobs), _fit_task, layer_jobs,
-                                "fits: HPT layers", uses=_FITS_USE)
+                                "fits: HPT layers", uses=_FITS_USE,
+                                keep=lambda i, v: ctx.keep_fit(v, "fit_hpt", layer_jobs[i][0]))
         chosen = {lab: r.meta.get("law", "voce") for (lab, _, _), r in
                   zip(plan, layers, strict=True)}
         temp_jobs = [(lab, ({**key, "law": chosen[lab]}, ("temperature", (*arg[:3],
@@ -156,11 +157,19 @@ def fit_hpt_layers(ctx: RunContext) -> None:
         both = [(tkey, ("both", (len(plan[index[lab]][1]), *targ)))
                 for lab, (tkey, (_, targ)) in temp_jobs]
         alone = sorted(set(range(len(plan))) - {index[lab] for lab, _ in temp_jobs})
+        parts = [layer_jobs[index[lab]][0] for lab, _ in temp_jobs] + \
+            [layer_jobs[n][0] for n in alone]
+
+        def keep(i: int, v: Any) -> Any:  # a layer kept without its data (in the cache)
+            if i < len(both):
+                return v[0], ctx.keep_fit(v[1], "fit_hpt", parts[i])
+            return ctx.keep_fit(v, "fit_hpt", parts[i])
+
         res = ctx.cached_map(["fit_temperature"] * len(both) + ["fit_hpt"] * len(alone),
                              _fit_task, both + [layer_jobs[n] for n in alone],
                              "fits: HPT layers and temperature coefficients", uses=_FITS_USE,
-                             also=[("fit_hpt", layer_jobs[index[lab]][0])
-                                   for lab, _ in temp_jobs] + [None] * len(alone))
+                             also=[("fit_hpt", p) for p in parts[:len(both)]]
+                             + [None] * len(alone), keep=keep)
         temps, layers = {}, [None] * len(plan)
         for (lab, _), (series, layer) in zip(temp_jobs, res[:len(both)], strict=True):
             temps[lab], layers[index[lab]] = series, layer

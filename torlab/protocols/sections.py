@@ -551,7 +551,8 @@ def fits_section(ctx: RunContext) -> Any:
     from torlab.reports.html import Figure, Section, Table
     from torlab.reports.render import plot
 
-    figs = [Figure(f"fit_{safe_name(name.replace(':', '_'))}", plot(result_figure, res),
+    figs = [Figure(f"fit_{safe_name(name.replace(':', '_'))}", plot(result_figure,
+                                                                     ctx.fit_arg(res)),
                    f"{name}: data against the fitted model, residuals")
             for name, res in ctx.fit_results]
     warn = [f"{name}: {w}" for name, res in ctx.fit_results for w in res.warnings]

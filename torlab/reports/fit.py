@@ -228,6 +228,12 @@ def _refill(fig: Any, s: _Spec) -> None:
     fig._torlab_finished = False
 
 
+def _whole(result: Any) -> Any:
+    """The whole fit result: a :class:`~torlab.fit.result.StoredFit` is read here (where
+    its figure is drawn)."""
+    return result.whole() if hasattr(result, "whole") else result
+
+
 def redraw_result_figure(take: Callable[[Hashable], Any], result: Any,
                          title: str | None = None,
                          model_curve: tuple[Any, Any] | None = None) -> tuple[Any, Hashable | None]:
@@ -253,6 +259,7 @@ def redraw_result_figure(take: Callable[[Hashable], Any], result: Any,
         (a removal fit's, the film temperature scaling's).  The figure is not finished
         (:func:`torlab.reports.plotting.finish`).
     """
+    result = _whole(result)
     if result.kind == "removal":
         return result_figure(result, title=title), None
     s = _spec(result, title, model_curve)
@@ -313,11 +320,13 @@ def _short_source(src: Any, width: int = 60) -> str:
 
 def result_figure(result: Any, title: str | None = None,
                   model_curve: tuple[Any, Any] | None = None) -> Any:
-    """The figure of a fit result by its kind (:class:`~torlab.reports.render.Plot`
-    function; also :meth:`~torlab.fit.result.FitResult.plot`): a removal fit's
+    """The figure of a fit result (or a :class:`~torlab.fit.result.StoredFit`, read here)
+    by its kind (:class:`~torlab.reports.render.Plot` function; also
+    :meth:`~torlab.fit.result.FitResult.plot`): a removal fit's
     measured and modelled coefficient and remaining amount
     (:func:`torlab.reports.retention.removal_figure`), any other fit's data against the
     model and the residuals (:func:`fit_figure`)."""
+    result = _whole(result)
     if result.kind == "removal":
         from torlab.reports.retention import removal_figure
 
