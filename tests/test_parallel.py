@@ -167,12 +167,18 @@ def test_background_results_taken_one_at_a_time(tmp_path, executors):
         if ex.kind == "serial":  # runs the tasks when asked: take is results' item
             assert ex.background(_square, range(3)).take(1) == 1
             continue
-        folder = tmp_path / ex.kind
-        folder.mkdir()
-        bg = ex.background(_after_flag, [(str(folder), i) for i in (0, 1)])
-        first = bg.take(0)
-        (folder / "took-0").write_text("")
-        assert (first.i, bg.take(1).early) == (0, True), ex.kind
+        if ex.kind == "processes":
+            # (not on the test's Dask cluster: its workers are threads of this process,
+            # which run one task at a time -- the later task could hold the turn)
+            folder = tmp_path / ex.kind
+            folder.mkdir()
+            bg = ex.background(_after_flag, [(str(folder), i) for i in (0, 1)])
+            first = bg.take(0)
+            (folder / "took-0").write_text("")
+            assert (first.i, bg.take(1).early) == (0, True), ex.kind
+        else:
+            bg = ex.background(_square, (0, 1))
+            assert (bg.take(0), bg.take(1)) == (0, 1), ex.kind
         with pytest.raises(RuntimeError):
             bg.take(1)  # taken: not kept
         with pytest.raises(RuntimeError):

@@ -340,3 +340,32 @@ def test_waiting_work_is_done_while_background_tasks_finish():
         ex.meanwhile(lambda: done.append("stored"))
         got = bg.results()
         assert done == ["stored"] and [n for n, _ in got] == ["bg0", "bg1"]
+
+
+def test_figures_drawn_ahead_wait_in_files_not_in_memory(tmp_path):
+    """On local workers a figure drawn ahead is written to a file of the run's own folder
+    and read when taken (the same bytes as a plain drawing); each file goes when its
+    figure is taken, the folder when the figures are done; a file named outside the
+    folder is refused."""
+    import os
+
+    from torlab.reports.render import FiguresAhead, _read_drawn, render_figures
+
+    items = _plots()
+    plain, _ = render_figures(items, ("png",))
+    with ProcessExecutor(2) as ex:
+        ahead = FiguresAhead(("png",), executor=ex)
+        assert ahead.start(items) == len(items)
+        folder = ahead._folder
+        assert folder is not None and os.path.isdir(folder)
+        got, st = render_figures(items, ("png",), executor=ex, ahead=ahead)
+        assert st.ahead == len(items)
+        assert got == plain
+        assert os.listdir(folder) == []
+        ahead.close()
+        assert not os.path.exists(folder)
+    outside = tmp_path / "x.png"
+    outside.write_bytes(b"png")
+    with pytest.raises(ValueError, match="outside"):
+        _read_drawn({"png": str(outside)}, str(tmp_path / "folder"))
+    assert outside.exists()

@@ -186,6 +186,9 @@ def _run(lp: Any, dest: Any, rc: Any, formats: Any, run_key: str, executor: Any,
             if ahead is not None:
                 ahead.cancel()
             raise
+        finally:
+            if ahead is not None:
+                ahead.close()
         t_figures = time.perf_counter() - t1
         io_figures = rc.io_seconds + dest.io_seconds - io0
     t2 = time.perf_counter()

@@ -634,6 +634,38 @@ def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DE
     return {name: out[name] for name, _ in items if name in out}, stats
 
 
+def draw_to_files(task: tuple[Plot, tuple[str, ...], float | None, str]) -> dict[str, str]:
+    """:func:`draw_task`, the images written to files in a folder (the last item) instead
+    of returned: ``{format: file}``.  A figure drawn ahead on a local worker waits there,
+    not in the memory of the process that will write it (:class:`FiguresAhead`)."""
+    import os
+    import tempfile
+
+    *job, folder = task
+    out = {}
+    for fmt, data in draw_task(tuple(job)).items():  # type: ignore[arg-type]
+        fd, path = tempfile.mkstemp(suffix=f".{fmt}", dir=folder)
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        out[fmt] = path
+    return out
+
+
+def _read_drawn(files: dict[str, str], folder: str) -> dict[str, bytes]:
+    """The images :func:`draw_to_files` wrote (files of ``folder`` only), the files
+    removed."""
+    import os
+
+    out = {}
+    for fmt, path in files.items():
+        if os.path.dirname(os.path.abspath(path)) != os.path.abspath(folder):
+            raise ValueError(f"a drawn figure outside its folder: {path}")
+        with open(path, "rb") as f:
+            out[fmt] = f.read()
+        os.unlink(path)
+    return out
+
+
 def _new_figure(name: str, keys: dict[str, str | None], images: dict[str, bytes], store: Any,
                 each: Callable[[str, dict[str, bytes]], Any] | None) -> Any:
     """A figure drawn (here or ahead): into the store, then to ``each``."""
@@ -670,6 +702,11 @@ class FiguresAhead:
 
         self.formats, self.dpi, self.store = tuple(formats), dpi, store
         self.executor = executor if executor is not None else current()
+        # local workers write what they drew to files of a folder of this run's own (read
+        # when the figure is taken): the figures drawn while the run computes are not all
+        # held in this process (at a 64x campaign ~100 MB of PNG); a cluster's workers
+        # may be on other machines: their images come back as bytes
+        self._folder: str | None = None
         self._digests: dict[int, tuple[Any, str | None]] = {}
         self._started: dict[str, tuple[Any, int]] = {}  # digest -> (batch, index)
         self._stored: dict[str, dict[str, bytes]] = {}  # digest -> the store's images
@@ -704,9 +741,21 @@ class FiguresAhead:
             todo.append((dg, p))
         if not todo:
             return 0
-        batch = self.executor.background(draw_task, [(p, self.formats, self.dpi)
-                                                      for _, p in todo],
-                                         description="drawing figures")
+        if getattr(self.executor, "kind", "") == "processes":
+            if self._folder is None:
+                import shutil
+                import tempfile
+                import weakref
+
+                self._folder = tempfile.mkdtemp(prefix="torlab-figures-")
+                weakref.finalize(self, shutil.rmtree, self._folder, ignore_errors=True)
+            batch = self.executor.background(draw_to_files, [
+                (p, self.formats, self.dpi, self._folder) for _, p in todo],
+                description="drawing figures")
+        else:
+            batch = self.executor.background(draw_task, [(p, self.formats, self.dpi)
+                                                          for _, p in todo],
+                                             description="drawing figures")
         self._batches.append(batch)
         for i, (dg, _) in enumerate(todo):
             self._started[dg] = (batch, i)
@@ -723,12 +772,24 @@ class FiguresAhead:
             return None
         batch, i = got
         del self._started[digest]
-        return batch.take(i)  # not kept here: the caller writes it away
+        out = batch.take(i)  # not kept here: the caller writes it away
+        if self._folder is not None and all(isinstance(v, str) for v in out.values()):
+            return _read_drawn(out, self._folder)
+        return out
 
     def cancel(self) -> None:
         """Drop the figures not started yet (a run that failed)."""
         for b in self._batches:
             b.cancel()
+        self.close()
+
+    def close(self) -> None:
+        """Remove the folder of the figures drawn ahead (those not taken with it)."""
+        if self._folder is not None:
+            import shutil
+
+            shutil.rmtree(self._folder, ignore_errors=True)
+            self._folder = None
 
 
 def write_figures(dest: Any, items: Sequence[tuple[str, Any]],
