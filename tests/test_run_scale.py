@@ -136,6 +136,11 @@ def test_parent_keeps_light_reductions_and_fits_read_the_whole_ones(tmp_path, mo
     assert all(len(f.detail.data) == f.key_numbers["n_points"] > 100 for f in full)
     assert [r.key_numbers for r in reds] == [f.key_numbers for f in full]
     assert [r.meta for r in reds] == [f.meta for f in full]
+    # one string object for a key or short value all the light forms hold (half their memory)
+    keys = {k: k for k in reds[0].meta.lines}
+    assert len(keys) > 3 and all(keys[k] is k for k in reds[1].meta.lines if k in keys)
+    assert reds[0].meta.product == reds[1].meta.product
+    assert reds[0].meta.product is reds[1].meta.product
     r0 = run_protocol(p, tmp_path / "nocache", cache=False)
     assert r2.summary["fits"] == r0.summary["fits"] == r1.summary["fits"]
     assert r2.summary["data"] == r0.summary["data"]
