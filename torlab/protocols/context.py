@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -303,6 +304,21 @@ class RunContext:
             v = (v, v2)
         return hit, v
 
+    def _store_encoded(self, name: str, kind: str, v: Any, more: tuple, light: Any,
+                       keep: Callable[[Any], Any] | None) -> Any:
+        """Write a task's encoded result (:class:`torlab.protocols.cache.Encoded`) and the
+        further entries it filled; what :meth:`cached_map` keeps of it."""
+        from torlab.protocols.cache import shared
+
+        if v.light:  # one copy of the light JSON: the index's and the value's
+            v.value = shared(v.value)
+        self.cache.store_payload(name, kind, v.payload, **({"light": v.value} if v.light else {}))
+        for (other, k), payload in zip(more, v.also, strict=True):
+            self.cache.store_payload(other, k, payload)
+        if v.light:
+            return light.restore(v.value)
+        return v.value if keep is None else keep(v.value)
+
     def cached_map(self, kind: str | list[str], fn: Any, tasks: list[tuple[dict[str, Any], Any]],
                    description: str = "", uses: Any = None, short: bool = False,
                    light: Any = None,
@@ -364,16 +380,11 @@ class RunContext:
             written: set[int] = set()
 
             def stored(j: int, v: Any) -> Any:  # as each result arrives
-                if isinstance(v, Encoded):
-                    self.cache.store_payload(names[j], kinds[todo[j]], v.payload,
-                                             **({"light": v.value} if v.light else {}))
-                    for (name, k), payload in zip(more[j], v.also, strict=True):
-                        self.cache.store_payload(name, k, payload)
-                    written.add(j)
-                    if v.light:
-                        return light.restore(v.value)
-                    return v.value if keep is None else keep(todo[j], v.value)
-                return v
+                if not isinstance(v, Encoded):
+                    return v
+                written.add(j)
+                return self._store_encoded(names[j], kinds[todo[j]], v, more[j], light,
+                                           None if keep is None else partial(keep, todo[j]))
 
             # a task may defer part of its work (a sampled band's draws): those parts run
             # as tasks of their own, on every worker (torlab.parallel.Deferred)

@@ -27,7 +27,6 @@ which the schema calls):
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -108,20 +107,7 @@ class _Restore:
     def __call__(self, d: Any) -> Any:
         from torlab.instruments import get_instrument
 
-        return get_instrument(self.instrument).impl().from_light(_shared(d))
-
-
-def _shared(v: Any) -> Any:
-    """Plain JSON with its keys and short strings shared between the light forms (one
-    string object for every run's ``"product"``, units, column names ...): the thousands
-    of light forms a campaign keeps take half the memory (an HPT run's 6.7 -> 3.1 kB)."""
-    if isinstance(v, dict):
-        return {sys.intern(k) if isinstance(k, str) else k: _shared(x) for k, x in v.items()}
-    if isinstance(v, list):
-        return [_shared(x) for x in v]
-    if isinstance(v, str) and len(v) <= 64:
-        return sys.intern(v)
-    return v
+        return get_instrument(self.instrument).impl().from_light(d)
 
 
 class StoredReduction:
