@@ -566,8 +566,9 @@ class ResultCache:
         finally:
             self.io_seconds += time.perf_counter() - t0
 
-    def _write(self, name: str, blob: bytes) -> list[int]:
-        """Write a new file ``name`` (never through an existing one); its status record."""
+    def _write(self, name: str, *blobs: bytes) -> list[int]:
+        """Write a new file ``name`` (never through an existing one) of ``blobs`` one after
+        another (a large index is not copied into one); its status record."""
         from torlab.files import writing
 
         p = self.folder / name  # type: ignore[operator]
@@ -580,7 +581,8 @@ class ResultCache:
                 target.unlink()
             fd = os.open(target, os.O_WRONLY | os.O_CREAT | os.O_EXCL | _O_NOFOLLOW, 0o666)
             with os.fdopen(fd, "wb") as f:
-                f.write(blob)
+                for blob in blobs:
+                    f.write(blob)
                 f.flush()
                 return _status(os.fstat(f.fileno()))
 
@@ -664,7 +666,7 @@ class ResultCache:
                 text = json.dumps(value, separators=(",", ":")).encode("utf-8")
             head = f"{INDEX_FORMAT} {INDEX_VERSION} {self._mac(text)}\n".encode("ascii")
             self.used.add(INDEX)
-            self._write(INDEX, head + text)
+            self._write(INDEX, head, text)
         finally:
             self.io_seconds += time.perf_counter() - t0
 
