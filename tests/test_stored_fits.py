@@ -103,6 +103,21 @@ def test_a_stored_fit_changed_or_gone_is_a_clear_error(stored, tmp_path):
         StoredFit(arg.entry, arg.light).whole()  # made without a reference
 
 
+def test_a_stored_fit_with_an_undetermined_estimate_reads_back(tmp_path):
+    """An estimate that is NaN (undetermined) is the same estimate when read back."""
+    import dataclasses
+
+    from torlab.protocols.cache import ResultCache
+
+    res = _layer_fit([str(f) for f in FILES[:2]])
+    name = next(iter(res.params))
+    res = dataclasses.replace(res, params={**res.params, name: float("nan")})
+    c = ResultCache(tmp_path / "c")
+    c.store("fit_hpt", res, runs=["x"])
+    back = StoredFit.of(res, c.ref("fit_hpt", runs=["x"])).whole()
+    assert back.params.keys() == res.params.keys() and back.data.equals(res.data)
+
+
 def test_kept_from_the_cache_too_and_whole_without_one(stored, tmp_path):
     """A later run finds the fit in the cache and keeps it without its data as well; with
     no cache folder the whole result is kept."""

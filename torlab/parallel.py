@@ -151,6 +151,7 @@ class Background:
         if self._cancel is not None:
             self._cancel()
 
+
 class _Feed:
     """Background tasks on a :class:`ProcessExecutor`'s pool: a thread submits them one at a
     time whenever fewer tasks than workers are busy, so they never queue ahead of a

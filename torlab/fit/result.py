@@ -515,8 +515,11 @@ class StoredFit:
         except BadEntry as e:
             raise TorlabInputError(f"the stored fit {self.entry} cannot be read back ({e}); "
                                    "was the run's cache folder changed while it ran?") from None
+        names = list(self.light.params)
         if not isinstance(value, FitResult) or value.kind != self.light.kind \
-                or value.params != self.light.params:
+                or list(value.params) != names or not np.array_equal(
+                    [value.params[n] for n in names], [self.light.params[n] for n in names],
+                    equal_nan=True):
             raise TorlabInputError(f"the stored fit {self.entry} holds another result; was the "
                                    "run's cache folder changed while it ran?")
         return value

@@ -331,7 +331,8 @@ class RunContext:
         one map, so that no worker waits between them).  ``uses``: which of the
         executor's prepared modules the tasks use (:meth:`torlab.parallel.Executor.map`;
         None: all).  ``short``: the tasks take milliseconds each, so they go to the
-        workers in blocks (four per worker, at most :data:`SHORT_BLOCK` tasks each).  ``light``: what this process keeps of a value
+        workers in blocks (four per worker, at most :data:`SHORT_BLOCK` tasks each).
+        ``light``: what this process keeps of a value
         (:class:`torlab.protocols.cache.Light`: a reduction's header and key figures): the
         values themselves stay in the cache (:meth:`full`, :meth:`task_arg`), and a later
         run takes the light values from the cache's index without reading the entries.
