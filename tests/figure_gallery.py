@@ -87,7 +87,10 @@ def capture() -> Iterator[list[tuple[str, Any]]]:
         got = {}
         for name, p in items:
             if isinstance(p, render.Plot):
-                seen.append((name, p))
+                # a fit kept in the run's cache (StoredFit) read now: the cache is moved
+                # into the output folder when the run ends, and these plots outlive it
+                seen.append((name, render.Plot(p.func, tuple(
+                    a.whole() if hasattr(a, "whole") else a for a in p.args), p.kwargs)))
             got[name] = {f: b"" for f in formats}
         return got, render.RenderStats()
 
