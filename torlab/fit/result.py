@@ -472,7 +472,10 @@ class StoredFit:
     What the figure shows is named by the two fields (a figure's content key,
     :func:`torlab.reports.render.plot_digest`): the stored entry's name (a content key of
     the fit's inputs) and the light result (every estimate); the reference (the entry
-    file's place and status, which differ from run to run) is not a field.
+    file's place and status, which differ from run to run) is not a field.  It reads
+    back while the entry stays where it was written: a protocol run's cache is in the
+    run's staging folder until the run ends and is then moved into the output folder, so a
+    plot kept past the run reads its fit first (:meth:`whole`).
 
     Attributes
     ----------
