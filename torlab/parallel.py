@@ -197,9 +197,7 @@ class _Feed:
                 raise RuntimeError("background task cancelled or already taken")
             f, self.futs[i] = self.futs[i], None
         self.ex.flush()  # this process's waiting work, while the task runs
-        res, ws = f.result()
-        _reissue(ws)
-        return res
+        return _results([f.result()])[0]
 
     def cancel(self) -> None:
         with self.ex._idle:
@@ -830,9 +828,7 @@ class DaskExecutor(Executor):
             f, futs[i] = futs[i], None
             if f is None:
                 raise RuntimeError("background task already taken")
-            res, ws = f.result()
-            _reissue(ws)
-            return res
+            return _results([f.result()])[0]
 
         return Background(results, lambda: self.client.cancel([f for f in futs if f is not None]),
                           one)
