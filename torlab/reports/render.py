@@ -708,7 +708,8 @@ class FiguresAhead:
         # may be on other machines: their images come back as bytes
         self._folder: str | None = None
         self._digests: dict[int, tuple[Any, str | None]] = {}
-        self._started: dict[str, tuple[Any, int]] = {}  # digest -> (batch, index)
+        # digest -> (batch, index, the folder its images are written to or None)
+        self._started: dict[str, tuple[Any, int, str | None]] = {}
         self._stored: dict[str, dict[str, bytes]] = {}  # digest -> the store's images
         self._batches: list[Any] = []
 
@@ -741,25 +742,30 @@ class FiguresAhead:
             todo.append((dg, p))
         if not todo:
             return 0
-        if getattr(self.executor, "kind", "") == "processes":
-            if self._folder is None:
-                import shutil
-                import tempfile
-                import weakref
-
-                self._folder = tempfile.mkdtemp(prefix="torlab-figures-")
-                weakref.finalize(self, shutil.rmtree, self._folder, ignore_errors=True)
-            batch = self.executor.background(draw_to_files, [
-                (p, self.formats, self.dpi, self._folder) for _, p in todo],
-                description="drawing figures")
-        else:
-            batch = self.executor.background(draw_task, [(p, self.formats, self.dpi)
-                                                          for _, p in todo],
-                                             description="drawing figures")
+        folder = self._spill_folder()
+        jobs = [(p, self.formats, self.dpi) for _, p in todo]
+        batch = self.executor.background(
+            draw_task if folder is None else draw_to_files,
+            jobs if folder is None else [(*j, folder) for j in jobs],
+            description="drawing figures")
         self._batches.append(batch)
         for i, (dg, _) in enumerate(todo):
-            self._started[dg] = (batch, i)
+            self._started[dg] = (batch, i, folder)
         return len(todo)
+
+    def _spill_folder(self) -> str | None:
+        """The folder local workers write the figures they draw ahead to (made once), or
+        None where the images come back as bytes (a cluster, serial work)."""
+        if getattr(self.executor, "kind", "") != "processes":
+            return None
+        if self._folder is None:
+            import shutil
+            import tempfile
+            import weakref
+
+            self._folder = tempfile.mkdtemp(prefix="torlab-figures-")
+            weakref.finalize(self, shutil.rmtree, self._folder, ignore_errors=True)
+        return self._folder
 
     def stored(self, digest: str) -> dict[str, bytes] | None:
         """The figure with this digest as :meth:`start` found it in the store, if it did."""
@@ -770,12 +776,10 @@ class FiguresAhead:
         got = self._started.get(digest)
         if got is None:
             return None
-        batch, i = got
+        batch, i, folder = got
         del self._started[digest]
         out = batch.take(i)  # not kept here: the caller writes it away
-        if self._folder is not None and all(isinstance(v, str) for v in out.values()):
-            return _read_drawn(out, self._folder)
-        return out
+        return out if folder is None else _read_drawn(out, folder)
 
     def cancel(self) -> None:
         """Drop the figures not started yet (a run that failed)."""
