@@ -15,6 +15,8 @@ import os
 import shutil
 import subprocess
 import sys
+import threading
+import time
 import warnings
 from pathlib import Path
 
@@ -188,6 +190,40 @@ def test_background_results_taken_one_at_a_time(tmp_path, executors):
         with pytest.raises(TorlabInputError, match="bad 3"):
             bg.take(3)
         assert bg.take(2) == 2, ex.kind
+
+
+#: the order the tasks of :func:`test_dask_background_batches_take_turns` started in (the
+#: test's Dask workers are threads of this process)
+_STARTED: list[tuple[str, int]] = []
+_GO = threading.Event()
+
+
+def _record(job: tuple[str, int]) -> tuple[str, int]:
+    _STARTED.append(job)
+    if job == ("A", 0):  # the first task holds its turn until the second batch is there
+        _GO.wait(30)
+    return job
+
+
+def test_dask_background_batches_take_turns(dask_client):
+    """A background batch started after another is not queued behind all of it: the
+    ``i``-th task of every batch has the same priority, so a campaign-wide figure started
+    after a section's 192 fit figures is drawn next, not last (where one worker drew it
+    alone at the end of the run).  With one priority for all, B's first task started
+    after A's last."""
+    from torlab.parallel import DaskExecutor
+
+    ex = DaskExecutor(dask_client)
+    _STARTED.clear()
+    _GO.clear()
+    a = ex.background(_record, [("A", i) for i in range(12)])
+    time.sleep(0.3)  # Dask orders work submitted within 0.1 s as one submission
+    b = ex.background(_record, [("B", i) for i in range(3)])
+    _GO.set()
+    assert a.results() == [("A", i) for i in range(12)]
+    assert b.results() == [("B", i) for i in range(3)]
+    # at most the tasks the scheduler had already given the two workers run before B's
+    assert _STARTED.index(("B", 0)) < _STARTED.index(("A", 7)), _STARTED
 
 
 def _read_relative(name: str) -> str:
