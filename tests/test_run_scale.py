@@ -12,6 +12,7 @@ import json
 import os
 import shutil
 from pathlib import Path
+from typing import Any
 
 import pytest
 from conftest import SMALL_PROTOCOL as AMOUNT
@@ -148,6 +149,46 @@ def test_parent_keeps_light_reductions_and_fits_read_the_whole_ones(tmp_path, mo
         (tmp_path / "nocache" / "data" / "hpt_summary.csv").read_bytes()
 
 
+def test_index_remakes_each_light_form_from_the_kept_reduction(tmp_path, monkeypatch,
+                                                                fitted):
+    """The run's index holds no second copy of a light form (its record keeps the restored
+    reduction and remakes the JSON when the index is written); what it writes is the light
+    form of the whole reduction in the entry, and a later run that takes the light forms
+    from that index writes them again unchanged."""
+    from torlab.instruments import get_instrument
+    from torlab.protocols.cache import CACHE_DIR, LightOf, ResultCache
+    from torlab.protocols.runner import run_protocol
+
+    p, _, _ = fitted
+    out = tmp_path / "out"
+    held: list[Any] = []
+    real = ResultCache.write_index
+
+    def spy(self):
+        held.extend(r["light"] for r in self._next.values() if "light" in r)
+        return real(self)
+
+    monkeypatch.setattr(ResultCache, "write_index", spy)
+    run_protocol(p, out)
+    assert held and all(isinstance(x, LightOf) for x in held)
+    impl = get_instrument("hpt").impl()
+    rc = ResultCache(out / CACHE_DIR)
+    entries = rc._read_index()["entries"]
+    lights = {n: r["light"] for n, r in entries.items() if "light" in r}
+    assert len(lights) == len(held)
+    rc._load_index()
+    for name, j in lights.items():
+        hit, whole = rc._load(name, "hpt")
+        assert hit and whole.detail.data is not None
+        assert json.dumps(impl.light(whole)) == json.dumps(j)
+        assert json.dumps(impl.light(impl.from_light(j))) == json.dumps(j)
+    held.clear()
+    run_protocol(p, out, force=True, figures=False)  # another key: computed again, lights reused
+    assert held and all(isinstance(x, LightOf) for x in held)
+    again = ResultCache(out / CACHE_DIR)._read_index()["entries"]
+    assert {n: r["light"] for n, r in again.items() if "light" in r} == lights
+
+
 def test_rerun_reads_no_reduction_of_an_unchanged_file(tmp_path, monkeypatch, fitted):
     """With one input changed, the other files' reductions come from the cache's index (no
     entry file read); the fit of the changed runs is computed again."""
@@ -265,6 +306,39 @@ def test_one_scan_of_a_folder_matches_glob(tmp_path):
         assert resolve_paths(pat, tmp_path) == want, pat
     with pytest.raises(ValueError, match="no file matches"):
         resolve_paths("*.xlsx", tmp_path)
+
+
+def test_index_written_in_pieces_is_json_of_the_whole_and_signed(tmp_path):
+    """The index is written in pieces (never whole in memory): the same bytes as
+    ``json.dumps`` of the whole index, its signature over them (a later run reads it), a
+    light value remade from what the run keeps, and an entry whose light value is not
+    plain JSON written without it (the others keep theirs)."""
+    from torlab.protocols.cache import INDEX, LightOf, ResultCache
+
+    c = ResultCache(tmp_path / "c")
+    c._load_index()
+    want = {}
+    for i in range(2345):  # three pieces
+        name = f"k-{i:04d}.tlc"
+        rec = {"kind": "hpt", "st": [i, 2 * i, 3 * i, 4 * i]}
+        c._next[name] = dict(rec, light=LightOf(lambda v: {"n": v, "t": "é"}, i))
+        want[name] = dict(rec, light={"n": i, "t": "é"})
+        c.used.add(name)
+    c._next["odd.tlc"] = {"kind": "x", "st": [1, 2, 3, 4], "light": LightOf(set, ())}
+    c.used.add("odd.tlc")
+    want["odd.tlc"] = {"kind": "x", "st": [1, 2, 3, 4]}
+    c._next["unused.tlc"] = {"kind": "x", "st": [1, 2, 3, 4]}  # not used: not written
+    c.write_index()
+    data = (tmp_path / "c" / INDEX).read_bytes()
+    text = data[data.index(b"\n") + 1:]
+    from torlab import __version__
+
+    assert text == json.dumps({"torlab": __version__, "entries": want, "files": {},
+                               "run": None}, separators=(",", ":")).encode()
+    again = ResultCache(tmp_path / "c")
+    assert again._read_index()["entries"] == want  # signed: read back
+    (tmp_path / "c" / INDEX).write_bytes(data.replace(b'"n":7,', b'"n":8,'))
+    assert ResultCache(tmp_path / "c")._read_index() is None  # and checked
 
 
 def test_input_hashes_are_reused_only_for_files_not_changed_since(tmp_path, monkeypatch):

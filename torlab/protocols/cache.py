@@ -44,7 +44,7 @@ import os
 import secrets
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypeVar
@@ -71,7 +71,6 @@ INDEX_VERSION = 1
 #: an input file changed less than this before it was hashed is hashed again next time [ns]
 RACY_NS = 2_000_000_000
 _O_NOFOLLOW = getattr(os, "O_NOFOLLOW", 0)
-_NO_LIGHT = object()
 T = TypeVar("T")
 
 
@@ -496,12 +495,12 @@ class ResultCache:
             rec = self._unchanged(name)
             if rec is not None and rec.get("kind") == kind and "light" in rec:
                 try:
-                    rec["light"] = shared(rec["light"])  # one copy: the index's and the value's
-                    value = light.restore(rec["light"])
+                    value = light.restore(shared(rec["light"]))
                 except (TypeError, ValueError, KeyError, AttributeError):
                     value = None
                 if value is not None:
                     self.hits += 1
+                    rec["light"] = LightOf(light.light, value)  # the JSON itself let go
                     self._next[name] = rec
                     return True, value
             hit, value = self._find(name, kind)  # the entry itself (its name known)
@@ -509,9 +508,16 @@ class ResultCache:
             self.io_seconds += time.perf_counter() - t0
         if not hit:
             return False, None
-        small = shared(light.light(value))
-        self._next[name]["light"] = small
-        return True, light.restore(small)
+        return True, self.keep_light(name, light, light.light(value))
+
+    def keep_light(self, name: str, light: Light, small: Any) -> Any:
+        """``light.restore(small)`` for the entry ``name`` written or found by this run;
+        its index record keeps a :class:`LightOf` the restored value, not the JSON."""
+        value = light.restore(shared(small))
+        rec = self._next.get(name)
+        if rec is not None:
+            rec["light"] = LightOf(light.light, value)
+        return value
 
     def ref(self, kind: str, **parts: Any) -> EntryRef | None:
         """A reference to the stored entry of ``(kind, parts)`` that a worker process can
@@ -545,11 +551,10 @@ class ResultCache:
         """The file name of the entry of ``(kind, parts)``."""
         return f"{self.key(kind, **parts)}{SUFFIX}"
 
-    def store_payload(self, name: str, kind: str, payload: bytes | None,
-                      light: Any = _NO_LIGHT) -> None:
+    def store_payload(self, name: str, kind: str, payload: bytes | None) -> None:
         """Sign and write an entry :meth:`payload` made elsewhere (a worker: :func:`encoded`);
-        ``light``: its small value for the index (:meth:`lookup_light`).  A None payload
-        (the value was not plain data) is not stored."""
+        its light value for the index is :meth:`keep_light`'s.  A None payload (the value
+        was not plain data) is not stored."""
         if self.folder is None:
             return
         t0 = time.perf_counter()
@@ -559,16 +564,16 @@ class ResultCache:
                 self.used.discard(name)
                 return
             self.used.add(name)
-            rec: dict[str, Any] = {"kind": kind, "st": self._write(name, self._signed(payload))}
-            if light is not _NO_LIGHT:
-                rec["light"] = light
-            self._next[name] = rec
+            self._next[name] = {"kind": kind, "st": self._write(name, self._signed(payload))}
         finally:
             self.io_seconds += time.perf_counter() - t0
 
-    def _write(self, name: str, *blobs: bytes) -> list[int]:
+    def _write(self, name: str, *blobs: bytes | Iterator[bytes],
+               head: Callable[[], bytes] | None = None) -> list[int]:
         """Write a new file ``name`` (never through an existing one) of ``blobs`` one after
-        another (a large index is not copied into one); its status record."""
+        another (a blob may be an iterator of pieces: a large index is never whole in
+        memory); its status record.  ``head()``: the first bytes, of a size known before
+        (the index's signature), written at the start once the rest is."""
         from torlab.files import writing
 
         p = self.folder / name  # type: ignore[operator]
@@ -581,8 +586,19 @@ class ResultCache:
                 target.unlink()
             fd = os.open(target, os.O_WRONLY | os.O_CREAT | os.O_EXCL | _O_NOFOLLOW, 0o666)
             with os.fdopen(fd, "wb") as f:
+                size = 0 if head is None else f.write(head())  # its size; rewritten below
                 for blob in blobs:
-                    f.write(blob)
+                    if isinstance(blob, bytes):
+                        f.write(blob)
+                    else:
+                        for piece in blob:
+                            f.write(piece)
+                if head is not None:
+                    first = head()
+                    if len(first) != size:
+                        raise ValueError(f"{name}: a head of {len(first)} bytes, not {size}")
+                    f.seek(0)
+                    f.write(first)
                 f.flush()
                 return _status(os.fstat(f.fileno()))
 
@@ -655,20 +671,39 @@ class ResultCache:
 
         t0 = time.perf_counter()
         try:
-            entries = {n: r for n, r in self._next.items() if n in self.used}
-            value = {"torlab": __version__, "entries": entries, "files": self._hashes_next,
-                     "run": self._run_next}
-            try:
-                text = json.dumps(value, separators=(",", ":")).encode("utf-8")
-            except (TypeError, ValueError):  # a light value that is not plain JSON
-                value["entries"] = {n: {k: v for k, v in r.items() if k != "light"}
-                                    for n, r in entries.items()}
-                text = json.dumps(value, separators=(",", ":")).encode("utf-8")
-            head = f"{INDEX_FORMAT} {INDEX_VERSION} {self._mac(text)}\n".encode("ascii")
+            mac = hmac.new(self.secret, digestmod=hashlib.sha256)
+
+            def signed(chunks: Iterator[str]) -> Iterator[bytes]:
+                for c in chunks:
+                    b = c.encode("utf-8")
+                    mac.update(b)
+                    yield b
+
             self.used.add(INDEX)
-            self._write(INDEX, head, text)
+            self._write(INDEX, signed(self._index_text(__version__)), head=lambda: (
+                f"{INDEX_FORMAT} {INDEX_VERSION} {mac.hexdigest()}\n".encode("ascii")))
         finally:
             self.io_seconds += time.perf_counter() - t0
+
+    def _index_text(self, version: str) -> Iterator[str]:
+        """The index's JSON, as ``json.dumps`` of ``{"torlab", "entries", "files", "run"}``
+        would write it, in pieces of about a thousand entries: at a 64x campaign the index
+        is 17 MB, which as one text and its bytes took 35 MB more of the run's memory at its
+        very end.  An entry whose light value is not plain JSON is written without it."""
+        dumps = json.JSONEncoder(separators=(",", ":"), default=_light_json).encode
+        used = [n for n in self._next if n in self.used]
+        yield f'{{"torlab":{dumps(version)},"entries":{{'
+        for i in range(0, len(used), 1000):
+            part = []
+            for j, n in enumerate(used[i:i + 1000], start=i):
+                rec = self._next[n]
+                try:
+                    text = dumps(rec)
+                except (TypeError, ValueError):  # a light value that is not plain JSON
+                    text = dumps({k: v for k, v in rec.items() if k != "light"})
+                part.append(f'{"," if j else ""}{dumps(n)}:{text}')
+            yield "".join(part)
+        yield f'}},"files":{dumps(self._hashes_next)},"run":{dumps(self._run_next)}}}'
 
     def get_or_compute(self, kind: str, compute: Callable[[], T], **parts: Any) -> T:
         """The cached value for ``(kind, parts)``, or ``compute()`` stored under it."""
@@ -859,10 +894,36 @@ class Light:
     ``light(value)``, plain JSON (numbers, text, lists, mappings), and ``restore`` of that
     JSON, the caller's object (raising TypeError, ValueError or KeyError on JSON of
     another shape).  Both picklable (module-level functions).  The JSON is made
-    :func:`shared` before it is restored and kept in the index (one copy of it for both)."""
+    :func:`shared` before it is restored; the index keeps the restored value and remakes
+    the JSON when it is written (:class:`LightOf`), so ``light(restore(j))`` must be ``j``
+    again."""
 
     light: Callable[[Any], Any]
     restore: Callable[[Any], Any]
+
+
+class LightOf:
+    """The light JSON of a kept value, made when the index is written
+    (:meth:`ResultCache.write_index`): ``light(value)``, where ``value`` is what
+    :meth:`Light.restore` made of that JSON, so the index holds the value the caller keeps
+    anyway instead of a second copy of its JSON (an HPT log's light JSON is about 2 kB
+    more in memory, beside its restored reduction; 13 MB at 6656 logs).  ``light`` must
+    give back the JSON that ``restore`` was given (tested per instrument)."""
+
+    __slots__ = ("light", "value")
+
+    def __init__(self, light: Callable[[Any], Any], value: Any) -> None:
+        self.light, self.value = light, value
+
+    def __call__(self) -> Any:
+        return self.light(self.value)
+
+
+def _light_json(o: Any) -> Any:
+    """``json.dumps``' ``default``: a :class:`LightOf` as its JSON."""
+    if isinstance(o, LightOf):
+        return o()
+    raise TypeError(f"not JSON: {type(o).__name__}")
 
 
 def shared(v: Any) -> Any:

@@ -308,15 +308,11 @@ class RunContext:
                        keep: Callable[[Any], Any] | None) -> Any:
         """Write a task's encoded result (:class:`torlab.protocols.cache.Encoded`) and the
         further entries it filled; what :meth:`cached_map` keeps of it."""
-        from torlab.protocols.cache import shared
-
-        if v.light:  # one copy of the light JSON: the index's and the value's
-            v.value = shared(v.value)
-        self.cache.store_payload(name, kind, v.payload, **({"light": v.value} if v.light else {}))
+        self.cache.store_payload(name, kind, v.payload)
         for (other, k), payload in zip(more, v.also, strict=True):
             self.cache.store_payload(other, k, payload)
-        if v.light:
-            return light.restore(v.value)
+        if v.light:  # the index keeps the restored value, remaking its JSON when written
+            return self.cache.keep_light(name, light, v.value)
         return v.value if keep is None else keep(v.value)
 
     def cached_map(self, kind: str | list[str], fn: Any, tasks: list[tuple[dict[str, Any], Any]],
