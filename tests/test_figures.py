@@ -212,6 +212,37 @@ def test_amount_figure_error_bars_band_colours_and_one_unit_per_axis(amount_inpu
     assert [ax.get_xlabel() for ax in fig.axes if ax.get_xlabel()] == ["applied mass m (mg)"]
 
 
+def test_amount_mass_figure_of_products_of_other_densities_has_ticks_apart(amount_inputs):
+    """Against the applied mass, the liquids of a panel (OFM1 and OFM2, of other densities)
+    have their amounts at nearby masses: the axis is ticked at one product's masses, not
+    at both (their labels printed over each other), and the figure has no overlapping
+    texts."""
+    import numpy as np
+
+    from torlab.reports.amount import amount_figure
+    from torlab.reports.render import plot
+
+    series, fits, cfg = amount_inputs
+    liquids = series[series["amount_kind"] == "volume"]
+    masses = np.unique(liquids["mass_mg"].to_numpy(float))
+    assert liquids["density_kg_m3"].nunique() > 1 and np.min(np.diff(np.log(masses))) < 0.05
+    assert masses.size <= 12  # few enough to be ticked at their values
+    mine = set(liquids["product"])
+    fig = _draw(plot(amount_figure, liquids, [cf for cf in fits if cf.product in mine], cfg,
+                     mass=True))
+    assert figure_problems(fig) == []
+    drawn = 0
+    for ax in fig.axes:
+        if ax.get_xscale() != "log" or not ax.has_data():
+            continue
+        lo, hi = ax.get_xlim()
+        ticks = np.asarray(ax.xaxis.get_major_locator()(), float)
+        ticks = ticks[(ticks >= lo) & (ticks <= hi)]
+        assert ticks.size > 1 and np.all(np.diff(np.log(ticks)) >= np.log(hi / lo) / 13)
+        drawn += bool(np.isin(np.round(ticks, 9), np.round(masses, 9)).sum() >= 2)
+    assert drawn  # the liquids' panel, ticked at masses of theirs
+
+
 def test_fit_figure_titles_in_words():
     from torlab.fit.layer import fit_layer_hpt
     from torlab.parsers.hpt import read_hpt

@@ -568,16 +568,34 @@ def fit_units(result: Any) -> dict[str, str]:
     return {str(n): str(u) for n, u in zip(t["parameter"], t["unit"], strict=True)}
 
 
+#: the least distance between neighbouring ticks of :func:`plain_log_ticks`, as a part of
+#: the span of the values on the log axis (twelve ticks, the most it sets, evenly apart)
+LOG_TICK_SPACING = 1 / 12
+
+
 def plain_log_ticks(axis: Any, values: Any) -> None:
     """Ticks of a logarithmic axis at ``values`` written as plain numbers (1, 2, 4, 8, 16
     rather than 10^0, 10^1), when there are few of them, and no minor ticks (the log
     scale's unlabelled marks at 3, 5, 6, 7, 9, 20, ... mean nothing between ticks at the
-    values; drawing them was a sixth of a campaign's amount figure)."""
+    values; drawing them was a sixth of a campaign's amount figure).
+
+    A value closer to the last tick kept than :data:`LOG_TICK_SPACING` of the values'
+    span gets none: a panel of products of other densities (applied masses 0.93, 0.95,
+    1.86, 1.90 ... 15.2 mg) has its ticks at the first product's values, not two labels
+    printed over each other.
+    """
     import numpy as np
     from matplotlib.ticker import FixedLocator, NullLocator, ScalarFormatter
 
     v = np.unique(np.asarray(values, dtype=float))
     v = v[np.isfinite(v) & (v > 0)]
+    if v.size > 1:
+        step = (v[-1] / v[0]) ** LOG_TICK_SPACING
+        kept = [v[0]]
+        for x in v[1:]:
+            if x >= kept[-1] * step * (1 - 1e-9):  # evenly spaced values all kept
+                kept.append(x)
+        v = np.asarray(kept)
     if not 1 < v.size <= 12:
         return
     axis.set_major_locator(FixedLocator(v))
