@@ -65,3 +65,30 @@ def test_built_campaign_is_a_valid_protocol_over_renamed_products(tmp_path, monk
     stamp = files[0].stat().st_mtime_ns
     assert cb.build_campaign(tmp_path / "c2", 2) == proto
     assert files[0].stat().st_mtime_ns == stamp
+
+
+@pytest.mark.slow
+def test_every_figure_of_a_two_seed_campaign_passes_the_figure_checks(tmp_path):
+    """A campaign's figures differ from a sample protocol's in what only scale brings:
+    products renamed per seed (longer file names in the fit figures' titles), products of
+    other densities in one panel of the amount figures (masses close together on the
+    log axis).  Every figure of a two-seed campaign passes :func:`figure_problems`; the
+    checks found a fit title running off the figure and tick labels printed over each
+    other here."""
+    from figure_checks import figure_problems
+    from figure_gallery import capture
+
+    from torlab.protocols.runner import run_protocol
+
+    proto = cb.build_campaign(tmp_path / "c2", 2)
+    with capture() as seen:
+        run_protocol(proto, tmp_path / "out", command="test")
+    kinds = {p.name for _, p in seen}
+    assert {"torlab.reports.fit:result_figure", "torlab.reports.amount:amount_figure",
+            "torlab.reports.traction:traction_report_figure"} <= kinds
+    bad = {}
+    for name, p in seen:
+        problems = figure_problems(p.draw())
+        if problems:
+            bad[name] = problems[:2]
+    assert bad == {}

@@ -257,6 +257,33 @@ def test_fit_figure_titles_in_words():
     assert fig.axes[0].get_title().startswith("Third-body layer from HPT tests")
 
 
+def test_fit_figure_title_of_runs_with_long_file_names_stays_on_the_figure():
+    """A layer fitted to four runs of a campaign (``hpt_s01_WFM-dry_4uL_25C_run4.txt`` ...)
+    has a title wider than its figure: it is broken at spaces into lines that fit (it ran
+    off the left edge), and drawn into a kept figure it is the same picture."""
+    import dataclasses
+
+    from torlab.fit.layer import fit_layer_hpt
+    from torlab.parsers.hpt import read_hpt
+    from torlab.reduce.hpt import reduce_hpt
+    from torlab.reports.fit import fit_figure
+    from torlab.reports.render import draw_task, plot
+
+    f = HPT / "hpt_OFM1_4uL_25C.txt"
+    res = fit_layer_hpt([reduce_hpt(*read_hpt(f))])
+    names = [f"hpt_s01_WFM-dry_4uL_25C{s}.txt" for s in ("", "_run2", "_run3", "_run4")]
+    long = dataclasses.replace(res, meta={**res.meta, "source": ", ".join(names)})
+    fig = _draw(plot(fit_figure, long))
+    title = fig.axes[0].get_title()
+    assert title.startswith("Third-body layer from HPT tests") and title.count("\n") >= 2
+    assert names[0] in title.replace("\n", " ") and names[-1] in title.replace("\n", " ")
+    assert figure_problems(fig, file_names=tuple(names)) == []
+    fig = _draw(plot(fit_figure, res))  # a short title: one line and the numbers
+    assert fig.axes[0].get_title().count("\n") == 1
+    new = draw_task((plot(fit_figure, long), ("png",), None))
+    assert draw_task((plot(fit_figure, long), ("png",), None)) == new  # kept figure: same
+
+
 # ------------------------------------------------------------------------------ machinery
 def test_pretty_writes_microlitres_and_leaves_file_names():
     from torlab.reports.plotting import pretty, unit

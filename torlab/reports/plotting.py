@@ -298,8 +298,51 @@ def finish(fig: Any) -> Any:
         w, h = fig.get_size_inches()
         fig.set_size_inches(w + need, h)
     _place(fig, extra_right=need)
+    if _wrap_titles(fig):  # more lines: more room at the top
+        _place(fig, extra_right=need)
     fig._torlab_finished = True  # type: ignore[attr-defined]
     return fig
+
+
+def _wrap_titles(fig: Any) -> bool:
+    """Break an axes title wider than the figure allows at spaces, each line as long as fits
+    (measured with the Agg renderer's font metrics).  A title is centred over its axes, so
+    it has twice the distance from the axes' centre to the nearer edge of the figure, less
+    a tenth of an inch on each side: a fit over four runs whose files have long names
+    ("Third-body layer from HPT tests: hpt_s01_WFM-dry_4uL_25C.txt … (4 files)") ran off
+    the left edge.  True if a title was broken."""
+    changed = False
+    r = None
+    width_px = fig.bbox.width
+    for ax in fig.axes:
+        t = ax.title
+        text = t.get_text()
+        if not text or "$" in text or not t.get_visible():
+            continue
+        if r is None:
+            r = fig.canvas.get_renderer()
+        pos = ax.get_position()
+        centre = 0.5 * (pos.x0 + pos.x1) * width_px
+        room = 2.0 * (min(centre, width_px - centre) - 0.1 * fig.dpi)
+        if t.get_window_extent(r).width <= room:
+            continue
+        prop = t.get_fontproperties()
+        lines = []
+        for line in text.split("\n"):
+            words = line.split(" ")
+            cur = words[0]
+            for w in words[1:]:
+                if r.get_text_width_height_descent(f"{cur} {w}", prop, ismath=False)[0] <= room:
+                    cur = f"{cur} {w}"
+                else:
+                    lines.append(cur)
+                    cur = w
+            lines.append(cur)
+        wrapped = "\n".join(lines)
+        if wrapped != text:
+            t.set_text(wrapped)
+            changed = True
+    return changed
 
 
 def facets(n: int, *, ncols: int = 2, panel: tuple[float, float] = (3.4, 2.5),
