@@ -305,12 +305,13 @@ def finish(fig: Any) -> Any:
 
 
 def _wrap_titles(fig: Any) -> bool:
-    """Break an axes title wider than the figure allows at spaces, each line as long as fits
-    (measured with the Agg renderer's font metrics).  A title is centred over its axes, so
-    it has twice the distance from the axes' centre to the nearer edge of the figure, less
-    a tenth of an inch on each side: a fit over four runs whose files have long names
-    ("Third-body layer from HPT tests: hpt_s01_WFM-dry_4uL_25C.txt … (4 files)") ran off
-    the left edge.  True if a title was broken."""
+    """Break an axes title wider than the figure allows at spaces, into as few lines as
+    fit, as even in length as they go (measured with the Agg renderer's font metrics).  A
+    title is centred over its axes, so it has twice the distance from the axes' centre to
+    the nearer edge of the figure, less a tenth of an inch on each side: a fit over four
+    runs whose files have long names ("Third-body layer from HPT tests:
+    hpt_s01_WFM-dry_4uL_25C.txt … (4 files)") ran off the left edge.  True if a title
+    was broken."""
     changed = False
     r = None
     width_px = fig.bbox.width
@@ -327,17 +328,29 @@ def _wrap_titles(fig: Any) -> bool:
         if t.get_window_extent(r).width <= room:
             continue
         prop = t.get_fontproperties()
-        lines = []
-        for line in text.split("\n"):
+
+        def wrap(line: str, room: float, prop: Any = prop, r: Any = r) -> list[str]:
             words = line.split(" ")
-            cur = words[0]
+            out, cur = [], words[0]
             for w in words[1:]:
                 if r.get_text_width_height_descent(f"{cur} {w}", prop, ismath=False)[0] <= room:
                     cur = f"{cur} {w}"
                 else:
-                    lines.append(cur)
+                    out.append(cur)
                     cur = w
-            lines.append(cur)
+            return [*out, cur]
+
+        lines = []
+        for line in text.split("\n"):
+            got = wrap(line, room)
+            lo, hi = room / len(got), room  # the same lines, as even as they go
+            for _ in range(8 if len(got) > 1 else 0):
+                mid = 0.5 * (lo + hi)
+                if len(wrap(line, mid)) == len(got):
+                    hi = mid
+                else:
+                    lo = mid
+            lines += wrap(line, hi)
         wrapped = "\n".join(lines)
         if wrapped != text:
             t.set_text(wrapped)
