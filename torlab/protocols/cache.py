@@ -512,7 +512,7 @@ class ResultCache:
 
     def keep_light(self, name: str, light: Light, small: Any) -> Any:
         """``light.restore(small)`` for the entry ``name`` written or found by this run;
-        its index record keeps a :class:`LightOf` the restored value, not the JSON."""
+        its index record keeps the restored value (:class:`LightOf`), not the JSON."""
         value = light.restore(shared(small))
         rec = self._next.get(name)
         if rec is not None:

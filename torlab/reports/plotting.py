@@ -23,10 +23,11 @@ imported on the first figure only.
 
 from __future__ import annotations
 
+import functools
 import math
 import re
 import sys
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from typing import Any
 
 __all__ = ["BAND_CONTRAST", "DIMENSIONLESS", "PALETTE", "STYLE", "STYLE_VERSION", "axis_label",
@@ -327,35 +328,42 @@ def _wrap_titles(fig: Any) -> bool:
         room = 2.0 * (min(centre, width_px - centre) - 0.1 * fig.dpi)
         if t.get_window_extent(r).width <= room:
             continue
-        prop = t.get_fontproperties()
-
-        def wrap(line: str, room: float, prop: Any = prop, r: Any = r) -> list[str]:
-            words = line.split(" ")
-            out, cur = [], words[0]
-            for w in words[1:]:
-                if r.get_text_width_height_descent(f"{cur} {w}", prop, ismath=False)[0] <= room:
-                    cur = f"{cur} {w}"
-                else:
-                    out.append(cur)
-                    cur = w
-            return [*out, cur]
-
+        width = functools.partial(_text_width, r, t.get_fontproperties())
         lines = []
         for line in text.split("\n"):
-            got = wrap(line, room)
+            got = _wrap_line(line, room, width)
             lo, hi = room / len(got), room  # the same lines, as even as they go
             for _ in range(8 if len(got) > 1 else 0):
                 mid = 0.5 * (lo + hi)
-                if len(wrap(line, mid)) == len(got):
+                if len(_wrap_line(line, mid, width)) == len(got):
                     hi = mid
                 else:
                     lo = mid
-            lines += wrap(line, hi)
+            lines += _wrap_line(line, hi, width)
         wrapped = "\n".join(lines)
         if wrapped != text:
             t.set_text(wrapped)
             changed = True
     return changed
+
+
+def _text_width(r: Any, prop: Any, text: str) -> float:
+    """The width of one line of ``text`` in pixels (the renderer's font metrics)."""
+    return r.get_text_width_height_descent(text, prop, ismath=False)[0]
+
+
+def _wrap_line(line: str, room: float, width: Callable[[str], float]) -> list[str]:
+    """``line`` broken at spaces into lines each as long as ``width`` allows within
+    ``room`` (a word wider than that alone on its line)."""
+    words = line.split(" ")
+    out, cur = [], words[0]
+    for w in words[1:]:
+        if width(f"{cur} {w}") <= room:
+            cur = f"{cur} {w}"
+        else:
+            out.append(cur)
+            cur = w
+    return [*out, cur]
 
 
 def facets(n: int, *, ncols: int = 2, panel: tuple[float, float] = (3.4, 2.5),
