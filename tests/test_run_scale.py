@@ -308,6 +308,36 @@ def test_one_scan_of_a_folder_matches_glob(tmp_path):
         resolve_paths("*.xlsx", tmp_path)
 
 
+def _small(v):
+    return {"n": v["n"]}
+
+
+def _restored(j):
+    return {"n": j["n"], "restored": True}
+
+
+def test_light_value_taken_twice_from_the_index(tmp_path, monkeypatch):
+    """An entry's light value asked for twice in one run (a file listed twice) comes from
+    the index both times, as two values of their own, and is written again."""
+    from torlab.protocols.cache import Light, ResultCache
+
+    light = Light(_small, _restored)
+    c = ResultCache(tmp_path / "c")
+    c.store("k", {"n": 7, "data": list(range(100))}, x=1)
+    assert c.lookup_light("k", light, x=1) == (True, {"n": 7, "restored": True})
+    c.write_index()
+    c = ResultCache(tmp_path / "c")
+    loads = []
+    real = ResultCache._load
+    monkeypatch.setattr(ResultCache, "_load", lambda self, n, k: loads.append(n) or real(self, n, k))
+    (h1, a), (h2, b) = c.lookup_light("k", light, x=1), c.lookup_light("k", light, x=1)
+    assert h1 and h2 and a == b == {"n": 7, "restored": True} and a is not b
+    assert loads == []  # from the index, not the entry
+    c.write_index()
+    assert [r["light"] for r in ResultCache(tmp_path / "c")._read_index()["entries"].values()
+            ] == [{"n": 7}]
+
+
 def test_index_written_in_pieces_is_json_of_the_whole_and_signed(tmp_path):
     """The index is written in pieces (never whole in memory): the same bytes as
     ``json.dumps`` of the whole index, its signature over them (a later run reads it), a

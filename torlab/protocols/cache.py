@@ -494,8 +494,9 @@ class ResultCache:
             name = self._entry(kind, parts)
             rec = self._unchanged(name)
             if rec is not None and rec.get("kind") == kind and "light" in rec:
+                kept = rec["light"]  # JSON; a LightOf where this run restored it before
                 try:
-                    value = light.restore(shared(rec["light"]))
+                    value = light.restore(shared(kept() if isinstance(kept, LightOf) else kept))
                 except (TypeError, ValueError, KeyError, AttributeError):
                     value = None
                 if value is not None:
