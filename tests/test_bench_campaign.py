@@ -25,7 +25,7 @@ def _rows(a: float, b: float) -> list[CampaignRun]:
     return [CampaignRun(s, "cold", a * (104 * s) ** b, 2 * a * (104 * s) ** b, 100.0, 1.0,
                         {"logs": 104.0 * s, "sets": 12.0 * s, "curves": 6.0 * s,
                          "figures": 3.0 + 12 * s, "report_html_mb": 0.5, "output_files": 9.0},
-                        {"figures": 0.1, "total": 1.0})
+                        {"figures": 0.1, "total": 1.0, "figures_cpu": 0.5})
             for s in (1, 4, 16)]
 
 
@@ -43,6 +43,9 @@ def test_table_has_one_row_per_size_and_the_extrapolation():
     assert sum(line.startswith("| ") for line in text.splitlines()) == 4  # header, 3 sizes
     assert "| 4x | 416 / 48 / 24 / 51 |" in text
     assert "0.50 s (0.40 s)" in text
+    # the figure stage's share of the wall time; the figures' CPU against the run's CPU
+    # (4x: 2 * 0.03 * 416 = 24.96 s)
+    assert "| 12.5 s (25.0 s) | 10% | 0.5 s, 2% |" in text
     # a = 0.03 s per log, exponent 1: 300 s at 10 000 logs
     assert "cold wall: grows as logs^1.00; at 10 000 logs about 300 s" in text
 

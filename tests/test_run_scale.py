@@ -120,6 +120,8 @@ def test_parent_keeps_light_reductions_and_fits_read_the_whole_ones(tmp_path, mo
     from torlab.protocols.runner import run_protocol
 
     p, _, r1 = fitted
+    # the fit figures were drawn: their CPU time is the run's figures' (summary.json)
+    assert r1.summary["run"]["timing"]["figures_cpu"] == round(r1.timing["figures_cpu"], 3) > 0
     seen = {}
     real = fits_mod.fit_all
 
@@ -183,8 +185,9 @@ def test_index_remakes_each_light_form_from_the_kept_reduction(tmp_path, monkeyp
         assert json.dumps(impl.light(whole)) == json.dumps(j)
         assert json.dumps(impl.light(impl.from_light(j))) == json.dumps(j)
     held.clear()
-    run_protocol(p, out, force=True, figures=False)  # another key: computed again, lights reused
+    r = run_protocol(p, out, force=True, figures=False)  # another key: lights from the index
     assert held and all(isinstance(x, LightOf) for x in held)
+    assert r.timing["figures_cpu"] == r.summary["run"]["timing"]["figures_cpu"] == 0
     again = ResultCache(out / CACHE_DIR)._read_index()["entries"]
     assert {n: r["light"] for n, r in again.items() if "light" in r} == lights
 

@@ -212,6 +212,47 @@ def test_figures_drawn_ahead_are_the_figures_drawn_at_the_end(tmp_path):
             assert store.hits - hits == 2
 
 
+def test_figures_cpu_time_counted_wherever_they_are_drawn(tmp_path, monkeypatch):
+    """Each drawn figure carries the CPU time of its drawing (its thread's), through a
+    worker's pipe and a file drawn ahead; a run adds up those of the figures it drew,
+    none for the figures the store gave back, and reports it (``figures_cpu``)."""
+    import pickle
+    import time
+
+    from torlab.protocols.cache import FigureStore, ResultCache
+    from torlab.reports import render as render_mod
+    from torlab.reports.render import Drawn, FiguresAhead, draw_task, render_figures
+
+    items = _plots()
+    t0 = time.thread_time()
+    one = draw_task((items[0][1], ("png",), None))
+    spent = time.thread_time() - t0
+    assert isinstance(one, Drawn) and 0 < one.cpu_seconds <= spent
+    back = pickle.loads(pickle.dumps(one))
+    assert back == one and back.cpu_seconds == one.cpu_seconds
+    _, st = render_figures(items, ("png",))
+    assert st.drawn == 2 and st.cpu_seconds > 0
+    with ProcessExecutor(2) as ex:
+        store = FigureStore(ResultCache(tmp_path / "cache"))
+        ahead = FiguresAhead(("png",), store=store, executor=ex)
+        ahead.start(items[:1])
+        worker_cpu = []
+        real = render_mod._new_figure
+
+        def spy(name, keys, images, store, each):
+            worker_cpu.append(images.cpu_seconds)
+            return real(name, keys, images, store, each)
+
+        monkeypatch.setattr(render_mod, "_new_figure", spy)
+        _, st = render_figures(items, ("png",), store=store, executor=ex, ahead=ahead)
+        monkeypatch.undo()
+        assert (st.drawn, st.ahead) == (2, 1)
+        assert len(worker_cpu) == 2 and all(c > 0 for c in worker_cpu)
+        assert st.cpu_seconds == pytest.approx(sum(worker_cpu))
+        _, st = render_figures(items, ("png",), store=store, executor=ex)
+        assert (st.reused, st.cpu_seconds) == (2, 0.0)
+
+
 def test_figures_handed_on_as_they_are_ready_and_not_held(tmp_path):
     """With ``each``, every figure -- drawn ahead, drawn at the end or reused from the
     store -- goes to it once, with the bytes of a plain drawing, and what it returns is

@@ -14,8 +14,10 @@ with ``torlab run`` as a user does:
 For every run it records the wall time, the CPU time (user + system of the run and every
 process it started: ``os.wait4``), the peak resident memory of the largest single process
 (``ru_maxrss``: the parent, or a worker), the size of ``report.html``, the run's own split
-(compute, figures, I/O: ``summary.json``'s ``run.timing``) and the counts (logs, fitted
-parameter sets, predicted curves, figures).  From the sizes it fits the growth exponent
+(compute, figures, I/O: ``summary.json``'s ``run.timing``), the CPU time its figures took
+to draw wherever they were drawn (``figures_cpu``, against the run's CPU: the figures'
+share of the work, whatever overlapped) and the counts (logs, fitted parameter sets,
+predicted curves, figures).  From the sizes it fits the growth exponent
 ``b`` of ``time = a * logs**b`` (least squares in log-log) and extrapolates to 10 000 logs.
 
 The machine may be shared: the load average at the start of each run is recorded, and
@@ -68,7 +70,8 @@ class CampaignRun:
         ``figures``, ``report_html_mb``, ``output_files``.
     timing
         The run's own split (``compute``, ``figures``, ``io``, ``other``: seconds of wall
-        time) from its ``summary.json``.
+        time) and ``figures_cpu`` (the CPU time of drawing its figures, in every process)
+        from its ``summary.json``.
     """
 
     size: int
@@ -265,9 +268,10 @@ def campaign_table(rows: list[CampaignRun]) -> str:
     for r in rows:
         if r.kind == "warm":
             first_warm.setdefault(r.size, r)
-    lines = ["| size | logs / sets / curves / figures | cold, wall (CPU) | figures, share of "
-             "cold | warm rerun, wall (CPU) | peak memory | report.html | load |",
-             "|---|---|---|---|---|---|---|---|"]
+    lines = ["| size | logs / sets / curves / figures | cold, wall (CPU) | figure stage, share "
+             "of cold wall | figures' CPU, share of cold CPU | warm rerun, wall (CPU) | "
+             "peak memory | report.html | load |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         if r.kind != "cold":
             continue
@@ -275,9 +279,13 @@ def campaign_table(rows: list[CampaignRun]) -> str:
         c = r.counts
         fig = r.timing.get("figures", math.nan)
         share = fig / r.timing["total"] if r.timing.get("total") else math.nan
+        cpu = r.timing.get("figures_cpu", math.nan)
+        cpu_share = f"{cpu:.1f} s, {cpu / r.cpu_s:.0%}" if r.cpu_s > 0 and math.isfinite(cpu) \
+            else "-"
         lines.append(
             f"| {r.size}x | {c['logs']:.0f} / {c['sets']:.0f} / {c['curves']:.0f} / "
             f"{c['figures']:.0f} | {r.wall_s:.1f} s ({r.cpu_s:.1f} s) | {share:.0%} | "
+            f"{cpu_share} | "
             + (f"{w.wall_s:.2f} s ({w.cpu_s:.2f} s)" if w else "-")
             + f" | {max(r.peak_rss_mb, w.peak_rss_mb if w else 0):.0f} MB | "
             f"{c['report_html_mb']:.1f} MB | {r.load:.1f}"

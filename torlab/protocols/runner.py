@@ -56,7 +56,9 @@ class RunResult:
     notes: list[str] = field(default_factory=list)
     #: seconds: ``compute``, ``figures``, ``io``, ``other``, ``total`` (wall time of each
     #: stage); figures ``figures_drawn``, ``figures_reused``, and ``figures_ahead``: drawn
-    #: while the sections computed (their drawing is inside ``compute``'s wall time)
+    #: while the sections computed (their drawing is inside ``compute``'s wall time);
+    #: ``figures_cpu``: the CPU time of drawing the figures drawn, in whichever process
+    #: (the figures' share of the run's CPU, whatever overlapped)
     timing: dict[str, Any] = field(default_factory=dict)
     #: nothing changed since the run that wrote ``out`` (the protocol, its inputs, torlab
     #: and the options): the results were left as they were, nothing was rewritten
@@ -230,13 +232,15 @@ def _run(lp: Any, dest: Any, rc: Any, formats: Any, run_key: str, executor: Any,
     timing = {"compute": max(t_stages - io_stages, 0.0),
               "figures": max(t_figures - io_figures, 0.0),
               "io": t_io + io_stages + io_figures + time.perf_counter() - t2,
+              "figures_cpu": fig.cpu_seconds,
               "figures_drawn": fig.drawn, "figures_reused": fig.reused,
               "figures_ahead": fig.ahead, "figures_on": draw,
               "files_kept": len(dest.kept), "executor": ex.describe()}
     summary["run"] = {"seconds": round(time.perf_counter() - t0, 2), "cache_hits": rc.hits,
                       "cache_misses": rc.misses, "command": command,
                       "figures_drawn": fig.drawn, "figures_reused": fig.reused,
-                      "timing": {k: round(timing[k], 3) for k in ("compute", "figures", "io")}
+                      "timing": {k: round(timing[k], 3)
+                                 for k in ("compute", "figures", "io", "figures_cpu")}
                       | {"total": round(time.perf_counter() - t0, 3)}}
     dest.write_json("summary.json", summary)
     sections_run = [s.key for s in sections]

@@ -42,10 +42,10 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["DEFAULT_FORMATS", "FORMATS", "PNG_LEVEL", "FiguresAhead", "Plot", "RenderStats",
-           "drawing_versions", "early_drawing", "figure_key", "fix_layout", "parse_formats",
-           "plot", "plot_digest", "png_bytes", "prepare_drawing", "render", "render_all",
-           "render_figures", "write_figures"]
+__all__ = ["DEFAULT_FORMATS", "FORMATS", "PNG_LEVEL", "Drawn", "FiguresAhead", "Plot",
+           "RenderStats", "drawing_versions", "early_drawing", "figure_key", "fix_layout",
+           "parse_formats", "plot", "plot_digest", "png_bytes", "prepare_drawing", "render",
+           "render_all", "render_figures", "write_figures"]
 
 #: file formats torlab writes figures in
 FORMATS = ("png", "svg", "pdf")
@@ -396,7 +396,18 @@ def early_drawing(enabled: bool = True, jobs: int | None = None,
             worker.close()
 
 
-def draw_task(task: tuple[Plot, tuple[str, ...], float | None]) -> dict[str, bytes]:
+class Drawn(dict):  # type: ignore[type-arg]
+    """A drawn figure's images by format (or, :func:`draw_to_files`, their files) and
+    ``cpu_seconds``, the CPU time of drawing them (the drawing thread's, wherever it ran):
+    a run adds them up (:attr:`RenderStats.cpu_seconds`), so the figures' share of the
+    run's CPU is measured, not only the wall time left when the rest is done."""
+
+    def __init__(self, items: Any = (), cpu_seconds: float = 0.0) -> None:
+        super().__init__(items)
+        self.cpu_seconds = cpu_seconds
+
+
+def draw_task(task: tuple[Plot, tuple[str, ...], float | None]) -> Drawn:
     """Draw one figure and render it in each format (a task for the executor).
 
     A drawing function with a ``redraw`` attribute (:func:`torlab.reports.fit.result_figure`,
@@ -405,6 +416,7 @@ def draw_task(task: tuple[Plot, tuple[str, ...], float | None]) -> dict[str, byt
     (:func:`_figure`): the same pixels as a new figure, at less of matplotlib's work.
     """
     p, formats, dpi = task
+    t0 = time.thread_time()
     with one_glyph_warning():
         fig, key = _figure(p, formats, dpi)
         kept = False
@@ -413,7 +425,7 @@ def draw_task(task: tuple[Plot, tuple[str, ...], float | None]) -> dict[str, byt
             if key is not None:  # kept only when rendered without an error
                 _keep(key, fig)
                 kept = True
-            return out
+            return Drawn(out, time.thread_time() - t0)
         finally:
             w, h = fig.get_size_inches() * (dpi or fig.dpi)
             if not kept:
@@ -526,19 +538,22 @@ class RenderStats:
 
     ``ahead``: how many of the drawn figures were drawn in the background before
     (:class:`FiguresAhead`), while other work ran; ``seconds`` is the time spent in
-    :func:`render_figures` itself.
+    :func:`render_figures` itself; ``cpu_seconds`` the CPU time of drawing the figures
+    drawn, wherever they were drawn (:class:`Drawn`).
     """
 
     drawn: int = 0
     reused: int = 0
     seconds: float = 0.0
     ahead: int = 0
+    cpu_seconds: float = 0.0
 
     def add(self, other: RenderStats) -> None:
         self.drawn += other.drawn
         self.reused += other.reused
         self.seconds += other.seconds
         self.ahead += other.ahead
+        self.cpu_seconds += other.cpu_seconds
 
 
 def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DEFAULT_FORMATS, *,
@@ -580,6 +595,7 @@ def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DE
         """A figure from elsewhere drawn here, one drawn ahead, one the store holds; the
         others left to draw (``todo``)."""
         if not isinstance(p, Plot):  # a figure drawn by other code
+            t0 = time.thread_time()
             try:
                 from torlab.reports.plotting import finish
 
@@ -590,6 +606,7 @@ def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DE
                 _close(p)
             out[name] = res if each is None else each(name, res)
             stats.drawn += 1
+            stats.cpu_seconds += time.thread_time() - t0
             return
         dg = (ahead.digest(p) if ahead is not None else plot_digest(p)) \
             if store is not None or ahead is not None else None
@@ -600,6 +617,7 @@ def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DE
             out[name] = _new_figure(name, keys, early, store, each)
             stats.ahead += 1
             stats.drawn += 1
+            stats.cpu_seconds += getattr(early, "cpu_seconds", 0.0)
             return
         got = ahead.stored(dg) if ahead is not None and dg is not None else None
         if got is None:  # (what FiguresAhead found in the store is not read twice)
@@ -626,15 +644,18 @@ def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DE
             from torlab.parallel import SerialExecutor
 
             ex = SerialExecutor()
+        def drawn(i: int, res: Drawn) -> None:
+            stats.cpu_seconds += getattr(res, "cpu_seconds", 0.0)
+            out[todo[i][0]] = _new_figure(todo[i][0], todo[i][2], res, store, each)
+
         ex.map(draw_task, [(p, formats, dpi) for _, p, _ in todo], description=description,
-               each=lambda i, res: out.__setitem__(
-                   todo[i][0], _new_figure(todo[i][0], todo[i][2], res, store, each)))
+               each=drawn)
         stats.drawn += len(todo)
     stats.seconds = time.perf_counter() - t0
     return {name: out[name] for name, _ in items if name in out}, stats
 
 
-def draw_to_files(task: tuple[Plot, tuple[str, ...], float | None, str]) -> dict[str, str]:
+def draw_to_files(task: tuple[Plot, tuple[str, ...], float | None, str]) -> Drawn:
     """:func:`draw_task`, the images written to files in a folder (the last item) instead
     of returned: ``{format: file}``.  A figure drawn ahead on a local worker waits there,
     not in the memory of the process that will write it (:class:`FiguresAhead`)."""
@@ -642,8 +663,9 @@ def draw_to_files(task: tuple[Plot, tuple[str, ...], float | None, str]) -> dict
     import tempfile
 
     *job, folder = task
-    out = {}
-    for fmt, data in draw_task(tuple(job)).items():  # type: ignore[arg-type]
+    drawn = draw_task(tuple(job))  # type: ignore[arg-type]
+    out = Drawn(cpu_seconds=drawn.cpu_seconds)
+    for fmt, data in drawn.items():
         fd, path = tempfile.mkstemp(suffix=f".{fmt}", dir=folder)
         with os.fdopen(fd, "wb") as f:
             f.write(data)
@@ -651,12 +673,12 @@ def draw_to_files(task: tuple[Plot, tuple[str, ...], float | None, str]) -> dict
     return out
 
 
-def _read_drawn(files: dict[str, str], folder: str) -> dict[str, bytes]:
+def _read_drawn(files: dict[str, str], folder: str) -> Drawn:
     """The images :func:`draw_to_files` wrote (files of ``folder`` only), the files
     removed."""
     import os
 
-    out = {}
+    out = Drawn(cpu_seconds=getattr(files, "cpu_seconds", 0.0))
     for fmt, path in files.items():
         if os.path.dirname(os.path.abspath(path)) != os.path.abspath(folder):
             raise ValueError(f"a drawn figure outside its folder: {path}")
