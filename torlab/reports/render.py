@@ -604,9 +604,9 @@ def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DE
                 res = render_all(p, formats, dpi)
             finally:
                 _close(p)
+            stats.cpu_seconds += time.thread_time() - t0  # drawing it, not writing it
             out[name] = res if each is None else each(name, res)
             stats.drawn += 1
-            stats.cpu_seconds += time.thread_time() - t0
             return
         dg = (ahead.digest(p) if ahead is not None else plot_digest(p)) \
             if store is not None or ahead is not None else None
@@ -644,6 +644,7 @@ def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DE
             from torlab.parallel import SerialExecutor
 
             ex = SerialExecutor()
+
         def drawn(i: int, res: Drawn) -> None:
             stats.cpu_seconds += getattr(res, "cpu_seconds", 0.0)
             out[todo[i][0]] = _new_figure(todo[i][0], todo[i][2], res, store, each)
