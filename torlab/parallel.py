@@ -204,9 +204,7 @@ class _Feed:
             self.stopped = True
             self.ex._idle.notify_all()
         self.thread.join()
-        for f in self.futs:
-            if f is not None:
-                f.cancel()
+        _cancel(self.futs)
 
     def results(self, description: str) -> list[Any]:
         from torlab.progress import current as progress
@@ -222,8 +220,7 @@ class _Feed:
                     out.append(f.result())
                     advance()
             except BaseException:
-                for f in self.futs:
-                    f.cancel()
+                _cancel(self.futs)
                 raise
         self.futs = []  # every task is done: the results are held by the caller only
         return _results(out)
