@@ -569,12 +569,12 @@ class ResultCache:
         finally:
             self.io_seconds += time.perf_counter() - t0
 
-    def _write(self, name: str, *blobs: bytes | Iterator[bytes],
+    def _write(self, name: str, data: bytes | Iterator[bytes],
                head: Callable[[], bytes] | None = None) -> list[int]:
-        """Write a new file ``name`` (never through an existing one) of ``blobs`` one after
-        another (a blob may be an iterator of pieces: a large index is never whole in
-        memory); its status record.  ``head()``: the first bytes, of a size known before
-        (the index's signature), written at the start once the rest is."""
+        """Write a new file ``name`` (never through an existing one) of ``data``, bytes or
+        an iterator of pieces (a large index is never whole in memory); its status record.
+        ``head()``: the first bytes, of a size known before (the index's signature),
+        written at the start once the rest is."""
         from torlab.files import writing
 
         p = self.folder / name  # type: ignore[operator]
@@ -588,12 +588,8 @@ class ResultCache:
             fd = os.open(target, os.O_WRONLY | os.O_CREAT | os.O_EXCL | _O_NOFOLLOW, 0o666)
             with os.fdopen(fd, "wb") as f:
                 size = 0 if head is None else f.write(head())  # its size; rewritten below
-                for blob in blobs:
-                    if isinstance(blob, bytes):
-                        f.write(blob)
-                    else:
-                        for piece in blob:
-                            f.write(piece)
+                for piece in [data] if isinstance(data, bytes) else data:
+                    f.write(piece)
                 if head is not None:
                     first = head()
                     if len(first) != size:
