@@ -617,7 +617,7 @@ def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DE
             out[name] = _new_figure(name, keys, early, store, each)
             stats.ahead += 1
             stats.drawn += 1
-            stats.cpu_seconds += getattr(early, "cpu_seconds", 0.0)
+            stats.cpu_seconds += early.cpu_seconds
             return
         got = ahead.stored(dg) if ahead is not None and dg is not None else None
         if got is None:  # (what FiguresAhead found in the store is not read twice)
@@ -646,7 +646,7 @@ def render_figures(items: Sequence[tuple[str, Any]], formats: Sequence[str] = DE
             ex = SerialExecutor()
 
         def drawn(i: int, res: Drawn) -> None:
-            stats.cpu_seconds += getattr(res, "cpu_seconds", 0.0)
+            stats.cpu_seconds += res.cpu_seconds
             out[todo[i][0]] = _new_figure(todo[i][0], todo[i][2], res, store, each)
 
         ex.map(draw_task, [(p, formats, dpi) for _, p, _ in todo], description=description,
@@ -794,7 +794,7 @@ class FiguresAhead:
         """The figure with this digest as :meth:`start` found it in the store, if it did."""
         return self._stored.get(digest)
 
-    def take(self, digest: str) -> dict[str, bytes] | None:
+    def take(self, digest: str) -> Drawn | None:
         """The figure with this digest in every format, if it was started (waits for it)."""
         got = self._started.get(digest)
         if got is None:
