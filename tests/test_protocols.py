@@ -344,6 +344,50 @@ def test_paper_c_layers_and_traction(paper_c):
     assert sc.boundary.mu_c2 == pytest.approx(s["fits"]["hpt:OFM1"]["params"]["mu_c2"])
 
 
+def test_fit_figures_for_the_warned_sets_or_none(paper_c, tmp_path, cli):
+    """``reports.fit_figures`` / ``--fit-figures``: a figure for every fitted set, for those
+    whose fit warned, or for none; the parameter table and the other figures the same."""
+    from torlab.protocols.runner import run_protocol
+
+    out0, res0 = paper_c
+    fits = res0.summary["fits"]
+    warned = {n for n, f in fits.items() if f["warnings"]}
+    assert warned and len(warned) < len(fits)  # the case is not trivial either way
+
+    def pngs(d: Path) -> set[str]:
+        return {p.name for p in (d / "fits").glob("*.png")}
+
+    assert pngs(out0) == {f"fit_{n.replace(':', '_')}.png" for n in fits}
+    out = tmp_path / "out"
+    shutil.copytree(out0, out)  # its cache: a warm re-run
+    r = run_protocol(PROTOCOLS / "paper_c.yaml", out, force=True, fit_figures="warned")
+    assert not r.unchanged  # another option: not the earlier results
+    assert pngs(out) == {f"fit_{n.replace(':', '_')}.png" for n in warned}
+    md = (out / "report.md").read_text(encoding="utf-8")
+    assert (f"drawn for {len(warned)} of the {len(fits)} fitted sets, those whose fit "
+            "warned") in md
+    for same in ("fits/parameters.csv", "amount/amount_applied.png", "traction/traction.png"):
+        assert (out / same).read_bytes() == (out0 / same).read_bytes(), same
+    assert r.summary["fits"] == res0.summary["fits"]
+    # the protocol's key, and none
+    text = (PROTOCOLS / "paper_c.yaml").read_text().replace(
+        "../sample_data/", (ROOT / "sample_data").as_posix() + "/").replace(
+        "scenes/", (PROTOCOLS / "scenes").as_posix() + "/")
+    assert "\nreports:\n" in text
+    p = tmp_path / "paper_c.yaml"
+    p.write_text(text.replace("\nreports:\n", "\nreports:\n  fit_figures: none\n", 1))
+    r = cli("run", p, "-o", out, "--force", "-q")
+    assert r.exit_code == 0, r.output
+    assert pngs(out) == set() and (out / "amount" / "amount_applied.png").is_file()
+    assert "No data-against-model figures are drawn" in (out / "report.md").read_text()
+    r = cli("run", p, "-o", out, "--force", "-q", "--fit-figures", "some")
+    assert r.exit_code == 2
+    assert error_lines(r) == ["error: --fit-figures: 'some': expected all, warned or none"]
+    p.write_text(text.replace("\nreports:\n", "\nreports:\n  fit_figures: few\n", 1))
+    r = cli("run", p, "-o", tmp_path / "other", "-q")
+    assert r.exit_code != 0 and "fit_figures" in r.output
+
+
 @pytest.mark.slow
 def test_paper_c_expected_summary(paper_c):
     diffs = compare_summary("paper_c", paper_c[1].summary)

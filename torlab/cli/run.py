@@ -38,6 +38,10 @@ def run_cmd(
     no_figures: Annotated[bool, typer.Option(
         "--no-figures", help="Draw no figures (the reports keep every number and table; "
         "the protocol's reports.figures: false does the same).")] = False,
+    fit_figures: Annotated[str | None, typer.Option(
+        "--fit-figures", help="Which fitted sets get a data-against-model figure: all, warned "
+        "(those whose fit warned) or none; the parameter table holds every set (default the "
+        "protocol's reports.fit_figures, else all).")] = None,
     jobs: JobsOpt = None,
     scheduler: SchedulerOpt = None,
     quiet: QuietOpt = False,
@@ -76,7 +80,8 @@ def run_cmd(
     with session(jobs, scheduler, quiet) as ex:
         res = run_protocol(lp, out, force=force, command=command_line(),
                            progress=enabled_for(quiet), cache=not no_cache, formats=fmts,
-                           executor=ex, figures=False if no_figures else None)
+                           executor=ex, figures=False if no_figures else None,
+                           fit_figures=fit_figures)
     for n in res.notes:
         c.print(f"[yellow]note[/yellow] {n}")
     _print_key_numbers(res.summary)

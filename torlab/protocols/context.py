@@ -68,6 +68,9 @@ class RunContext:
         Parameter table rows, ``(name, FitResult)`` and the summary of every fit.
     data_summary, notes
         Key numbers of the reduced data; notes for the report.
+    fit_figures
+        Which fitted sets get a figure: ``all``, ``warned`` (those whose fit warned),
+        ``none`` (the protocol's ``reports.fit_figures``, or ``torlab run --fit-figures``).
     """
 
     lp: Any
@@ -83,6 +86,7 @@ class RunContext:
     fit_summary: dict[str, Any] = field(default_factory=dict)
     data_summary: dict[str, Any] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    fit_figures: str = "all"
     #: what the sections found of each item (product, composition) for ``reports.compare``:
     #: label -> :class:`torlab.comparison.Item`
     compare_items: dict[str, Any] = field(default_factory=dict)

@@ -69,7 +69,7 @@ class RunResult:
 def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[str], *,
                  force: bool = False, command: str = "", progress: bool = False,
                  cache: bool = True, formats: Any = None, executor: Any = None,
-                 figures: bool | None = None) -> RunResult:
+                 figures: bool | None = None, fit_figures: str | None = None) -> RunResult:
     """Run a protocol from raw logs to reports (``torlab run``).
 
     Parameters
@@ -96,6 +96,9 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
         Draw the figures (default the protocol's ``reports.figures``, else yes); without
         them every number and table is written, and the reports name the figures not
         drawn.
+    fit_figures
+        Which fitted sets get a figure: ``"all"``, ``"warned"`` (those whose fit warned) or
+        ``"none"`` (default the protocol's ``reports.fit_figures``, else all).
 
     Returns
     -------
@@ -108,6 +111,7 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
     TorlabInputError, FitError, NumericalError
         A data file, fit or prediction fails (nothing is written then).
     """
+    from torlab.errors import TorlabInputError
     from torlab.outputs import OutputDir
     from torlab.protocols.cache import CACHE_DIR, ResultCache
     from torlab.protocols.loader import LoadedProtocol, load_protocol
@@ -121,6 +125,10 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
                             else getattr(p.reports, "figure_formats", None) or None)
     draw = figures if figures is not None else bool(getattr(p.reports, "figures", True))
     embed = getattr(p.reports, "html_figures", "link") == "embed"
+    which = fit_figures if fit_figures is not None else getattr(p.reports, "fit_figures", "all")
+    if which not in ("all", "warned", "none"):
+        raise TorlabInputError(f"{which!r}: expected all, warned or none",
+                               key="--fit-figures")
     inputs = lp.input_files()
     t1 = time.perf_counter()
     dest = OutputDir(out, force=force, inputs=inputs, command=command,
@@ -129,7 +137,8 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
         # the earlier results' cache (moved into the new results below, if they are made)
         rc = ResultCache(dest.final_path(CACHE_DIR) if cache else None)
         key = run_key(lp, rc, inputs, {"formats": list(formats), "cache": cache,
-                                       "figures": draw, "embed": embed})
+                                       "figures": draw, "embed": embed,
+                                       "fit_figures": which})
         same = rc.up_to_date(key, dest.final_path("")) if force and key else None
         if same is not None:  # nothing changed: the results are there, nothing is rewritten
             dest.close()
@@ -139,7 +148,7 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
         dest.hasher = rc.sha  # the manifest's input hashes: each file hashed once
         t_io = time.perf_counter() - t1  # the output folder and its carried-over cache
         return _run(lp, dest, rc, formats, key, executor, progress, cache, command, t0,
-                    t_io, inputs, draw, embed)
+                    t_io, inputs, draw, embed, which)
     except BaseException:
         dest.abort()
         raise
@@ -147,7 +156,8 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
 
 def _run(lp: Any, dest: Any, rc: Any, formats: Any, run_key: str, executor: Any,
          progress: bool, cache: bool, command: str, t0: float, t_io: float,
-         inputs: list[Path], draw: bool, embed: bool) -> RunResult:
+         inputs: list[Path], draw: bool, embed: bool, fit_figures: str = "all"
+         ) -> RunResult:
     """The stages of :func:`run_protocol` into ``dest`` (which the caller aborts on an
     error), and the commit."""
     from torlab import __version__
@@ -165,7 +175,7 @@ def _run(lp: Any, dest: Any, rc: Any, formats: Any, run_key: str, executor: Any,
     ex = executor if executor is not None else current()
     ex.prepare(*_needs(p, draw))
     with Progress(progress) as prog:
-        run = RunContext(lp, dest, rc, prog, executor=ex)
+        run = RunContext(lp, dest, rc, prog, executor=ex, fit_figures=fit_figures)
         t1 = time.perf_counter()
         io0 = rc.io_seconds + dest.io_seconds
         reduce_data(run)

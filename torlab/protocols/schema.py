@@ -879,6 +879,11 @@ class Reports(_Model):
     #: draw the figures at all (``torlab run --no-figures``: false); without them the
     #: reports hold every number and table, and name the figures not drawn
     figures: bool = True
+    #: which fitted sets get a data-against-model figure (``torlab run --fit-figures``):
+    #: ``all``; ``warned``, the sets whose fit warned (a parameter the data do not
+    #: determine, a bound reached, a scatter beyond the model's ...); ``none``.  The
+    #: parameter table and the warnings hold every set either way
+    fit_figures: Literal["all", "warned", "none"] = "all"
     #: how report.html shows the figures: ``link`` (the figure files, its size the same at
     #: any campaign size) or ``embed`` (base64 inside the page: one self-contained file)
     html_figures: Literal["link", "embed"] = "link"

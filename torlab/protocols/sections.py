@@ -551,10 +551,12 @@ def fits_section(ctx: RunContext) -> Any:
     from torlab.reports.html import Figure, Section, Table
     from torlab.reports.render import plot
 
+    drawn = [(name, res) for name, res in ctx.fit_results
+             if ctx.fit_figures == "all" or (ctx.fit_figures == "warned" and res.warnings)]
     figs = [Figure(f"fit_{safe_name(name.replace(':', '_'))}", plot(result_figure,
                                                                      ctx.fit_arg(res)),
                    f"{name}: data against the fitted model, residuals")
-            for name, res in ctx.fit_results]
+            for name, res in drawn]
     warn = [f"{name}: {w}" for name, res in ctx.fit_results for w in res.warnings]
     show = {"set": ("set", ""), "parameter": ("parameter", ""), "value": ("value", ".5g"),
             "stderr": ("stderr", ".3g"), "95 % low": ("ci95_low", ".5g"),
@@ -578,6 +580,13 @@ def fits_section(ctx: RunContext) -> Any:
     for name, res in ctx.fit_results:
         if res.meta.get("scatter"):
             paragraphs.append(f"{name}: {res.meta['scatter']}.")
+    if len(drawn) < len(ctx.fit_results):
+        paragraphs.append(
+            (f"Data-against-model figures are drawn for {len(drawn)} of the "
+             f"{len(ctx.fit_results)} fitted sets, those whose fit warned "
+             "(reports.fit_figures: warned" if ctx.fit_figures == "warned" else
+             "No data-against-model figures are drawn (reports.fit_figures: none")
+            + "; 'all' draws one for every set).")
     if sel:
         fixed = [r for r in sel if r["decision"].startswith("fixed")]
         kept = [r for r in sel if not r["decision"].startswith("fixed")]
