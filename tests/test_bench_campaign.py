@@ -95,3 +95,23 @@ def test_every_figure_of_a_two_seed_campaign_passes_the_figure_checks(tmp_path):
         if problems:
             bad[name] = problems[:2]
     assert bad == {}
+
+
+def test_campaign_bench_passes_fit_figures_to_its_runs(tmp_path, cli, monkeypatch):
+    """``torlab bench --campaign N --fit-figures warned`` runs ``torlab run --fit-figures
+    warned`` and says so in the table's heading; another value is refused before any run."""
+    seen = []
+
+    def fake(n, **kw):
+        seen.append(kw.get("extra_args"))
+        return _rows(0.03, 1.0)
+
+    monkeypatch.setattr(cb, "run_campaigns", fake)
+    r = cli("bench", "--campaign", "16", "--fit-figures", "warned", "-o", tmp_path / "b", "-q")
+    assert r.exit_code == 0, r.output
+    assert seen == [("--fit-figures", "warned")]
+    assert (tmp_path / "b" / "campaign.md").read_text().startswith(
+        "# torlab bench --campaign 16 --jobs 2 --fit-figures warned\n")
+    r = cli("bench", "--campaign", "16", "--fit-figures", "few", "-o", tmp_path / "c", "-q")
+    assert r.exit_code == 2 and "--fit-figures: 'few'" in r.output
+    assert len(seen) == 1 and not (tmp_path / "c").exists()

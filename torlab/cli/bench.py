@@ -32,6 +32,9 @@ def bench_cmd(
         "and keep them (reused by the next run); default a temporary folder.")] = None,
     jobs: Annotated[int, typer.Option("--jobs", "-j", help="With --campaign: torlab run "
                                       "--jobs.", min=1)] = 2,
+    fit_figures: Annotated[str | None, typer.Option(
+        "--fit-figures", metavar="WHICH", help="With --campaign: torlab run --fit-figures "
+        "(all, warned, none).")] = None,
     force: ForceOpt = False,
     quiet: QuietOpt = False,
 ) -> None:
@@ -52,7 +55,7 @@ def bench_cmd(
     cmd = command_line()
     dest = OutputDir(out, force=force, command=cmd)  # refuses an occupied folder before the run
     if campaign is not None:
-        _campaign(dest, out, campaign, campaign_data, jobs, quiet)
+        _campaign(dest, out, campaign, campaign_data, jobs, quiet, fit_figures)
         return
     err = Console(stderr=True, highlight=False, soft_wrap=True)
     with Progress(enabled_for(quiet)) as prog, \
@@ -80,7 +83,8 @@ def bench_cmd(
         raise typer.Exit(1)
 
 
-def _campaign(dest: Any, out: Any, n: int, data: str | None, jobs: int, quiet: bool) -> None:
+def _campaign(dest: Any, out: Any, n: int, data: str | None, jobs: int, quiet: bool,
+              fit_figures: str | None = None) -> None:
     """``torlab bench --campaign N``: the campaign table (:mod:`torlab.bench.campaign`)."""
     from rich.console import Console
 
@@ -89,13 +93,19 @@ def _campaign(dest: Any, out: Any, n: int, data: str | None, jobs: int, quiet: b
 
     err = Console(stderr=True, highlight=False, soft_wrap=True)
     machine = machine_info()
+    extra = ("--fit-figures", fit_figures) if fit_figures is not None else ()
     try:
-        rows = run_campaigns(n, jobs=jobs, data_dir=data,
+        if fit_figures not in (None, "all", "warned", "none"):
+            from torlab.errors import TorlabInputError
+
+            raise TorlabInputError(f"{fit_figures!r}: expected all, warned or none",
+                                   key="--fit-figures")
+        rows = run_campaigns(n, jobs=jobs, data_dir=data, extra_args=extra,
                              progress=None if quiet else lambda m: err.print(m))
         table = campaign_table(rows)
         head = "\n".join(f"- {k}: {v}" for k, v in machine.items())
-        dest.write_text("campaign.md", f"# torlab bench --campaign {n} --jobs {jobs}\n\n"
-                        f"{head}\n\n{table}")
+        dest.write_text("campaign.md", f"# torlab bench --campaign {n} --jobs {jobs}"
+                        f"{''.join(' ' + a for a in extra)}\n\n{head}\n\n{table}")
         dest.write_csv("campaign.csv", {
             "size": [r.size for r in rows], "kind": [r.kind for r in rows],
             "wall_s": [r.wall_s for r in rows], "cpu_s": [r.cpu_s for r in rows],
