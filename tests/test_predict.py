@@ -355,6 +355,17 @@ def test_an_isothermal_layer_still_rising_is_not_saturated_not_positive():
     raw = classify_trend(p.table["creepage"].to_numpy(), p.table["mu"].to_numpy(),
                          uncertainty=p.band)
     assert raw["trend"] == "positive"  # what the curve alone would be called
+    # the report says so, with the probabilities, and does not call it positive
+    from types import SimpleNamespace
+
+    from torlab.reports.traction import TractionCurve, traction_section
+
+    sec = traction_section([TractionCurve("OFM1", "model", p.table, t, "scene",
+                                          band=p.summary["band"])],
+                           SimpleNamespace(trend_tolerance=0.01))
+    words = " ".join(sec.paragraphs)
+    assert "OFM1 (model)" in words and "not saturated in this range (still rising: " \
+        "negative 0.00" in words and "trend after saturation positive" not in words
     assert torlab.predict_traction(scene, [0.01]).trend["trend"] == "too few points"
     assert classify_trend(np.array([0.0, 0.01]), np.array([0.0, 0.2]))["trend"] == \
         "too few points"

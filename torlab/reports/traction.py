@@ -267,6 +267,10 @@ def _curve_sentence(r: dict[str, Any], c: TractionCurve) -> str:
         if trend == "undetermined":
             verdict = (f"trend after saturation undetermined: no class reaches probability "
                        f"{t['probability_threshold']:g} ({pr}{iv})")
+        elif trend not in probs:  # a rise of a layer that cannot soften (rises_only)
+            verdict = (f"trend after saturation: {trend} (still rising: {pr}{iv}; an "
+                       "isothermal layer's curve that rises has not levelled off, which is "
+                       "not a positive characteristic)")
         else:
             verdict = (f"trend after saturation {trend} with probability {probs[trend]:.2f} "
                        f"({pr}{iv})")
