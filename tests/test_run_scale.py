@@ -405,3 +405,58 @@ def test_input_hashes_are_reused_only_for_files_not_changed_since(tmp_path, monk
     os.utime(f, ns=(0, 0))
     _, h5 = fresh()
     assert h5 == h4 and len(calls) == n + 2  # another status: hashed again
+
+
+TRACTION = FITS + """\
+  traction:
+    creepage: {from: 0, to: 0.04, points: 9}
+    curves:
+      - label: "{set}"
+        scene: scene.yaml
+        params: ["hpt:*"]
+"""
+
+
+@pytest.mark.slow
+def test_predictions_kept_without_their_band_propagation(tmp_path, monkeypatch):
+    """The run keeps each predicted curve without its band's propagation (its numbers are in
+    the prediction's summary and table), cold and warm; the cache entry keeps it whole, and
+    the report is the same as from the whole predictions."""
+    import dataclasses
+
+    from torlab.protocols import context
+    from torlab.protocols.cache import ResultCache
+    from torlab.protocols.runner import run_protocol
+
+    p = _protocol(tmp_path, TRACTION, "hpt_OFM1_4uL_25C*.txt")
+    shutil.copy(ROOT / "protocols/scenes/wheel_rail_tab54.yaml", tmp_path / "scene.yaml")
+    kept: list[Any] = []
+    orig = context.RunContext.predict_many
+
+    def spy(self, *a, **kw):
+        out = orig(self, *a, **kw)
+        kept.extend(out)
+        return out
+
+    monkeypatch.setattr(context.RunContext, "predict_many", spy)
+    out = tmp_path / "out"
+    r1 = run_protocol(p, out)
+    r2 = run_protocol(p, tmp_path / "again")  # another folder: computed again
+    assert r1.cache_misses and len(kept) == 2
+    stored = [ResultCache(out / ".cache").loads(f.name, "traction", f.read_bytes())
+              for f in (out / ".cache").glob("traction-*.tlc")]
+    assert len(stored) == 1 and stored[0].band is not None  # the entry: whole
+    assert all(k.band is None for k in kept)  # this process: without it
+    assert kept[0].summary["band"]["method"] and "mu_low95" in kept[0].table
+    # a warm run takes the curve from the cache: kept without the band too
+    r3 = run_protocol(p, out, force=True, fit_figures="none")
+    assert r3.cache_hits and len(kept) == 3 and kept[2].band is None
+    # the report is the one the whole prediction gives
+    monkeypatch.setattr(context, "_kept_prediction", lambda _i, v: v)
+    r4 = run_protocol(p, tmp_path / "whole")
+    assert kept[3].band is not None
+    for r in (r2, r3):
+        assert r.summary["reports"]["traction"] == r1.summary["reports"]["traction"]
+    assert r4.summary["reports"]["traction"] == r1.summary["reports"]["traction"]
+    assert kept[3].summary == kept[0].summary
+    assert dataclasses.replace(kept[3], band=None).trend == kept[0].trend

@@ -281,7 +281,11 @@ class RunContext:
     def predict_many(self, kind: str, jobs: list[tuple[dict[str, Any], dict[str, Any]]],
                      description: str = "") -> list[Any]:
         """Cached predictions ``(scene dict, options)`` of one ``kind``, the missing ones
-        computed on the run's executor (in order)."""
+        computed on the run's executor (in order).
+
+        Each is kept here without its band's propagation (:func:`_kept_prediction`): the
+        sections read the band from the prediction's ``summary`` and its table's columns;
+        the cache entry keeps the whole prediction."""
         tasks = []
         for scene, kw in jobs:
             kw = dict(kw)
@@ -293,7 +297,7 @@ class RunContext:
             by_kind.setdefault(t[0], []).append(i)
         for ck, idx in by_kind.items():
             vals = self.cached_map(ck, _predict_task, [(tasks[i][1], tasks[i][2]) for i in idx],
-                                   description)
+                                   description, keep=_kept_prediction)
             for i, v in zip(idx, vals, strict=True):
                 out[i] = v
         return out
@@ -470,6 +474,19 @@ def _predict_task(job: tuple[str, dict[str, Any], dict[str, Any]]) -> Any:
 
         pred = predict_stribeck(sc, kw["speed"], kw["creepage"])
     return _cache_ready(pred)
+
+
+def _kept_prediction(_i: int, pred: Any) -> Any:
+    """What a protocol run keeps of a prediction (:meth:`RunContext.predict_many`): all but
+    its band's :class:`~torlab.uncertainty.Propagation` (the design, the contributions and
+    the band's arrays: about 30 kB of a traction curve's 55 kB), whose numbers the
+    prediction's ``summary`` and table hold.  The 384 curves of a 64x campaign would hold
+    about 12 MB of them in this process until their report is built."""
+    import dataclasses
+
+    if dataclasses.is_dataclass(pred) and getattr(pred, "band", None) is not None:
+        return dataclasses.replace(pred, band=None)
+    return pred
 
 
 def _cache_ready(pred: Any) -> Any:
