@@ -460,3 +460,34 @@ def test_predictions_kept_without_their_band_propagation(tmp_path, monkeypatch):
     assert r4.summary["reports"]["traction"] == r1.summary["reports"]["traction"]
     assert kept[3].summary == kept[0].summary
     assert dataclasses.replace(kept[3], band=None).trend == kept[0].trend
+
+
+def test_json_written_in_pieces_is_the_whole_dump(tmp_path):
+    """``OutputDir.write_json`` writes the bytes of ``json.dumps(obj, indent=2)`` and a
+    newline while it encodes (a large summary is never whole in memory); a value that is not
+    JSON leaves no file and no entry in the manifest, and the name can be written again."""
+    import numpy as np
+
+    from torlab.outputs import OutputDir
+
+    obj = {"curves": {f"c{i}": {"mu": np.linspace(0, 0.3, 60) + i, "n": np.int64(i),
+                                "name": f"µ {i}", "path": tmp_path / f"f{i}"}
+                      for i in range(400)}, "notes": ["ä", None, True, 1.5e-300]}
+    dest = OutputDir(tmp_path / "out")
+    dest.write_json("summary.json", obj)
+    bad = {"a": list(range(40_000)), "b": float("nan")}  # fails after the first pieces
+    with pytest.raises(ValueError):
+        dest.write_json("sub/bad.json", bad)
+    with pytest.raises(TypeError):
+        dest.write_json("sub/bad.json", {"x": list(range(40_000)), "y": object()})
+    assert not (dest.staging / "sub" / "bad.json").exists()
+    dest.write_json("sub/bad.json", {"fixed": 1})  # the name is free again
+    dest.commit()
+    from torlab.outputs import _json_default
+
+    text = (tmp_path / "out" / "summary.json").read_text(encoding="utf-8")
+    assert len(text) > 1 << 17  # more than one piece
+    assert text == json.dumps(obj, indent=2, allow_nan=False, default=_json_default) + "\n"
+    manifest = json.loads((tmp_path / "out" / "torlab-manifest.json").read_text())
+    assert manifest["files"] == ["sub/bad.json", "summary.json"]
+    assert json.loads((tmp_path / "out" / "sub" / "bad.json").read_text()) == {"fixed": 1}

@@ -425,6 +425,25 @@ class RunContext:
         return out
 
 
+def figure_choices(reports: Any, figures: bool | None = None, fit_figures: str | None = None
+                   ) -> tuple[bool, bool, str]:
+    """``(draw, embed, fit_figures)`` of a run: the figures at all, embedded in report.html,
+    and which fitted sets get one -- the options given (``torlab run --no-figures``,
+    ``--fit-figures``), else the protocol's ``reports`` keys.
+
+    Raises
+    ------
+    TorlabInputError
+        ``fit_figures`` is not ``all``, ``warned`` or ``none``.
+    """
+    draw = figures if figures is not None else bool(getattr(reports, "figures", True))
+    embed = getattr(reports, "html_figures", "link") == "embed"
+    which = fit_figures if fit_figures is not None else getattr(reports, "fit_figures", "all")
+    if which not in ("all", "warned", "none"):
+        raise TorlabInputError(f"{which!r}: expected all, warned or none", key="--fit-figures")
+    return draw, embed, which
+
+
 def add_covariance(scene_dict: dict[str, Any], res: Any, *, first: bool = False) -> None:
     """Put a fit's ``fit: covariance:`` block into a parameter-set dict (a list of blocks)."""
     cs = res.covariance_section() if hasattr(res, "covariance_section") else None

@@ -97,8 +97,7 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
         them every number and table is written, and the reports name the figures not
         drawn.
     fit_figures
-        Which fitted sets get a figure: ``"all"``, ``"warned"`` (those whose fit warned) or
-        ``"none"`` (default the protocol's ``reports.fit_figures``, else all).
+        The fitted sets' figures: ``"all"``, ``"warned"`` or ``"none"`` (default the protocol's).
 
     Returns
     -------
@@ -111,9 +110,9 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
     TorlabInputError, FitError, NumericalError
         A data file, fit or prediction fails (nothing is written then).
     """
-    from torlab.errors import TorlabInputError
     from torlab.outputs import OutputDir
     from torlab.protocols.cache import CACHE_DIR, ResultCache
+    from torlab.protocols.context import figure_choices
     from torlab.protocols.loader import LoadedProtocol, load_protocol
     from torlab.protocols.rerun import run_key, unchanged_result
     from torlab.reports.render import parse_formats
@@ -123,12 +122,7 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
     p = lp.protocol
     formats = parse_formats(formats if formats is not None
                             else getattr(p.reports, "figure_formats", None) or None)
-    draw = figures if figures is not None else bool(getattr(p.reports, "figures", True))
-    embed = getattr(p.reports, "html_figures", "link") == "embed"
-    which = fit_figures if fit_figures is not None else getattr(p.reports, "fit_figures", "all")
-    if which not in ("all", "warned", "none"):
-        raise TorlabInputError(f"{which!r}: expected all, warned or none",
-                               key="--fit-figures")
+    draw, embed, which = figure_choices(p.reports, figures, fit_figures)
     inputs = lp.input_files()
     t1 = time.perf_counter()
     dest = OutputDir(out, force=force, inputs=inputs, command=command,
@@ -137,8 +131,7 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
         # the earlier results' cache (moved into the new results below, if they are made)
         rc = ResultCache(dest.final_path(CACHE_DIR) if cache else None)
         key = run_key(lp, rc, inputs, {"formats": list(formats), "cache": cache,
-                                       "figures": draw, "embed": embed,
-                                       "fit_figures": which})
+                                       "figures": draw, "embed": embed, "fit_figures": which})
         same = rc.up_to_date(key, dest.final_path("")) if force and key else None
         if same is not None:  # nothing changed: the results are there, nothing is rewritten
             dest.close()
@@ -156,8 +149,7 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
 
 def _run(lp: Any, dest: Any, rc: Any, formats: Any, run_key: str, executor: Any,
          progress: bool, cache: bool, command: str, t0: float, t_io: float,
-         inputs: list[Path], draw: bool, embed: bool, fit_figures: str = "all"
-         ) -> RunResult:
+         inputs: list[Path], draw: bool, embed: bool, fit_figures: str = "all") -> RunResult:
     """The stages of :func:`run_protocol` into ``dest`` (which the caller aborts on an
     error), and the commit."""
     from torlab import __version__
