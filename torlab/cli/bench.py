@@ -95,11 +95,10 @@ def _campaign(dest: Any, out: Any, n: int, data: str | None, jobs: int, quiet: b
     machine = machine_info()
     extra = ("--fit-figures", fit_figures) if fit_figures is not None else ()
     try:
-        if fit_figures not in (None, "all", "warned", "none"):
-            from torlab.errors import TorlabInputError
+        if fit_figures is not None:
+            from torlab.protocols.context import check_fit_figures
 
-            raise TorlabInputError(f"{fit_figures!r}: expected all, warned or none",
-                                   key="--fit-figures")
+            check_fit_figures(fit_figures)
         rows = run_campaigns(n, jobs=jobs, data_dir=data, extra_args=extra,
                              progress=None if quiet else lambda m: err.print(m))
         table = campaign_table(rows)

@@ -439,9 +439,15 @@ def figure_choices(reports: Any, figures: bool | None = None, fit_figures: str |
     draw = figures if figures is not None else bool(getattr(reports, "figures", True))
     embed = getattr(reports, "html_figures", "link") == "embed"
     which = fit_figures if fit_figures is not None else getattr(reports, "fit_figures", "all")
-    if which not in ("all", "warned", "none"):
-        raise TorlabInputError(f"{which!r}: expected all, warned or none", key="--fit-figures")
-    return draw, embed, which
+    return draw, embed, check_fit_figures(which)
+
+
+def check_fit_figures(value: str) -> str:
+    """``value`` if it names which fitted sets get a figure (``all``, ``warned``, ``none``:
+    ``reports.fit_figures``, ``--fit-figures``); else TorlabInputError."""
+    if value not in ("all", "warned", "none"):
+        raise TorlabInputError(f"{value!r}: expected all, warned or none", key="--fit-figures")
+    return value
 
 
 def add_covariance(scene_dict: dict[str, Any], res: Any, *, first: bool = False) -> None:
