@@ -843,12 +843,7 @@ class OutputDir:
                     return False
         except OSError:
             return False
-        d = self._folder_of(rel)
-        try:
-            with contextlib.suppress(FileNotFoundError):
-                d.unlink(rel.name)
-        finally:
-            d.close()
+        self._remove(rel)
         if not _hard_link(src, self.staging / rel, st):
             return False
         self._list(rel.as_posix())
@@ -886,15 +881,19 @@ class OutputDir:
         self.io_seconds += time.perf_counter() - t0
         return self.final_path(name)
 
-    def _forget(self, name: str) -> None:
-        """Remove a file this run began to write and could not finish, and its records."""
-        rel = self._rel(name)
+    def _remove(self, rel: Path) -> None:
+        """Unlink ``rel`` in staging if it is there (never through a link on the way)."""
         d = self._folder_of(rel)
         try:
             with contextlib.suppress(FileNotFoundError):
                 d.unlink(rel.name)
         finally:
             d.close()
+
+    def _forget(self, name: str) -> None:
+        """Remove a file this run began to write and could not finish, and its records."""
+        rel = self._rel(name)
+        self._remove(rel)
         self._written.pop(rel.as_posix().casefold(), None)
         if rel.as_posix() in self._listed:
             self._listed.discard(rel.as_posix())
