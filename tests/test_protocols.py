@@ -385,7 +385,10 @@ def test_fit_figures_for_the_warned_sets_or_none(paper_c, tmp_path, cli):
     assert error_lines(r) == ["error: --fit-figures: 'some': expected all, warned or none"]
     p.write_text(text.replace("\nreports:\n", "\nreports:\n  fit_figures: few\n", 1))
     r = cli("run", p, "-o", tmp_path / "other", "-q")
-    assert r.exit_code != 0 and "fit_figures" in r.output
+    assert r.exit_code == 2
+    line = text.split("\nreports:\n")[0].count("\n") + 3  # the key's line in the file
+    assert error_lines(r) == [f"error: {p}:{line}: reports.fit_figures: 'few' is not "
+                              "allowed: use 'all', 'warned' or 'none'"]
 
 
 @pytest.mark.slow
