@@ -344,7 +344,7 @@ def test_paper_c_layers_and_traction(paper_c):
     assert sc.boundary.mu_c2 == pytest.approx(s["fits"]["hpt:OFM1"]["params"]["mu_c2"])
 
 
-def test_fit_figures_for_the_warned_sets_or_none(paper_c, tmp_path, cli):
+def test_fit_figures_for_the_warned_sets_or_none(paper_c, tmp_path, cli, monkeypatch):
     """``reports.fit_figures`` / ``--fit-figures``: a figure for every fitted set, for those
     whose fit warned, or for none; the parameter table and the other figures the same."""
     from torlab.protocols.runner import run_protocol
@@ -369,6 +369,21 @@ def test_fit_figures_for_the_warned_sets_or_none(paper_c, tmp_path, cli):
     for same in ("fits/parameters.csv", "amount/amount_applied.png", "traction/traction.png"):
         assert (out / same).read_bytes() == (out0 / same).read_bytes(), same
     assert r.summary["fits"] == res0.summary["fits"]
+    # auto (the default): every set up to AUTO_ALL_SETS fitted sets (paper_c's 12: above),
+    # as warned beyond them
+    import torlab.protocols.context as context
+
+    assert len(fits) <= context.AUTO_ALL_SETS
+    monkeypatch.setattr(context, "AUTO_ALL_SETS", len(fits) - 1)
+    r = run_protocol(PROTOCOLS / "paper_c.yaml", out, force=True)
+    assert pngs(out) == {f"fit_{n.replace(':', '_')}.png" for n in warned}
+    assert (f"drawn for {len(warned)} of the {len(fits)} fitted sets, those whose fit warned "
+            f"(reports.fit_figures: auto, above {len(fits) - 1} fitted sets; 'all' draws one "
+            "for every set)") in (out / "report.md").read_text(encoding="utf-8")
+    monkeypatch.setattr(context, "AUTO_ALL_SETS", len(fits))
+    r = run_protocol(PROTOCOLS / "paper_c.yaml", out, force=True)
+    assert pngs(out) == {f"fit_{n.replace(':', '_')}.png" for n in fits}
+    assert "Data-against-model figures are drawn for" not in (out / "report.md").read_text()
     # the protocol's key, and none
     text = (PROTOCOLS / "paper_c.yaml").read_text().replace(
         "../sample_data/", (ROOT / "sample_data").as_posix() + "/").replace(
@@ -382,13 +397,38 @@ def test_fit_figures_for_the_warned_sets_or_none(paper_c, tmp_path, cli):
     assert "No data-against-model figures are drawn" in (out / "report.md").read_text()
     r = cli("run", p, "-o", out, "--force", "-q", "--fit-figures", "some")
     assert r.exit_code == 2
-    assert error_lines(r) == ["error: --fit-figures: 'some': expected all, warned or none"]
+    assert error_lines(r) == ["error: --fit-figures: 'some': expected auto, all, warned or "
+                              "none"]
     p.write_text(text.replace("\nreports:\n", "\nreports:\n  fit_figures: few\n", 1))
     r = cli("run", p, "-o", tmp_path / "other", "-q")
     assert r.exit_code == 2
     line = text.split("\nreports:\n")[0].count("\n") + 3  # the key's line in the file
     assert error_lines(r) == [f"error: {p}:{line}: reports.fit_figures: 'few' is not "
-                              "allowed: use 'all', 'warned' or 'none'"]
+                              "allowed: use 'auto', 'all', 'warned' or 'none'"]
+
+
+def test_auto_fit_figures_every_set_of_a_few_the_warned_ones_of_many(monkeypatch):
+    """``auto``: every set up to AUTO_ALL_SETS fitted sets, above that the warned ones (none
+    when no fit warned, said so); ``all``/``warned``/``none`` whatever the count."""
+    from types import SimpleNamespace
+
+    import torlab.protocols.context as context
+    from torlab.protocols.sections import _fit_figures_sentence
+
+    monkeypatch.setattr(context, "AUTO_ALL_SETS", 3)
+    fits = [(f"s{i}", SimpleNamespace(warnings=["w"] if i in (1, 4) else [])) for i in range(5)]
+    names = lambda which, rs: [n for n, _ in context.drawn_fits(which, rs)]  # noqa: E731
+    assert names("auto", fits[:3]) == ["s0", "s1", "s2"]
+    assert names("auto", fits) == ["s1", "s4"] == names("warned", fits)
+    assert names("all", fits) == [n for n, _ in fits] and names("none", fits) == []
+    quiet = [(n, SimpleNamespace(warnings=[])) for n, _ in fits]
+    assert names("auto", quiet) == []
+    assert _fit_figures_sentence("auto", 0, 5) == (
+        "Data-against-model figures are drawn for 0 of the 5 fitted sets, those whose fit "
+        "warned, and none did (reports.fit_figures: auto, above 3 fitted sets; 'all' draws "
+        "one for every set).")
+    assert _fit_figures_sentence("warned", 2, 5).endswith(
+        "those whose fit warned (reports.fit_figures: warned; 'all' draws one for every set).")
 
 
 @pytest.mark.slow

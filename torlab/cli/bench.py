@@ -34,7 +34,7 @@ def bench_cmd(
                                       "--jobs.", min=1)] = 2,
     fit_figures: Annotated[str | None, typer.Option(
         "--fit-figures", metavar="WHICH", help="With --campaign: torlab run --fit-figures "
-        "(all, warned, none).")] = None,
+        "(auto, all, warned, none).")] = None,
     force: ForceOpt = False,
     quiet: QuietOpt = False,
 ) -> None:

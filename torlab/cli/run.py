@@ -39,9 +39,10 @@ def run_cmd(
         "--no-figures", help="Draw no figures (the reports keep every number and table; "
         "the protocol's reports.figures: false does the same).")] = False,
     fit_figures: Annotated[str | None, typer.Option(
-        "--fit-figures", help="Which fitted sets get a data-against-model figure: all, warned "
-        "(those whose fit warned) or none; the parameter table holds every set (default the "
-        "protocol's reports.fit_figures, else all).")] = None,
+        "--fit-figures", help="Which fitted sets get a data-against-model figure: auto (all "
+        "up to 24 fitted sets, above that those whose fit warned), all, warned or none; the "
+        "parameter table holds every set (default the protocol's reports.fit_figures, else "
+        "auto).")] = None,
     jobs: JobsOpt = None,
     scheduler: SchedulerOpt = None,
     quiet: QuietOpt = False,

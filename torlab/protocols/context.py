@@ -69,8 +69,10 @@ class RunContext:
     data_summary, notes
         Key numbers of the reduced data; notes for the report.
     fit_figures
-        Which fitted sets get a figure: ``all``, ``warned`` (those whose fit warned),
-        ``none`` (the protocol's ``reports.fit_figures``, or ``torlab run --fit-figures``).
+        Which fitted sets get a figure: ``auto`` (every set up to :data:`AUTO_ALL_SETS`
+        fitted sets, above that those whose fit warned), ``all``, ``warned`` (those whose
+        fit warned), ``none`` (the protocol's ``reports.fit_figures``, or ``torlab run
+        --fit-figures``; :func:`drawn_fits`).
     """
 
     lp: Any
@@ -86,7 +88,7 @@ class RunContext:
     fit_summary: dict[str, Any] = field(default_factory=dict)
     data_summary: dict[str, Any] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
-    fit_figures: str = "all"
+    fit_figures: str = "auto"
     #: what the sections found of each item (product, composition) for ``reports.compare``:
     #: label -> :class:`torlab.comparison.Item`
     compare_items: dict[str, Any] = field(default_factory=dict)
@@ -425,6 +427,13 @@ class RunContext:
         return out
 
 
+#: ``reports.fit_figures: auto`` draws a figure of every fitted set up to this many sets,
+#: and above it only of the sets whose fit warned: a report of a few products shows every
+#: fit; a campaign's shows the fits to look at (its parameter table holds every set)
+AUTO_ALL_SETS = 24
+FIT_FIGURES = ("auto", "all", "warned", "none")
+
+
 def figure_choices(reports: Any, figures: bool | None = None, fit_figures: str | None = None
                    ) -> tuple[bool, bool, str]:
     """``(draw, embed, fit_figures)`` of a run: the figures at all, embedded in report.html,
@@ -434,20 +443,31 @@ def figure_choices(reports: Any, figures: bool | None = None, fit_figures: str |
     Raises
     ------
     TorlabInputError
-        ``fit_figures`` is not ``all``, ``warned`` or ``none``.
+        ``fit_figures`` is not one of :data:`FIT_FIGURES`.
     """
     draw = figures if figures is not None else bool(getattr(reports, "figures", True))
     embed = getattr(reports, "html_figures", "link") == "embed"
-    which = fit_figures if fit_figures is not None else getattr(reports, "fit_figures", "all")
+    which = fit_figures if fit_figures is not None else getattr(reports, "fit_figures", "auto")
     return draw, embed, check_fit_figures(which)
 
 
 def check_fit_figures(value: str) -> str:
-    """``value`` if it names which fitted sets get a figure (``all``, ``warned``, ``none``:
+    """``value`` if it names which fitted sets get a figure (one of :data:`FIT_FIGURES`:
     ``reports.fit_figures``, ``--fit-figures``); else TorlabInputError."""
-    if value not in ("all", "warned", "none"):
-        raise TorlabInputError(f"{value!r}: expected all, warned or none", key="--fit-figures")
+    if value not in FIT_FIGURES:
+        raise TorlabInputError(f"{value!r}: expected {', '.join(FIT_FIGURES[:-1])} or "
+                               f"{FIT_FIGURES[-1]}", key="--fit-figures")
     return value
+
+
+def drawn_fits(which: str, results: list[tuple[str, Any]]) -> list[tuple[str, Any]]:
+    """The ``(name, fit result)`` of ``results`` that get a data-against-model figure under
+    ``reports.fit_figures: which`` (``auto``: all of them when there are at most
+    :data:`AUTO_ALL_SETS`, else as ``warned``), in their order."""
+    if which == "auto":
+        which = "all" if len(results) <= AUTO_ALL_SETS else "warned"
+    return [(name, res) for name, res in results
+            if which == "all" or (which == "warned" and res.warnings)]
 
 
 def add_covariance(scene_dict: dict[str, Any], res: Any, *, first: bool = False) -> None:

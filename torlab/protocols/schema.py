@@ -880,10 +880,11 @@ class Reports(_Model):
     #: reports hold every number and table, and name the figures not drawn
     figures: bool = True
     #: which fitted sets get a data-against-model figure (``torlab run --fit-figures``):
+    #: ``auto``, every set when the run fits at most 24 sets, above that as ``warned``;
     #: ``all``; ``warned``, the sets whose fit warned (a parameter the data do not
     #: determine, a bound reached, a scatter beyond the model's ...); ``none``.  The
     #: parameter table and the warnings hold every set either way
-    fit_figures: Literal["all", "warned", "none"] = "all"
+    fit_figures: Literal["auto", "all", "warned", "none"] = "auto"
     #: how report.html shows the figures: ``link`` (the figure files, its size the same at
     #: any campaign size) or ``embed`` (base64 inside the page: one self-contained file)
     html_figures: Literal["link", "embed"] = "link"

@@ -17,7 +17,7 @@ import numpy as np
 from torlab.errors import TorlabInputError
 from torlab.files import safe_name
 from torlab.model.plausible import result_notes
-from torlab.protocols.context import RunContext, finite
+from torlab.protocols.context import RunContext, drawn_fits, finite
 
 __all__ = ["build_sections"]
 
@@ -543,6 +543,22 @@ def compare(ctx: RunContext) -> Any:
     return compare_section(results)
 
 
+def _fit_figures_sentence(which: str, drawn: int, fitted: int) -> str:
+    """The fits section's sentence on the data-against-model figures not drawn
+    (``reports.fit_figures``; ``drawn`` of ``fitted`` sets have one)."""
+    from torlab.protocols.context import AUTO_ALL_SETS
+
+    if which == "none":
+        return ("No data-against-model figures are drawn (reports.fit_figures: none; 'all' "
+                "draws one for every set).")
+    why = ("reports.fit_figures: warned" if which == "warned" else
+           f"reports.fit_figures: auto, above {AUTO_ALL_SETS} fitted sets")
+    which_sets = ("those whose fit warned" if drawn else
+                  "those whose fit warned, and none did")
+    return (f"Data-against-model figures are drawn for {drawn} of the {fitted} fitted sets, "
+            f"{which_sets} ({why}; 'all' draws one for every set).")
+
+
 def fits_section(ctx: RunContext) -> Any:
     """The fitted parameter sets: table, data-against-model figures, warnings."""
     import pandas as pd
@@ -551,8 +567,7 @@ def fits_section(ctx: RunContext) -> Any:
     from torlab.reports.html import Figure, Section, Table
     from torlab.reports.render import plot
 
-    drawn = [(name, res) for name, res in ctx.fit_results
-             if ctx.fit_figures == "all" or (ctx.fit_figures == "warned" and res.warnings)]
+    drawn = drawn_fits(ctx.fit_figures, ctx.fit_results)
     figs = [Figure(f"fit_{safe_name(name.replace(':', '_'))}", plot(result_figure,
                                                                      ctx.fit_arg(res)),
                    f"{name}: data against the fitted model, residuals")
@@ -581,12 +596,8 @@ def fits_section(ctx: RunContext) -> Any:
         if res.meta.get("scatter"):
             paragraphs.append(f"{name}: {res.meta['scatter']}.")
     if len(drawn) < len(ctx.fit_results):
-        paragraphs.append(
-            (f"Data-against-model figures are drawn for {len(drawn)} of the "
-             f"{len(ctx.fit_results)} fitted sets, those whose fit warned "
-             "(reports.fit_figures: warned" if ctx.fit_figures == "warned" else
-             "No data-against-model figures are drawn (reports.fit_figures: none")
-            + "; 'all' draws one for every set).")
+        paragraphs.append(_fit_figures_sentence(ctx.fit_figures, len(drawn),
+                                                len(ctx.fit_results)))
     if sel:
         fixed = [r for r in sel if r["decision"].startswith("fixed")]
         kept = [r for r in sel if not r["decision"].startswith("fixed")]
