@@ -97,7 +97,7 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
         them every number and table is written, and the reports name the figures not
         drawn.
     fit_figures
-        The fitted sets' figures: ``"all"``, ``"warned"`` or ``"none"`` (default the protocol's).
+        Which fitted sets get a figure (default the protocol's; ``context.drawn_fits``).
 
     Returns
     -------
