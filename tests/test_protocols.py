@@ -346,7 +346,8 @@ def test_paper_c_layers_and_traction(paper_c):
 
 def test_fit_figures_for_the_warned_sets_or_none(paper_c, tmp_path, cli, monkeypatch):
     """``reports.fit_figures`` / ``--fit-figures``: a figure for every fitted set, for those
-    whose fit warned, or for none; the parameter table and the other figures the same."""
+    whose fit warned, for none, or (auto) by the number of sets; the parameter table and the
+    other figures the same."""
     from torlab.protocols.runner import run_protocol
 
     out0, res0 = paper_c
@@ -369,8 +370,8 @@ def test_fit_figures_for_the_warned_sets_or_none(paper_c, tmp_path, cli, monkeyp
     for same in ("fits/parameters.csv", "amount/amount_applied.png", "traction/traction.png"):
         assert (out / same).read_bytes() == (out0 / same).read_bytes(), same
     assert r.summary["fits"] == res0.summary["fits"]
-    # auto (the default): every set up to AUTO_ALL_SETS fitted sets (paper_c's 12: above),
-    # as warned beyond them
+    # auto (the default): every set up to AUTO_ALL_SETS fitted sets (paper_c's 12 are
+    # fewer: every set, as the first run drew), as warned beyond them
     import torlab.protocols.context as context
 
     assert len(fits) <= context.AUTO_ALL_SETS
@@ -429,6 +430,12 @@ def test_auto_fit_figures_every_set_of_a_few_the_warned_ones_of_many(monkeypatch
         "one for every set).")
     assert _fit_figures_sentence("warned", 2, 5).endswith(
         "those whose fit warned (reports.fit_figures: warned; 'all' draws one for every set).")
+    # the threshold the docs give is the code's
+    monkeypatch.undo()
+    n = context.AUTO_ALL_SETS
+    for doc in ("protocols.md", "cli.md"):
+        text = " ".join((ROOT / "docs" / doc).read_text(encoding="utf-8").split())
+        assert f"up to {n} fitted sets" in text or f"at most {n} sets" in text, doc
 
 
 @pytest.mark.slow
