@@ -218,7 +218,17 @@ def test_dask_background_batches_take_turns(dask_client):
     _GO.clear()
     a = ex.background(_record, [("A", i) for i in range(12)])
     time.sleep(0.3)  # Dask orders work submitted within 0.1 s as one submission
+
+    def known() -> int:  # tasks the scheduler holds (A's stay while their futures are held)
+        return dask_client.run_on_scheduler(lambda dask_scheduler: len(dask_scheduler.tasks))
+
+    n0 = known()
     b = ex.background(_record, [("B", i) for i in range(3)])
+    # A's first task is let go once the scheduler has B's tasks (submitting is
+    # asynchronous: on a busy machine A's tasks ran on while B's were on their way)
+    deadline = time.monotonic() + 10
+    while known() < n0 + 3 and time.monotonic() < deadline:
+        time.sleep(0.01)
     _GO.set()
     assert a.results() == [("A", i) for i in range(12)]
     assert b.results() == [("B", i) for i in range(3)]
