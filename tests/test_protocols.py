@@ -370,6 +370,12 @@ def test_fit_figures_for_the_warned_sets_or_none(paper_c, tmp_path, cli, monkeyp
     for same in ("fits/parameters.csv", "amount/amount_applied.png", "traction/traction.png"):
         assert (out / same).read_bytes() == (out0 / same).read_bytes(), same
     assert r.summary["fits"] == res0.summary["fits"]
+    # without figures the report says which sets would have one
+    r = run_protocol(PROTOCOLS / "paper_c.yaml", out, force=True, fit_figures="warned",
+                     figures=False)
+    assert (f"No figures are drawn in this run; with them, data-against-model figures would "
+            f"be drawn for {len(warned)} of the {len(fits)} fitted sets, those whose fit warned"
+            ) in (out / "report.md").read_text(encoding="utf-8")
     # auto (the default): every set up to AUTO_ALL_SETS fitted sets (paper_c's 12 are
     # fewer: every set, as the first run drew), as warned beyond them
     import torlab.protocols.context as context
@@ -430,6 +436,10 @@ def test_auto_fit_figures_every_set_of_a_few_the_warned_ones_of_many(monkeypatch
         "one for every set).")
     assert _fit_figures_sentence("warned", 2, 5).endswith(
         "those whose fit warned (reports.fit_figures: warned; 'all' draws one for every set).")
+    assert _fit_figures_sentence("auto", 2, 5, draw=False) == (
+        "No figures are drawn in this run; with them, data-against-model figures would be "
+        "drawn for 2 of the 5 fitted sets, those whose fit warned (reports.fit_figures: auto, "
+        "above 3 fitted sets; 'all' draws one for every set).")
     # the threshold the docs give is the code's
     monkeypatch.undo()
     n = context.AUTO_ALL_SETS

@@ -73,6 +73,9 @@ class RunContext:
         fitted sets, above that those whose fit warned), ``all``, ``warned`` (those whose
         fit warned), ``none`` (the protocol's ``reports.fit_figures``, or ``torlab run
         --fit-figures``; :func:`drawn_fits`).
+    draw
+        Whether the run draws figures at all (``torlab run --no-figures``: no); the
+        sections declare theirs either way, and the reports name those not drawn.
     """
 
     lp: Any
@@ -89,6 +92,7 @@ class RunContext:
     data_summary: dict[str, Any] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     fit_figures: str = "auto"
+    draw: bool = True
     #: what the sections found of each item (product, composition) for ``reports.compare``:
     #: label -> :class:`torlab.comparison.Item`
     compare_items: dict[str, Any] = field(default_factory=dict)

@@ -112,7 +112,7 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
     """
     from torlab.outputs import OutputDir
     from torlab.protocols.cache import CACHE_DIR, ResultCache
-    from torlab.protocols.context import figure_choices
+    from torlab.protocols.context import AUTO_ALL_SETS, figure_choices
     from torlab.protocols.loader import LoadedProtocol, load_protocol
     from torlab.protocols.rerun import run_key, unchanged_result
     from torlab.reports.render import parse_formats
@@ -130,8 +130,8 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
     try:
         # the earlier results' cache (moved into the new results below, if they are made)
         rc = ResultCache(dest.final_path(CACHE_DIR) if cache else None)
-        key = run_key(lp, rc, inputs, {"formats": list(formats), "cache": cache,
-                                       "figures": draw, "embed": embed, "fit_figures": which})
+        key = run_key(lp, rc, inputs, {"formats": list(formats), "cache": cache, "figures": draw,
+                                       "embed": embed, "fit_figures": [which, AUTO_ALL_SETS]})
         same = rc.up_to_date(key, dest.final_path("")) if force and key else None
         if same is not None:  # nothing changed: the results are there, nothing is rewritten
             dest.close()
@@ -149,7 +149,7 @@ def run_protocol(protocol: str | os.PathLike[str] | Any, out: str | os.PathLike[
 
 def _run(lp: Any, dest: Any, rc: Any, formats: Any, run_key: str, executor: Any,
          progress: bool, cache: bool, command: str, t0: float, t_io: float,
-         inputs: list[Path], draw: bool, embed: bool, fit_figures: str = "all") -> RunResult:
+         inputs: list[Path], draw: bool, embed: bool, fit_figures: str = "auto") -> RunResult:
     """The stages of :func:`run_protocol` into ``dest`` (which the caller aborts on an
     error), and the commit."""
     from torlab import __version__
@@ -167,7 +167,7 @@ def _run(lp: Any, dest: Any, rc: Any, formats: Any, run_key: str, executor: Any,
     ex = executor if executor is not None else current()
     ex.prepare(*_needs(p, draw))
     with Progress(progress) as prog:
-        run = RunContext(lp, dest, rc, prog, executor=ex, fit_figures=fit_figures)
+        run = RunContext(lp, dest, rc, prog, executor=ex, fit_figures=fit_figures, draw=draw)
         t1 = time.perf_counter()
         io0 = rc.io_seconds + dest.io_seconds
         reduce_data(run)

@@ -543,9 +543,10 @@ def compare(ctx: RunContext) -> Any:
     return compare_section(results)
 
 
-def _fit_figures_sentence(which: str, drawn: int, fitted: int) -> str:
+def _fit_figures_sentence(which: str, drawn: int, fitted: int, draw: bool = True) -> str:
     """The fits section's sentence on the data-against-model figures not drawn
-    (``reports.fit_figures``; ``drawn`` of ``fitted`` sets have one)."""
+    (``reports.fit_figures``; ``drawn`` of ``fitted`` sets have one; ``draw``: the run draws
+    figures at all, else it says which sets would have one)."""
     from torlab.protocols.context import AUTO_ALL_SETS
 
     if which == "none":
@@ -555,8 +556,11 @@ def _fit_figures_sentence(which: str, drawn: int, fitted: int) -> str:
            f"reports.fit_figures: auto, above {AUTO_ALL_SETS} fitted sets")
     which_sets = ("those whose fit warned" if drawn else
                   "those whose fit warned, and none did")
-    return (f"Data-against-model figures are drawn for {drawn} of the {fitted} fitted sets, "
-            f"{which_sets} ({why}; 'all' draws one for every set).")
+    start = ("Data-against-model figures are drawn" if draw else
+             "No figures are drawn in this run; with them, data-against-model figures would "
+             "be drawn")
+    return (f"{start} for {drawn} of the {fitted} fitted sets, {which_sets} ({why}; 'all' "
+            "draws one for every set).")
 
 
 def fits_section(ctx: RunContext) -> Any:
@@ -597,7 +601,7 @@ def fits_section(ctx: RunContext) -> Any:
             paragraphs.append(f"{name}: {res.meta['scatter']}.")
     if len(drawn) < len(ctx.fit_results):
         paragraphs.append(_fit_figures_sentence(ctx.fit_figures, len(drawn),
-                                                len(ctx.fit_results)))
+                                                len(ctx.fit_results), ctx.draw))
     if sel:
         fixed = [r for r in sel if r["decision"].startswith("fixed")]
         kept = [r for r in sel if not r["decision"].startswith("fixed")]
