@@ -3,7 +3,8 @@
 A protocol run's results depend on torlab's, Python's and NumPy's versions, the protocol
 file, every input file and the options that change a result (figure formats, figures drawn
 or not, embedded or linked, which fitted sets get one and ``auto``'s threshold, the
-cache).  :func:`run_key` hashes them; the run records the key and the status (size, times, inode) of every file it wrote in its cache's signed index
+cache).  :func:`run_key` hashes them; the run records the key and the status (size,
+times, inode) of every file it wrote in its cache's signed index
 (:meth:`~torlab.protocols.cache.ResultCache.record_run`).  A re-run with ``--force`` whose
 key is the same and whose earlier files are all still the ones written
 (:meth:`~torlab.protocols.cache.ResultCache.up_to_date`) keeps every result as it is --
