@@ -446,6 +446,12 @@ def test_auto_fit_figures_every_set_of_a_few_the_warned_ones_of_many(monkeypatch
     for doc in ("protocols.md", "cli.md"):
         text = " ".join((ROOT / "docs" / doc).read_text(encoding="utf-8").split())
         assert f"up to {n} fitted sets" in text or f"at most {n} sets" in text, doc
+    import typing
+
+    from torlab.cli.run import run_cmd
+
+    option = typing.get_type_hints(run_cmd, include_extras=True)["fit_figures"].__metadata__[0]
+    assert f"up to {n} fitted sets" in option.help
 
 
 @pytest.mark.slow
