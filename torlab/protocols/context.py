@@ -13,13 +13,14 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import Any, get_args
 
 import numpy as np
 
 from torlab.errors import FitError, TorlabInputError
 from torlab.files import safe_name
 from torlab.progress import Progress
+from torlab.protocols.schema import FitFigures
 
 __all__ = ["SHORT_BLOCK", "Progress", "RunContext", "add_covariance", "finite"]
 
@@ -435,7 +436,7 @@ class RunContext:
 #: and above it only of the sets whose fit warned: a report of a few products shows every
 #: fit; a campaign's shows the fits to look at (its parameter table holds every set)
 AUTO_ALL_SETS = 24
-FIT_FIGURES = ("auto", "all", "warned", "none")
+FIT_FIGURES: tuple[str, ...] = get_args(FitFigures)
 
 
 def figure_choices(reports: Any, figures: bool | None = None, fit_figures: str | None = None

@@ -862,6 +862,11 @@ class CompareSpec(_Model):
     probability: Fraction = Field(default=0.9, gt=0.5, lt=1)
 
 
+#: the values of ``reports.fit_figures`` (and ``torlab run --fit-figures``:
+#: :func:`torlab.protocols.context.check_fit_figures`)
+FitFigures = Literal["auto", "all", "warned", "none"]
+
+
 class Reports(_Model):
     """``reports:``: the analyses to write (each needs its data; see docs/protocols.md)."""
 
@@ -884,7 +889,7 @@ class Reports(_Model):
     #: ``all``; ``warned``, the sets whose fit warned (a parameter the data do not
     #: determine, a bound reached, a scatter beyond the model's ...); ``none``.  The
     #: parameter table and the warnings hold every set either way
-    fit_figures: Literal["auto", "all", "warned", "none"] = "auto"
+    fit_figures: FitFigures = "auto"
     #: how report.html shows the figures: ``link`` (the figure files, its size the same at
     #: any campaign size) or ``embed`` (base64 inside the page: one self-contained file)
     html_figures: Literal["link", "embed"] = "link"
