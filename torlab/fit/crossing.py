@@ -38,6 +38,7 @@ References
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -72,14 +73,14 @@ def logistic(x: np.ndarray, f_low: float, f_high: float, k: float, c: float) -> 
     return f_low + (f_high - f_low) * expit(-k * (np.asarray(x, dtype=float) - c))
 
 
-def amount_series(results: list[Any], products: dict[str, Any], *, temperature: float,
+def amount_series(results: Iterable[Any], products: dict[str, Any], *, temperature: float,
                   temperature_tolerance: float, only: list[str] | None = None) -> Any:
     """The amount series: one row per HPT run with an applied amount at ``temperature``.
 
     Parameters
     ----------
     results
-        :class:`torlab.reduce.hpt.HptResult` of every run.
+        :class:`torlab.reduce.hpt.HptResult` of every run (read once, in order).
     products
         The protocol's ``products:`` (name -> :class:`~torlab.protocols.schema.Product`);
         a ``product-condition`` key wins over the plain product name.

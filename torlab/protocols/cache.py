@@ -496,7 +496,7 @@ class ResultCache:
             if rec is not None and rec.get("kind") == kind and "light" in rec:
                 kept = rec["light"]  # JSON; a LightOf where this run restored it before
                 try:
-                    value = light.restore(shared(kept() if isinstance(kept, LightOf) else kept))
+                    value = light.restore(kept() if isinstance(kept, LightOf) else kept)
                 except (TypeError, ValueError, KeyError, AttributeError):
                     value = None
                 if value is not None:
@@ -514,7 +514,7 @@ class ResultCache:
     def keep_light(self, name: str, light: Light, small: Any) -> Any:
         """``light.restore(small)`` for the entry ``name`` written or found by this run;
         its index record keeps the restored value (:class:`LightOf`), not the JSON."""
-        value = light.restore(shared(small))
+        value = light.restore(small)
         rec = self._next.get(name)
         if rec is not None:
             rec["light"] = LightOf(light.light, value)
@@ -890,10 +890,9 @@ class Light:
     """What a caller keeps of a kind of value (:meth:`ResultCache.lookup_light`):
     ``light(value)``, plain JSON (numbers, text, lists, mappings), and ``restore`` of that
     JSON, the caller's object (raising TypeError, ValueError or KeyError on JSON of
-    another shape).  Both picklable (module-level functions).  The JSON is made
-    :func:`shared` before it is restored; the index keeps the restored value and remakes
-    the JSON when it is written (:class:`LightOf`), so ``light(restore(j))`` must be ``j``
-    again."""
+    another shape).  Both picklable (module-level functions).  The index keeps the restored
+    value and remakes the JSON when it is written (:class:`LightOf`), so
+    ``light(restore(j))`` must be ``j`` again."""
 
     light: Callable[[Any], Any]
     restore: Callable[[Any], Any]
@@ -903,8 +902,8 @@ class LightOf:
     """The light JSON of a kept value, made when the index is written
     (:meth:`ResultCache.write_index`): ``light(value)``, where ``value`` is what
     :meth:`Light.restore` made of that JSON, so the index holds the value the caller keeps
-    anyway instead of a second copy of its JSON (about 1.7 kB per HPT log beside its
-    restored reduction: 11 MB at 6656 logs).  ``light`` must give back the JSON that
+    anyway instead of a second copy of its JSON (the protocol run keeps an HPT log's light
+    form packed: :class:`torlab.protocols.data.PackedReduction`).  ``light`` must give back the JSON that
     ``restore`` was given (tested for the HPT logs, the one instrument with a light form)."""
 
     __slots__ = ("light", "value")
@@ -921,20 +920,6 @@ def _light_json(o: Any) -> Any:
     if isinstance(o, LightOf):
         return o()
     raise TypeError(f"not JSON: {type(o).__name__}")
-
-
-def shared(v: Any) -> Any:
-    """Plain JSON with its keys and short strings one object per distinct string
-    (``sys.intern``): the thousands of light forms a campaign keeps (each HPT log's
-    ``"product"``, units, header keys ...) take half the memory (an HPT log's light form
-    6.7 -> 3.1 kB in this process)."""
-    if isinstance(v, dict):
-        return {sys.intern(k) if isinstance(k, str) else k: shared(x) for k, x in v.items()}
-    if isinstance(v, list):
-        return [shared(x) for x in v]
-    if isinstance(v, str) and len(v) <= 64:
-        return sys.intern(v)
-    return v
 
 
 @dataclass

@@ -21,8 +21,10 @@ which the schema calls):
   cache: the fits read it there, in the worker that fits (:class:`ReductionArg`), and a
   later run takes the light forms from the cache's index without reading the entries.
   Then ``write_section`` receives the light forms.  Default: none (the whole reductions
-  are kept; so they are when the run has no cache).  A campaign of thousands of HPT logs
-  (the ``hpt`` section's) keeps about a kB per log instead of its curve.
+  are kept; so they are when the run has no cache).  The run keeps each light form packed
+  (:class:`PackedReduction`: its JSON compressed, restored when read): a campaign of
+  thousands of HPT logs (the ``hpt`` section's) keeps about 0.3 kB per log instead of its
+  curve.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from torlab.instruments.reduction import Reduction
 from torlab.protocols.context import RunContext
 
 __all__ = ["default_options", "default_write", "reduce_data", "section_options"]
@@ -92,7 +95,9 @@ def reduce_data(ctx: RunContext) -> None:
 
 def _light(red: Any) -> Any:
     """The light form of a reduction (its instrument's ``light``: plain JSON): what a
-    protocol run keeps in memory of it."""
+    protocol run keeps in memory of it (:class:`PackedReduction`)."""
+    if isinstance(red, PackedReduction):
+        return red.light_json()
     from torlab.instruments import get_instrument
 
     return get_instrument(red.instrument).impl().light(red)
@@ -100,14 +105,112 @@ def _light(red: Any) -> Any:
 
 @dataclass(frozen=True)
 class _Restore:
-    """The light Reduction from its JSON (the instrument's ``from_light``)."""
+    """What the run keeps of a light form: its :class:`PackedReduction`, once the
+    instrument's ``from_light`` has taken the JSON (TypeError, ValueError, KeyError for
+    JSON of another shape)."""
 
     instrument: str
 
     def __call__(self, d: Any) -> Any:
+        return PackedReduction(_packer(self.instrument), d)
+
+
+class _Packer:
+    """Packs one instrument's light forms and restores them: the JSON value in
+    :mod:`marshal`'s format (read back in 10 µs, where ``json`` takes 24 µs; the bytes are
+    made in this process from JSON already checked and never leave it), compressed with the
+    first form packed as zlib's preset dictionary (most of a log's light form -- its keys,
+    units, header lines, settings -- is every log's)."""
+
+    __slots__ = ("_lock", "instrument", "last", "restore", "zdict")
+
+    def __init__(self, instrument: str) -> None:
+        import threading
+
         from torlab.instruments import get_instrument
 
-        return get_instrument(self.instrument).impl().from_light(d)
+        self.instrument, self._lock = instrument, threading.Lock()
+        self.restore = get_instrument(instrument).impl().from_light
+        self.zdict: bytes | None = None
+        #: ``(packed, restored)``: the last one restored (read several times in a row)
+        self.last: tuple[Any, Any] = (None, None)
+
+    def pack(self, d: Any) -> bytes:
+        import marshal
+        import zlib
+
+        text = marshal.dumps(d)  # plain JSON values; made and read in this process only
+        if self.zdict is None:
+            with self._lock:  # one dictionary for all (a form packed is unpacked with it)
+                if self.zdict is None:
+                    self.zdict = text[-32768:]  # zlib's window
+        c = zlib.compressobj(6, zdict=self.zdict)
+        return c.compress(text) + c.flush()
+
+    def unpack(self, blob: bytes) -> Any:
+        import marshal
+        import zlib
+
+        assert self.zdict is not None  # set by the first pack
+        return marshal.loads(zlib.decompressobj(zdict=self.zdict).decompress(blob))
+
+
+_PACKERS: dict[str, _Packer] = {}
+
+
+def _packer(instrument: str) -> _Packer:
+    """The packer of an instrument's light forms (one per process)."""
+    p = _PACKERS.get(instrument)
+    if p is None:
+        p = _PACKERS.setdefault(instrument, _Packer(instrument))
+    return p
+
+
+class PackedReduction:
+    """A reduction a protocol run keeps as its instrument's light form (header and key
+    figures, no tables), compressed: about 0.3 kB per HPT log, where the Reduction
+    restored from it holds about 3 kB of Python objects (a 64x campaign's 6656 logs: 2
+    MB instead of 20 MB, the C heap's fragmentation by them not counted).
+
+    ``source``, ``instrument``, ``name``, ``stem`` and ``label`` are kept as they are; any
+    other attribute (``meta``, ``detail``, ``key_numbers``, ``notes`` ...) is read from the
+    Reduction restored from the light form (the instrument's ``from_light``: about 40 µs;
+    the last one restored is kept, for reads in a row).  The whole reduction is in the
+    run's cache (:class:`StoredReduction`).
+    """
+
+    __slots__ = ("_blob", "_packer", "instrument", "name", "source")
+
+    def __init__(self, packer: _Packer, d: Any) -> None:
+        red = packer.restore(d)  # refuses JSON of another shape, here
+        self._packer = packer
+        self._blob = packer.pack(d)
+        self.source, self.instrument, self.name = red.source, red.instrument, red.name
+        packer.last = (self, red)
+
+    label = Reduction.label
+    stem = Reduction.stem
+
+    def light_json(self) -> Any:
+        """The light form (JSON), as the instrument's ``light`` made it."""
+        return self._packer.unpack(self._blob)
+
+    def restored(self) -> Reduction:
+        """The light Reduction (no tables; its detail without the curve)."""
+        packed, red = self._packer.last
+        if packed is not self:
+            red = self._packer.restore(self.light_json())
+            self._packer.last = (self, red)
+        red.name = self.name
+        return red
+
+    def __getattr__(self, attr: str) -> Any:
+        if attr.startswith("__"):  # copy, pickle: not looked up in the restored one
+            raise AttributeError(attr)
+        return getattr(self.restored(), attr)
+
+    def __repr__(self) -> str:
+        return f"PackedReduction({self.instrument!r}, {self.source!r})"
 
 
 class StoredReduction:
@@ -116,6 +219,8 @@ class StoredReduction:
     :meth:`reduction` reads it here (or reduces the file again, should the entry be gone);
     :meth:`arg` is what a task takes instead (:class:`ReductionArg`), read in its worker.
     """
+
+    __slots__ = ("cache", "job", "parts", "section")
 
     def __init__(self, cache: Any, section: str, parts: dict[str, Any], job: tuple) -> None:
         self.cache, self.section, self.parts, self.job = cache, section, parts, job

@@ -56,7 +56,8 @@ def amount(ctx: RunContext) -> Any:
     from torlab.reports.amount import amount_section
 
     cfg = ctx.p.reports.amount
-    series = amount_series([r.detail for r in ctx.reductions.get("hpt", [])], ctx.p.products,
+    # one log's detail restored at a time (PackedReduction)
+    series = amount_series((r.detail for r in ctx.reductions.get("hpt", [])), ctx.p.products,
                            temperature=cfg.temperature,
                            temperature_tolerance=cfg.temperature_tolerance,
                            only=cfg.products or None)
