@@ -76,6 +76,21 @@ def _distinct_file_names(groups: dict[str, list[Any]]) -> None:
         seen[k] = label
 
 
+def _headers(cfg: Any, groups: dict[str, list[Any]]) -> tuple[dict[int, float | None],
+                                                             set[int]]:
+    """Each run's temperature [°C] and whether its applied amount is one of ``cfg``'s, by
+    ``id`` of the run: its header read once (a campaign's runs are kept packed, restored
+    when read: :class:`torlab.protocols.data.PackedReduction`)."""
+    temp_of: dict[int, float | None] = {}
+    amount_ok: set[int] = set()
+    for r in (r for g in groups.values() for r in g):
+        m = r.meta
+        temp_of[id(r)] = m.temperature
+        if _amount_ok(cfg, m):
+            amount_ok.add(id(r))
+    return temp_of, amount_ok
+
+
 def _amount_ok(cfg: Any, m: Any) -> bool:
     if m.applied_amount is None:
         return True
@@ -90,11 +105,12 @@ def fit_hpt_layers(ctx: RunContext) -> None:
     """
     cfg = ctx.p.fits.hpt_layers
     groups = _hpt_groups(ctx, cfg)
+    temp_of, amount_ok = _headers(cfg, groups)
     plan = []  # (label, runs at the temperature, runs at other temperatures)
     for label in sorted(groups):
-        runs = [r for r in groups[label] if _amount_ok(cfg, r.meta)]
-        at_t = [r for r in runs if r.meta.temperature is None
-                or abs(r.meta.temperature - cfg.temperature) <= cfg.temperature_tolerance]
+        runs = [r for r in groups[label] if id(r) in amount_ok]
+        at_t = [r for r in runs if temp_of[id(r)] is None
+                or abs(temp_of[id(r)] - cfg.temperature) <= cfg.temperature_tolerance]
         if not at_t:
             ctx.notes.append(f"fits.hpt_layers: {label} has no run at the listed amounts "
                              f"and {cfg.temperature:g} °C; no layer fitted")
@@ -105,15 +121,15 @@ def fit_hpt_layers(ctx: RunContext) -> None:
                 f"({', '.join(r.label for r in at_t)}); set joint: true to "
                 "fit them together, or list one amount", key="fits.hpt_layers.amounts")
         chosen = {id(r) for r in at_t}
-        others = [r for r in runs if id(r) not in chosen and r.meta.temperature is not None]
+        others = [r for r in runs if id(r) not in chosen and temp_of[id(r)] is not None]
         plan.append((label, at_t, others))
     temp_jobs = []
     for label, at_t, others in plan:
         if cfg.temperature_coefficients and others:
             # every run of the layer's amounts: those at the fit temperature (all of them
             # when fitted jointly: repeats) and those at the other temperatures
-            curves = at_t + sorted(others, key=lambda r: r.meta.temperature)
-            temps_K = [c.meta.temperature + 273.15 if c.meta.temperature is not None
+            curves = at_t + sorted(others, key=lambda r: temp_of[id(r)])
+            temps_K = [t + 273.15 if (t := temp_of[id(c)]) is not None
                        else cfg.temperature + 273.15 for c in curves]
             temp_jobs.append((label, ({"runs": [ctx.keys[id(c)] for c in curves],
                                        "temps": temps_K, "selection": cfg.selection},
