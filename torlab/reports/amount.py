@@ -188,9 +188,10 @@ def amount_section(series: Any, cfg: Any, fits: list[CrossingFit] | None,
 #: the most products in one panel of the amount figure (more: facets of this many)
 PER_PANEL = 7
 #: the most panels in one amount figure: more products go on to further figures
-#: (``amount_applied_2``, ...), each a page of at most 12 panels (about 2000 x 6000 pixels;
-#: one figure of 256 products was 2040 x 18192 pixels and 150 MB of canvas)
-PANELS_PER_FIGURE = 12
+#: (``amount_applied_2``, ...), each a page of at most 6 panels (about 2040 x 2400 pixels,
+#: 18 MB of canvas where the worker drawing it holds it; 12 panels were 2040 x 4650 pixels
+#: and 36 MB, one figure of 256 products 2040 x 18192 pixels and 150 MB)
+PANELS_PER_FIGURE = 6
 
 
 def _panels(series: Any, fits: list[CrossingFit], mass: bool) -> list[tuple[str, list[CrossingFit]]]:
