@@ -536,3 +536,52 @@ def test_json_written_in_pieces_is_the_whole_dump(tmp_path):
     manifest = json.loads((tmp_path / "out" / "torlab-manifest.json").read_text())
     assert manifest["files"] == ["sub/bad.json", "summary.json"]
     assert json.loads((tmp_path / "out" / "sub" / "bad.json").read_text()) == {"fixed": 1}
+
+
+def test_text_written_in_lines_keeps_an_unchanged_earlier_file(tmp_path):
+    """``OutputDir.write_lines`` writes the UTF-8 bytes of its pieces (over several 64 kB
+    blocks); with ``keep_same`` an earlier file of exactly those bytes is kept (the same
+    inode, the pieces made once), one that differs only in its last byte or is one byte
+    longer is written anew; a piece that fails leaves no file."""
+    from torlab.outputs import OutputDir
+
+    lines = [f"<tr><td>µ {i}</td><td>{i * 0.1:.3f}</td></tr>\n" for i in range(8000)]
+    text = "".join(lines)
+    assert len(text) > 3 << 16
+    made = []
+
+    def pieces(last: str = "") -> Any:
+        made.append(1)
+        return iter([*lines, last])
+
+    out = tmp_path / "out"
+    with OutputDir(out) as d:
+        d.write_lines("report.html", pieces)
+        d.write_lines("same.html", pieces)
+        d.write_lines("longer.html", pieces)
+        d.write_lines("last.html", lambda: iter([*lines[:-1], lines[-1][:-1] + "x"]))
+    assert (out / "report.html").read_bytes() == text.encode("utf-8")
+    inode = {n: (out / n).stat().st_ino for n in ("report.html", "same.html", "longer.html",
+                                                  "last.html")}
+    made.clear()
+    d = OutputDir(out, force=True)
+    d.write_lines("report.html", pieces, keep_same=True)
+    assert made == [1] and d.kept == ["report.html"]
+    d.write_lines("same.html", pieces, keep_same=False)  # not asked: written anew
+    d.write_lines("longer.html", lambda: pieces("!"), keep_same=True)
+    d.write_lines("last.html", pieces, keep_same=True)
+    assert d.kept == ["report.html"] and len(made) == 1 + 1 + 2 + 2
+
+    def failing() -> Any:
+        yield from lines
+        raise RuntimeError("a table could not be rendered")
+
+    with pytest.raises(RuntimeError):
+        d.write_lines("bad.html", failing)
+    assert not (d.staging / "bad.html").exists()
+    d.commit()
+    assert not (out / "bad.html").exists()
+    assert (out / "report.html").stat().st_ino == inode["report.html"]
+    for n in ("same.html", "longer.html", "last.html"):
+        assert (out / n).stat().st_ino != inode[n]
+        assert (out / n).read_bytes() == (text + ("!" if n == "longer.html" else "")).encode()

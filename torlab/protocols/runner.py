@@ -160,7 +160,7 @@ def _run(lp: Any, dest: Any, rc: Any, formats: Any, run_key: str, executor: Any,
     from torlab.protocols.data import reduce_data
     from torlab.protocols.fits import fit_all
     from torlab.protocols.sections import build_sections
-    from torlab.reports.html import render_html, render_markdown, write_figures, write_tables
+    from torlab.reports.html import html_lines, markdown_lines, write_figures, write_tables
     from torlab.reports.render import FiguresAhead, RenderStats
 
     p = lp.protocol
@@ -223,11 +223,11 @@ def _run(lp: Any, dest: Any, rc: Any, formats: Any, run_key: str, executor: Any,
         intro += [f"Note: {n}" for n in run.notes]
     shown = ("embed" if embed else "link") if draw else None
     # a page that did not change is kept as it was (not rewritten)
-    dest.write_text("report.html", render_html(title, intro, sections, prov, figures=shown),
-                    keep_same=True)
-    dest.write_text("report.md", render_markdown(title, intro, sections, prov,
-                                                 figures=shown is not None),
-                    keep_same=True)
+    dest.write_lines("report.html", lambda: html_lines(title, intro, sections, prov,
+                                                       figures=shown), keep_same=True)
+    dest.write_lines("report.md", lambda: markdown_lines(title, intro, sections, prov,
+                                                         figures=shown is not None),
+                     keep_same=True)
     ex.flush()  # results still to be stored in the cache
     # honest split: reading and writing (cache entries, cached figures, result files)
     # is I/O wherever it happened; what remains of each stage is its own work

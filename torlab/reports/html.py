@@ -16,11 +16,12 @@ from __future__ import annotations
 import base64
 import html
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["Figure", "Section", "Table", "render_html", "render_markdown", "write_figures",
-           "write_sections", "write_tables"]
+__all__ = ["Figure", "Section", "Table", "html_lines", "markdown_lines", "render_html",
+           "render_markdown", "write_figures", "write_sections", "write_tables"]
 
 
 @dataclass
@@ -164,38 +165,50 @@ def render_html(title: str, intro: list[str], sections: list[Section],
     """An HTML page (inline CSS, no script): ``figures="link"`` shows each figure from its
     file (PNG, else SVG) next to the page, so the page's size does not grow with the
     figures; ``"embed"`` puts them into the page as base64 (one self-contained file);
-    None: the figures were not drawn and the page names them."""
+    None: the figures were not drawn and the page names them.  The page is
+    :func:`html_lines` joined."""
+    return "".join(html_lines(title, intro, sections, provenance, figures))
+
+
+def html_lines(title: str, intro: list[str], sections: list[Section],
+               provenance: dict[str, Any], figures: str | None = "embed") -> Iterator[str]:
+    """:func:`render_html`'s page a line at a time (each with its newline), so that it can
+    be written without being whole in memory (:meth:`torlab.outputs.OutputDir.write_lines`)."""
     e = html.escape
-    out = ["<!DOCTYPE html>", "<html lang='en'><head><meta charset='utf-8'>",
-           f"<title>{e(title)}</title><style>{_CSS}</style></head><body>", f"<h1>{e(title)}</h1>"]
-    out += [f"<p>{e(p)}</p>" for p in intro]
+    yield "<!DOCTYPE html>\n"
+    yield "<html lang='en'><head><meta charset='utf-8'>\n"
+    yield f"<title>{e(title)}</title><style>{_CSS}</style></head><body>\n"
+    yield f"<h1>{e(title)}</h1>\n"
+    for p in intro:
+        yield f"<p>{e(p)}</p>\n"
     if sections:
-        out.append("<ul>" + "".join(f"<li><a href='#{e(s.key)}'>{e(s.title)}</a></li>"
-                                    for s in sections) + "</ul>")
+        yield "<ul>" + "".join(f"<li><a href='#{e(s.key)}'>{e(s.title)}</a></li>"
+                               for s in sections) + "</ul>\n"
     for s in sections:
-        out.append(f"<h2 id='{e(s.key)}'>{e(s.title)}</h2>")
-        out += [f"<p>{e(p)}</p>" for p in s.paragraphs]
+        yield f"<h2 id='{e(s.key)}'>{e(s.title)}</h2>\n"
+        for p in s.paragraphs:
+            yield f"<p>{e(p)}</p>\n"
         for n in s.notes:
-            out.append(f"<p class='note'>note: {e(n)}</p>")
+            yield f"<p class='note'>note: {e(n)}</p>\n"
         for t in s.tables:
-            out.append(f"<p><b>{e(t.caption)}</b> (<code>{e(s.key)}/{e(t.name)}.csv</code>)</p>")
+            yield f"<p><b>{e(t.caption)}</b> (<code>{e(s.key)}/{e(t.name)}.csv</code>)</p>\n"
             if not t.inline:
                 continue
             heads, rows = _rows(t)
-            out.append("<table><tr>" + "".join(f"<th>{e(h)}</th>" for h in heads) + "</tr>")
-            out += ["<tr>" + "".join(f"<td>{e(c)}</td>" for c in r) + "</tr>" for r in rows]
-            out.append("</table>")
+            yield "<table><tr>" + "".join(f"<th>{e(h)}</th>" for h in heads) + "</tr>\n"
+            for r in rows:
+                yield "<tr>" + "".join(f"<td>{e(c)}</td>" for c in r) + "</tr>\n"
+            yield "</table>\n"
         for f in s.figures:
-            out.append(_html_figure(s, f, figures))
-    out.append("<h2 id='provenance'>Provenance</h2><div class='prov'><table>")
+            yield _html_figure(s, f, figures) + "\n"
+    yield "<h2 id='provenance'>Provenance</h2><div class='prov'><table>\n"
     for k in ("torlab_version", "protocol_file", "protocol_sha256", "command"):
         if k in provenance:
-            out.append(f"<tr><th>{e(k)}</th><td>{e(str(provenance[k]))}</td></tr>")
-    out.append("</table><table><tr><th>input file</th><th>SHA-256</th></tr>")
+            yield f"<tr><th>{e(k)}</th><td>{e(str(provenance[k]))}</td></tr>\n"
+    yield "</table><table><tr><th>input file</th><th>SHA-256</th></tr>\n"
     for name, h in provenance.get("inputs", {}).items():
-        out.append(f"<tr><td>{e(name)}</td><td>{e(h)}</td></tr>")
-    out.append("</table></div></body></html>")
-    return "\n".join(out) + "\n"
+        yield f"<tr><td>{e(name)}</td><td>{e(h)}</td></tr>\n"
+    yield "</table></div></body></html>\n"
 
 
 def _html_figure(s: Section, f: Figure, figures: str | None) -> str:
@@ -258,46 +271,56 @@ def _md_link(path: str) -> str:
 
 def render_markdown(title: str, intro: list[str], sections: list[Section],
                     provenance: dict[str, Any], figures: bool = True) -> str:
-    """``report.md``: the same content, figures and tables linked as files.
+    """``report.md``: the same content, figures and tables linked as files
+    (:func:`markdown_lines` joined).
 
     Every piece of text is escaped with :func:`md_escape` (the HTML report
     escapes the same text with ``html.escape``).
     """
+    return "".join(markdown_lines(title, intro, sections, provenance, figures))
+
+
+def markdown_lines(title: str, intro: list[str], sections: list[Section],
+                   provenance: dict[str, Any], figures: bool = True) -> Iterator[str]:
+    """:func:`render_markdown`'s text a line at a time (each with its newline)."""
     e = md_escape
-    out = [f"# {e(title)}", ""]
+    yield f"# {e(title)}\n\n"
     for p in intro:
-        out += [e(p), ""]
+        yield f"{e(p)}\n\n"
     for s in sections:
-        out += [f"## {e(s.title)}", ""]
+        yield f"## {e(s.title)}\n\n"
         for p in s.paragraphs:
-            out += [e(p), ""]
+            yield f"{e(p)}\n\n"
         for n in s.notes:
-            out += [f"> note: {e(n)}", ""]
+            yield f"> note: {e(n)}\n\n"
         for t in s.tables:
             csv = f"{s.key}/{t.name}.csv"
-            out += [f"**{e(t.caption)}** ([{e(csv)}]({_md_link(csv)}))", ""]
+            yield f"**{e(t.caption)}** ([{e(csv)}]({_md_link(csv)}))\n\n"
             if not t.inline:
                 continue
             heads, rows = _rows(t)
-            out.append("| " + " | ".join(e(h) for h in heads) + " |")
-            out.append("|" + "|".join("---" for _ in heads) + "|")
-            out += ["| " + " | ".join(e(c) for c in r) + " |" for r in rows]
-            out.append("")
+            yield "| " + " | ".join(e(h) for h in heads) + " |\n"
+            yield "|" + "|".join("---" for _ in heads) + "|\n"
+            for r in rows:
+                yield "| " + " | ".join(e(c) for c in r) + " |\n"
+            yield "\n"
         for f in s.figures:
             if not figures:
-                out += [f"*{e(f.caption)}* (figure not drawn: --no-figures)", ""]
+                yield f"*{e(f.caption)}* (figure not drawn: --no-figures)\n\n"
                 continue
             files = s.figure_files.get(f.name) or [f"{s.key}/{f.name}.png"]
             shown = next((x for x in files if x.endswith((".png", ".svg"))), None)
             if shown is not None:
-                out += [f"![{e(f.caption)}]({_md_link(shown)})", ""]
+                yield f"![{e(f.caption)}]({_md_link(shown)})\n\n"
             others = [x for x in files if x != shown]
             more = (" (" + ", ".join(f"[{x.rsplit('.', 1)[1].upper()}]({_md_link(x)})"
                                      for x in others) + ")") if others else ""
-            out += [f"*{e(f.caption)}*{more}", ""]
-    out += ["## Provenance", "", f"- torlab {e(provenance.get('torlab_version', ''))}",
-            f"- protocol {_md_code(provenance.get('protocol_file', ''))} (SHA-256 "
-            f"{_md_code(provenance.get('protocol_sha256', ''))})", ""]
-    out += ["| input file | SHA-256 |", "|---|---|"]
-    out += [f"| {e(k)} | {_md_code(v)} |" for k, v in provenance.get("inputs", {}).items()]
-    return "\n".join(out) + "\n"
+            yield f"*{e(f.caption)}*{more}\n\n"
+    yield "## Provenance\n\n"
+    yield f"- torlab {e(provenance.get('torlab_version', ''))}\n"
+    yield (f"- protocol {_md_code(provenance.get('protocol_file', ''))} (SHA-256 "
+           f"{_md_code(provenance.get('protocol_sha256', ''))})\n\n")
+    yield "| input file | SHA-256 |\n"
+    yield "|---|---|\n"
+    for k, v in provenance.get("inputs", {}).items():
+        yield f"| {e(k)} | {_md_code(v)} |\n"
