@@ -391,12 +391,12 @@ def test_index_written_in_pieces_is_json_of_the_whole_and_signed(tmp_path):
     ``json.dumps`` of the whole index, its signature over them (a later run reads it), a
     light value remade from what the run keeps, and an entry whose light value is not
     plain JSON written without it (the others keep theirs)."""
-    from torlab.protocols.cache import INDEX, LightOf, ResultCache
+    from torlab.protocols.cache import INDEX, INDEX_PIECE, LightOf, ResultCache
 
     c = ResultCache(tmp_path / "c")
     c._load_index()
     want = {}
-    for i in range(2345):  # three pieces
+    for i in range(2 * INDEX_PIECE + 345):  # three pieces, the last one part-filled
         name = f"k-{i:04d}.tlc"
         rec = {"kind": "hpt", "st": [i, 2 * i, 3 * i, 4 * i]}
         c._next[name] = dict(rec, light=LightOf(lambda v: {"n": v, "t": "é"}, i))
