@@ -202,6 +202,8 @@ def test_packed_reduction_reads_back_what_it_was_given(fitted):
     non-ASCII text too) and the Reduction restored from it, whichever of several is read in
     turn; its name (set by the run) carries into the restored one; JSON of another shape
     is refused when packed; it is a fraction of the JSON's size."""
+    import numpy as np
+
     from torlab.instruments import get_instrument, prepare_options
     from torlab.protocols.data import PackedReduction, _light, _Restore
     from torlab.protocols.loader import load_protocol
@@ -233,6 +235,10 @@ def test_packed_reduction_reads_back_what_it_was_given(fitted):
     del bad["meta"]
     with pytest.raises(KeyError):
         _Restore("hpt")(bad)
+    numpy_number = json.loads(json.dumps(forms[0]))  # marshal would keep its bytes
+    numpy_number["key_numbers"]["f_window"] = np.float64(0.1)
+    with pytest.raises(TypeError, match=r"key_numbers\.f_window is a numpy\.float64"):
+        _Restore("hpt")(numpy_number)
     assert all(len(x._blob) < 0.3 * len(json.dumps(j)) for x, j in zip(packed, forms,
                                                                       strict=True))
 

@@ -906,8 +906,9 @@ class LightOf:
     (:meth:`ResultCache.write_index`): ``light(value)``, where ``value`` is what
     :meth:`Light.restore` made of that JSON, so the index holds the value the caller keeps
     anyway instead of a second copy of its JSON (the protocol run keeps an HPT log's light
-    form packed: :class:`torlab.protocols.data.PackedReduction`).  ``light`` must give back the JSON that
-    ``restore`` was given (tested for the HPT logs, the one instrument with a light form)."""
+    form packed: :class:`torlab.protocols.data.PackedReduction`).  ``light`` must give back
+    the JSON that ``restore`` was given (tested for the HPT logs, the one instrument with a
+    light form)."""
 
     __slots__ = ("light", "value")
 
