@@ -40,20 +40,29 @@ def fit_all(ctx: RunContext) -> None:
         fit_lubricant(ctx, lf)
 
 
-def _hpt_groups(ctx: RunContext, cfg: Any) -> dict[str, list[Any]]:
-    """Product label -> its HPT runs (reductions), restricted to ``cfg.products``."""
+def _hpt_groups(ctx: RunContext, cfg: Any) -> tuple[dict[str, list[Any]],
+                                                    dict[int, float | None], set[int]]:
+    """Product label -> its HPT runs (reductions), restricted to ``cfg.products``; and, by
+    ``id`` of the run, its temperature [°C] and whether its applied amount is one of
+    ``cfg``'s.  Each run's header is read once (a campaign's runs are kept packed,
+    restored when read: :class:`torlab.protocols.data.PackedReduction`)."""
     groups: dict[str, list[Any]] = {}
+    temp_of: dict[int, float | None] = {}
+    amount_ok: set[int] = set()
     for r in ctx.reductions.get("hpt", []):
         m = r.meta
         label = m.product + (f"-{m.condition}" if m.condition else "")
         if cfg.products and label not in cfg.products and m.product not in cfg.products:
             continue
         groups.setdefault(label, []).append(r)
+        temp_of[id(r)] = m.temperature
+        if _amount_ok(cfg, m):
+            amount_ok.add(id(r))
     if not groups:
         raise TorlabInputError("fits.hpt_layers: no HPT run of the listed products",
                                key="fits.hpt_layers.products")
     _distinct_file_names(groups)
-    return groups
+    return groups, temp_of, amount_ok
 
 
 def _distinct_file_names(groups: dict[str, list[Any]]) -> None:
@@ -76,21 +85,6 @@ def _distinct_file_names(groups: dict[str, list[Any]]) -> None:
         seen[k] = label
 
 
-def _headers(cfg: Any, groups: dict[str, list[Any]]) -> tuple[dict[int, float | None],
-                                                             set[int]]:
-    """Each run's temperature [°C] and whether its applied amount is one of ``cfg``'s, by
-    ``id`` of the run: its header read once (a campaign's runs are kept packed, restored
-    when read: :class:`torlab.protocols.data.PackedReduction`)."""
-    temp_of: dict[int, float | None] = {}
-    amount_ok: set[int] = set()
-    for r in (r for g in groups.values() for r in g):
-        m = r.meta
-        temp_of[id(r)] = m.temperature
-        if _amount_ok(cfg, m):
-            amount_ok.add(id(r))
-    return temp_of, amount_ok
-
-
 def _amount_ok(cfg: Any, m: Any) -> bool:
     if m.applied_amount is None:
         return True
@@ -104,8 +98,7 @@ def fit_hpt_layers(ctx: RunContext) -> None:
     The products' layer fits, then their temperature fits, run on the run's executor.
     """
     cfg = ctx.p.fits.hpt_layers
-    groups = _hpt_groups(ctx, cfg)
-    temp_of, amount_ok = _headers(cfg, groups)
+    groups, temp_of, amount_ok = _hpt_groups(ctx, cfg)
     plan = []  # (label, runs at the temperature, runs at other temperatures)
     for label in sorted(groups):
         runs = [r for r in groups[label] if id(r) in amount_ok]
