@@ -13,7 +13,9 @@ from __future__ import annotations
 import json
 import math
 import os
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -276,6 +278,59 @@ def _pair_task(x: int) -> tuple[dict, list]:  # module level: a task for the exe
 
 
 _pair_task.calls = 0
+
+
+def _square(x: int) -> int:  # module level: a task for the executor
+    return x * x
+
+
+@dataclass
+class _Draws:
+    """Finish a deferred sum of squares: the whole value, its draws included."""
+
+    n: int
+
+    def __call__(self, results: list[int]) -> dict:
+        return {"n": self.n, "sum": sum(results), "draws": list(results)}
+
+
+def _deferred_sum(n: int) -> Any:
+    """A task that leaves its squares to the executor (as a sampled band leaves its draws)."""
+    from torlab.parallel import Deferred
+
+    return Deferred(_square, list(range(n)), _Draws(n))
+
+
+def _without_draws(_i: int, v: dict) -> dict:
+    return {k: x for k, x in v.items() if k != "draws"}
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_a_result_finished_here_is_kept_as_a_stored_one(tmp_path, jobs):
+    """RunContext.cached_map with ``keep``: a task whose work was deferred to the executor is
+    finished in this process and stored later, whole; what the map returns for it is what
+    ``keep`` makes of it, as for a result stored at once and one found in the cache."""
+    from torlab.parallel import ProcessExecutor, SerialExecutor
+    from torlab.progress import Progress
+    from torlab.protocols.cache import ResultCache
+    from torlab.protocols.context import RunContext
+
+    ex = ProcessExecutor(jobs) if jobs > 1 else SerialExecutor()
+    tasks = [({"n": 3}, 3), ({"n": 5}, 5)]
+    try:
+        got = []
+        for _ in range(2):  # computed, then from the cache
+            c = ResultCache(tmp_path / "c")
+            ctx = RunContext(lp=None, dest=None, cache=c, prog=Progress(), executor=ex)
+            got.append(ctx.cached_map("sums", _deferred_sum, tasks, keep=_without_draws))
+            ex.flush()  # the entries finished here are stored
+            c.write_index()
+        assert got[0] == got[1] == [{"n": 3, "sum": 5}, {"n": 5, "sum": 30}]
+        assert c.hits == 2
+        assert ResultCache(tmp_path / "c").lookup("sums", n=5) == (
+            True, {"n": 5, "sum": 30, "draws": [0, 1, 4, 9, 16]})  # the entry: whole
+    finally:
+        ex.close()
 
 
 @pytest.mark.parametrize("jobs", [1, 2])

@@ -591,3 +591,24 @@ def test_text_written_in_lines_keeps_an_unchanged_earlier_file(tmp_path):
     for n in ("same.html", "longer.html", "last.html"):
         assert (out / n).stat().st_ino != inode[n]
         assert (out / n).read_bytes() == (text + ("!" if n == "longer.html" else "")).encode()
+
+
+def test_a_fit_gives_its_estimates_only_to_a_protocol_that_compares(tmp_path, monkeypatch):
+    """The estimates of a fitted set (``torlab.comparison.item_from_fit``) are made only when
+    the protocol has ``reports.compare``: a campaign's hundreds of fits keep none otherwise."""
+    import torlab.comparison as cmp
+    from tests.test_prepare import small_fit_protocol
+    from torlab.protocols.runner import run_protocol
+
+    made: list[str] = []
+    orig = cmp.item_from_fit
+    monkeypatch.setattr(cmp, "item_from_fit", lambda res, label, *a, **k: (
+        made.append(label), orig(res, label, *a, **k))[1])
+    p = small_fit_protocol(tmp_path)
+    for f in ROOT.glob("sample_data/hpt/hpt_OFM2_4uL_25C*.txt"):  # a second product
+        shutil.copy(f, tmp_path / f.name)
+    run_protocol(p, tmp_path / "plain", figures=False, cache=False)
+    assert made == []
+    p.write_text(p.read_text() + "  compare:\n  - quantities: [L_mue]\n")
+    r = run_protocol(p, tmp_path / "compared", figures=False, cache=False)
+    assert sorted(made) == ["OFM1", "OFM2"] and "compare" in r.sections

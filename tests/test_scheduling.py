@@ -309,6 +309,45 @@ def test_freed_memory_is_given_back_to_the_system():
     assert keep
 
 
+#: weak references to the figures :func:`_figure_of` made
+_MADE: list = []
+
+
+def _figure_of(side_in: float):
+    """A square figure of ``side_in`` inches, a weak reference to it kept in :data:`_MADE`."""
+    import weakref
+
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(side_in, side_in))
+    fig.add_subplot().plot([0.0, 1.0], [0.0, 1.0])
+    fig._torlab_finished = True  # (torlab's margins are for its own figures)
+    _MADE.append(weakref.ref(fig))
+    return fig
+
+
+def test_a_campaign_wide_figure_is_freed_as_soon_as_it_is_drawn():
+    """A figure's artists refer to each other, so only the cyclic collector frees them; a
+    figure of more than ``_LARGE_PIXELS`` is collected (and its memory trimmed) when drawn,
+    not whenever the collector next runs -- a worker's next figure is drawn on the memory
+    given back.  A small one is left to the collector (the check can see a live figure)."""
+    import gc
+
+    from torlab.reports.render import _LARGE_PIXELS, Plot, draw_task
+
+    large = (2 * _LARGE_PIXELS) ** 0.5 / 100  # inches at 100 dpi
+    gc.collect()
+    gc.disable()
+    try:
+        draw_task((Plot(_figure_of, (1.0,)), ("png",), 100.0))
+        small_alive = _MADE[-1]() is not None
+        draw_task((Plot(_figure_of, (large,)), ("png",), 100.0))
+        assert _MADE[-1]() is None
+    finally:
+        gc.enable()
+    assert small_alive
+
+
 def test_sections_built_in_report_order_with_the_fits_first_when_nothing_adds_to_them(
         monkeypatch):
     """The fitted sets are built (and their figures started) first unless the film or the

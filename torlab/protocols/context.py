@@ -199,9 +199,9 @@ class RunContext:
             self.fit_summary[name]["model_selection"] = res.meta["model_selection"]
         from torlab.comparison import item_from_fit
 
-        it = item_from_fit(res, name.split(":", 1)[-1])
-        if it.estimates:
-            self.add_estimates([it])
+        # (made only when the protocol compares anything: a campaign's fits are many)
+        self.add_estimates(lambda: [it for it in [item_from_fit(res, name.split(":", 1)[-1])]
+                                    if it.estimates])
         self.dest.write_text(f"fits/{safe_name(name.replace(':', '_'))}.yaml",
                              dump_yaml(finite(res.to_yaml_dict())))
 
@@ -414,9 +414,11 @@ class RunContext:
             self.cache.misses += len(todo)
             late = []  # finished here (deferred work): encoded and stored here
             for j, (i, v) in enumerate(zip(todo, vals, strict=True)):
-                out[i] = v
+                # what ``stored`` did not take (finished here, or no cache): kept as a
+                # stored one is (``keep``); the whole value only until it is stored
+                out[i] = v if keep is None or j in written else keep(i, v)
                 if cache and j not in written:
-                    late.append((i, v))  # (kept whole: not in the cache yet)
+                    late.append((i, v))  # (whole: not in the cache yet)
             # stored while the next map's tasks run, or at the run's end
             # (torlab.parallel.Executor.meanwhile)
             if late:
