@@ -8,6 +8,7 @@ reference (ODE + adaptive quadrature), the flash-temperature anchor of the notes
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
 
@@ -185,6 +186,29 @@ def test_odd_in_creepage_and_zero_at_zero():
     assert mu[3] == 0.0
     np.testing.assert_array_equal(mu[:3], -mu[4:][::-1])
     assert np.all(np.diff(mu) > 0)
+
+
+def test_a_kept_yield_table_gives_what_a_new_one_gives():
+    """The yield tables are kept by the strips' r (the layer's elastic length and the
+    contact): layers that differ in their limits only share one, and the traction is the
+    same bits as with every table computed anew; another elastic length gets its own."""
+    import torlab.model.fastsim as fs
+
+    xi = np.geomspace(1e-4, 0.05, 12)
+    layers = [WR_LAYER, LayerParams(0.25, 0.5, 10e-6, 20e-6), LayerParams(0.3, 0.45, 7e-6, 9e-6)]
+    prob = problem(1.3, WR_LAYER)
+    fs._yield_table_of.cache_clear()
+    kept = [boundary_traction(dataclasses.replace(prob, layer=L), xi).mu for L in layers]
+    info = fs._yield_table_of.cache_info()
+    assert (info.misses, info.hits) == (2, 1)  # the first two share r; the third has its own
+    new = []
+    for L in layers:
+        fs._yield_table_of.cache_clear()
+        new.append(boundary_traction(dataclasses.replace(prob, layer=L), xi).mu)
+    for a, b in zip(kept, new, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(kept[0], kept[1]) and not np.array_equal(kept[0], kept[2])
+    assert not fs._yield_table(np.array([0.7, 1.1])).flags.writeable
 
 
 # the accuracy test set: a/b 0.2..5, creepage 1e-5..0.5, with and without the layer.

@@ -9,6 +9,7 @@ with the stated law (independently of the fit's closed forms and quadrature), an
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -94,6 +95,29 @@ def test_zero_order_law_is_chosen_for_zero_order_data(layer, scene):
     lo, hi = res.ci95["k0"]
     assert lo < ZERO.k < hi
     assert res.table().set_index("parameter").loc["k0", "unit"] == "kg/J"
+
+
+def test_tests_below_the_tested_range_share_one_friction_table(layer, scene):
+    """The friction table of a test reaches the applied amount or the layer's largest tested
+    amount, whichever is larger: tests of different amounts below that amount get the same
+    table (built once), the same as the table over the tested range; one above it gets its
+    own, which reaches its amount."""
+    import torlab.fit.removal as fr
+    from torlab.model.removal import mu_table
+
+    fr._TABLES.clear()
+    low, mid = fr._table(scene, layer, 0.02, 0.3 * layer.m_max, 6), \
+        fr._table(scene, layer, 0.02, 0.7 * layer.m_max, 6)
+    assert low is mid and len(fr._TABLES) == 1
+    ref = mu_table(scene, layer, 0.02, per_interval=6, gradient=True)
+    np.testing.assert_array_equal(low.x, ref.x)
+    np.testing.assert_array_equal(low.mu, ref.mu)
+    np.testing.assert_array_equal(low.grad, ref.grad)
+    held = dataclasses.replace(layer, above="hold")
+    inside, above = (fr._table(scene, held, 0.02, f * layer.m_max, 6) for f in (0.5, 1.5))
+    assert above is not inside and above.m_max == pytest.approx(1.5 * layer.m_max)
+    assert above.x[-1] == pytest.approx(math.log(1.5 * layer.m_max))
+    np.testing.assert_array_equal(inside.mu, ref.mu)
 
 
 @pytest.mark.slow

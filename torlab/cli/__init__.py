@@ -19,8 +19,6 @@ the like) are not shown: a result they would spoil is refused by torlab's own
 checks (no NaN reaches a result file); ``--debug`` shows them.
 """
 
-from __future__ import annotations
-
 import sys
 import warnings
 from collections.abc import Sequence

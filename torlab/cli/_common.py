@@ -1,7 +1,5 @@
 """Shared pieces of the CLI: console, option types, value-list parsing, tables."""
 
-from __future__ import annotations
-
 import shlex
 import sys
 from collections.abc import Iterator, Sequence

@@ -2,8 +2,6 @@
 the public API's :func:`torlab.api.reduce_to_folder`, its errors said with the command's
 own option names, its tables printed."""
 
-from __future__ import annotations
-
 from pathlib import Path
 from typing import Any
 

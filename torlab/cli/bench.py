@@ -1,7 +1,5 @@
 """``torlab bench``: speed against error of every numerical choice, measured on this machine."""
 
-from __future__ import annotations
-
 from typing import Annotated, Any
 
 import typer

@@ -1,7 +1,5 @@
 """``torlab compare``: is product A better than product B? Differences with their evidence."""
 
-from __future__ import annotations
-
 from pathlib import Path
 from typing import Annotated, Any
 

@@ -14,8 +14,6 @@ with random effects (:mod:`torlab.fit.repeats`).  A fit
 that fails writes nothing.
 """
 
-from __future__ import annotations
-
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -320,7 +318,7 @@ def traction_cmd(
     console().print(f"wrote {what} to {out}")
 
 
-def _traction_fits(sc: Scene, curves: list[tuple[Path, Any, Any, str, Any]], *, joint: bool,
+def _traction_fits(sc: "Scene", curves: list[tuple[Path, Any, Any, str, Any]], *, joint: bool,
                    dry: bool, fixed: dict[str, float]
                    ) -> tuple[list[tuple[str, Any]], dict[str, Any]]:
     """One traction fit per curve ``(file, creepage, mu, test, speed)``

@@ -9,8 +9,6 @@ reduce command shares (:mod:`torlab.cli._reduce`).  Nothing here names an instru
 new one gets its command from its module.
 """
 
-from __future__ import annotations
-
 import inspect
 from pathlib import Path
 from typing import Annotated, Any

@@ -1,7 +1,5 @@
 """``torlab predict``: traction and Stribeck curves of a scene."""
 
-from __future__ import annotations
-
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated, Any

@@ -1,7 +1,5 @@
 """``torlab reduce``: any instrument's files, the instrument detected from each file."""
 
-from __future__ import annotations
-
 from pathlib import Path
 from typing import Annotated
 

@@ -1,7 +1,5 @@
 """``torlab run``: a test protocol from raw logs to reports."""
 
-from __future__ import annotations
-
 from pathlib import Path
 from typing import Annotated, Any
 

@@ -1,7 +1,5 @@
 """``torlab synth``: seeded virtual experiments (sample data with a known truth)."""
 
-from __future__ import annotations
-
 from typing import Annotated
 
 import typer

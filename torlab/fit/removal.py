@@ -152,7 +152,12 @@ _TABLES: dict[tuple, Any] = {}
 
 def _table(sc: Scene, layer: Any, creepage: float, top: float, per_interval: int) -> Any:
     """:func:`~torlab.model.removal.mu_table` with its layer derivatives, cached per layer,
-    contact, creepage and range."""
+    contact, creepage and range.
+
+    The range is the table's own: every ``top`` up to the layer's largest tested amount
+    gives the same table (:func:`~torlab.model.removal.mu_table` extends it above that
+    amount only), so tests of different amounts below it share one."""
+    top = max(float(top), float(layer.m_max))
     key = (id(layer), sc.model_dump_json(), creepage, float(f"{top:.6g}"), per_interval)
     hit = _TABLES.get(key)
     if hit is not None and hit[0] is layer:
@@ -408,16 +413,18 @@ def _layer_sensitivity(theta: np.ndarray, J: np.ndarray, sp: _Spec, preps: list[
         for q in range(4):
             sd = math.sqrt(max(covs[j, q, q], 0.0))
             cols.append((j, q, sd))
-    for c, (j, q, sd) in enumerate(cols):
-        if sd <= 0:
-            continue
-        h = sd
-        nodes = allp.copy()[None]
-        nodes[0, j, q] += h
+    live = [(c, j, q, sd) for c, (j, q, sd) in enumerate(cols) if sd > 0]
+    # every perturbed layer at once: the layer's interpolation of each is independent of the
+    # others (one draw each, the same numbers as one by one)
+    nodes = np.repeat(allp[None], len(live), axis=0)
+    for i, (_, j, q, sd) in enumerate(live):
+        nodes[i, j, q] += sd
+    moved = [layer.draw_params(np.exp(p.table.x), nodes) for p in preps]  # (n_x, n_live, k)
+    for i, (c, _, _, h) in enumerate(live):
         pert = []
-        for p in preps:
+        for p, P in zip(preps, moved, strict=True):
             tab = p.table
-            dp = layer.draw_params(np.exp(tab.x), nodes)[:, 0, :] - tab.params
+            dp = P[:, i, :] - tab.params
             mu_n = tab.mu[:, 0] + np.einsum("xp,xp->x", tab.grad[:, 0, :], dp)
             pert.append(_with_mu_nodes(p, mu_n))
         JL[:, c] = (resid(pert) - r0) / h

@@ -97,6 +97,7 @@ References
 from __future__ import annotations
 
 import copy
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -584,6 +585,35 @@ def _bracketed_newton_groups(fdf: Any, lo: np.ndarray, hi: np.ndarray, th: np.nd
     return th.reshape(shape), its
 
 
+#: yield tables kept (:func:`_yield_table`): a fit's finite differences move one parameter
+#: at a time, and only the layer's elastic length changes ``r``, so the latest few serve
+#: most evaluations
+_YIELD_TABLES_KEPT = 8
+
+
+def _yield_table(r_s: np.ndarray) -> np.ndarray:
+    """``ln e(theta; r) - ln sin(theta)`` (:func:`~torlab.model.strip.e_strip`) per strip on
+    the ``_YIELD_TABLE`` uniform angles in (0, pi], ``inf`` at pi; shape ``(ns, nt)``.
+
+    It depends on the strips' ``r = L_mue / (L1 P(y))`` alone, so it is kept for the
+    latest few ``r`` (:func:`_yield_table_of`): a fit's evaluations that change the limits
+    but not the layer's elastic length find theirs, the same array as computed anew.
+    Read-only.
+    """
+    return _yield_table_of(np.ascontiguousarray(r_s, dtype=float).tobytes())
+
+
+@functools.lru_cache(maxsize=_YIELD_TABLES_KEPT)
+def _yield_table_of(r_bytes: bytes) -> np.ndarray:
+    """:func:`_yield_table` of the strips' ``r`` given as its float64 bytes."""
+    r_s = np.frombuffer(r_bytes, dtype=float)
+    grid = np.linspace(0.0, math.pi, _YIELD_TABLE + 1)[1:]
+    table = np.log(e_strip(grid[None, :], r_s[:, None])) - np.log(np.sin(grid[None, :]))
+    table[:, -1] = np.inf  # sin(pi) = 0
+    table.flags.writeable = False
+    return table
+
+
 def _yield_isothermal(c: np.ndarray, r: np.ndarray,
                       groups: tuple[np.ndarray, np.ndarray] | None = None
                       ) -> tuple[np.ndarray, int]:
@@ -608,8 +638,7 @@ def _yield_isothermal(c: np.ndarray, r: np.ndarray,
     logc = np.log(c)
     if groups is None:
         r_s = r[0] if r.ndim == 2 else r  # r is constant along the creepage axis
-        table = np.log(e_strip(grid[None, :], r_s[:, None])) - np.log(np.sin(grid[None, :]))
-        table[:, -1] = np.inf  # sin(pi) = 0
+        table = _yield_table(r_s)
         k = np.sum(table[None, :, :] < logc[..., None], axis=-1)  # table nodes before the root
     else:
         gid, r_group = groups
