@@ -418,9 +418,11 @@ REF3 = [(3e-3, 0.0, 1.0), (2e-3, 1e-3, 3.0), (0.0, 0.0, 5.0), (5e-4, 0.0, 2.0)]
 @pytest.mark.parametrize("case", REF3)
 def test_default_grid_against_grid_free_reference(case):
     """Every component within 2e-3 of mu_c2 N (mu_c2 N c for Mz, c = sqrt(ab)); the
-    benchmark reports the measured errors over its whole test set."""
+    benchmark reports the measured errors over its whole test set.  The reference at rtol
+    1e-7 differs from itself at 1e-8 by at most 1.6e-5 of that scale on these cases
+    (measured; the most spin, 3 1/m, the most), 125 times below what is asserted."""
     prob = problem(3.7 / 3.3, WR_LAYER)
-    ref = np.array(creep_forces_reference(prob, *case, rtol=1e-8))
+    ref = np.array(creep_forces_reference(prob, *case, rtol=1e-7))
     r = creep_forces(prob, *case)
     scale = 0.45 * prob.load * np.array([1.0, 1.0, math.sqrt(prob.a * prob.b)])
     err = (np.array([r.Fx, r.Fy, r.Mz]).ravel() - ref) / scale

@@ -235,21 +235,23 @@ def test_creep_forces_of_the_linear_law_without_spin_are_the_longitudinal_model(
         np.testing.assert_allclose(f.Fx / _creep(lay).load, mu, rtol=0, atol=2e-5)
 
 
-@pytest.mark.slow  # the reference: an ODE per strip with events, about 7 s a point
+@pytest.mark.slow  # the reference: an ODE per strip with events, 2-6 s a point
 @pytest.mark.parametrize("case, point", [
     ("linear", (2e-3, 1e-3, 0.0)), ("linear", (1e-3, 1e-3, 1.0)),
     ("linear", (0.02, 0.0, 2.0)), ("linear-softening", (2e-3, 0.0, 0.5)),
     ("linear-softening", (1e-3, 1e-3, 1.0)), ("perfect", (1e-3, 1e-3, 1.0))])
 def test_creep_forces_of_contacts_laws_against_the_reference(case, point):
     """Lateral creepage and spin: the fast scheme against the grid-free reference, within
-    3e-5 of N (Voce's accuracy on the same points: 2e-5)."""
+    3e-5 of N (Voce's accuracy on the same points: 2e-5).  The reference at rtol 1e-7
+    differs from itself at 1e-8 by at most 2e-8 of N on these points (measured), 1500
+    times below what is asserted."""
     from torlab.model.creep import creep_forces
     from torlab.model.reference_solvers import creep_forces_reference
 
     prob = _creep(CASES[case])
     x, e, f = point
     r = creep_forces(prob, [x], [e], [f])
-    ref = creep_forces_reference(prob, x, e, f, rtol=1e-8)
+    ref = creep_forces_reference(prob, x, e, f, rtol=1e-7)
     c = math.sqrt(A * B)
     got = np.array([r.Fx[0], r.Fy[0], r.Mz[0] / c]) / prob.load
     want = np.array([ref[0], ref[1], ref[2] / c]) / prob.load

@@ -370,19 +370,27 @@ def _model(theta: np.ndarray, sp: _Spec, preps: list[_Prepared], transfer: float
     return out
 
 
-def _with_mu_nodes(p: _Prepared, mu_nodes: np.ndarray) -> _Prepared:
-    """A copy of a prepared test whose friction table has the node values ``mu_nodes``."""
+def _with_mu_nodes(p: _Prepared, mu_nodes: np.ndarray) -> list[_Prepared]:
+    """Copies of a prepared test whose friction table has the node values ``mu_nodes``
+    ``(n_x, n)``, one per column: interpolated and integrated for every column at once
+    (each column's numbers are those of the column alone)."""
     from dataclasses import replace as dc_replace
+
+    from scipy.interpolate import PPoly
 
     from torlab.model.removal import cumulative_integral
 
-    curve = p.table.curve(mu_nodes=mu_nodes)
-    mug = np.asarray(curve(p.xg), dtype=float)
-    mug[0] = float(mu_nodes[0])
+    curves = p.table.curve(mu_nodes=mu_nodes)
+    mug = np.asarray(curves(p.xg), dtype=float)  # (n_xg, n)
+    mug[0] = mu_nodes[0]
     h = float(p.xg[1] - p.xg[0])
-    I0 = {0: cumulative_integral(np.exp(p.xg) / (p.c_rev * mug), h),
+    I0 = {0: cumulative_integral(np.exp(p.xg)[:, None] / (p.c_rev * mug), h),
           1: cumulative_integral(1.0 / (p.c_rev * mug), h)}
-    return dc_replace(p, curve=curve, mug=mug, I0=I0, mu_dry=float(mu_nodes[0]))
+    return [dc_replace(p, curve=PPoly.construct_fast(curves.c[..., i], curves.x,
+                                                     extrapolate=False),
+                       mug=mug[:, i], I0={o: v[:, i] for o, v in I0.items()},
+                       mu_dry=float(mu_nodes[0, i]))
+            for i in range(mu_nodes.shape[1])]
 
 
 def _layer_sensitivity(theta: np.ndarray, J: np.ndarray, sp: _Spec, preps: list[_Prepared],
@@ -419,15 +427,14 @@ def _layer_sensitivity(theta: np.ndarray, J: np.ndarray, sp: _Spec, preps: list[
     nodes = np.repeat(allp[None], len(live), axis=0)
     for i, (_, j, q, sd) in enumerate(live):
         nodes[i, j, q] += sd
-    moved = [layer.draw_params(np.exp(p.table.x), nodes) for p in preps]  # (n_x, n_live, k)
+    per_test = []  # per test, its copy for every perturbed layer
+    for p in preps:
+        tab = p.table
+        dp = layer.draw_params(np.exp(tab.x), nodes) - tab.params[:, None, :]  # (n_x, n_live, k)
+        per_test.append(_with_mu_nodes(p, tab.mu[:, :1] + np.einsum("xp,xcp->xc",
+                                                                     tab.grad[:, 0, :], dp)))
     for i, (c, _, _, h) in enumerate(live):
-        pert = []
-        for p, P in zip(preps, moved, strict=True):
-            tab = p.table
-            dp = P[:, i, :] - tab.params
-            mu_n = tab.mu[:, 0] + np.einsum("xp,xp->x", tab.grad[:, 0, :], dp)
-            pert.append(_with_mu_nodes(p, mu_n))
-        JL[:, c] = (resid(pert) - r0) / h
+        JL[:, c] = (resid([copies[i] for copies in per_test]) - r0) / h
     B = _scaled_inverse(J.T @ J)
     G = -B @ J.T @ JL
     from scipy.linalg import block_diag
