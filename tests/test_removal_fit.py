@@ -175,6 +175,21 @@ def test_layer_uncertainty_enters_the_rate_through_its_linear_response(layer, sc
     assert total > 1.9 * math.hypot(parts["layer"][0], parts["data"][0])
 
 
+def test_a_layer_without_uncertainties_adds_nothing_to_the_interval(layer, scene):
+    """Every node's covariance zero (a layer given as exact): no perturbed layer to
+    follow, the layer's part of the interval is zero and the rest is what it is with
+    the layer's uncertainties."""
+    data = _tests(FIRST, 3, layer)
+    exact = dataclasses.replace(layer, covs=np.zeros_like(layer.covs),
+                                dry_cov=np.zeros_like(layer.dry_cov))
+    res, ref = fit_removal(data, exact, scene), fit_removal(data, layer, scene)
+    parts, ref_parts = res.meta["uncertainty_parts"], ref.meta["uncertainty_parts"]
+    assert parts["layer"] == [0.0] and ref_parts["layer"][0] > 0
+    assert parts["data"] == ref_parts["data"]
+    lo, hi = res.ci95["k1"]
+    assert lo < FIRST.k < hi and hi - lo < ref.ci95["k1"][1] - ref.ci95["k1"][0]
+
+
 def test_energy_based_rate_transfers_between_loads_and_speeds(layer):
     """The same product tested at 18 N, 1 m/s, 2 % SRR and at 36 N, 2 m/s, 3 % SRR: the
     energy-based rates agree within their intervals, while the removal per second differs

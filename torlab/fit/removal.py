@@ -428,7 +428,7 @@ def _layer_sensitivity(theta: np.ndarray, J: np.ndarray, sp: _Spec, preps: list[
     for i, (_, j, q, sd) in enumerate(live):
         nodes[i, j, q] += sd
     per_test = []  # per test, its copy for every perturbed layer
-    for p in preps:
+    for p in preps if live else []:
         tab = p.table
         dp = layer.draw_params(np.exp(tab.x), nodes) - tab.params[:, None, :]  # (n_x, n_live, k)
         per_test.append(_with_mu_nodes(p, tab.mu[:, :1] + np.einsum("xp,xcp->xc",
