@@ -18,7 +18,7 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
-__all__ = ["BenchRow", "median_time"]
+__all__ = ["BenchRow", "median_time", "median_time_and_value"]
 
 
 @dataclass
@@ -82,3 +82,15 @@ def median_time(fn: Callable[[], Any], *, repeat: int = 5, min_time: float = 0.0
         samples.append((time.perf_counter() - t0) / loops)
     samples.sort()
     return samples[len(samples) // 2]
+
+
+def median_time_and_value(fn: Callable[[], Any], **options: Any) -> tuple[float, Any]:
+    """:func:`median_time` of ``fn`` and the value of its last call: for work whose result
+    the benchmark reports too (not computed once more; ``fn`` must be deterministic)."""
+    last: list[Any] = []
+
+    def call() -> Any:
+        last[:] = [fn()]
+        return last[0]
+
+    return median_time(call, **options), last[0]

@@ -34,11 +34,10 @@ equal bit for bit.
 from __future__ import annotations
 
 import io
-from typing import Any
 
 import numpy as np
 
-from torlab.bench import BenchRow, median_time
+from torlab.bench import BenchRow, median_time, median_time_and_value
 from torlab.model.layers import get_law
 
 __all__ = ["run"]
@@ -262,15 +261,10 @@ def _nonlinear_rows(quick: bool) -> list[BenchRow]:
     t_plain = median_time(lambda: traction_curve(sc, xi), repeat=repeat)
     t_auto = median_time(lambda: predict_traction(sc, xi), repeat=repeat)
     auto = predict_traction(sc, xi).band
-    kept: dict[str, Any] = {}  # the timed band itself (its draws are seeded: the same band)
-
-    def sampled() -> Any:
-        kept["band"] = traction_band(sc, xi, table, su, method="sampling", n_samples=400,
-                                     seed=3)
-        return kept["band"]
-
-    t_samp = median_time(sampled, repeat=1) + t_plain
-    samp = kept["band"]
+    # the timed band itself (its draws are seeded: the same band)
+    t_samp, samp = median_time_and_value(lambda: traction_band(
+        sc, xi, table, su, method="sampling", n_samples=400, seed=3), repeat=1)
+    t_samp += t_plain
     comp = "nonlinear traction band"
     unit = "51-point Tab. 5.4 curve, WFM-wet layer, flash temperature"
     refname = f"sampled band of {n_ref} draws (seed 12345)"
@@ -320,14 +314,10 @@ def run(quick: bool = False) -> list[BenchRow]:
                "nonlinearity": pred.band.nonlinearity, "reference_noise": noise}))
     for method, n in (("linear", None), ("sampling", 150 if quick else 400)):
         opts = {"method": method} | ({"n_samples": n} if n else {})
-        kept = {}
-
-        def band(o: dict[str, Any] = opts, kept: dict[str, Any] = kept) -> Any:
-            kept["band"] = traction_band(sc, xi, plain_table, su, **o)
-            return kept["band"]
-
-        t = median_time(band, repeat=repeat) + t_plain
-        b = kept["band"]  # the last one timed: the same band (seeded draws)
+        # the last band timed: the same band (seeded draws)
+        t, b = median_time_and_value(lambda o=opts: traction_band(sc, xi, plain_table, su, **o),
+                                     repeat=repeat)
+        t += t_plain
         rows.append(BenchRow("traction curve with 95 % band",
                              f"band, {method}" + (f" ({n} draws)" if n else ""), t,
                              _edge_error(b, ref), refname, False, unit,

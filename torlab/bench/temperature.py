@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from torlab.bench import BenchRow, median_time
+from torlab.bench import BenchRow, median_time_and_value
 from torlab.model.fastsim import BoundaryResult, FastsimGrid, FastsimProblem, boundary_traction
 
 __all__ = ["REFERENCE_NODES", "REFERENCE_TOLERANCE_K", "run", "thermal_problem"]
@@ -90,13 +90,9 @@ def run(quick: bool = False) -> list[BenchRow]:
     tmax_ref = ref.max_temperature_C
     measured: list[tuple[str, bool, float, BoundaryResult]] = []
     for name, p, g, is_def in variants:
-        holder: dict[str, Any] = {}
-
-        def one(p=p, g=g, holder=holder) -> None:
-            holder["r"] = boundary_traction(p, xi, g)
-
-        t = median_time(one, repeat=3 if quick else 5, min_time=0.0 if quick else 0.2)
-        measured.append((name, is_def, t, holder["r"]))
+        t, r = median_time_and_value(lambda p=p, g=g: boundary_traction(p, xi, g),
+                                     repeat=3 if quick else 5, min_time=0.0 if quick else 0.2)
+        measured.append((name, is_def, t, r))
     t_def = next(t for _, d, t, _ in measured if d)
     rows = []
     for name, is_def, t, r in measured:
