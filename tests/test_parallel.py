@@ -544,6 +544,67 @@ def test_deferred_band_draws_bit_for_bit(executors):
                    "c": want[n].contributions}, f"{ex.kind} band of {n} draws")
 
 
+class _Draw:
+    """A draw's outputs (weakly referable: the test sees when it is let go)."""
+
+    def __init__(self, x: int) -> None:
+        self.x = x
+
+
+def _draw(x: int) -> _Draw:
+    return _Draw(x)
+
+
+class _Whole:
+    """A task's whole value: its draws, as a sampled band's propagation holds them."""
+
+    def __init__(self, draws: list[_Draw]) -> None:
+        self.draws = draws
+        self.total = sum(d.x for d in draws)
+
+
+def test_each_completed_value_is_finished_and_let_go_before_the_next_is_completed():
+    """map_deferred's ``finished``: called here on each value completed here, once, in
+    order; the map returns what it returns; by the time the next value is completed,
+    the earlier one's whole form and its subtask results are gone (a protocol stores
+    each sampled band and keeps only its summary: no two bands' draws at once)."""
+    import gc
+    import weakref
+
+    from torlab.parallel import Deferred, map_deferred
+
+    refs: list[weakref.ref] = []  # every completed value and its subtask results
+    still: list[int] = []  # how many of them were alive as each value was completed
+
+    def then(results: list[_Draw]) -> _Whole:
+        gc.collect()
+        still.append(sum(r() is not None for r in refs))
+        w = _Whole(results)
+        refs.extend([weakref.ref(w), *(weakref.ref(d) for d in results)])
+        return w
+
+    def task(n: int):
+        return "plain" if n == 0 else Deferred(_draw, list(range(n)), then)
+
+    calls = []
+
+    def finished(i: int, v: _Whole) -> int:
+        calls.append(i)
+        return v.total
+
+    got = map_deferred(SerialExecutor(), task, [3, 0, 4, 2], finished=finished)
+    assert got == [3, "plain", 6, 1] and calls == [0, 2, 3]
+    assert still == [0, 0, 0] and len(refs) == (1 + 3) + (1 + 4) + (1 + 2)
+
+
+def test_without_finished_the_completed_values_are_returned_whole():
+    from torlab.parallel import Deferred, map_deferred
+
+    got = map_deferred(SerialExecutor(),
+                       lambda n: Deferred(_draw, list(range(n)), _Whole), [2, 3])
+    assert [type(v) for v in got] == [_Whole, _Whole] and [v.total for v in got] == [1, 3]
+
+
 @pytest.mark.slow
 def test_protocol_prediction_with_a_sampled_band_bit_for_bit(executors):
     """The traction prediction of a protocol (its executor task, the band's model evaluations

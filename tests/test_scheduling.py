@@ -376,31 +376,11 @@ def test_sections_built_in_report_order_with_the_fits_first_when_nothing_adds_to
         assert built[0] == first and ready == built, (reports, built)
 
 
-# ------------------------------------------------------------------------------ meanwhile
-def test_waiting_work_is_done_during_the_next_map_or_at_flush_and_dropped_at_close():
-    done: list[str] = []
-    SerialExecutor().meanwhile(lambda: done.append("serial"))
-    assert done == ["serial"]  # no workers: at once
-    with ProcessExecutor(2) as ex:
-        ex.meanwhile(lambda: done.append("a"))
-        assert done == ["serial"]
-        assert ex.map(_square, range(3)) == [0, 1, 4] and done == ["serial", "a"]
-        ex.meanwhile(lambda: done.append("b"))
-        ex.prepare("xml.dom.minidom")  # the next map forks the workers again: b still waits
-        pool = ex._pool
-        ex.map(_square, range(3))
-        assert ex._pool is not pool and done == ["serial", "a", "b"]
-        ex.meanwhile(lambda: done.append("c"))
-        ex.flush()
-        assert done == ["serial", "a", "b", "c"]
-        ex.meanwhile(lambda: done.append("d"))
-    assert done == ["serial", "a", "b", "c"]  # closed without a flush: a run that failed
-
-
-@pytest.mark.slow  # two protocol runs; the waiting stores across a new fork: quick, above
+# ------------------------------------------------------------------------- stored results
+@pytest.mark.slow  # two protocol runs
 def test_a_run_on_worker_processes_stores_every_result_it_computed(tmp_path):
-    """Results are stored in the cache while later tasks run (and the workers are forked
-    again between the reductions and the fits): a re-run computes nothing."""
+    """Every result is stored in the cache as it arrives or is finished here (the workers
+    are forked again between the reductions and the fits): a re-run computes nothing."""
     from torlab.protocols.runner import run_protocol
 
     p = small_fit_protocol(tmp_path)
@@ -410,16 +390,6 @@ def test_a_run_on_worker_processes_stores_every_result_it_computed(tmp_path):
     assert cold.cache_misses > 3 and cold.cache_hits == 0
     assert (warm.cache_misses, warm.cache_hits) == (0, cold.cache_misses)
     assert warm.timing["figures_drawn"] == 0
-
-
-@pytest.mark.skipif(not LINUX, reason="the background feed is for forked workers")
-def test_waiting_work_is_done_while_background_tasks_finish():
-    done: list[str] = []
-    with ProcessExecutor(2) as ex:
-        bg = ex.background(_stamp, [("bg0", 0.2), ("bg1", 0.2)])
-        ex.meanwhile(lambda: done.append("stored"))
-        got = bg.results()
-        assert done == ["stored"] and [n for n, _ in got] == ["bg0", "bg1"]
 
 
 def test_figures_drawn_ahead_wait_in_files_not_in_memory(tmp_path):

@@ -37,9 +37,7 @@ is serial: tasks never start tasks of their own.
 ``map(..., uses=...)`` forks the workers before the prepared modules their tasks do not
 use, which this process loads while they work; ``map(..., chunksize=n)`` sends many
 short tasks in blocks; :meth:`Executor.background` starts tasks that only take idle
-workers (a protocol's figures while its later sections compute); and
-:meth:`Executor.meanwhile` is this process's own work that may wait for the next tasks
-(storing results in the cache).
+workers (a protocol's figures while its later sections compute).
 
 **Work a task finds.**  A task that discovers independent work of its own (a
 protocol's prediction whose band turns out sampled: 20 blocks of draws) returns
@@ -196,7 +194,6 @@ class _Feed:
             if len(self.futs) <= i or self.futs[i] is None:
                 raise RuntimeError("background task cancelled or already taken")
             f, self.futs[i] = self.futs[i], None
-        self.ex.flush()  # this process's waiting work, while the task runs
         return _results([f.result()])[0]
 
     def cancel(self) -> None:
@@ -209,7 +206,6 @@ class _Feed:
     def results(self, description: str) -> list[Any]:
         from torlab.progress import current as progress
 
-        self.ex.flush()  # this process's waiting work, while the last tasks run
         with progress().task(description, len(self.items) if description else 0) as advance:
             self.thread.join()  # every task submitted (the workers are free by now)
             if self.stopped:
@@ -317,15 +313,6 @@ class Executor:
         """One task of :meth:`map`: its result and its warnings (here: in this process)."""
         return _run(fn, item)
 
-    def meanwhile(self, chore: Callable[[], Any]) -> None:
-        """Work of this process that may wait (storing results in a cache): done while the
-        next :meth:`map`'s tasks run, or while this process waits for background tasks
-        (:class:`ProcessExecutor`), or at :meth:`flush`.  Here: at once."""
-        chore()
-
-    def flush(self) -> None:
-        """Do the :meth:`meanwhile` work still waiting."""
-
     def prepare(self, *needs: str | Callable[[], Any]) -> None:
         """Modules (names) or set-up functions the coming tasks will need: loaded in this
         process before workers are forked, so that they load once, not once per worker
@@ -402,17 +389,9 @@ class ProcessExecutor(Executor):
         self._busy = 0  # tasks (or blocks) submitted to the pool and not done
         self._idle = threading.Condition()
         self._feeds: list[_Feed] = []  # background work
-        self._chores: list[Callable[[], Any]] = []  # meanwhile()
 
     def prepare(self, *needs: str | Callable[[], Any]) -> None:
         self._needs += [n for n in needs if n not in self._needs]
-
-    def meanwhile(self, chore: Callable[[], Any]) -> None:
-        self._chores.append(chore)
-
-    def flush(self) -> None:
-        while self._chores:
-            self._chores.pop(0)()
 
     def _load_needs(self, needs: Sequence[str | Callable[[], Any]] | None = None) -> None:
         """Import what :meth:`prepare` listed (``needs``: only those), once."""
@@ -475,7 +454,6 @@ class ProcessExecutor(Executor):
         out: list[Any] = [None] * len(blocks)
         try:
             with progress().task(description, len(items) if description else 0) as advance:
-                self.flush()  # this process's waiting work, while the tasks run
                 if sys.platform.startswith("linux"):
                     # what the tasks do not use: loaded here while they run, one need at
                     # a time, until they are done (the rest while later tasks run)
@@ -548,7 +526,6 @@ class ProcessExecutor(Executor):
         return Background(lambda: feed.results(description), feed.cancel, feed.take)
 
     def close(self) -> None:
-        self._chores = []  # not done: the caller did not flush (a run that failed)
         for feed in self._feeds:
             feed.cancel()
         self._feeds = []
@@ -1021,15 +998,20 @@ def _call(job: tuple[Callable[[Any], Any], Any]) -> Any:
 def map_deferred(executor: Executor, fn: Callable[[Any], Any], items: Iterable[Any], *,
                  description: str = "", subtasks: str = "",
                  uses: Sequence[str | Callable[[], Any]] | None = None,
-                 chunksize: int = 1, each: Callable[[int, Any], Any] | None = None) -> list[Any]:
+                 chunksize: int = 1, each: Callable[[int, Any], Any] | None = None,
+                 finished: Callable[[int, Any], Any] | None = None) -> list[Any]:
     """:meth:`Executor.map`, with the :class:`Deferred` results completed.
 
     The items of all the deferred results go to ``executor`` in one map
     (labelled ``subtasks``), in order, then each ``then`` runs here -- as a task
     would, with one BLAS thread -- until no result is deferred.  ``uses`` and
     ``chunksize``: as for :meth:`Executor.map`, for the first map; ``each``: for the
-    first map's results that are not deferred.  The split into tasks is the tasks' own, so
-    the results do not depend on the executor.
+    first map's results that are not deferred.  ``finished(i, value)``: called here on
+    each result as soon as it is completed here, and what is kept of it (its whole form
+    -- a sampled band's every draw -- stored and let go before the next one is
+    completed); a completed result's subtask results are let go as it is completed.
+    The split into tasks is the tasks' own, so the results do not depend on the
+    executor.
     """
     from torlab.threads import limit_threads
 
@@ -1048,7 +1030,10 @@ def map_deferred(executor: Executor, fn: Callable[[Any], Any], items: Iterable[A
         for i in pending:
             d = out[i]
             n = len(d.items)
+            part, res[pos:pos + n] = res[pos:pos + n], [None] * n
             with warnings.catch_warnings(record=True) as caught, limit_threads(1):
-                out[i] = d.then(res[pos:pos + n])
+                v = d.then(part)
             _reissue([(w.message, w.category, w.filename, w.lineno) for w in caught])
+            out[i] = v if finished is None or isinstance(v, Deferred) else finished(i, v)
+            del part, d, v  # not held while the next one is completed
             pos += n

@@ -310,12 +310,13 @@ class RunContext:
         return out
 
     def _found(self, kind: str, parts: dict[str, Any], light: Any,
-               also: tuple[str, dict[str, Any]] | None) -> tuple[bool, Any]:
-        """``(hit, value)`` of one task of :meth:`cached_map` in the cache."""
-        hit, v = (self.cache.lookup(kind, **parts) if light is None else
+               also: tuple[str, dict[str, Any]] | None, part: bool = False) -> tuple[bool, Any]:
+        """``(hit, value)`` of one task of :meth:`cached_map` in the cache; ``part``: only
+        part of the value is kept (its arrays then its own, not views of the entry)."""
+        hit, v = (self.cache.lookup(kind, own_arrays=part, **parts) if light is None else
                   self.cache.lookup_light(kind, light, **parts))
         if hit and also is not None:
-            hit, v2 = self.cache.lookup(also[0], **also[1])
+            hit, v2 = self.cache.lookup(also[0], own_arrays=part, **also[1])
             v = (v, v2)
         return hit, v
 
@@ -359,7 +360,11 @@ class RunContext:
 
         A computed value is encoded for the cache where it was computed (a worker,
         :class:`torlab.protocols.cache.Encoding`); this process signs and writes it as it
-        arrives, so a long map's results are never all held here at once.
+        arrives, so a long map's results are never all held here at once.  A value
+        completed here (a sampled band, its draws run as tasks of their own:
+        :func:`torlab.parallel.map_deferred`) is stored, whole, as soon as it is completed
+        and only ``keep``'s form of it kept, so that no two such values (every draw's
+        outputs) are held here at once.
         """
         import time
 
@@ -372,7 +377,7 @@ class RunContext:
         out: list[Any] = [None] * len(tasks)
         todo = []
         for i, (parts, _) in enumerate(tasks):
-            hit, v = self._found(kinds[i], parts, light, also[i])
+            hit, v = self._found(kinds[i], parts, light, also[i], keep is not None)
             if hit:
                 out[i] = v if keep is None else keep(i, v)
             else:
@@ -389,7 +394,7 @@ class RunContext:
                     ((self.cache.entry_name(also[i][0], **also[i][1]), also[i][0]),)
                     for i in todo]
 
-            written: set[int] = set()
+            written: set[int] = set()  # stored (and kept) as they came: not again
 
             def stored(j: int, v: Any) -> Any:  # as each result arrives
                 if not isinstance(v, Encoded):
@@ -397,6 +402,17 @@ class RunContext:
                 written.add(j)
                 return self._store_encoded(names[j], kinds[todo[j]], v, more[j], light,
                                            None if keep is None else partial(keep, todo[j]))
+
+            def finished(j: int, v: Any) -> Any:  # completed here (its work was deferred)
+                i = todo[j]
+                if cache:  # stored now, whole (its draws); kept as a stored one is
+                    if also[i] is None:
+                        self.cache.store(kinds[i], v, **tasks[i][0])
+                    else:
+                        self.cache.store(kinds[i], v[0], **tasks[i][0])
+                        self.cache.store(also[i][0], v[1], **also[i][1])
+                written.add(j)
+                return v if keep is None else keep(i, v)
 
             # a task may defer part of its work (a sampled band's draws): those parts run
             # as tasks of their own, on every worker (torlab.parallel.Deferred)
@@ -409,28 +425,13 @@ class RunContext:
                     for j, i in enumerate(todo)] if cache else [tasks[i][1] for i in todo]
             vals = map_deferred(ex, task, args, description=description,
                                 subtasks="band: parameter draws", uses=uses, chunksize=size,
-                                each=stored)
+                                each=stored, finished=finished)
             self.cache.compute_seconds += time.perf_counter() - t0
             self.cache.misses += len(todo)
-            late = []  # finished here (deferred work): encoded and stored here
             for j, (i, v) in enumerate(zip(todo, vals, strict=True)):
-                # what ``stored`` did not take (finished here, or no cache): kept as a
-                # stored one is (``keep``); the whole value only until it is stored
+                # what neither ``stored`` nor ``finished`` took (no cache): kept as a
+                # stored one is (``keep``)
                 out[i] = v if keep is None or j in written else keep(i, v)
-                if cache and j not in written:
-                    late.append((i, v))  # (whole: not in the cache yet)
-            # stored while the next map's tasks run, or at the run's end
-            # (torlab.parallel.Executor.meanwhile)
-            if late:
-                def store_late(late: list[tuple[int, Any]] = late) -> None:
-                    for i, v in late:
-                        if also[i] is None:
-                            self.cache.store(kinds[i], v, **tasks[i][0])
-                        else:
-                            self.cache.store(kinds[i], v[0], **tasks[i][0])
-                            self.cache.store(also[i][0], v[1], **also[i][1])
-
-                ex.meanwhile(store_late)
         return out
 
 

@@ -228,7 +228,6 @@ def _run(lp: Any, dest: Any, rc: Any, formats: Any, run_key: str, executor: Any,
     dest.write_lines("report.md", lambda: markdown_lines(title, intro, sections, prov,
                                                          figures=shown is not None),
                      keep_same=True)
-    ex.flush()  # results still to be stored in the cache
     # honest split: reading and writing (cache entries, cached figures, result files)
     # is I/O wherever it happened; what remains of each stage is its own work
     timing = {"compute": max(t_stages - io_stages, 0.0),
