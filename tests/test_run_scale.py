@@ -259,9 +259,9 @@ def test_rerun_reads_no_reduction_of_an_unchanged_file(tmp_path, monkeypatch, fi
     loaded: list[str] = []
     real = ResultCache._load
 
-    def count(self, name, kind):
+    def count(self, name, kind, *rest):
         loaded.append(kind)
-        return real(self, name, kind)
+        return real(self, name, kind, *rest)
 
     monkeypatch.setattr(ResultCache, "_load", count)
     r = run_protocol(p, out, force=True)
@@ -383,7 +383,8 @@ def test_light_value_taken_twice_from_the_index(tmp_path, monkeypatch):
     c = ResultCache(tmp_path / "c")
     loads = []
     real = ResultCache._load
-    monkeypatch.setattr(ResultCache, "_load", lambda self, n, k: loads.append(n) or real(self, n, k))
+    monkeypatch.setattr(ResultCache, "_load",
+                        lambda self, n, k, *rest: loads.append(n) or real(self, n, k, *rest))
     (h1, a), (h2, b) = c.lookup_light("k", light, x=1), c.lookup_light("k", light, x=1)
     assert h1 and h2 and a == b == {"n": 7, "restored": True} and a is not b
     assert loads == []  # from the index, not the entry

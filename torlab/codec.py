@@ -290,8 +290,8 @@ class _Reading:
     """What :func:`decode_value` needs inside an entry: its binary part, the objects
     decoded so far by number (for references)."""
 
-    def __init__(self, buf: Any) -> None:
-        self.buf = buf
+    def __init__(self, buf: Any, copy: bool = False) -> None:
+        self.buf, self.copy = buf, copy
         self.objs: dict[int, Any] = {}
 
 
@@ -433,14 +433,15 @@ def _dec_array(t: dict, d: int) -> Any:
             out[i] = decode_value(x, depth=d)
         return out.reshape(shape)
     dt = _dtype(t["dtype"])
-    if "at" in t:  # in an entry's binary part: a view of the bytes read (no copy)
+    if "at" in t:  # in an entry's binary part: a view of the bytes read (or a copy)
         rd = _READING.get()
         at = t["at"]
         if rd is None or type(at) is not int or not 0 <= at <= len(rd.buf) - n * dt.itemsize:
             raise BadEntry("array outside the entry's data")
         if n == 0 or dt.itemsize == 0:
             return np.empty(shape, dtype=dt)
-        return np.frombuffer(rd.buf, dtype=dt, count=n, offset=at).reshape(shape)
+        a = np.frombuffer(rd.buf, dtype=dt, count=n, offset=at).reshape(shape)
+        return a.copy() if rd.copy else a
     raw = base64.b64decode(_str(t["b64"]), validate=True)
     if len(raw) != n * dt.itemsize:
         raise BadEntry("array size does not match its shape")
@@ -666,10 +667,12 @@ def encode_with_arrays(value: Any) -> tuple[Any, list[Any]]:
     return tree, sink.chunks
 
 
-def decode_with_arrays(tree: Any, binary: Any) -> Any:
+def decode_with_arrays(tree: Any, binary: Any, copy: bool = False) -> Any:
     """Rebuild a value from :func:`encode_with_arrays`'s tree and binary part (a
-    ``memoryview`` or buffer; its arrays are views of it).  Raises :class:`BadEntry`."""
-    token = _READING.set(_Reading(binary))
+    ``memoryview`` or buffer; its arrays are views of it, or with ``copy`` arrays of their
+    own, so that a part of the value kept does not keep the whole buffer).  Raises
+    :class:`BadEntry`."""
+    token = _READING.set(_Reading(binary, copy))
     try:
         return decode_value(tree)
     except RecursionError:

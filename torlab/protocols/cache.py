@@ -320,9 +320,10 @@ class ResultCache:
     def _signed(self, payload: bytes) -> bytes:
         return f"{FORMAT} {FORMAT_VERSION} {self._mac(payload)}\n".encode("ascii") + payload
 
-    def loads(self, name: str, kind: str, data: bytes | bytearray) -> Any:
+    def loads(self, name: str, kind: str, data: bytes | bytearray, copy: bool = False) -> Any:
         """The value of an entry; :class:`BadEntry` if it fails any check.  Its arrays are
-        views of ``data`` (writable when ``data`` is a bytearray; bytes are copied once)."""
+        views of ``data`` (writable when ``data`` is a bytearray; bytes are copied once), or
+        with ``copy`` arrays of their own (a caller that keeps part of the value)."""
         from torlab import __version__
 
         if not isinstance(data, bytearray):
@@ -344,7 +345,7 @@ class ResultCache:
         if not isinstance(body, dict) or body.get("entry") != name or body.get("kind") != kind \
                 or body.get("torlab") != __version__:
             raise BadEntry("entry header does not match")
-        return decode_with_arrays(body.get("value"), view[end + 1:])
+        return decode_with_arrays(body.get("value"), view[end + 1:], copy)
 
     def _read(self, p: Path) -> bytearray | None:
         data, _ = self._read_stat(p)
@@ -434,16 +435,19 @@ class ResultCache:
             return None
         return rec if _status(st) == rec.get("st") else None
 
-    def lookup(self, kind: str, **parts: Any) -> tuple[bool, Any]:
+    def lookup(self, kind: str, *, own_arrays: bool = False, **parts: Any) -> tuple[bool, Any]:
         """``(True, value)`` for a valid stored entry of ``(kind, parts)``, else ``(False, None)``.
 
-        The entry counts as used (kept by :meth:`prune`); a hit counts in :attr:`hits`.
+        The value's arrays are views of the entry's bytes, or with ``own_arrays`` arrays of
+        their own: a caller that keeps only part of the value (a fit without its data) then
+        does not keep the whole entry in memory through one array.  The entry counts as
+        used (kept by :meth:`prune`); a hit counts in :attr:`hits`.
         """
         if self.folder is None:
             return False, None
         t0 = time.perf_counter()
         try:
-            return self._find(self._entry(kind, parts), kind)
+            return self._find(self._entry(kind, parts), kind, own_arrays)
         finally:
             self.io_seconds += time.perf_counter() - t0
 
@@ -454,22 +458,22 @@ class ResultCache:
         self._load_index()
         return name
 
-    def _find(self, name: str, kind: str) -> tuple[bool, Any]:
+    def _find(self, name: str, kind: str, own_arrays: bool = False) -> tuple[bool, Any]:
         """Entry ``name`` read, authenticated and decoded, if the folder holds it."""
         assert self._present is not None
         if name not in self._present:
             return False, None
-        return self._load(name, kind)
+        return self._load(name, kind, own_arrays)
 
-    def _load(self, name: str, kind: str) -> tuple[bool, Any]:
-        """Read, authenticate and decode entry ``name``."""
+    def _load(self, name: str, kind: str, own_arrays: bool = False) -> tuple[bool, Any]:
+        """Read, authenticate and decode entry ``name`` (:meth:`lookup`)."""
         assert self.folder is not None
         p = self.folder / name
         data, st = self._read_stat(p)
         try:
             if data is None or st is None:
                 raise BadEntry("unreadable")
-            value = self.loads(name, kind, data)
+            value = self.loads(name, kind, data, own_arrays)
         except BadEntry:
             self.rejected += 1
             with contextlib.suppress(OSError):
