@@ -329,3 +329,20 @@ def test_bands_quick_rows():
     a = nl["band, automatic choice"]
     assert "(second-order)" in a.variant and a.extra["model_evaluations"] <= 12
     assert 0 < a.error < 0.3
+
+
+@pytest.mark.slow
+def test_removal_fit_rows_fit_the_same_rates_with_kept_tables():
+    """The removal-fit rows: three synthetic tests fitted with nothing kept and with an
+    earlier fit's tables kept give the same rates (kept tables are the same tables), near
+    the generating rate (the fit's statistical error), and the ratio of their times is
+    measured in the same run (no time asserted)."""
+    from torlab.bench.fit import _removal_rows
+
+    built, kept = _removal_rows(quick=True)
+    assert built.default and not kept.default
+    assert "nothing kept" in built.variant and "kept" in kept.variant
+    assert kept.extra["k1_change_with_kept_tables"] == 0.0
+    assert built.error == kept.error and built.error < 0.1
+    assert built.extra["max_z"] < 4.0 and built.extra["fits"] == 2.0
+    assert built.extra["time_over_kept"] > 0

@@ -1,5 +1,15 @@
 """Fit speed and accuracy (``torlab bench``): time per fit, error against the synthetic truth,
-model evaluations."""
+model evaluations.
+
+Three fits: the HPT layer fit (one 820-point curve), the traction layer fit (a 40-point
+FASTSIM curve) and the removal-rate fit of three time tests after application
+(:func:`torlab.fit.removal.fit_removal`, first-order law, the synthetic tests of
+:mod:`torlab.synth.retention`).  The removal fit is timed twice: with nothing kept from an
+earlier fit (its friction tables and FASTSIM's yield tables built anew: the first fit of a
+run) and with the tables of an earlier fit of the same layer kept (every later fit of that
+product: a campaign's case); each row's time is the median over the fits, and the
+ratio of the two is measured in the same run.
+"""
 
 from __future__ import annotations
 
@@ -148,4 +158,59 @@ def run(quick: bool = False) -> list[BenchRow]:
                          extra={"model_evaluations": float(np.median(st["nfev"])),
                                 "time_max_s": float(np.max(st["time"])),
                                 "max_z": float(np.max(st["z"]))}))
+    rows += _removal_rows(quick)
     return rows
+
+
+def _removal_rows(quick: bool) -> list[BenchRow]:
+    """The removal fit of three synthetic time tests (1, 2, 4 uL), with nothing kept and
+    with the friction tables of an earlier fit of the same layer kept (module docstring).
+
+    Error: ``|k1 / k1_true - 1|`` (the fit's statistical error on noisy data);
+    ``max_z``: the largest ``|k1 - k1_true| / stderr``; ``k1_change_with_kept_tables``: the
+    largest relative difference of the rates fitted with kept tables from those fitted
+    with tables built anew (kept tables are the same tables: 0).
+    """
+    import torlab.fit.removal as removal
+    from torlab.model import fastsim
+    from torlab.model.removal import RemovalLaw
+    from torlab.synth.retention import RetentionTestSpec, mtm_scene, retention_time_test, true_layer
+
+    law = RemovalLaw(1, 1.0e-6)
+    layer, scene = true_layer(), mtm_scene()
+    seeds = range(2 if quick else 8)
+    sets = [[retention_time_test(RetentionTestSpec(f"virtual_{a:g}uL", a, seed=1000 * s + int(a)),
+                                 layer, law, via_file=False) for a in (1.0, 2.0, 4.0)]
+            for s in seeds]
+
+    def fresh() -> None:
+        removal._TABLES.clear()
+        fastsim._yield_table_of.cache_clear()
+
+    out, rates = [], []
+    for kept in (False, True):
+        times, errs, zs, ks = [], [], [], []
+        fresh()
+        if kept:
+            removal.fit_removal(sets[0], layer, scene)  # the tables of an earlier fit
+        for tests in sets:
+            if not kept:
+                fresh()
+            t0 = time.perf_counter()
+            res = removal.fit_removal(tests, layer, scene)
+            times.append(time.perf_counter() - t0)
+            k, se = res.params["k1"], res.stderr["k1"]
+            ks.append(k)
+            errs.append(abs(k / law.k - 1.0))
+            zs.append(abs(k - law.k) / se)
+        out.append(BenchRow("removal fit", "three time tests, " + (
+            "friction tables of an earlier fit of the layer kept" if kept
+            else "nothing kept (tables built)"), float(np.median(times)),
+            float(np.median(errs)), "synthetic truth (torlab.synth.retention)", not kept,
+            "3 time tests of 1260 s",
+            extra={"max_z": float(np.max(zs)), "fits": float(len(times))}))
+        rates.append(np.array(ks))
+    fresh()
+    out[1].extra["k1_change_with_kept_tables"] = float(np.max(np.abs(rates[1] / rates[0] - 1.0)))
+    out[0].extra["time_over_kept"] = out[0].time_s / out[1].time_s
+    return out
