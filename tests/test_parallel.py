@@ -564,10 +564,12 @@ class _Whole:
 
 
 def test_each_completed_value_is_finished_and_let_go_before_the_next_is_completed():
-    """map_deferred's ``finished``: called here on each value completed here, once, in
-    order; the map returns what it returns; by the time the next value is completed,
-    the earlier one's whole form and its subtask results are gone (a protocol stores
-    each sampled band and keeps only its summary: no two bands' draws at once)."""
+    """map_deferred's ``finished``: called here on each value completed here, once, as
+    soon as its last subtask's result is in (before the next value's subtasks run, on
+    one process); the map returns what it returns; by the time the next value is
+    completed, the earlier one's whole form and its subtask results are gone (a
+    protocol stores each sampled band and keeps only its summary: no two bands' draws
+    at once).  A value deferred with no subtasks is completed too."""
     import gc
     import weakref
 
@@ -575,16 +577,22 @@ def test_each_completed_value_is_finished_and_let_go_before_the_next_is_complete
 
     refs: list[weakref.ref] = []  # every completed value and its subtask results
     still: list[int] = []  # how many of them were alive as each value was completed
+    events: list[str] = []
 
     def then(results: list[_Draw]) -> _Whole:
         gc.collect()
         still.append(sum(r() is not None for r in refs))
+        events.append(f"then {len(results)}")
         w = _Whole(results)
         refs.extend([weakref.ref(w), *(weakref.ref(d) for d in results)])
         return w
 
+    def draw(x: int) -> _Draw:
+        events.append("draw")
+        return _Draw(x)
+
     def task(n: int):
-        return "plain" if n == 0 else Deferred(_draw, list(range(n)), then)
+        return "plain" if n == 0 else Deferred(draw, list(range(max(n, 0))), then)
 
     calls = []
 
@@ -592,9 +600,11 @@ def test_each_completed_value_is_finished_and_let_go_before_the_next_is_complete
         calls.append(i)
         return v.total
 
-    got = map_deferred(SerialExecutor(), task, [3, 0, 4, 2], finished=finished)
-    assert got == [3, "plain", 6, 1] and calls == [0, 2, 3]
-    assert still == [0, 0, 0] and len(refs) == (1 + 3) + (1 + 4) + (1 + 2)
+    got = map_deferred(SerialExecutor(), task, [3, 0, 4, -1, 2], finished=finished)
+    assert got == [3, "plain", 6, 0, 1] and calls == [3, 0, 2, 4]
+    assert events == ["then 0", *["draw"] * 3, "then 3", *["draw"] * 4, "then 4",
+                      *["draw"] * 2, "then 2"]
+    assert still == [0, 0, 0, 0] and len(refs) == 1 + (1 + 3) + (1 + 4) + (1 + 2)
 
 
 def test_without_finished_the_completed_values_are_returned_whole():

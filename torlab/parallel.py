@@ -49,6 +49,7 @@ top-level tasks, on every worker, and then completes each task in the caller.
 from __future__ import annotations
 
 import contextvars
+import itertools
 import os
 import sys
 import threading
@@ -995,6 +996,47 @@ def _call(job: tuple[Callable[[Any], Any], Any]) -> Any:
     return fn(item)
 
 
+class _Completion:
+    """The ``each`` of :func:`map_deferred`'s map of subtasks: collects each deferred
+    result's subtask results as they arrive (``j``: the subtask's place in the map) and
+    completes the result in ``out`` at its last one (``then``, then ``finished``)."""
+
+    def __init__(self, out: list[Any], pending: list[int],
+                 finished: Callable[[int, Any], Any] | None) -> None:
+        self.out, self.pending, self.finished = out, pending, finished
+        sizes = [len(out[i].items) for i in pending]
+        self.owner = [k for k, n in enumerate(sizes) for _ in range(n)]
+        self.start = list(itertools.accumulate(sizes, initial=0))[:-1]
+        self.left = sizes
+        self.parts: dict[int, list[Any]] = {}  # pending result -> its subtask results so far
+
+    def __call__(self, j: int, r: Any) -> None:
+        k = self.owner[j]
+        i = self.pending[k]
+        self.parts.setdefault(k, [None] * len(self.out[i].items))[j - self.start[k]] = r
+        self.left[k] -= 1
+        if not self.left[k]:  # its last subtask
+            self._complete(k)
+
+    def without_subtasks(self) -> None:
+        """Complete the deferred results that have no subtasks."""
+        for k, n in enumerate(self.left):
+            if n == 0:
+                self._complete(k)
+
+    def _complete(self, k: int) -> None:
+        from torlab.threads import limit_threads
+
+        i = self.pending[k]
+        d, part = self.out[i], self.parts.pop(k, [])
+        with warnings.catch_warnings(record=True) as caught, limit_threads(1):
+            v = d.then(part)
+        del d, part
+        _reissue([(w.message, w.category, w.filename, w.lineno) for w in caught])
+        done = self.finished
+        self.out[i] = v if done is None or isinstance(v, Deferred) else done(i, v)
+
+
 def map_deferred(executor: Executor, fn: Callable[[Any], Any], items: Iterable[Any], *,
                  description: str = "", subtasks: str = "",
                  uses: Sequence[str | Callable[[], Any]] | None = None,
@@ -1009,11 +1051,12 @@ def map_deferred(executor: Executor, fn: Callable[[Any], Any], items: Iterable[A
     first map's results that are not deferred.  ``finished(i, value)``: called here on
     each result as soon as it is completed here, and what is kept of it (its whole form
     -- a sampled band's every draw -- stored and let go before the next one is
-    completed); a completed result's subtask results are let go as it is completed.
-    The split into tasks is the tasks' own, so the results do not depend on the
-    executor.
+    completed).  A deferred result is completed as soon as its last subtask's result
+    arrives (while the others' subtasks run), and its subtask results are let go then:
+    the subtask results held here are those of the results still being completed, not
+    those of the whole map.  The split into tasks is the tasks' own, so the results do
+    not depend on the executor.
     """
-    from torlab.threads import limit_threads
 
     def first(i: int, v: Any) -> Any:
         return v if each is None or isinstance(v, Deferred) else each(i, v)
@@ -1025,15 +1068,6 @@ def map_deferred(executor: Executor, fn: Callable[[Any], Any], items: Iterable[A
         if not pending:
             return out
         jobs = [(out[i].fn, it) for i in pending for it in out[i].items]
-        res = executor.map(_call, jobs, description=subtasks or description)
-        pos = 0
-        for i in pending:
-            d = out[i]
-            n = len(d.items)
-            part, res[pos:pos + n] = res[pos:pos + n], [None] * n
-            with warnings.catch_warnings(record=True) as caught, limit_threads(1):
-                v = d.then(part)
-            _reissue([(w.message, w.category, w.filename, w.lineno) for w in caught])
-            out[i] = v if finished is None or isinstance(v, Deferred) else finished(i, v)
-            del part, d, v  # not held while the next one is completed
-            pos += n
+        completion = _Completion(out, pending, finished)
+        completion.without_subtasks()
+        executor.map(_call, jobs, description=subtasks or description, each=completion)
