@@ -43,7 +43,8 @@ workers (a protocol's figures while its later sections compute).
 protocol's prediction whose band turns out sampled: 20 blocks of draws) returns
 it as a :class:`Deferred` instead of doing it alone in its worker;
 :func:`map_deferred` runs the deferred work of all the tasks of a map as
-top-level tasks, on every worker, and then completes each task in the caller.
+top-level tasks, on every worker, and completes each task in the caller as its
+work comes back.
 """
 
 from __future__ import annotations
@@ -1045,8 +1046,9 @@ def map_deferred(executor: Executor, fn: Callable[[Any], Any], items: Iterable[A
     """:meth:`Executor.map`, with the :class:`Deferred` results completed.
 
     The items of all the deferred results go to ``executor`` in one map
-    (labelled ``subtasks``), in order, then each ``then`` runs here -- as a task
-    would, with one BLAS thread -- until no result is deferred.  ``uses`` and
+    (labelled ``subtasks``), in order; each ``then`` runs here -- as a task would,
+    with one BLAS thread -- as the last of its items' results arrives, until no result
+    is deferred.  ``uses`` and
     ``chunksize``: as for :meth:`Executor.map`, for the first map; ``each``: for the
     first map's results that are not deferred.  ``finished(i, value)``: called here on
     each result as soon as it is completed here, and what is kept of it (its whole form
