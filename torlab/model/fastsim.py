@@ -606,11 +606,18 @@ def _yield_table(r_s: np.ndarray) -> np.ndarray:
 @functools.lru_cache(maxsize=_YIELD_TABLES_KEPT)
 def _yield_table_of(r_bytes: bytes) -> np.ndarray:
     """:func:`_yield_table` of the strips' ``r`` given as its float64 bytes."""
-    r_s = np.frombuffer(r_bytes, dtype=float)
-    grid = np.linspace(0.0, math.pi, _YIELD_TABLE + 1)[1:]
-    table = np.log(e_strip(grid[None, :], r_s[:, None])) - np.log(np.sin(grid[None, :]))
-    table[:, -1] = np.inf  # sin(pi) = 0
+    table = _log_e_over_sin(np.frombuffer(r_bytes, dtype=float))
     table.flags.writeable = False
+    return table
+
+
+def _log_e_over_sin(r: np.ndarray) -> np.ndarray:
+    """``ln e(theta; r) - ln sin(theta)`` on the ``_YIELD_TABLE`` uniform angles in (0, pi]
+    for every ``r`` (one :func:`~torlab.model.strip.e_strip` call), ``inf`` at pi;
+    shape ``r.shape + (nt,)``."""
+    grid = np.linspace(0.0, math.pi, _YIELD_TABLE + 1)[1:]
+    table = np.log(e_strip(grid, r[..., None])) - np.log(np.sin(grid))
+    table[..., -1] = np.inf  # sin(pi) = 0
     return table
 
 
@@ -643,9 +650,7 @@ def _yield_isothermal(c: np.ndarray, r: np.ndarray,
     else:
         gid, r_group = groups
         ug, inv = np.unique(gid[:, 0], return_inverse=True)  # a row's group (rows x strips)
-        table = (np.log(e_strip(grid[None, None, :], r_group[ug][..., None]))
-                 - np.log(np.sin(grid[None, None, :])))
-        table[..., -1] = np.inf
+        table = _log_e_over_sin(r_group[ug])
         inv = inv.reshape(-1)
         k = np.empty(logc.shape, dtype=int)
         for sl in row_chunks(logc.shape[0], logc.shape[1] * nt):  # small temporaries
