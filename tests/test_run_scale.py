@@ -197,6 +197,40 @@ def test_index_remakes_each_light_form_from_the_kept_reduction(tmp_path, monkeyp
     assert {n: r["light"] for n, r in again.items() if "light" in r} == lights
 
 
+def test_the_index_read_at_the_start_keeps_no_record_the_run_consulted(tmp_path, monkeypatch,
+                                                                         fitted):
+    """Each record of the earlier index (an entry's status and light form, an input file's
+    hash) is read once: the run moves what it uses into the index it writes and lets go of
+    what no longer describes its file.  A copy of the results (every file new: no record
+    matches) is re-run, so each log's light form is read from its entry; the records of
+    the copied index, with their light JSON, are not kept to the run's end."""
+    from torlab.protocols.cache import CACHE_DIR, ResultCache
+    from torlab.protocols.runner import run_protocol
+
+    p, out, _ = fitted
+    copy = tmp_path / "copy"
+    shutil.copytree(out, copy)  # new files: new inodes and change times
+    n_logs = len(list(p.parent.glob("hpt_*.txt")))
+    seen: dict[str, Any] = {}
+    real = ResultCache.write_index
+
+    def spy(self):
+        seen.update(left=dict(self._index), hashes=dict(self._hashes),
+                    used=set(self._next), hashed=set(self._hashes_next))
+        return real(self)
+
+    monkeypatch.setattr(ResultCache, "write_index", spy)
+    earlier = ResultCache(copy / CACHE_DIR)._read_index()
+    r = run_protocol(p, copy, force=True, figures=False)
+    hpt = [n for n, rec in earlier["entries"].items() if rec["kind"] == "hpt"]
+    assert len(hpt) == n_logs and set(hpt) <= seen["used"]
+    assert r.cache_hits >= n_logs  # the light forms came from the copied entries
+    assert not set(seen["left"]) & seen["used"]  # nothing used is kept twice
+    assert not [n for n, rec in seen["left"].items() if "light" in rec]
+    assert set(earlier["files"]) <= seen["hashed"] and not seen["hashes"]
+    assert r.summary["fits"] == fitted[2].summary["fits"]
+
+
 def test_packed_reduction_reads_back_what_it_was_given(fitted):
     """A light form kept packed gives back the JSON it was given (non-finite numbers and
     non-ASCII text too) and the Reduction restored from it, whichever of several is read in

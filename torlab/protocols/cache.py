@@ -425,8 +425,15 @@ class ResultCache:
 
     def _unchanged(self, name: str) -> dict[str, Any] | None:
         """The index's record of ``name`` if its file is still the one the index describes
-        (same size, times and inode: not written since), else None."""
-        rec = self._index.get(name)
+        (same size, times and inode: not written since), else None.
+
+        The record leaves the index read at the start either way: one this run uses goes
+        to the index it writes (where a second look finds it), one of a file written
+        since (a results folder copied elsewhere has every file new) is let go with its
+        light JSON, which at a 64x campaign is 42 MB of Python objects when kept to the
+        end of the run.
+        """
+        rec = self._index.pop(name, None) or self._next.get(name)  # asked for again
         if rec is None or self.folder is None:
             return None
         try:
@@ -468,6 +475,7 @@ class ResultCache:
     def _load(self, name: str, kind: str, own_arrays: bool = False) -> tuple[bool, Any]:
         """Read, authenticate and decode entry ``name`` (:meth:`lookup`)."""
         assert self.folder is not None
+        self._index.pop(name, None)  # the earlier record: this read makes the next one
         p = self.folder / name
         data, st = self._read_stat(p)
         try:
@@ -619,7 +627,7 @@ class ResultCache:
         st = os.stat(key)
         now = _status(st)
         self._load_index()
-        rec = self._hashes_next.get(key) or self._hashes.get(key)
+        rec = self._hashes_next.get(key) or self._hashes.pop(key, None)  # read once
         if rec is not None and list(rec[:4]) == now and isinstance(rec[4], str) \
                 and now[2] < rec[5] - RACY_NS:
             self._hashes_next[key] = rec
