@@ -504,3 +504,37 @@ def test_lubricated_thermal_scene_without_temperature_coefficients():
         "are zero)" in hot.modelled
     assert np.array_equal(hot.table["mu"].to_numpy(), cold.table["mu"].to_numpy())
     assert np.all(hot.table["max_temperature_C"] > sc.kinematics.ambient_temperature)
+
+
+def test_the_long_table_holds_every_curves_points_under_its_label():
+    """``curves.csv``: ``curve`` and ``kind`` first, then every column of the curves' tables
+    in the order they first appear; a column a curve lacks is empty there, one empty in
+    every curve is left out, and each curve's points are its table's, in order."""
+    from types import SimpleNamespace
+
+    import pandas as pd
+
+    from torlab.reports.traction import TractionCurve, traction_section
+
+    xi = np.linspace(0.001, 0.03, 12)
+    mu = 0.3 * np.tanh(80 * xi)
+    model = pd.DataFrame({"creepage": xi, "mu": mu, "mu_low95": 0.97 * mu,
+                          "mu_high95": 1.03 * mu, "unused": np.nan})
+    measured = pd.DataFrame({"creepage": xi[::2], "mu": 0.9 * mu[::2], "speed_m_s": 0.5,
+                             "unused": np.nan})
+    trend = {"trend": "neutral", "trend_from_creepage": None}
+    curves = [TractionCurve("A", "model", model, trend, "s"),
+              TractionCurve("B", "measured", measured, trend, "m"),
+              TractionCurve("C", "model", model.iloc[:5], trend, "s")]
+    sec = traction_section(curves, SimpleNamespace(trend_tolerance=0.01))
+    long = next(t for t in sec.tables if t.name == "curves").df
+    assert list(long.columns) == ["curve", "kind", "creepage", "mu", "mu_low95", "mu_high95",
+                                  "speed_m_s"]
+    assert long["curve"].tolist() == ["A"] * 12 + ["B"] * 6 + ["C"] * 5
+    assert long["kind"].tolist() == ["model"] * 12 + ["measured"] * 6 + ["model"] * 5
+    for label, t in (("A", model), ("B", measured), ("C", model.iloc[:5])):
+        part = long[long["curve"] == label].reset_index(drop=True)
+        for col in long.columns[2:]:
+            want = t[col].to_numpy(dtype=float) if col in t else np.full(len(t), np.nan)
+            assert np.array_equal(part[col].to_numpy(dtype=float), want, equal_nan=True), col
+    assert str(long["curve"].dtype) == str(pd.Series(["A"]).dtype)  # text, as a label column
