@@ -491,6 +491,42 @@ def test_a_large_campaigns_traction_figures_come_in_pages():
     assert titles == ["curves 197–203 of 205", "curves 204–205 of 205"]
 
 
+def test_the_traction_figure_keeps_only_what_it_draws_and_draws_the_same():
+    """A declared traction figure (kept until the run's figures are written) holds each
+    curve's label, kind, group and drawn columns only -- not its trend, band summary,
+    theory or other columns -- and its pixels are those of the figure of the whole curves."""
+    from types import SimpleNamespace
+
+    from torlab.reports.render import plot, render
+    from torlab.reports.traction import (
+        DRAWN_COLUMNS,
+        TractionCurve,
+        traction_figures,
+        traction_report_figure,
+    )
+
+    x = np.linspace(0.0, 0.05, 21)
+    mu = 0.3 * np.tanh(80 * x)
+    model = pd.DataFrame({"creepage": x, "mu": mu, "mu_low95": 0.95 * mu, "mu_high95": 1.05 * mu,
+                          "mu_theory_error_95": 1e-4, "max_temperature_C": 40.0})
+    measured = pd.DataFrame({"creepage": x[::3], "mu": 0.9 * mu[::3], "mu_sd": 0.004,
+                             "speed_m_s": 0.5})
+    big = {"dominant": {"mu": [{"parameter": "mu_c2", "share": 0.7}]}, "method": "sampled"}
+    curves = [TractionCurve(f"set {k}", "model", model, {"trend": "neutral", "probabilities": {}},
+                            "scene", band=big, group=f"g{k}", theory={"method": "fastsim"},
+                            choices=["law"], boundary={"mu_c1": 0.2}) for k in range(3)]
+    curves.append(TractionCurve("measured", "measured", measured, {"trend": "neutral"}, "file"))
+    cfg = SimpleNamespace(band=(0.15, 0.25))
+    [(name, kept)] = traction_figures(curves, cfg)
+    assert name == "traction"
+    for c, k in zip(curves, kept.args[0], strict=True):
+        assert (k.label, k.kind, k.group) == (c.label, c.kind, c.group)
+        assert list(k.table.columns) == [n for n in DRAWN_COLUMNS if n in c.table]
+        assert not (k.trend or k.band or k.theory or k.choices or k.boundary)
+    whole = plot(traction_report_figure, curves, cfg)
+    assert render(kept.draw(), "png") == render(whole.draw(), "png")
+
+
 def test_a_large_campaigns_amount_figures_come_in_pages(amount_inputs):
     """More products than PANELS_PER_FIGURE panels hold: amount_applied, amount_applied_2,
     ... each drawn from its own products' rows, every product on exactly one page."""

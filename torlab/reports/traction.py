@@ -330,6 +330,7 @@ def traction_figures(curves: list[TractionCurve], cfg: Any) -> list[tuple[str, A
     Plot), ...]``, a further figure for every :data:`PANELS_PER_FIGURE` panels."""
     from torlab.reports.render import plot
 
+    curves = [_drawn(c) for c in curves]
     groups = list(dict.fromkeys(c.group or c.label for c in curves))
     per = PER_PANEL * PANELS_PER_FIGURE
     if len(groups) <= per:
@@ -342,6 +343,21 @@ def traction_figures(curves: list[TractionCurve], cfg: Any) -> list[tuple[str, A
                     plot(traction_report_figure, [c for c in curves if (c.group or c.label) in mine],
                          cfg, first=k * per, total=len(groups), page=(k + 1, len(pages)))))
     return out
+
+
+#: the columns of a curve's table that its figure draws (:func:`_traction_panel`)
+DRAWN_COLUMNS = ("creepage", "mu", "mu_low95", "mu_high95", "mu_sd")
+
+
+def _drawn(c: TractionCurve) -> TractionCurve:
+    """What the figure draws of a curve: its label, kind, group and the drawn columns.
+
+    A declared figure is kept until the run's figures are written, and with it what it
+    was given: the whole curve would keep its trend, band, theory and every column of its
+    table to the end of the run (a 128x campaign: 768 curves).
+    """
+    cols = [k for k in DRAWN_COLUMNS if k in c.table]
+    return TractionCurve(c.label, c.kind, c.table[cols], {}, "", group=c.group)
 
 
 def traction_report_figure(curves: list[TractionCurve], cfg: Any, *, first: int = 0,
