@@ -447,15 +447,17 @@ def test_index_written_in_pieces_is_json_of_the_whole_and_signed(tmp_path):
     c.used.add("odd.tlc")
     want["odd.tlc"] = {"kind": "x", "st": [1, 2, 3, 4]}
     c._next["unused.tlc"] = {"kind": "x", "st": [1, 2, 3, 4]}  # not used: not written
+    files = {f"/data/é/log {i}.txt": [i, 5, 6, 7, f"{i:064x}", 8] for i in range(INDEX_PIECE + 3)}
+    c._hashes_next.update(files)  # two pieces of input files' hash records
     c.write_index()
     data = (tmp_path / "c" / INDEX).read_bytes()
     text = data[data.index(b"\n") + 1:]
     from torlab import __version__
 
-    assert text == json.dumps({"torlab": __version__, "entries": want, "files": {},
+    assert text == json.dumps({"torlab": __version__, "entries": want, "files": files,
                                "run": None}, separators=(",", ":")).encode()
-    again = ResultCache(tmp_path / "c")
-    assert again._read_index()["entries"] == want  # signed: read back
+    again = ResultCache(tmp_path / "c")._read_index()
+    assert again["entries"] == want and again["files"] == files  # signed: read back
     (tmp_path / "c" / INDEX).write_bytes(data.replace(b'"n":7,', b'"n":8,'))
     assert ResultCache(tmp_path / "c")._read_index() is None  # and checked
 
