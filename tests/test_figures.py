@@ -522,6 +522,7 @@ def test_the_traction_figure_keeps_only_what_it_draws_and_draws_the_same():
     for c, k in zip(curves, kept.args[0], strict=True):
         assert (k.label, k.kind, k.group) == (c.label, c.kind, c.group)
         assert list(k.table.columns) == [n for n in DRAWN_COLUMNS if n in c.table]
+        assert not np.shares_memory(k.table["mu"].to_numpy(), c.table["mu"].to_numpy())
         assert not (k.trend or k.band or k.theory or k.choices or k.boundary)
     whole = plot(traction_report_figure, curves, cfg)
     assert render(kept.draw(), "png") == render(whole.draw(), "png")

@@ -354,10 +354,11 @@ def _drawn(c: TractionCurve) -> TractionCurve:
 
     A declared figure is kept until the run's figures are written, and with it what it
     was given: the whole curve would keep its trend, band, theory and every column of its
-    table to the end of the run (a 128x campaign: 768 curves).
+    table to the end of the run (a 128x campaign: 768 curves).  The columns are copied: a
+    selection of them is a view that would keep the table's whole block of numbers.
     """
     cols = [k for k in DRAWN_COLUMNS if k in c.table]
-    return TractionCurve(c.label, c.kind, c.table[cols], {}, "", group=c.group)
+    return TractionCurve(c.label, c.kind, c.table[cols].copy(), {}, "", group=c.group)
 
 
 def traction_report_figure(curves: list[TractionCurve], cfg: Any, *, first: int = 0,
