@@ -704,23 +704,23 @@ class ResultCache:
         hash records of a 128x campaign's 13 315 files are 2.5 MB of text.  An entry whose
         light value is not plain JSON is written without it."""
         dumps = json.JSONEncoder(separators=(",", ":"), default=_light_json).encode
-        used = [n for n in self._next if n in self.used]
+
+        def members(pairs: list[tuple[str, Any]], value: Callable[[Any], str]) -> Iterator[str]:
+            """``"key":value`` members of a JSON object, :data:`INDEX_PIECE` at a time."""
+            for i in range(0, len(pairs), INDEX_PIECE):
+                yield "".join(f'{"," if j else ""}{dumps(k)}:{value(v)}'
+                              for j, (k, v) in enumerate(pairs[i:i + INDEX_PIECE], start=i))
+
+        def entry(rec: dict[str, Any]) -> str:
+            try:
+                return dumps(rec)
+            except (TypeError, ValueError):  # a light value that is not plain JSON
+                return dumps({k: v for k, v in rec.items() if k != "light"})
+
         yield f'{{"torlab":{dumps(version)},"entries":{{'
-        for i in range(0, len(used), INDEX_PIECE):
-            part = []
-            for j, n in enumerate(used[i:i + INDEX_PIECE], start=i):
-                rec = self._next[n]
-                try:
-                    text = dumps(rec)
-                except (TypeError, ValueError):  # a light value that is not plain JSON
-                    text = dumps({k: v for k, v in rec.items() if k != "light"})
-                part.append(f'{"," if j else ""}{dumps(n)}:{text}')
-            yield "".join(part)
+        yield from members([(n, r) for n, r in self._next.items() if n in self.used], entry)
         yield '},"files":{'
-        files = list(self._hashes_next.items())
-        for i in range(0, len(files), INDEX_PIECE):
-            yield "".join(f'{"," if j else ""}{dumps(k)}:{dumps(v)}'
-                          for j, (k, v) in enumerate(files[i:i + INDEX_PIECE], start=i))
+        yield from members(list(self._hashes_next.items()), dumps)
         yield f'}},"run":{dumps(self._run_next)}}}'
 
     def get_or_compute(self, kind: str, compute: Callable[[], T], **parts: Any) -> T:
