@@ -29,6 +29,7 @@ from torlab.synth.retention import (
     retention_time_test,
     simulate_retention_test,
     true_layer,
+    virtual_time_tests,
 )
 
 FIRST = RemovalLaw(1, 1.0e-6)
@@ -47,9 +48,7 @@ def scene():
 
 
 def _tests(law, seed, layer, amounts=AMOUNTS, **kw):
-    return [retention_time_test(RetentionTestSpec(f"virtual_{a:g}uL", a, seed=1000 * seed + int(a),
-                                                  **kw), layer, law, via_file=False)
-            for a in amounts]
+    return virtual_time_tests(law, seed, layer, amounts, **kw)
 
 
 def test_fit_recovers_the_law_and_reports_like_every_fit(layer, scene):

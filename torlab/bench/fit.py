@@ -174,14 +174,11 @@ def _removal_rows(quick: bool) -> list[BenchRow]:
     import torlab.fit.removal as removal
     from torlab.model import fastsim
     from torlab.model.removal import RemovalLaw
-    from torlab.synth.retention import RetentionTestSpec, mtm_scene, retention_time_test, true_layer
+    from torlab.synth.retention import mtm_scene, true_layer, virtual_time_tests
 
     law = RemovalLaw(1, 1.0e-6)
     layer, scene = true_layer(), mtm_scene()
-    seeds = range(2 if quick else 8)
-    sets = [[retention_time_test(RetentionTestSpec(f"virtual_{a:g}uL", a, seed=1000 * s + int(a)),
-                                 layer, law, via_file=False) for a in (1.0, 2.0, 4.0)]
-            for s in seeds]
+    sets = [virtual_time_tests(law, s, layer) for s in range(2 if quick else 8)]
 
     def fresh() -> None:
         removal._TABLES.clear()

@@ -348,6 +348,17 @@ def retention_time_test(spec: RetentionTestSpec, layer: AmountLayer, law: Remova
     return tt
 
 
+def virtual_time_tests(law: RemovalLaw, seed: int, layer: AmountLayer,
+                       amounts: tuple[float, ...] = (1.0, 2.0, 4.0), **spec: Any) -> list[Any]:
+    """Simulated time tests in memory (no file: :func:`retention_time_test` with
+    ``via_file=False``), one per applied amount [uL], each with its own seed
+    (``1000 seed + amount``) and the further :class:`RetentionTestSpec` fields ``spec``:
+    the removal fit's synthetic data set (its tests and ``torlab bench``)."""
+    return [retention_time_test(RetentionTestSpec(f"virtual_{a:g}uL", a, seed=1000 * seed + int(a),
+                                                  **spec), layer, law, via_file=False)
+            for a in amounts]
+
+
 def hpt_amount_series(seed: int = 2016, product: str = "OFM1",
                       amounts: tuple[float, ...] = (1, 2, 4, 8, 16)) -> list[Any]:
     """The HPT runs of the truth layer: one per amount at 25 degC, and the dry run.
