@@ -432,3 +432,28 @@ def test_a_task_that_fills_two_entries(tmp_path, jobs):
     finally:
         if ex is not None:
             ex.close()
+
+
+def test_a_set_encodes_alike_in_every_process():
+    """A set of text iterates in an order that changes from process to process (salted
+    string hashes); its encoding, and so an entry's bytes and a content key, does not:
+    two interpreters with different hash seeds give the same tree, and it reads back as
+    the same set."""
+    import subprocess
+    import sys
+
+    from torlab.codec import decode_value, encode_value
+
+    code = ("import json; from torlab.codec import encode_value, digest_value; "
+            "v = {'log_scale': frozenset({'mu_c1', 'mu_c2', 'L_mue', 'L_mup', 'a', 'b', 'c'}), "
+            "'tags': {3, 1, 2, ('x', 1.5)}}; "
+            "print(json.dumps(encode_value(v)), digest_value(v))")
+    seen = {subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                           check=True, env={**os.environ, "PYTHONHASHSEED": seed}).stdout
+            for seed in ("1", "2", "3", "4")}
+    assert len(seen) == 1
+    tree = json.loads(seen.pop().rsplit(" ", 1)[0])
+    assert decode_value(tree) == {"log_scale": frozenset({"mu_c1", "mu_c2", "L_mue", "L_mup",
+                                                          "a", "b", "c"}),
+                                  "tags": {3, 1, 2, ("x", 1.5)}}
+    assert encode_value({"a", "b"}) == {"__t": "set", "v": ["a", "b"]}

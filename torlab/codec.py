@@ -4,7 +4,8 @@
 it, and :func:`digest_value` hashes it (a content key: the protocol cache's entries and
 the figures' keys, :mod:`torlab.reports.render`).  What can be encoded:
 
-numbers, strings, lists, tuples, sets, mappings, paths, dates, numpy scalars and arrays
+numbers, strings, lists, tuples, sets (their elements in one order, whatever the
+process: the same value, the same bytes and key), mappings, paths, dates, numpy scalars and arrays
 of plain numeric or text dtypes, pandas tables and series built from such columns,
 torlab's own result dataclasses (rebuilt field by field after checking that the stored
 field names are exactly the class's: a changed class is a :class:`BadEntry`) and
@@ -138,12 +139,24 @@ def _encode(v: Any) -> Any:
         return {"__t": "tuple", "v": [encode_value(x) for x in v]}
     if isinstance(v, (set, frozenset)):
         return {"__t": "frozenset" if isinstance(v, frozenset) else "set",
-                "v": [encode_value(x) for x in v]}
+                "v": _in_order([encode_value(x) for x in v])}
     if isinstance(v, dict):
         return {"__t": "dict", "v": [[encode_value(k), encode_value(x)] for k, x in v.items()]}
     if isinstance(v, Path):
         return {"__t": "path", "v": str(v)}
     return _enc_object(v)
+
+
+def _in_order(trees: list[Any]) -> list[Any]:
+    """A set's elements in one order whatever the process: a set of text iterates in an
+    order that changes from process to process (Python salts the hashes of text), which
+    would give one value different entry bytes and content keys from run to run.  Sorted
+    by their JSON; left as they are where an element holds a shared object (its
+    definition must come before references to it)."""
+    keys = [json.dumps(t, sort_keys=True, separators=(",", ":")) for t in trees]
+    if any('"def":' in k or '"__t":"ref"' in k for k in keys):
+        return trees
+    return [t for _, t in sorted(zip(keys, trees, strict=True), key=lambda kt: kt[0])]
 
 
 def _enc_object(v: Any) -> Any:
