@@ -134,3 +134,59 @@ def test_kept_from_the_cache_too_and_whole_without_one(stored, tmp_path):
     assert again[0].data is None and later.fit_arg(again[0]).whole().params == here.params
     none = RunContext(lp=None, dest=None, cache=ResultCache(None), prog=Progress())
     assert none.keep_fit(here, "fit_hpt", parts) is here and none.fit_arg(here) is here
+
+
+def test_a_recorded_fit_is_kept_packed_and_its_figure_is_the_same(stored, tmp_path):
+    """Once recorded (``RunContext.add_fit``), a fit is kept as a PackedFit: its kind and
+    warnings as they are, every other attribute the result's; its figure's argument has
+    the content key and draws the bytes of the argument before packing; a fit without a
+    stored entry gives the result itself; and what is kept takes under a third of the
+    memory of the result it packs."""
+    import gc
+    import tracemalloc
+    from types import SimpleNamespace
+
+    from torlab.codec import digest_value
+    from torlab.fit.result import PackedFit
+    from torlab.progress import Progress
+    from torlab.protocols.context import RunContext
+    from torlab.reports.fit import result_figure
+    from torlab.reports.render import draw_task, plot, plot_digest
+
+    ctx, kept, here, _ = stored
+
+    class Dest:  # add_fit writes fits/<name>.yaml
+        def write_text(self, name: str, text: str) -> None:
+            (tmp_path / name.replace("/", "_")).write_text(text)
+
+    lp = SimpleNamespace(protocol=SimpleNamespace(reports=SimpleNamespace(compare=None)))
+    run = RunContext(lp=lp, dest=Dest(), cache=ctx.cache, prog=Progress())
+    light = kept[1]
+    run.stored_fits[id(light)] = ctx.stored_fits[id(light)]
+    before = ctx.fit_arg(light)
+    run.add_fit("hpt:OFM1", light, light.to_scene_dict())
+    run.add_fit("hpt:here", here, here.to_scene_dict())
+    (_, packed), (_, whole) = run.fit_results
+    assert isinstance(packed, PackedFit) and isinstance(whole, PackedFit)
+    assert not run.stored_fits  # the reference travels with the packed fit
+    assert packed.kind == light.kind and packed.warnings == light.warnings
+    assert packed.params == light.params and packed.meta == light.meta
+    assert digest_value(packed.restored()) == digest_value(light)
+    arg = run.fit_arg(packed)
+    assert arg.entry == before.entry
+    assert plot_digest(plot(result_figure, arg)) == plot_digest(plot(result_figure, before))
+    assert draw_task((plot(result_figure, arg), ("png",), None)) == \
+        draw_task((plot(result_figure, before), ("png",), None))
+    mine = run.fit_arg(whole)  # no entry: the result itself, with its data
+    assert not isinstance(mine, PackedFit) and mine.data.equals(here.data)
+
+    def traced(make):
+        gc.collect()
+        tracemalloc.start()
+        try:
+            kept = [make() for _ in range(20)]
+            return tracemalloc.get_traced_memory()[0] / len(kept)
+        finally:
+            tracemalloc.stop()
+
+    assert traced(lambda: PackedFit(light)) < traced(packed.restored) / 3

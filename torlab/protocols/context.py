@@ -66,7 +66,9 @@ class RunContext:
     param_sets
         Parameter set name (``hpt:OFM1``, ``lubricant:ester`` ...) -> scene dict.
     fit_rows, fit_results, fit_summary
-        Parameter table rows, ``(name, FitResult)`` and the summary of every fit.
+        Parameter table rows, ``(name, fit result)`` (each kept as a
+        :class:`~torlab.fit.result.PackedFit`) and the summary of every fit (JSON-safe
+        when recorded, :func:`finite`: ``summary.json`` writes it as it is).
     data_summary, notes
         Key numbers of the reduced data; notes for the report.
     fit_figures
@@ -102,7 +104,9 @@ class RunContext:
     #: whole one, read here) and ``arg()`` (what a task takes instead: read there)
     stored: dict[int, Any] = field(default_factory=dict)
     #: ``id(fit result)`` -> its :class:`~torlab.fit.result.StoredFit`, for a fit kept
-    #: without its data (:meth:`keep_fit`): what its figure is given (:meth:`fit_arg`)
+    #: without its data (:meth:`keep_fit`), until the fit is recorded (:meth:`add_fit`: its
+    #: :class:`~torlab.fit.result.PackedFit` then carries the reference, and
+    #: :meth:`fit_arg` makes what its figure is given)
     stored_fits: dict[int, Any] = field(default_factory=dict)
     _by_source: dict[Path, Any] | None = field(default=None, repr=False)
 
@@ -159,7 +163,12 @@ class RunContext:
 
     def fit_arg(self, res: Any) -> Any:
         """What a figure of the fit result ``res`` takes: its
-        :class:`~torlab.fit.result.StoredFit` if it is kept without its data, else itself."""
+        :class:`~torlab.fit.result.StoredFit` if it is kept without its data, else the
+        result (restored from its :class:`~torlab.fit.result.PackedFit`)."""
+        from torlab.fit.result import PackedFit
+
+        if isinstance(res, PackedFit):
+            return res.arg()
         return self.stored_fits.get(id(res), res)
 
     def labelled(self, section: str) -> list[tuple[str, Any]]:
@@ -186,17 +195,17 @@ class RunContext:
             self.fit_rows.append({"set": name, "kind": res.kind, **r,
                                   "between_runs_pct": float("nan") if sh is None
                                   else 100.0 * float(sh)})
-        self.fit_results.append((name, res))
-        self.fit_summary[name] = {"kind": res.kind, "params": dict(res.params),
-                                  "ci95": {k: list(v) for k, v in res.ci95.items()},
-                                  "residual_rms": res.residual_norm,
-                                  "warnings": list(res.warnings)}
+        self.fit_results.append((name, _packed(res, self.stored_fits.pop(id(res), None))))
+        said = {"kind": res.kind, "params": dict(res.params),
+                "ci95": {k: list(v) for k, v in res.ci95.items()},
+                "residual_rms": res.residual_norm, "warnings": list(res.warnings)}
         if res.meta.get("scatter"):
-            self.fit_summary[name]["scatter"] = str(res.meta["scatter"])
+            said["scatter"] = str(res.meta["scatter"])
         if re:
-            self.fit_summary[name]["random_effects"] = re
+            said["random_effects"] = re
         if res.meta.get("model_selection"):
-            self.fit_summary[name]["model_selection"] = res.meta["model_selection"]
+            said["model_selection"] = res.meta["model_selection"]
+        self.fit_summary[name] = finite(said)  # as summary.json writes it (no copy there)
         from torlab.comparison import item_from_fit
 
         # (made only when the protocol compares anything: a campaign's fits are many)
@@ -476,6 +485,18 @@ def drawn_fits(which: str, results: list[tuple[str, Any]]) -> list[tuple[str, An
         which = "all" if len(results) <= AUTO_ALL_SETS else "warned"
     return [(name, res) for name, res in results
             if which == "all" or (which == "warned" and res.warnings)]
+
+
+def _packed(res: Any, stored: Any) -> Any:
+    """What the run keeps of a fit result to its end: a
+    :class:`~torlab.fit.result.PackedFit` (with the reference of its
+    :class:`~torlab.fit.result.StoredFit` ``stored``, if any), or the result itself if it is
+    not a :class:`~torlab.fit.result.FitResult`."""
+    from torlab.fit.result import FitResult, PackedFit
+
+    if not isinstance(res, FitResult):
+        return res
+    return PackedFit(res, None if stored is None else stored.ref)
 
 
 def add_covariance(scene_dict: dict[str, Any], res: Any, *, first: bool = False) -> None:
