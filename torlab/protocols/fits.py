@@ -20,7 +20,7 @@ import math
 from typing import Any
 
 from torlab.errors import TorlabInputError
-from torlab.protocols.context import RunContext, add_covariance
+from torlab.protocols.context import RunContext, add_covariance, finite
 
 __all__ = ["fit_all"]
 
@@ -278,8 +278,8 @@ def fit_lubricant(ctx: RunContext, lf: Any) -> None:
     name = f"lubricant:{lf.name}"
     ctx.add_fit(name, ft, ft.to_scene_dict())
     row = ft.row()
-    ctx.fit_summary[name] = {"kind": "viscosity", "law": lf.law,
-                             "params": {k: v for k, v in row.items()
-                                        if isinstance(v, (int, float))},
-                             "correlation": ft.correlation.tolist(),
-                             "warnings": list(ft.warnings)}
+    ctx.fit_summary[name] = finite({"kind": "viscosity", "law": lf.law,
+                                    "params": {k: v for k, v in row.items()
+                                               if isinstance(v, (int, float))},
+                                    "correlation": ft.correlation.tolist(),
+                                    "warnings": list(ft.warnings)})

@@ -212,7 +212,7 @@ def _run(lp: Any, dest: Any, rc: Any, formats: Any, run_key: str, executor: Any,
                      "file": prov["protocol_file"], "sha256": prov["protocol_sha256"]},
         "inputs": prov["inputs"],
         "data": finite(run.data_summary),
-        "fits": finite(run.fit_summary),
+        "fits": run.fit_summary,  # JSON-safe as recorded (RunContext.add_fit)
         "reports": {s.key: finite(s.summary) for s in sections if s.key != "fits"},
         "notes": run.notes + [n for s in sections for n in s.notes],
     }

@@ -417,9 +417,9 @@ def film(ctx: RunContext) -> Any:
                     v, h, scene=scs[0][1] if scs else None, min_speed=cfg.min_speed or None),
                 speed=v, film=h, scene=scs[0][2] if scs else None, min_speed=cfg.min_speed)
             fits.append((c.label, fr))
-            ctx.fit_summary[f"film:{c.label}"] = {
+            ctx.fit_summary[f"film:{c.label}"] = finite({
                 "kind": fr.kind, "params": dict(fr.params),
-                "ci95": {k: list(v) for k, v in fr.ci95.items()}, "warnings": list(fr.warnings)}
+                "ci95": {k: list(v) for k, v in fr.ci95.items()}, "warnings": list(fr.warnings)})
     return film_section(measured, models, fits)
 
 
@@ -625,10 +625,10 @@ def fits_section(ctx: RunContext) -> Any:
                 "95 % low (full model)": ("ci95_low_full", ".3g"),
                 "95 % high (full model)": ("ci95_high_full", ".3g")},
             allow_missing=("test", "p_value", "estimate", "ci95_low_full", "ci95_high_full")))
-    summary = finite(ctx.fit_summary)
-    summary["model_selection"] = finite(sel)
+    # its key numbers are summary.json's "fits", the run's fit summary, which the runner
+    # writes (each entry JSON-safe as recorded): the same object, not a copy of every set's
     return Section(key="fits", title="Fitted parameter sets", paragraphs=paragraphs,
-                   figures=figs, tables=tables, summary=summary, notes=warn)
+                   figures=figs, tables=tables, summary=ctx.fit_summary, notes=warn)
 
 
 def _selection_rows(ctx: RunContext) -> list[dict[str, Any]]:
