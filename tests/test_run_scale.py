@@ -310,7 +310,7 @@ def test_task_reduces_again_when_its_entry_changed(tmp_path, fitted):
     from torlab.codec import BadEntry
     from torlab.instruments import get_instrument, prepare_options
     from torlab.protocols.cache import ResultCache
-    from torlab.protocols.data import StoredReduction, detail
+    from torlab.protocols.data import StoredReduction, _Section, detail
     from torlab.protocols.loader import load_protocol
 
     p, _, _ = fitted
@@ -321,9 +321,11 @@ def test_task_reduces_again_when_its_entry_changed(tmp_path, fitted):
     prepared = prepare_options(inst, opts)
     whole = inst.impl().reduce(f, **prepared)
     rc = ResultCache(tmp_path / "c")
-    parts = {"sha": rc.sha(f), "name": f.name}
-    rc.store("hpt", whole, **parts)
-    arg = StoredReduction(rc, "hpt", parts, ("hpt", f, prepared, "hpt")).arg()
+    stored = StoredReduction(_Section(rc, "hpt", "opts", "hpt", prepared), rc.sha(f), f)
+    assert stored.parts == {"sha": rc.sha(f), "name": f.name, "options": "opts"}
+    assert stored.job == ("hpt", f, prepared, "hpt")
+    rc.store("hpt", whole, **stored.parts)
+    arg = stored.arg()
     assert arg.ref is not None
     assert detail(arg).data.equals(whole.detail.data)
     entry = Path(arg.ref.path)

@@ -80,12 +80,13 @@ def reduce_data(ctx: RunContext) -> None:
                               f"{section}: reducing files", uses=(), short=True,
                               light=light)  # no optimiser, no matplotlib: loaded meanwhile
         names = ctx.lp.result_names.get(section, {})
-        for red, pt, job, f in zip(reds, parts, jobs, files, strict=True):
+        shared = _Section(ctx.cache, section, key, inst.name, prepared)
+        for red, pt, f in zip(reds, parts, files, strict=True):
             ctx.keys[id(red)] = ctx.cache.key(section, **pt)
             if names.get(f, f.stem) != f.stem:  # two files of one name: named by labels
                 red.name = names[f]
             if light is not None:
-                ctx.stored[id(red)] = StoredReduction(ctx.cache, section, pt, job)
+                ctx.stored[id(red)] = StoredReduction(shared, pt["sha"], f)
         ctx.reductions[section] = reds
         write = getattr(inst.impl(), "write_section", None)
         labelled = ctx.labelled(section)
@@ -233,26 +234,54 @@ class PackedReduction:
         return f"PackedReduction({self.instrument!r}, {self.source!r})"
 
 
+class _Section:
+    """What the stored reductions of one data section share: the cache, the section, its
+    options' key and the instrument with its prepared options (one object, not one copy
+    per log)."""
+
+    __slots__ = ("cache", "instrument", "options", "prepared", "section")
+
+    def __init__(self, cache: Any, section: str, options: str, instrument: str,
+                 prepared: dict[str, Any]) -> None:
+        self.cache, self.section, self.options = cache, section, options
+        self.instrument, self.prepared = instrument, prepared
+
+
 class StoredReduction:
     """A reduction kept in the run's cache, of which the run holds only the light form.
 
     :meth:`reduction` reads it here (or reduces the file again, should the entry be gone);
     :meth:`arg` is what a task takes instead (:class:`ReductionArg`), read in its worker.
+    Of each log it holds the file's path and SHA-256; its cache key's parts and its
+    reduce task are made from them when asked (a campaign holds one per log).
     """
 
-    __slots__ = ("cache", "job", "parts", "section")
+    __slots__ = ("path", "sha", "shared")
 
-    def __init__(self, cache: Any, section: str, parts: dict[str, Any], job: tuple) -> None:
-        self.cache, self.section, self.parts, self.job = cache, section, parts, job
+    def __init__(self, shared: _Section, sha: str, path: Path) -> None:
+        self.shared, self.sha, self.path = shared, sha, path
+
+    @property
+    def parts(self) -> dict[str, Any]:
+        """The cache key's parts (as :func:`reduce_data` stored the reduction)."""
+        return {"sha": self.sha, "name": self.path.name, "options": self.shared.options}
+
+    @property
+    def job(self) -> tuple[str, Path, dict[str, Any], str]:
+        """The reduce task (:func:`_reduce_task`)."""
+        s = self.shared
+        return (s.instrument, self.path, s.prepared, s.section)
 
     def reduction(self) -> Any:
         """The whole reduction."""
-        hit, red = self.cache.lookup(self.section, **self.parts)
+        s = self.shared
+        hit, red = s.cache.lookup(s.section, **self.parts)
         return red if hit else _reduce_task(self.job)
 
     def arg(self) -> ReductionArg:
         """The reduction as a task's argument (:func:`detail`)."""
-        return ReductionArg(self.cache.ref(self.section, **self.parts), self.job)
+        s = self.shared
+        return ReductionArg(s.cache.ref(s.section, **self.parts), self.job)
 
 
 @dataclass(frozen=True)
