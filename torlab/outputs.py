@@ -544,7 +544,8 @@ class OutputDir:
             self._real = t.parent.resolve() / t.name
         self.force = force
         self.command = command
-        self.inputs = [Path(p) for p in inputs]
+        # the caller's paths themselves (a campaign's are thousands: no copy of each)
+        self.inputs = [p if isinstance(p, Path) else Path(p) for p in inputs]
         self.keep = list(keep)
         self.carry = list(carry)
         if any("/" in c or c in ("", ".", "..") for c in self.carry):

@@ -44,7 +44,8 @@ class LoadedProtocol:
     path: Path | None
     base: Path
     scenes: dict[tuple[Path, ...], dict[str, Any]] = field(default_factory=dict)
-    #: data section -> file -> the name of its results (:func:`_result_names`)
+    #: data section -> file -> the name of its results where that is not the file's name
+    #: without extension (:func:`_result_names`; ``names.get(f, f.stem)``)
     result_names: dict[str, dict[Path, str]] = field(default_factory=dict)
 
     def data_files(self, section: str) -> list[Path]:
@@ -445,7 +446,8 @@ def _distinct(doc: Any, named: list[tuple[tuple[Any, ...], str]], what: str,
 
 def _data_names(lp: LoadedProtocol, doc: Any, sec: str, d: Any,
                 problems: list[TorlabInputError]) -> dict[Path, str]:
-    """The result names of ``data.<sec>``'s files (see :func:`_result_names`)."""
+    """The result names of ``data.<sec>``'s files that are not their stems (see
+    :func:`_result_names`)."""
     from torlab.files import plain_name
 
     entry: dict[Path, int] = {}
@@ -497,7 +499,9 @@ def _data_names(lp: LoadedProtocol, doc: Any, sec: str, d: Any,
                 f"({_short(plain_name(text))!r}) as {_short(other)!r}: their figures and rows "
                 "would be one; give labels that differ"))
         seen.setdefault(k, (f, text))
-    return names
+    # kept: the names that are not the file's stem (a campaign's thousands of files mostly
+    # keep theirs)
+    return {f: n for f, n in names.items() if n != f.stem}
 
 
 def _short(text: str, n: int = 60) -> str:
