@@ -537,7 +537,8 @@ class PackedFit:
     (the fits section's notes, the model-selection table, the figures of the sets that get
     one); kept as they came, the results of a 128x campaign's 1536 sets were about 20 MB
     of the run's memory.  :attr:`kind` and :attr:`warnings` (read of every set) are kept as
-    they are; any other attribute is read from the result restored from the bytes (about
+    they are, and the data table, if the result has one, as it is (a table is compact
+    already); any other attribute is read from the result restored from the bytes (about
     50 us), which :meth:`restored` gives whole.  The bytes are :mod:`pickle`'s, made in
     this process from a result it computed or read and checked, and read back only here:
     they are never written to a file or taken from one.
@@ -551,21 +552,27 @@ class PackedFit:
         (:class:`StoredFit`), else None.
     """
 
-    __slots__ = ("_blob", "kind", "ref", "warnings")
+    __slots__ = ("_blob", "_data", "kind", "ref", "warnings")
 
     def __init__(self, result: FitResult, ref: Any = None) -> None:
+        import dataclasses
         import pickle
         import zlib
 
-        self._blob = zlib.compress(pickle.dumps(result, protocol=5), 6)
+        self._data = result.data  # the table apart, as it is
+        light = result if result.data is None else dataclasses.replace(result, data=None)
+        # level 1: as small as level 6 for a result without its table, and quicker
+        self._blob = zlib.compress(pickle.dumps(light, protocol=5), 1)
         self.kind, self.warnings, self.ref = result.kind, list(result.warnings), ref
 
     def restored(self) -> FitResult:
-        """The result (a new object at every call)."""
+        """The result (a new object at every call; its data table the one kept)."""
         import pickle
         import zlib
 
-        return pickle.loads(zlib.decompress(self._blob))  # bytes made in this process
+        res = pickle.loads(zlib.decompress(self._blob))  # bytes made in this process
+        res.data = self._data
+        return res
 
     def arg(self) -> Any:
         """What a figure of the result is given: its :class:`StoredFit` if it is kept
