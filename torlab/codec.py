@@ -5,8 +5,8 @@ it, and :func:`digest_value` hashes it (a content key: the protocol cache's entr
 the figures' keys, :mod:`torlab.reports.render`).  What can be encoded:
 
 numbers, strings, lists, tuples, sets (their elements in one order, whatever the
-process: the same value, the same bytes and key), mappings, paths, dates, numpy scalars and arrays
-of plain numeric or text dtypes, pandas tables and series built from such columns,
+process: the same value, the same bytes and key), mappings, paths, dates, numpy scalars
+and arrays of plain numeric or text dtypes, pandas tables and series built from such columns,
 torlab's own result dataclasses (rebuilt field by field after checking that the stored
 field names are exactly the class's: a changed class is a :class:`BadEntry`) and
 torlab's pydantic models (the scenes).  No pickle, no ``eval``, no class named by the
