@@ -60,11 +60,12 @@ def _build_each_cli_once() -> None:
 #: one worker makes it instead of the other waiting for its lock)
 SCOPE_WITH = {"tests/test_validation.py": "tests/test_protocols.py"}
 #: the modules whose tests take longest together, in the quick suite (module fixtures: the fuzz
-#: sample, protocol runs, fits) or in the slow step (the whole fuzz corpus, coverage sweeps):
+#: sample, protocol runs, fits) or in the slow step (the whole fuzz corpus, coverage sweeps,
+#: every figure kind drawn: 71 s in one test):
 #: they start first, so that neither worker is left with one of them at the end while the
 #: other is idle; the others follow in their usual order
 LONG_FIRST = ("tests/test_fuzz_corpus.py", "tests/test_fit_coverage.py",
-              "tests/test_removal_fit.py", "tests/test_retention_cli.py", "tests/test_trust.py",
+              "tests/test_figure_kinds.py", "tests/test_removal_fit.py", "tests/test_retention_cli.py", "tests/test_trust.py",
               "tests/test_protocols.py", "tests/test_validation.py", "tests/test_bands.py",
               "tests/test_polach_uncertainty.py", "tests/test_faults.py", "tests/test_parallel.py",
               "tests/test_fit_batch.py", "tests/test_fit_other.py", "tests/test_scheduling.py")
