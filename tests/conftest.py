@@ -65,8 +65,8 @@ SCOPE_WITH = {"tests/test_validation.py": "tests/test_protocols.py"}
 #: they start first, so that neither worker is left with one of them at the end while the
 #: other is idle; the others follow in their usual order
 LONG_FIRST = ("tests/test_fuzz_corpus.py", "tests/test_fit_coverage.py",
-              "tests/test_figure_kinds.py", "tests/test_removal_fit.py", "tests/test_retention_cli.py", "tests/test_trust.py",
-              "tests/test_protocols.py", "tests/test_validation.py", "tests/test_bands.py",
+              "tests/test_figure_kinds.py", "tests/test_removal_fit.py",
+              "tests/test_retention_cli.py", "tests/test_trust.py", "tests/test_protocols.py", "tests/test_validation.py", "tests/test_bands.py",
               "tests/test_polach_uncertainty.py", "tests/test_faults.py", "tests/test_parallel.py",
               "tests/test_fit_batch.py", "tests/test_fit_other.py", "tests/test_scheduling.py")
 

@@ -185,8 +185,8 @@ def test_a_recorded_fit_is_kept_packed_and_its_figure_is_the_same(stored, tmp_pa
         gc.collect()
         tracemalloc.start()
         try:
-            kept = [make() for _ in range(20)]
-            return tracemalloc.get_traced_memory()[0] / len(kept)
+            made = [make() for _ in range(20)]
+            return tracemalloc.get_traced_memory()[0] / len(made)
         finally:
             tracemalloc.stop()
 
