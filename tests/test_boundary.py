@@ -208,7 +208,7 @@ def test_a_kept_yield_table_gives_what_a_new_one_gives():
     for a, b in zip(kept, new, strict=True):
         np.testing.assert_array_equal(a, b)
     assert not np.array_equal(kept[0], kept[1]) and not np.array_equal(kept[0], kept[2])
-    assert not fs._yield_table(np.array([0.7, 1.1])).flags.writeable
+    assert not any(t.flags.writeable for t in fs._yield_table(np.array([0.7, 1.1])))
 
 
 # the accuracy test set: a/b 0.2..5, creepage 1e-5..0.5, with and without the layer.
@@ -307,6 +307,49 @@ def test_e_in_temperature_cell_against_mpmath(r):
     got = e_in_cell(th, np.full(th.shape, r), t0, e0)
     ref = np.array([_e_ref(t, r) for t in th])
     np.testing.assert_allclose(got, ref, rtol=1e-13, atol=0)
+
+
+@pytest.mark.parametrize("r", [0.0, 1e-6, 0.05, 0.4999999, 0.5, 1.0, 7.7, 1e6])
+def test_e_on_uniform_nodes_against_mpmath(r):
+    """e(theta; r) on the yield table's 256 uniform angles, summed cell by cell from the
+    fourth angle (8 Gauss nodes per cell), against 30-digit quadrature to 1e-13 relative:
+    the four angles at each end (e_strip's own rule), the first and last summed ones, and
+    the middle, where 124 cells are summed; and the few-node case, which is e_strip's."""
+    from torlab.model.strip import e_on_nodes
+
+    n = 256
+    j = np.array([1, 4, 5, 6, 50, 128, 200, 251, 252, 253, 255, 256])
+    got = e_on_nodes(np.array(r), n)
+    assert got.shape == (n,)
+    ref = np.array([_e_ref(k * math.pi / n, r) for k in j])
+    np.testing.assert_allclose(got[j - 1], ref, rtol=1e-13, atol=0)
+    few = e_on_nodes(np.array([r, 2 * r]), 7)
+    np.testing.assert_array_equal(few, e_strip(np.arange(1, 8) * math.pi / 7,
+                                               np.array([r, 2 * r])[:, None]))
+
+
+@pytest.mark.parametrize("grouped", [False, True])
+def test_isothermal_yield_angles_solve_the_yield_condition(grouped):
+    """The isothermal yield angles (a table cell, the secant start, e from the cell's start)
+    solve ``e(theta; r) = c sin(theta)`` to round-off, with e by the whole rule
+    (``e_strip``), for r below the cell rule's reach, at 1/2 and far above, and for roots in
+    the first cell, the middle and the last cell; a layer per point (``groups``) gives the
+    same angles."""
+    import torlab.model.fastsim as fs
+
+    r_s = np.array([1e-4, 0.02, 0.5, 0.9, 3.0, 50.0])
+    theta = np.array([1e-3, 0.01, 0.4, 1.6, 2.9, math.pi - 1e-3, math.pi - 1e-6])
+    # c from a chosen root: e(theta)/sin(theta) is increasing, so theta is the root
+    c = e_strip(theta[:, None], r_s[None, :]) / np.sin(theta)[:, None]
+    r = np.broadcast_to(r_s, c.shape)
+    if grouped:
+        gid = np.zeros(c.shape, dtype=int)
+        th, _ = fs._yield_isothermal(c, r, groups=(gid, r_s[None, :]))
+    else:
+        th, _ = fs._yield_isothermal(c, r)
+    np.testing.assert_allclose(th, np.broadcast_to(theta[:, None], c.shape), rtol=1e-11)
+    resid = e_strip(th, r) - c * np.sin(th)
+    assert np.all(np.abs(resid) <= 1e-13 * e_strip(th, r))
 
 
 # ---------------------------------------------------------------------------------------

@@ -226,6 +226,34 @@ def test_hardening_builder_on_a_tiny_grid():
     np.testing.assert_allclose(df.exact_Fx[:2], df.exact_epp_Fx[:2], rtol=1e-6)
 
 
+def test_grid_interpolation_is_exact_for_multilinear_functions():
+    """The tables' interpolation on uneven axes in five dimensions reproduces a function
+    that is linear in each coordinate (two columns), clamps coordinates outside the axes
+    to their ends, and gives the same values in blocks as point by point (more points
+    than one block)."""
+    from torlab.model.calibrated import _Grid
+
+    rng = np.random.default_rng(3)
+    axes = tuple(np.sort(rng.uniform(-2, 3, n)) for n in (4, 3, 5, 2, 6))
+    a, b = rng.normal(size=5), rng.normal(size=5)
+
+    def f(*x):  # linear in each coordinate, with products of several
+        one = 1 + sum(ai * xi for ai, xi in zip(a, x, strict=True)) + x[0] * x[3]
+        two = 2 - x[1] * x[2] * x[4] + sum(bi * xi for bi, xi in zip(b, x, strict=True))
+        return np.stack([one, two], axis=-1)
+
+    mesh = np.meshgrid(*axes, indexing="ij")
+    grid = _Grid(axes, f(*mesh))
+    n = _Grid.BLOCK + 37
+    pts = [rng.uniform(ax[0], ax[-1], n) for ax in axes]
+    np.testing.assert_allclose(grid(*pts), f(*pts), rtol=1e-12, atol=1e-12)
+    out = [np.where(rng.random(n) < 0.5, ax[0] - 1.0, ax[-1] + 1.0) for ax in axes]
+    ends = [np.where(o < ax[0], ax[0], ax[-1]) for o, ax in zip(out, axes, strict=True)]
+    np.testing.assert_allclose(grid(*out), f(*ends), rtol=1e-12, atol=1e-12)
+    one = np.array([grid(*(p[i] for p in pts)) for i in range(0, n, 97)])
+    np.testing.assert_array_equal(one, grid(*pts)[::97])
+
+
 def test_hardening_factor_at_the_nodes_and_without_hardening():
     """The factor Q is the table's exact ratio Voce/EPP over FASTSIM's at its nodes, exactly
     1 at mu_c2 = mu_c1 and at full slip."""

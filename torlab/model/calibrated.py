@@ -108,27 +108,38 @@ class _Grid:
     axes: tuple[np.ndarray, ...]
     values: np.ndarray  # shape (*len(axes), k)
 
+    #: points interpolated at once (the corners' values of a block: 2^d x points x k)
+    BLOCK = 2048
+
     def __call__(self, *coords: Any) -> np.ndarray:
-        """Interpolate at points (coordinates broadcast); shape (..., k)."""
+        """Interpolate at points (coordinates broadcast); shape (..., k).
+
+        Each point's value is the sum over the 2^d corners of its cell, taken in one
+        gather from the flat values (the corners' offsets added to the cell's flat
+        index), weighted by the product of the coordinates' fractions, multiplied in
+        the axes' order and summed over the corners in order."""
         coords = np.broadcast_arrays(*(np.asarray(c, dtype=float) for c in coords))
         shape = coords[0].shape
-        idx, frac = [], []
-        for ax, c in zip(self.axes, coords, strict=True):
+        k = self.values.shape[-1]
+        flat = self.values.reshape(-1, k)
+        strides = np.cumprod([1, *(ax.size for ax in self.axes[:0:-1])])[::-1]
+        n = coords[0].size
+        base = np.zeros(n, dtype=np.intp)
+        weights = np.ones((1, n))
+        offsets = np.zeros(1, dtype=np.intp)
+        for ax, c, stride in zip(self.axes, coords, strides, strict=True):
             c = np.minimum(np.maximum(c.ravel(), ax[0]), ax[-1])
             i = np.minimum(np.searchsorted(ax, c, side="right") - 1, ax.size - 2)
-            idx.append(i)
-            frac.append((c - ax[i]) / (ax[i + 1] - ax[i]))
-        out = np.zeros((idx[0].size, self.values.shape[-1]))
-        d = len(self.axes)
-        for corner in range(1 << d):
-            w = np.ones(idx[0].size)
-            sel = []
-            for k in range(d):
-                hi = (corner >> k) & 1
-                w = w * (frac[k] if hi else 1.0 - frac[k])
-                sel.append(idx[k] + hi)
-            out += w[:, None] * self.values[tuple(sel)]
-        return out.reshape(*shape, self.values.shape[-1])
+            f = (c - ax[i]) / (ax[i + 1] - ax[i])
+            base += i * stride
+            weights = np.concatenate([weights * (1.0 - f), weights * f])
+            offsets = np.concatenate([offsets, offsets + stride])
+        out = np.empty((n, k))
+        for lo in range(0, n, self.BLOCK):
+            sl = slice(lo, min(lo + self.BLOCK, n))
+            corners = flat[base[None, sl] + offsets[:, None]]  # (2^d, points, k)
+            out[sl] = np.sum(weights[:, sl, None] * corners, axis=0)
+        return out.reshape(*shape, k)
 
 
 def _read_csv(path: Path) -> dict[str, np.ndarray]:

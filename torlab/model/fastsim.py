@@ -115,6 +115,7 @@ from torlab.model.layers import LayerParams
 from torlab.model.strip import (
     G_strip,
     e_in_cell,
+    e_on_nodes,
     e_strip,
     gauss_legendre,
     interp_uniform,
@@ -591,34 +592,55 @@ def _bracketed_newton_groups(fdf: Any, lo: np.ndarray, hi: np.ndarray, th: np.nd
 _YIELD_TABLES_KEPT = 8
 
 
-def _yield_table(r_s: np.ndarray) -> np.ndarray:
+def _yield_table(r_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``ln e(theta; r) - ln sin(theta)`` (:func:`~torlab.model.strip.e_strip`) per strip on
-    the ``_YIELD_TABLE`` uniform angles in (0, pi], ``inf`` at pi; shape ``(ns, nt)``.
+    the ``_YIELD_TABLE`` uniform angles in (0, pi], ``inf`` at pi, and ``e(theta; r)``
+    itself on the same angles; each of shape ``(ns, nt)``.
 
     It depends on the strips' ``r = L_mue / (L1 P(y))`` alone, so it is kept for the
     latest few ``r`` (:func:`_yield_table_of`): a fit's evaluations that change the limits
-    but not the layer's elastic length find theirs, the same array as computed anew.
+    but not the layer's elastic length find theirs, the same arrays as computed anew.
     Read-only.
     """
     return _yield_table_of(np.ascontiguousarray(r_s, dtype=float).tobytes())
 
 
 @functools.lru_cache(maxsize=_YIELD_TABLES_KEPT)
-def _yield_table_of(r_bytes: bytes) -> np.ndarray:
+def _yield_table_of(r_bytes: bytes) -> tuple[np.ndarray, np.ndarray]:
     """:func:`_yield_table` of the strips' ``r`` given as its float64 bytes."""
-    table = _log_e_over_sin(np.frombuffer(r_bytes, dtype=float))
-    table.flags.writeable = False
-    return table
+    tables = _log_e_over_sin(np.frombuffer(r_bytes, dtype=float))
+    for t in tables:
+        t.flags.writeable = False
+    return tables
 
 
-def _log_e_over_sin(r: np.ndarray) -> np.ndarray:
+def _log_e_over_sin(r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``ln e(theta; r) - ln sin(theta)`` on the ``_YIELD_TABLE`` uniform angles in (0, pi]
-    for every ``r`` (one :func:`~torlab.model.strip.e_strip` call), ``inf`` at pi;
-    shape ``r.shape + (nt,)``."""
-    grid = np.linspace(0.0, math.pi, _YIELD_TABLE + 1)[1:]
-    table = np.log(e_strip(grid, r[..., None])) - np.log(np.sin(grid))
+    for every ``r`` (:func:`~torlab.model.strip.e_on_nodes`), ``inf`` at pi, and
+    ``e(theta; r)`` on those angles; each of shape ``r.shape + (nt,)``."""
+    e = e_on_nodes(r, _YIELD_TABLE)
+    table = np.log(e) - np.log(np.sin(np.arange(1, _YIELD_TABLE + 1) * (math.pi / _YIELD_TABLE)))
     table[..., -1] = np.inf  # sin(pi) = 0
-    return table
+    return table, e
+
+
+def _table_start(pick: Any, k: np.ndarray, logc: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The cell ``[lo, hi]`` of the yield tables that holds each root (``k``: the table
+    nodes before it), ``e(lo; r)`` and a start: the secant of ``ln(e / sin) - ln c``
+    through the cell's ends (the cell's middle where an end has no finite value: the
+    first cell, starting at 0, and the last, ending at pi).  ``pick(i, j)``: each
+    element's value at node ``j`` of table ``i`` of :func:`_log_e_over_sin`."""
+    nt = _YIELD_TABLE
+    h = math.pi / nt
+    lo, hi = k * h, np.where(k >= nt - 1, math.pi, (k + 1) * h)
+    j = np.maximum(k - 1, 0)
+    e0 = np.where(k > 0, pick(1, j), 0.0)
+    g0, g1 = pick(0, j) - logc, pick(0, np.minimum(k, nt - 1)) - logc  # g0 < 0 <= g1
+    with np.errstate(divide="ignore", invalid="ignore"):
+        start = lo + (hi - lo) * g0 / (g0 - g1)
+    ok = (k > 0) & np.isfinite(start) & (start > lo) & (start < hi)
+    return lo, hi, e0, np.where(ok, start, 0.5 * (lo + hi))
 
 
 def _yield_isothermal(c: np.ndarray, r: np.ndarray,
@@ -630,7 +652,11 @@ def _yield_isothermal(c: np.ndarray, r: np.ndarray,
     limit is concave up to the centre and falls after it), so a table of it per strip
     brackets the root within pi/256; a safeguarded Newton iteration
     (derivative ``sin^2/(sin + r) - c cos``; bisection whenever a step leaves the
-    bracket, :func:`_bracketed_newton`) then converges to round-off in a few steps.
+    bracket, :func:`_bracketed_newton`), started from the secant of the table's
+    ``ln(e/sin)`` through the cell's ends, then converges to round-off in a few steps.
+    Inside the cell ``e`` is the table's value at the cell's start plus the integral
+    over the rest (:func:`~torlab.model.strip.e_in_cell`: 8 Gauss nodes where the
+    integrand's singularity is far enough, ``e_strip`` elsewhere).
 
     Returns
     -------
@@ -641,40 +667,39 @@ def _yield_isothermal(c: np.ndarray, r: np.ndarray,
     strip) each group has its own table and its own stop (:func:`_bracketed_newton`).
     """
     nt = _YIELD_TABLE
-    grid = np.linspace(0.0, math.pi, nt + 1)[1:]
     logc = np.log(c)
     if groups is None:
         r_s = r[0] if r.ndim == 2 else r  # r is constant along the creepage axis
-        table = _yield_table(r_s)
+        table, e_tab = _yield_table(r_s)
         k = np.sum(table[None, :, :] < logc[..., None], axis=-1)  # table nodes before the root
-    else:
-        gid, r_group = groups
-        ug, inv = np.unique(gid[:, 0], return_inverse=True)  # a row's group (rows x strips)
-        table = _log_e_over_sin(r_group[ug])
-        inv = inv.reshape(-1)
-        k = np.empty(logc.shape, dtype=int)
-        for sl in row_chunks(logc.shape[0], logc.shape[1] * nt):  # small temporaries
-            k[sl] = np.sum(table[inv[sl]] < logc[sl, ..., None], axis=-1)
-    edges = np.r_[0.0, grid]
-    lo = edges[k]
-    hi = edges[np.minimum(k + 1, nt)]
+        strip = np.arange(k.shape[-1])
+        tabs = (table, e_tab)
+        lo, hi, e0, th0 = _table_start(lambda i, j: tabs[i][strip, j], k, logc)
 
-    if groups is None:
         def fdf(th: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             st, ct = np.sin(th), np.cos(th)
-            return e_strip(th, r) - c * st, st * st / (st + r) - c * ct
+            return e_in_cell(th, r, lo, e0) - c * st, st * st / (st + r) - c * ct
 
-        return _bracketed_newton(fdf, lo, hi, 0.5 * (lo + hi), "FASTSIM yield angle")
-    cf = np.ascontiguousarray(np.broadcast_to(c, lo.shape)).ravel()
-    rf = np.ascontiguousarray(np.broadcast_to(r, lo.shape)).ravel()
+        return _bracketed_newton(fdf, lo, hi, th0, "FASTSIM yield angle")
+    gid, r_group = groups
+    ug, inv = np.unique(gid[:, 0], return_inverse=True)  # a row's group (rows x strips)
+    table, e_tab = _log_e_over_sin(r_group[ug])
+    inv = inv.reshape(-1)
+    k = np.empty(logc.shape, dtype=int)
+    for sl in row_chunks(logc.shape[0], logc.shape[1] * nt):  # small temporaries
+        k[sl] = np.sum(table[inv[sl]] < logc[sl, ..., None], axis=-1)
+    strip = np.arange(k.shape[-1])
+    tabs = (table, e_tab)
+    lo, hi, e0, th0 = _table_start(lambda i, j: tabs[i][inv[:, None], strip, j], k, logc)
+    cf, rf, lof, e0f = (np.ascontiguousarray(np.broadcast_to(x, lo.shape)).ravel()
+                        for x in (c, r, lo, e0))
 
     def fdf_g(th: np.ndarray, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         cc, rr = cf[idx], rf[idx]
         st, ct = np.sin(th), np.cos(th)
-        return e_strip(th, rr) - cc * st, st * st / (st + rr) - cc * ct
+        return e_in_cell(th, rr, lof[idx], e0f[idx]) - cc * st, st * st / (st + rr) - cc * ct
 
-    return _bracketed_newton(fdf_g, lo, hi, 0.5 * (lo + hi), "FASTSIM yield angle",
-                             groups=groups[0])
+    return _bracketed_newton(fdf_g, lo, hi, th0, "FASTSIM yield angle", groups=groups[0])
 
 
 def _yield_thermal(c: np.ndarray, r: np.ndarray, e_nodes: np.ndarray, dT: np.ndarray,
