@@ -338,3 +338,39 @@ def test_documented_example_parses():
     res = reduce_hpt(df, meta)
     assert res.compliance.startswith("header")
     assert 0.2 < res.f_window < 0.3
+
+
+def test_protocol_summary_table_in_blocks_is_the_table_of_all_rows(monkeypatch):
+    """``data/hpt_summary.csv`` gathered a few runs at a time (blocks of 3 here) is the table
+    made of all rows at once: the same columns in the same order (an optional figure missing
+    in a whole block), the same types and the same CSV; the summary's f over the window of
+    every run."""
+    import types
+
+    import pandas as pd
+
+    import torlab.instruments.hpt as hpt
+
+    rows = []
+    for i in range(8):
+        r = {"file": f"run{i}.txt", "product": "P", "f_window": 0.1 + i / 100, "n_points": 10 + i}
+        if i in (4, 7):  # given in the second and the last block only
+            r["applied_amount"] = float(i)
+        if i != 5:
+            r["ok"] = i % 2 == 0
+        rows.append(r)
+    labelled = [(r["file"], types.SimpleNamespace(key_numbers=r)) for r in rows]
+
+    class Dest:
+        def write_csv(self, name, df, **kw):
+            self.name, self.df, self.kw = name, df, kw
+
+    whole = pd.DataFrame([dict(r) for r in rows])
+    monkeypatch.setattr(hpt, "SUMMARY_BLOCK", 3)
+    dest = Dest()
+    summary = hpt.write_section(dest, labelled)
+    assert dest.name == "data/hpt_summary.csv"
+    assert list(dest.df.columns) == list(whole.columns)
+    assert list(dest.df.dtypes) == list(whole.dtypes)
+    assert dest.df.to_csv(index=False) == whole.to_csv(index=False)
+    assert summary == {"files": 8, "f_window": {r["file"]: r["f_window"] for r in rows}}
