@@ -214,8 +214,7 @@ def write_section(dest: Any, labelled: list[tuple[str, Reduction]]) -> dict[str,
         rows = [dict(r.key_numbers) for _, r in labelled[i:i + SUMMARY_BLOCK]]
         parts.append(pd.DataFrame(rows))
         f_window.update((r["file"], r["f_window"]) for r in rows)
-    table = parts[0] if len(parts) == 1 else pd.concat(parts, ignore_index=True) if parts \
-        else pd.DataFrame()
+    table = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame()
     dest.write_csv("data/hpt_summary.csv", table,
                    allow_missing=("applied_amount", "temperature_C"))
     return {"files": len(labelled), "f_window": f_window}
