@@ -10,7 +10,13 @@ import math
 import pytest
 
 from torlab.bench import campaign as cb
-from torlab.bench.campaign import CampaignRun, campaign_sizes, campaign_table, growth
+from torlab.bench.campaign import (
+    CampaignRun,
+    campaign_sizes,
+    campaign_table,
+    growth,
+    memory_line,
+)
 
 
 def test_campaign_sizes_are_powers_of_four_up_to_n():
@@ -36,6 +42,38 @@ def test_growth_recovers_an_exact_power_law():
     assert math.isnan(growth(_rows(1.0, 1.0)[:1])[1])  # one size: no exponent
 
 
+def _with_peaks(rows: list[CampaignRun], peaks: list[float]) -> list[CampaignRun]:
+    import dataclasses
+
+    return [dataclasses.replace(r, peak_rss_mb=p) for r, p in zip(rows, peaks, strict=True)]
+
+
+def test_memory_line_recovers_a_baseline_and_a_cost_per_log():
+    # 150 MB + 10 kB per log at 104, 416, 1664 logs: exactly on the line
+    rows = _with_peaks(_rows(1.0, 1.0), [150 + 0.010 * n for n in (104, 416, 1664)])
+    base, per_log, se = memory_line(rows)
+    assert base == pytest.approx(150.0, rel=1e-12)
+    assert per_log == pytest.approx(10.0, rel=1e-12)
+    assert se == pytest.approx(0.0, abs=1e-9)
+    # off the line by +1, -2, +1 MB: the slope's standard error by the textbook formula
+    # s / sqrt(sum (x - mean x)^2), s^2 the residuals' sum of squares over n - 2, in kB
+    x = [104.0, 416.0, 1664.0]
+    y = [150 + 0.010 * n + d for n, d in zip(x, (1.0, -2.0, 1.0), strict=True)]
+    base, per_log, se = memory_line(_with_peaks(_rows(1.0, 1.0), y))
+    mx, my = sum(x) / 3, sum(y) / 3
+    sxx = sum((v - mx) ** 2 for v in x)
+    b = sum((u - mx) * (v - my) for u, v in zip(x, y, strict=True)) / sxx
+    a = my - b * mx
+    s2 = sum((v - a - b * u) ** 2 for u, v in zip(x, y, strict=True)) / 1
+    assert per_log == pytest.approx(1e3 * b, rel=1e-10)
+    assert base == pytest.approx(a, rel=1e-10)
+    assert se == pytest.approx(1e3 * math.sqrt(s2 / sxx), rel=1e-10)
+    # two sizes: the line through both, no standard error; one size: nothing
+    base, per_log, se = memory_line(rows[:2])
+    assert per_log == pytest.approx(10.0, rel=1e-12) and math.isnan(se)
+    assert all(math.isnan(v) for v in memory_line(rows[:1]))
+
+
 def test_table_has_one_row_per_size_and_the_extrapolation():
     rows = _rows(0.03, 1.0)
     rows.append(CampaignRun(4, "warm", 0.5, 0.4, 120.0, 1.0, rows[1].counts, {}))
@@ -48,6 +86,10 @@ def test_table_has_one_row_per_size_and_the_extrapolation():
     assert "| 12.5 s (25.0 s) | 10% | 0.5 s, 2% |" in text
     # a = 0.03 s per log, exponent 1: 300 s at 10 000 logs
     assert "cold wall: grows as logs^1.00; at 10 000 logs about 300 s" in text
+    # the peak memory (100 MB at every size): exponent 0, a line with no slope
+    assert ("peak memory: grows as logs^0.00; as a line, 100 MB + 0.0 kB per log ± 0.0 kB "
+            "(standard error over 3 sizes): at 10 000 logs about 100 MB, at 100 000 about "
+            "100 MB (flat would be 0 kB per log)") in text
 
 
 def test_built_campaign_is_a_valid_protocol_over_renamed_products(tmp_path, monkeypatch):

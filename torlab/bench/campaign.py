@@ -19,6 +19,13 @@ to draw wherever they were drawn (``figures_cpu``, against the run's CPU: the fi
 share of the work, whatever overlapped) and the counts (logs, fitted parameter sets,
 predicted curves, figures).  From the sizes it fits the growth exponent
 ``b`` of ``time = a * logs**b`` (least squares in log-log) and extrapolates to 10 000 logs.
+The peak memory is also fitted as a line, ``base + per_log * logs`` (:func:`memory_line`):
+a process holds the libraries and the largest log's work whatever the campaign, plus what
+it keeps of every log, so the line's slope is what "flat in campaign size" asks to be
+zero, and the line, not the power law, is what extrapolates: a power law with a small
+exponent bends the line down (peaks of 166, 182, 196 and 249 MB at 104 to 6656 logs give
+logs^0.09, about 247 MB at 10 000 logs and 306 MB at 100 000, where the line, 172 MB + 11.7
+kB per log, gives 289 MB and 1.3 GB).
 
 The machine may be shared: the load average at the start of each run is recorded, and
 the CPU time, the memory and the counts hardly depend on it (the wall time does).
@@ -42,7 +49,7 @@ from pathlib import Path
 from typing import Any
 
 __all__ = ["CampaignRun", "build_campaign", "campaign_sizes", "campaign_table", "growth",
-           "run_campaigns"]
+           "memory_line", "run_campaigns"]
 
 REPO = Path(__file__).resolve().parents[2]
 #: the marker of a built campaign (its size and the torlab version that built it)
@@ -261,9 +268,29 @@ def growth(rows: list[CampaignRun], kind: str = "cold", what: str = "wall_s"
     return float(math.exp(lna)), float(b)
 
 
+def memory_line(rows: list[CampaignRun]) -> tuple[float, float, float]:
+    """``(base [MB], per_log [kB], its standard error [kB])`` of the cold runs' peak memory
+    as the line ``base + per_log * logs`` (ordinary least squares; 1 MB = 1000 kB).  The
+    standard error needs three sizes or more (NaN with two); everything is NaN with
+    fewer than two."""
+    import numpy as np
+
+    pts = [(r.counts.get("logs", 0.0), r.peak_rss_mb) for r in rows if r.kind == "cold"]
+    pts = [(x, y) for x, y in pts if x > 0 and y > 0]
+    if len({x for x, _ in pts}) < 2:
+        return math.nan, math.nan, math.nan
+    x, y = np.array(pts, dtype=float).T
+    slope, base = np.polyfit(x, y, 1)
+    se = math.nan  # two points: the line through both
+    if x.size > 2:  # (scipy's linregress gives NaN for a flat line: its r is 0/0 there)
+        s2 = float(np.sum((y - base - slope * x) ** 2)) / (x.size - 2)
+        se = math.sqrt(s2 / float(np.sum((x - x.mean()) ** 2)))
+    return float(base), 1e3 * float(slope), 1e3 * se
+
+
 def campaign_table(rows: list[CampaignRun]) -> str:
-    """The Markdown table of the runs, the growth exponents and the extrapolation to
-    10 000 logs."""
+    """The Markdown table of the runs, the growth exponents, the peak memory's line
+    (:func:`memory_line`) and the extrapolations to 10 000 logs."""
     first_warm = {}
     for r in rows:
         if r.kind == "warm":
@@ -292,11 +319,24 @@ def campaign_table(rows: list[CampaignRun]) -> str:
             + (f" / {w.load:.1f}" if w else "") + " |")
     out = ["\n".join(lines), ""]
     for kind, what, label in (("cold", "wall_s", "cold wall"), ("cold", "cpu_s", "cold CPU"),
-                              ("warm", "wall_s", "warm wall"), ("warm", "cpu_s", "warm CPU"),
-                              ("cold", "peak_rss_mb", "peak memory")):
+                              ("warm", "wall_s", "warm wall"), ("warm", "cpu_s", "warm CPU")):
         a, b = growth(rows, kind, what)
         if math.isfinite(b):
-            unit = "MB" if what == "peak_rss_mb" else "s"
             out.append(f"- {label}: grows as logs^{b:.2f}; at 10 000 logs about "
-                       f"{a * 1e4**b:.3g} {unit}")
+                       f"{a * 1e4**b:.3g} s")
+    b = growth(rows, "cold", "peak_rss_mb")[1]
+    if math.isfinite(b):
+        out.append(_memory_text(rows, b))
     return "\n".join(out) + "\n"
+
+
+def _memory_text(rows: list[CampaignRun], b: float) -> str:
+    """The peak memory's line of the table's list: its growth exponent and its line."""
+    base, per_log, se = memory_line(rows)  # (+ 0.0 below: no "-0.0" for a flat line)
+    sizes = len({r.size for r in rows if r.kind == "cold"})
+    err = (f" ± {se:.1f} kB (standard error over {sizes} sizes)" if math.isfinite(se)
+           else " (two sizes: no standard error)")
+    return (f"- peak memory: grows as logs^{b:.2f}; as a line, {base:.0f} MB + "
+            f"{round(per_log, 1) + 0.0:.1f} kB per log{err}: at 10 000 logs about "
+            f"{base + per_log * 1e4 / 1e3:.0f} MB, at 100 000 about "
+            f"{base + per_log * 1e5 / 1e3:.0f} MB (flat would be 0 kB per log)")
