@@ -49,25 +49,26 @@ def _with_peaks(rows: list[CampaignRun], peaks: list[float]) -> list[CampaignRun
 
 
 def test_memory_line_recovers_a_baseline_and_a_cost_per_log():
-    # 150 MB + 10 kB per log at 104, 416, 1664 logs: exactly on the line
-    rows = _with_peaks(_rows(1.0, 1.0), [150 + 0.010 * n for n in (104, 416, 1664)])
+    # 150 MB + 10 kB per log at 104, 416, 1664 logs (MiB and KiB, as ru_maxrss gives them):
+    # exactly on the line
+    rows = _with_peaks(_rows(1.0, 1.0), [150 + 10 / 1024 * n for n in (104, 416, 1664)])
     base, per_log, se = memory_line(rows)
     assert base == pytest.approx(150.0, rel=1e-12)
     assert per_log == pytest.approx(10.0, rel=1e-12)
     assert se == pytest.approx(0.0, abs=1e-9)
     # off the line by +1, -2, +1 MB: the slope's standard error by the textbook formula
-    # s / sqrt(sum (x - mean x)^2), s^2 the residuals' sum of squares over n - 2, in kB
+    # s / sqrt(sum (x - mean x)^2), s^2 the residuals' sum of squares over n - 2 (in kB)
     x = [104.0, 416.0, 1664.0]
-    y = [150 + 0.010 * n + d for n, d in zip(x, (1.0, -2.0, 1.0), strict=True)]
+    y = [150 + 10 / 1024 * n + d for n, d in zip(x, (1.0, -2.0, 1.0), strict=True)]
     base, per_log, se = memory_line(_with_peaks(_rows(1.0, 1.0), y))
     mx, my = sum(x) / 3, sum(y) / 3
     sxx = sum((v - mx) ** 2 for v in x)
     b = sum((u - mx) * (v - my) for u, v in zip(x, y, strict=True)) / sxx
     a = my - b * mx
     s2 = sum((v - a - b * u) ** 2 for u, v in zip(x, y, strict=True)) / 1
-    assert per_log == pytest.approx(1e3 * b, rel=1e-10)
+    assert per_log == pytest.approx(1024 * b, rel=1e-10)
     assert base == pytest.approx(a, rel=1e-10)
-    assert se == pytest.approx(1e3 * math.sqrt(s2 / sxx), rel=1e-10)
+    assert se == pytest.approx(1024 * math.sqrt(s2 / sxx), rel=1e-10)
     # two sizes: the line through both, no standard error; one size: nothing
     base, per_log, se = memory_line(rows[:2])
     assert per_log == pytest.approx(10.0, rel=1e-12) and math.isnan(se)

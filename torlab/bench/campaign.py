@@ -24,7 +24,7 @@ a process holds the libraries and the largest log's work whatever the campaign, 
 it keeps of every log, so the line's slope is what "flat in campaign size" asks to be
 zero, and the line, not the power law, is what extrapolates: a power law with a small
 exponent bends the line down (peaks of 166, 182, 196 and 249 MB at 104 to 6656 logs give
-logs^0.09, about 247 MB at 10 000 logs and 306 MB at 100 000, where the line, 172 MB + 11.7
+logs^0.09, about 247 MB at 10 000 logs and 306 MB at 100 000, where the line, 172 MB + 12.0
 kB per log, gives 289 MB and 1.3 GB).
 
 The machine may be shared: the load average at the start of each run is recorded, and
@@ -270,7 +270,8 @@ def growth(rows: list[CampaignRun], kind: str = "cold", what: str = "wall_s"
 
 def memory_line(rows: list[CampaignRun]) -> tuple[float, float, float]:
     """``(base [MB], per_log [kB], its standard error [kB])`` of the cold runs' peak memory
-    as the line ``base + per_log * logs`` (ordinary least squares; 1 MB = 1000 kB).  The
+    as the line ``base + per_log * logs`` (ordinary least squares; the table's MB are
+    ``ru_maxrss``'s MiB, so 1 MB = 1024 kB here).  The
     standard error needs three sizes or more (NaN with two); everything is NaN with
     fewer than two."""
     import numpy as np
@@ -285,7 +286,7 @@ def memory_line(rows: list[CampaignRun]) -> tuple[float, float, float]:
     if x.size > 2:  # (scipy's linregress gives NaN for a flat line: its r is 0/0 there)
         s2 = float(np.sum((y - base - slope * x) ** 2)) / (x.size - 2)
         se = math.sqrt(s2 / float(np.sum((x - x.mean()) ** 2)))
-    return float(base), 1e3 * float(slope), 1e3 * se
+    return float(base), 1024 * float(slope), 1024 * se
 
 
 def campaign_table(rows: list[CampaignRun]) -> str:
@@ -338,5 +339,5 @@ def _memory_text(rows: list[CampaignRun], b: float) -> str:
            else " (two sizes: no standard error)")
     return (f"- peak memory: grows as logs^{b:.2f}; as a line, {base:.0f} MB + "
             f"{round(per_log, 1) + 0.0:.1f} kB per log{err}: at 10 000 logs about "
-            f"{base + per_log * 1e4 / 1e3:.0f} MB, at 100 000 about "
-            f"{base + per_log * 1e5 / 1e3:.0f} MB (flat would be 0 kB per log)")
+            f"{base + per_log * 1e4 / 1024:.0f} MB, at 100 000 about "
+            f"{base + per_log * 1e5 / 1024:.0f} MB (flat would be 0 kB per log)")
