@@ -253,17 +253,28 @@ def run_campaigns(n: int, *, jobs: int = 2, data_dir: str | os.PathLike[str] | N
     return rows
 
 
+def _points(rows: list[CampaignRun], kind: str, what: str) -> Any:
+    """``(logs, what)`` of the runs of ``kind`` as two float arrays, the runs with a
+    positive count and value only; None with fewer than two campaign sizes."""
+    import numpy as np
+
+    pts = [(r.counts.get("logs", 0.0), getattr(r, what)) for r in rows if r.kind == kind]
+    pts = [(x, y) for x, y in pts if x > 0 and y > 0]
+    if len({x for x, _ in pts}) < 2:
+        return None
+    return np.array(pts, dtype=float).T
+
+
 def growth(rows: list[CampaignRun], kind: str = "cold", what: str = "wall_s"
            ) -> tuple[float, float]:
     """``(a, b)`` of ``what = a * logs**b`` over the runs of ``kind`` (least squares in
     log-log; NaN with fewer than two sizes)."""
     import numpy as np
 
-    pts = [(r.counts.get("logs", 0.0), getattr(r, what)) for r in rows if r.kind == kind]
-    pts = [(x, y) for x, y in pts if x > 0 and y > 0]
-    if len({x for x, _ in pts}) < 2:
+    pts = _points(rows, kind, what)
+    if pts is None:
         return math.nan, math.nan
-    x, y = np.log([p[0] for p in pts]), np.log([p[1] for p in pts])
+    x, y = np.log(pts)
     b, lna = np.polyfit(x, y, 1)
     return float(math.exp(lna)), float(b)
 
@@ -271,16 +282,14 @@ def growth(rows: list[CampaignRun], kind: str = "cold", what: str = "wall_s"
 def memory_line(rows: list[CampaignRun]) -> tuple[float, float, float]:
     """``(base [MB], per_log [kB], its standard error [kB])`` of the cold runs' peak memory
     as the line ``base + per_log * logs`` (ordinary least squares; the table's MB are
-    ``ru_maxrss``'s MiB, so 1 MB = 1024 kB here).  The
-    standard error needs three sizes or more (NaN with two); everything is NaN with
-    fewer than two."""
+    ``ru_maxrss``'s MiB, so 1 MB = 1024 kB here).  The standard error needs three sizes or
+    more (NaN with two); everything is NaN with fewer than two."""
     import numpy as np
 
-    pts = [(r.counts.get("logs", 0.0), r.peak_rss_mb) for r in rows if r.kind == "cold"]
-    pts = [(x, y) for x, y in pts if x > 0 and y > 0]
-    if len({x for x, _ in pts}) < 2:
+    pts = _points(rows, "cold", "peak_rss_mb")
+    if pts is None:
         return math.nan, math.nan, math.nan
-    x, y = np.array(pts, dtype=float).T
+    x, y = pts
     slope, base = np.polyfit(x, y, 1)
     se = math.nan  # two points: the line through both
     if x.size > 2:  # (scipy's linregress gives NaN for a flat line: its r is 0/0 there)
