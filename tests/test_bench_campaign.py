@@ -158,3 +158,65 @@ def test_campaign_bench_passes_fit_figures_to_its_runs(tmp_path, cli, monkeypatc
     r = cli("bench", "--campaign", "16", "--fit-figures", "few", "-o", tmp_path / "c", "-q")
     assert r.exit_code == 2 and "--fit-figures: 'few'" in r.output
     assert len(seen) == 1 and not (tmp_path / "c").exists()
+
+
+def test_table_shows_the_run_with_one_log_added_and_its_memory_line():
+    """The runs with one log added get their own column (wall, CPU, peak) and their own
+    growth exponents and memory line: what a lab's rerun after a new log costs."""
+    import dataclasses
+
+    cold = _rows(0.03, 1.0)
+    # one more log each; 120 MB + 20 kB per log (MiB and KiB)
+    added = [dataclasses.replace(r, kind="added", wall_s=0.01 * (r.counts["logs"] + 1),
+                                 cpu_s=0.02 * (r.counts["logs"] + 1),
+                                 peak_rss_mb=120 + 20 / 1024 * (r.counts["logs"] + 1),
+                                 counts=dict(r.counts, logs=r.counts["logs"] + 1))
+             for r in cold]
+    text = campaign_table(cold + added)
+    assert sum(line.startswith("| ") for line in text.splitlines()) == 4  # header, 3 sizes
+    # 4x: 417 logs: 4.17 s wall, 8.34 s CPU, 120 + 20 * 417 / 1024 = 128.1 MB
+    assert "| 100 MB | 4.2 s (8.3 s), 128 MB |" in text
+    assert "one log added, wall: grows as logs^1.00; at 10 000 logs about 100 s" in text
+    assert ("peak memory, one log added: grows as logs^0.08; as a line, 120 MB + 20.0 kB "
+            "per log ± 0.0 kB (standard error over 3 sizes): at 10 000 logs about 315 MB"
+            ) in text
+    assert "- peak memory: grows as logs^0.00; as a line, 100 MB + 0.0 kB per log" in text
+    assert memory_line(cold + added, "added")[1] == pytest.approx(20.0, rel=1e-12)
+
+
+def test_the_run_with_one_log_added_finds_it_and_leaves_the_campaign_as_built(
+        tmp_path, monkeypatch):
+    """The third run of a size sees one log more, a copy of the first, under
+    :data:`ADDED_LOG`; the log is gone after it (a failed run too), and a leftover of a
+    stopped benchmark is removed when the campaign is reused."""
+    import torlab.synth.hpt as synth
+
+    design = synth.paper_c_design
+    monkeypatch.setattr(synth, "paper_c_design", lambda seed: design(seed)[:2])
+    proto = cb.build_campaign(tmp_path / "c1", 1)
+    data = proto.parent / "data"
+    logs = sorted(p.name for p in data.glob("hpt_*.txt"))
+    seen = []
+
+    def fake_run(argv, cwd):
+        seen.append(sorted(p.name for p in data.glob("hpt_*.txt")))
+        if len(seen) == 3:
+            assert (data / cb.ADDED_LOG).read_bytes() == (data / logs[0]).read_bytes()
+        return 1.0, 1.0, 100.0
+
+    monkeypatch.setattr(cb, "_run", fake_run)
+    monkeypatch.setattr(cb, "_counts", lambda out: ({"logs": 2.0}, {}))
+    rows = cb.run_campaigns(1, data_dir=tmp_path)
+    assert [r.kind for r in rows] == ["cold", "warm", "added"]
+    assert seen == [logs, logs, [*logs, cb.ADDED_LOG]]
+    assert sorted(p.name for p in data.glob("hpt_*.txt")) == logs
+
+    def failing(argv, cwd):
+        raise RuntimeError("torlab run exited with 1")
+
+    monkeypatch.setattr(cb, "_run", failing)
+    with pytest.raises(RuntimeError):
+        cb.run_campaigns(1, data_dir=tmp_path, warm_runs=0)
+    (data / cb.ADDED_LOG).write_text("left by a stopped benchmark")
+    cb.build_campaign(tmp_path / "c1", 1)
+    assert sorted(p.name for p in data.glob("hpt_*.txt")) == logs

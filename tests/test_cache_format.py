@@ -173,6 +173,23 @@ def test_json_tree_outside_an_entry_is_unchanged():
     assert "b64" in tree["v"][0][1] and "ref" not in json.dumps(tree)
 
 
+def test_a_list_of_plain_values_decodes_as_it_is_and_any_other_list_item_by_item():
+    """A list whose items are all plain JSON values (a column of text) is taken as it is,
+    as a list of its own; a list holding an encoded value anywhere decodes that value (a
+    tuple, an array), and an unknown tag in it is refused as before."""
+    from torlab.codec import BadEntry, decode_value
+
+    tree = ["a", None, 1, 2.5, True, "é"]
+    got = decode_value(tree)
+    assert got == tree and got is not tree
+    mixed = ["a", 1, {"__t": "tuple", "v": [1, ["x", 2]]}, [3, {"__t": "tuple", "v": []}]]
+    assert decode_value(mixed) == ["a", 1, (1, ["x", 2]), [3, ()]]
+    with pytest.raises(BadEntry, match="unknown tag"):
+        decode_value(["a", "b", {"__t": "no-such-tag"}])
+    with pytest.raises(BadEntry, match="not an encoded value"):
+        decode_value(["a", {"x": 1}])
+
+
 def test_plain_leaves_encode_as_the_generic_path_does(tmp_path, monkeypatch):
     """Plain leaves (None, bool, int, float, str) skip the search for shared objects; the
     entry is byte for byte the one the generic path writes, subclasses (numpy scalars, an

@@ -49,6 +49,15 @@ def _protocol(tmp_path: Path, text: str, pattern: str, n: int = 4) -> Path:
     return p
 
 
+def _light(rec: dict[str, Any]) -> Any:
+    """An index record's light value, read as the index's format describes it (base64 of
+    zlib-compressed JSON), independently of the cache's own reader."""
+    import base64
+    import zlib
+
+    return json.loads(zlib.decompress(base64.b64decode(rec["light"], validate=True)))
+
+
 def _files(out: Path) -> dict[str, tuple[int, int, bytes]]:
     return {str(f.relative_to(out)): (f.stat().st_ino, f.stat().st_mtime_ns, f.read_bytes())
             for f in sorted(out.rglob("*")) if f.is_file()}
@@ -181,7 +190,7 @@ def test_index_remakes_each_light_form_from_the_kept_reduction(tmp_path, monkeyp
     impl = get_instrument("hpt").impl()
     rc = ResultCache(out / CACHE_DIR)
     entries = rc._read_index()["entries"]
-    lights = {n: r["light"] for n, r in entries.items() if "light" in r}
+    lights = {n: _light(r) for n, r in entries.items() if "light" in r}
     assert len(lights) == len(held)
     rc._load_index()
     for name, j in lights.items():
@@ -194,7 +203,7 @@ def test_index_remakes_each_light_form_from_the_kept_reduction(tmp_path, monkeyp
     assert held and all(isinstance(x, LightOf) for x in held)
     assert r.timing["figures_cpu"] == r.summary["run"]["timing"]["figures_cpu"] == 0
     again = ResultCache(out / CACHE_DIR)._read_index()["entries"]
-    assert {n: r["light"] for n, r in again.items() if "light" in r} == lights
+    assert {n: _light(r) for n, r in again.items() if "light" in r} == lights
 
 
 def test_the_index_read_at_the_start_keeps_no_record_the_run_consulted(tmp_path, monkeypatch,
@@ -425,25 +434,26 @@ def test_light_value_taken_twice_from_the_index(tmp_path, monkeypatch):
     assert h1 and h2 and a == b == {"n": 7, "restored": True} and a is not b
     assert loads == []  # from the index, not the entry
     c.write_index()
-    assert [r["light"] for r in ResultCache(tmp_path / "c")._read_index()["entries"].values()
+    assert [_light(r) for r in ResultCache(tmp_path / "c")._read_index()["entries"].values()
             ] == [{"n": 7}]
 
 
 def test_index_written_in_pieces_is_json_of_the_whole_and_signed(tmp_path):
-    """The index is written in pieces (never whole in memory): the same bytes as
-    ``json.dumps`` of the whole index, its signature over them (a later run reads it), a
-    light value remade from what the run keeps, and an entry whose light value is not
-    plain JSON written without it (the others keep theirs)."""
+    """The index is written in pieces (never whole in memory): JSON of the whole index
+    (the pieces joined where they should be), its signature over it (a later run reads it),
+    a light value remade from what the run keeps and packed (base64 of compressed JSON:
+    a run holds the index it read as this text until it asks for the value), and an entry
+    whose light value is not plain JSON written without it (the others keep theirs)."""
     from torlab.protocols.cache import INDEX, INDEX_PIECE, LightOf, ResultCache
 
     c = ResultCache(tmp_path / "c")
     c._load_index()
-    want = {}
+    want, lights = {}, {}
     for i in range(2 * INDEX_PIECE + 345):  # three pieces, the last one part-filled
         name = f"k-{i:04d}.tlc"
         rec = {"kind": "hpt", "st": [i, 2 * i, 3 * i, 4 * i]}
         c._next[name] = dict(rec, light=LightOf(lambda v: {"n": v, "t": "é"}, i))
-        want[name] = dict(rec, light={"n": i, "t": "é"})
+        want[name], lights[name] = rec, {"n": i, "t": "é"}
         c.used.add(name)
     c._next["odd.tlc"] = {"kind": "x", "st": [1, 2, 3, 4], "light": LightOf(set, ())}
     c.used.add("odd.tlc")
@@ -454,13 +464,17 @@ def test_index_written_in_pieces_is_json_of_the_whole_and_signed(tmp_path):
     c.write_index()
     data = (tmp_path / "c" / INDEX).read_bytes()
     text = data[data.index(b"\n") + 1:]
+    whole = json.loads(text)
     from torlab import __version__
 
-    assert text == json.dumps({"torlab": __version__, "entries": want, "files": files,
-                               "run": None}, separators=(",", ":")).encode()
+    assert text == json.dumps(whole, separators=(",", ":")).encode()
+    assert whole["torlab"] == __version__ and whole["files"] == files and whole["run"] is None
+    got = whole["entries"]
+    assert {n: _light(r) for n, r in got.items() if "light" in r} == lights
+    assert {n: {k: v for k, v in r.items() if k != "light"} for n, r in got.items()} == want
     again = ResultCache(tmp_path / "c")._read_index()
-    assert again["entries"] == want and again["files"] == files  # signed: read back
-    (tmp_path / "c" / INDEX).write_bytes(data.replace(b'"n":7,', b'"n":8,'))
+    assert again == whole  # signed: read back
+    (tmp_path / "c" / INDEX).write_bytes(data.replace(b'"st":[7,14,21,28]', b'"st":[7,14,21,29]'))
     assert ResultCache(tmp_path / "c")._read_index() is None  # and checked
 
 
@@ -651,3 +665,72 @@ def test_a_fit_gives_its_estimates_only_to_a_protocol_that_compares(tmp_path, mo
     p.write_text(p.read_text() + "  compare:\n  - quantities: [L_mue]\n")
     r = run_protocol(p, tmp_path / "compared", figures=False, cache=False)
     assert sorted(made) == ["OFM1", "OFM2"] and "compare" in r.sections
+
+
+def test_the_index_read_at_the_start_holds_each_light_value_as_packed_text(tmp_path):
+    """A run reads the whole index even when one file changed; each light value stays the
+    compact text the index holds (not a tree of Python objects) until the run asks for it,
+    and reads back as the value that was written."""
+    from torlab.protocols.cache import Light, ResultCache
+
+    light = Light(_small, _restored)
+    c = ResultCache(tmp_path / "c")
+    for n in range(3):
+        c.store("k", {"n": n, "data": list(range(100))}, x=n)
+    for n in range(3):
+        c.lookup_light("k", light, x=n)
+    c.write_index()
+    c = ResultCache(tmp_path / "c")
+    c._load_index()
+    assert len(c._index) == 3 and all(type(r["light"]) is str for r in c._index.values())
+    assert [c.lookup_light("k", light, x=n) for n in range(3)] == [
+        (True, {"n": n, "restored": True}) for n in range(3)]
+
+
+@pytest.mark.parametrize("damage", ["not base64 !", "bm90IHpsaWI=", "truncated", "trailing",
+                                    "too long", "not json"])
+def test_a_packed_light_value_that_is_not_one_is_refused(monkeypatch, damage):
+    """What :func:`unpack_light` is given is checked: base64, a whole zlib stream with
+    nothing after it, inflated no further than the limit, JSON -- else ValueError (an index
+    record whose light value is refused is read from its entry instead)."""
+    import base64
+    import zlib
+
+    import torlab.protocols.cache as cache
+
+    def b64(raw: bytes) -> str:
+        return base64.b64encode(raw).decode()
+
+    good = zlib.compress(b'{"n":1}')
+    assert cache.unpack_light(b64(good)) == {"n": 1} == cache.unpack_light(cache.pack_light(
+        {"n": 1}))
+    monkeypatch.setattr(cache, "LIGHT_MAX_BYTES", 1000)
+    text = {"not base64 !": "not base64 !", "bm90IHpsaWI=": "bm90IHpsaWI=",
+            "truncated": b64(good[:-3]), "trailing": b64(good + b"x"),
+            "too long": b64(zlib.compress(b'"' + b"a" * 5000 + b'"')),
+            "not json": b64(zlib.compress(b"{n: 1}"))}[damage]
+    with pytest.raises(ValueError):
+        cache.unpack_light(text)
+
+
+def test_an_index_light_value_refused_is_read_from_its_entry(tmp_path, monkeypatch):
+    """A signed index whose light value does not unpack costs a read of the entry, not a
+    wrong value or an error."""
+    from torlab.protocols.cache import Light, ResultCache
+
+    light = Light(_small, _restored)
+    c = ResultCache(tmp_path / "c")
+    c.store("k", {"n": 7, "data": list(range(100))}, x=1)
+    c.lookup_light("k", light, x=1)
+    (rec,) = c._next.values()
+    rec["light"] = "bm90IHpsaWI="  # base64, not of a zlib stream: written as it is
+    c.write_index()
+    c = ResultCache(tmp_path / "c")
+    c._load_index()
+    assert [r["light"] for r in c._index.values()] == ["bm90IHpsaWI="]
+    loads = []
+    real_load = ResultCache._load
+    monkeypatch.setattr(ResultCache, "_load",
+                        lambda self, n, k, *rest: loads.append(n) or real_load(self, n, k, *rest))
+    assert c.lookup_light("k", light, x=1) == (True, {"n": 7, "restored": True})
+    assert len(loads) == 1

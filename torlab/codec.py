@@ -324,6 +324,10 @@ def decode_value(t: Any, *, depth: int = 0) -> Any:
     return v
 
 
+#: the JSON values that decode to themselves (a list of only these is taken as it is)
+_PLAIN = frozenset({type(None), bool, int, float, str})
+
+
 def _decode(t: Any, depth: int) -> Any:
     if depth > 200:
         raise BadEntry("nested too deeply")
@@ -331,6 +335,8 @@ def _decode(t: Any, depth: int) -> Any:
         return t
     d = depth + 1
     if isinstance(t, list):
+        if all(type(x) in _PLAIN for x in t):  # a column of text: its values as they are
+            return list(t)
         return [decode_value(x, depth=d) for x in t]
     if not isinstance(t, dict) or not isinstance(t.get("__t"), str):
         raise BadEntry("not an encoded value")

@@ -9,7 +9,12 @@ comparisons of its four products by name), and runs each
 with ``torlab run`` as a user does:
 
 * **cold**: into a fresh folder (everything reduced, fitted, predicted and drawn);
-* **warm**: ``--force`` into the same folder, nothing changed (everything from the cache).
+* **warm**: ``--force`` into the same folder, nothing changed (everything from the cache);
+* **one log added**: ``--force`` into the same folder with one log more (a copy of the
+  first log under another name, :data:`ADDED_LOG`, removed after the run): what a lab's
+  protocol does when a new log comes.  Its reduction, its product's fits, curve and
+  figures are made again, the rest comes from the cache -- after reading the whole
+  cache index, so its peak memory grows with the campaign too.
 
 For every run it records the wall time, the CPU time (user + system of the run and every
 process it started: ``os.wait4``), the peak resident memory of the largest single process
@@ -19,7 +24,8 @@ to draw wherever they were drawn (``figures_cpu``, against the run's CPU: the fi
 share of the work, whatever overlapped) and the counts (logs, fitted parameter sets,
 predicted curves, figures).  From the sizes it fits the growth exponent
 ``b`` of ``time = a * logs**b`` (least squares in log-log) and extrapolates to 10 000 logs.
-The peak memory is also fitted as a line, ``base + per_log * logs`` (:func:`memory_line`):
+The peak memory is also fitted as a line, ``base + per_log * logs`` (:func:`memory_line`,
+for the cold runs and for the runs with one log added):
 a process holds the libraries and the largest log's work whatever the campaign, plus what
 it keeps of every log, so the line's slope is what "flat in campaign size" asks to be
 zero, and the line, not the power law, is what extrapolates: a power law with a small
@@ -54,6 +60,10 @@ __all__ = ["CampaignRun", "build_campaign", "campaign_sizes", "campaign_table", 
 REPO = Path(__file__).resolve().parents[2]
 #: the marker of a built campaign (its size and the torlab version that built it)
 MARKER = "campaign.json"
+#: the log a run with one log added finds in the campaign's ``data/`` (matched by the
+#: protocol's ``data/hpt_*.txt``, sorted last); removed after that run, and by
+#: :func:`build_campaign` should a run have been stopped before
+ADDED_LOG = "hpt_zz_added.txt"
 
 
 @dataclass
@@ -65,7 +75,7 @@ class CampaignRun:
     size
         Seeds in the campaign (1x, 4x ...).
     kind
-        ``"cold"`` or ``"warm"``.
+        ``"cold"``, ``"warm"`` or ``"added"`` (one log added; module docstring).
     wall_s, cpu_s
         Wall time; CPU time (user + system) of the run and every process it started.
     peak_rss_mb
@@ -155,6 +165,7 @@ def build_campaign(folder: str | os.PathLike[str], n: int) -> Path:
             "protocol": hashlib.sha256(proto.encode()).hexdigest()}
     try:
         if json.loads(marker.read_text(encoding="utf-8")) == want:
+            (folder / "data" / ADDED_LOG).unlink(missing_ok=True)  # a stopped run's
             return folder / "protocol.yaml"
     except (OSError, ValueError):
         pass
@@ -211,8 +222,10 @@ def _counts(out: Path) -> tuple[dict[str, float], dict[str, float]]:
 
 def run_campaigns(n: int, *, jobs: int = 2, data_dir: str | os.PathLike[str] | None = None,
                   python: str | None = None, extra_args: tuple[str, ...] = (),
-                  warm_runs: int = 1, progress: Any = None) -> list[CampaignRun]:
-    """Cold and warm runs of the campaigns of :func:`campaign_sizes` (module docstring).
+                  warm_runs: int = 1, added: bool = True,
+                  progress: Any = None) -> list[CampaignRun]:
+    """Cold, warm and one-log-added runs of the campaigns of :func:`campaign_sizes`
+    (module docstring).
 
     Parameters
     ----------
@@ -229,6 +242,8 @@ def run_campaigns(n: int, *, jobs: int = 2, data_dir: str | os.PathLike[str] | N
         More ``torlab run`` options (``--scheduler ADDRESS`` ...).
     warm_runs
         Warm runs per size (each is a row).
+    added
+        A run with one log added per size, after the warm runs.
     progress
         Called with a line before each step.
     """
@@ -241,16 +256,33 @@ def run_campaigns(n: int, *, jobs: int = 2, data_dir: str | os.PathLike[str] | N
             say(f"campaign {size}x: building ...")
             proto = build_campaign(root / f"c{size}", size)
             out = Path(tmp) / f"out{size}"
-            for k in range(1 + warm_runs):
-                kind = "cold" if k == 0 else "warm"
-                say(f"campaign {size}x: {kind} run ...")
+            kinds = ["cold"] + ["warm"] * warm_runs + (["added"] if added else [])
+            for k, kind in enumerate(kinds):
+                say(f"campaign {size}x: {kind if kind != 'added' else 'one log added'} "
+                    "run ...")
                 argv = [py, "-m", "torlab", "run", str(proto), "-o", str(out), "--jobs",
                         str(jobs), "--quiet", *extra_args, *(["--force"] if k else [])]
                 load = os.getloadavg()[0] if hasattr(os, "getloadavg") else math.nan
-                wall, cpu, rss = _run(argv, proto.parent)
+                extra = _add_log(proto) if kind == "added" else None
+                try:
+                    wall, cpu, rss = _run(argv, proto.parent)
+                finally:
+                    if extra is not None:
+                        extra.unlink(missing_ok=True)
                 counts, timing = _counts(out)
                 rows.append(CampaignRun(size, kind, wall, cpu, rss, load, counts, timing))
     return rows
+
+
+def _add_log(proto: Path) -> Path:
+    """A copy of the campaign's first log as :data:`ADDED_LOG` beside it (its path)."""
+    import shutil
+
+    data = proto.parent / "data"
+    first = min(p for p in data.glob("hpt_*.txt") if p.name != ADDED_LOG)
+    extra = data / ADDED_LOG
+    shutil.copyfile(first, extra)
+    return extra
 
 
 def _points(rows: list[CampaignRun], kind: str, what: str) -> Any:
@@ -279,14 +311,14 @@ def growth(rows: list[CampaignRun], kind: str = "cold", what: str = "wall_s"
     return float(math.exp(lna)), float(b)
 
 
-def memory_line(rows: list[CampaignRun]) -> tuple[float, float, float]:
-    """``(base [MB], per_log [kB], its standard error [kB])`` of the cold runs' peak memory
-    as the line ``base + per_log * logs`` (ordinary least squares; the table's MB are
-    ``ru_maxrss``'s MiB, so 1 MB = 1024 kB here).  The standard error needs three sizes or
-    more (NaN with two); everything is NaN with fewer than two."""
+def memory_line(rows: list[CampaignRun], kind: str = "cold") -> tuple[float, float, float]:
+    """``(base [MB], per_log [kB], its standard error [kB])`` of the peak memory of the
+    runs of ``kind`` as the line ``base + per_log * logs`` (ordinary least squares; the
+    table's MB are ``ru_maxrss``'s MiB, so 1 MB = 1024 kB here).  The standard error needs
+    three sizes or more (NaN with two); everything is NaN with fewer than two."""
     import numpy as np
 
-    pts = _points(rows, "cold", "peak_rss_mb")
+    pts = _points(rows, kind, "peak_rss_mb")
     if pts is None:
         return math.nan, math.nan, math.nan
     x, y = pts
@@ -299,20 +331,20 @@ def memory_line(rows: list[CampaignRun]) -> tuple[float, float, float]:
 
 
 def campaign_table(rows: list[CampaignRun]) -> str:
-    """The Markdown table of the runs, the growth exponents, the peak memory's line
-    (:func:`memory_line`) and the extrapolations to 10 000 logs."""
-    first_warm = {}
+    """The Markdown table of the runs, the growth exponents, the peak memory's lines
+    (:func:`memory_line`, cold and with one log added) and the extrapolations to 10 000
+    logs."""
+    first: dict[tuple[str, int], CampaignRun] = {}
     for r in rows:
-        if r.kind == "warm":
-            first_warm.setdefault(r.size, r)
+        first.setdefault((r.kind, r.size), r)
     lines = ["| size | logs / sets / curves / figures | cold, wall (CPU) | figure stage, share "
              "of cold wall | figures' CPU, share of cold CPU | warm rerun, wall (CPU) | "
-             "peak memory | report.html | load |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "peak memory | one log added, wall (CPU), peak memory | report.html | load |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         if r.kind != "cold":
             continue
-        w = first_warm.get(r.size)
+        w, a = first.get(("warm", r.size)), first.get(("added", r.size))
         c = r.counts
         fig = r.timing.get("figures", math.nan)
         share = fig / r.timing["total"] if r.timing.get("total") else math.nan
@@ -325,28 +357,34 @@ def campaign_table(rows: list[CampaignRun]) -> str:
             f"{cpu_share} | "
             + (f"{w.wall_s:.2f} s ({w.cpu_s:.2f} s)" if w else "-")
             + f" | {max(r.peak_rss_mb, w.peak_rss_mb if w else 0):.0f} MB | "
-            f"{c['report_html_mb']:.1f} MB | {r.load:.1f}"
-            + (f" / {w.load:.1f}" if w else "") + " |")
+            + (f"{a.wall_s:.1f} s ({a.cpu_s:.1f} s), {a.peak_rss_mb:.0f} MB" if a else "-")
+            + f" | {c['report_html_mb']:.1f} MB | {r.load:.1f}"
+            + "".join(f" / {x.load:.1f}" for x in (w, a) if x) + " |")
     out = ["\n".join(lines), ""]
     for kind, what, label in (("cold", "wall_s", "cold wall"), ("cold", "cpu_s", "cold CPU"),
-                              ("warm", "wall_s", "warm wall"), ("warm", "cpu_s", "warm CPU")):
+                              ("warm", "wall_s", "warm wall"), ("warm", "cpu_s", "warm CPU"),
+                              ("added", "wall_s", "one log added, wall"),
+                              ("added", "cpu_s", "one log added, CPU")):
         a, b = growth(rows, kind, what)
         if math.isfinite(b):
             out.append(f"- {label}: grows as logs^{b:.2f}; at 10 000 logs about "
                        f"{a * 1e4**b:.3g} s")
-    b = growth(rows, "cold", "peak_rss_mb")[1]
-    if math.isfinite(b):
-        out.append(_memory_text(rows, b))
+    for kind, label in (("cold", "peak memory"), ("added", "peak memory, one log added")):
+        b = growth(rows, kind, "peak_rss_mb")[1]
+        if math.isfinite(b):
+            out.append(_memory_text(rows, b, kind, label))
     return "\n".join(out) + "\n"
 
 
-def _memory_text(rows: list[CampaignRun], b: float) -> str:
-    """The peak memory's line of the table's list: its growth exponent and its line."""
-    base, per_log, se = memory_line(rows)  # (+ 0.0 below: no "-0.0" for a flat line)
-    sizes = len({r.size for r in rows if r.kind == "cold"})
+def _memory_text(rows: list[CampaignRun], b: float, kind: str = "cold",
+                 label: str = "peak memory") -> str:
+    """The peak memory's line of the table's list (the runs of ``kind``): its growth
+    exponent and its line."""
+    base, per_log, se = memory_line(rows, kind)  # (+ 0.0 below: no "-0.0" for a flat line)
+    sizes = len({r.size for r in rows if r.kind == kind})
     err = (f" ± {se:.1f} kB (standard error over {sizes} sizes)" if math.isfinite(se)
            else " (two sizes: no standard error)")
-    return (f"- peak memory: grows as logs^{b:.2f}; as a line, {base:.0f} MB + "
+    return (f"- {label}: grows as logs^{b:.2f}; as a line, {base:.0f} MB + "
             f"{round(per_log, 1) + 0.0:.1f} kB per log{err}: at 10 000 logs about "
             f"{base + per_log * 1e4 / 1024:.0f} MB, at 100 000 about "
             f"{base + per_log * 1e5 / 1024:.0f} MB (flat would be 0 kB per log)")

@@ -22,9 +22,9 @@ def bench_cmd(
     campaign: Annotated[int | None, typer.Option(
         "--campaign", metavar="N", help="Instead: how a protocol run grows with the campaign. "
         "Builds the 1x, 4x, 16x ... N x virtual Paper C campaigns (torlab synth hpt seeds "
-        "1..N, paper_c's settings), runs each cold and warm with torlab run, and writes "
-        "the table (time, CPU, peak memory, report size, growth exponents, the peak memory's "
-        "baseline and cost per log) to OUT/campaign.md "
+        "1..N, paper_c's settings), runs each with torlab run cold, warm and with one log "
+        "added, and writes the table (time, CPU, peak memory, report size, growth "
+        "exponents, the peak memory's baseline and cost per log) to OUT/campaign.md "
         "and campaign.csv.", min=1)] = None,
     campaign_data: Annotated[str | None, typer.Option(
         "--campaign-data", metavar="DIR", help="With --campaign: build the campaigns in DIR "

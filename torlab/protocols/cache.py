@@ -52,7 +52,8 @@ from typing import Any, TypeVar
 from torlab.codec import BadEntry, NotCacheable, decode_with_arrays, encode_with_arrays
 
 __all__ = ["CACHE_DIR", "FORMAT", "FORMAT_VERSION", "INDEX", "Encoded", "Encoding", "EntryRef",
-           "FigureStore", "Light", "ResultCache", "cache_key_file"]
+           "FigureStore", "Light", "ResultCache", "cache_key_file", "pack_light",
+           "unpack_light"]
 
 CACHE_DIR = ".cache"
 FORMAT = "torlab-cache"
@@ -64,10 +65,13 @@ SUFFIX = ".tlc"
 #: entries larger than this are not read (a crafted folder must not exhaust memory)
 MAX_ENTRY_BYTES = 512 << 20
 #: the cache's index: every entry of the last run, its file's status and the light values
-#: of some kinds; the input files' hashes (signed JSON: ``torlab-cache-index 1 <hmac>``)
+#: of some kinds (:func:`pack_light`); the input files' hashes (signed JSON:
+#: ``torlab-cache-index 2 <hmac>``)
 INDEX = "index.tlc"
 INDEX_FORMAT = "torlab-cache-index"
-INDEX_VERSION = 1
+INDEX_VERSION = 2
+#: a light value in the index is refused if its JSON is longer than this [bytes]
+LIGHT_MAX_BYTES = 1 << 24
 #: entries of the index encoded, signed and written at a time (:meth:`ResultCache.write_index`)
 INDEX_PIECE = 250
 #: an input file changed less than this before it was hashed is hashed again next time [ns]
@@ -94,7 +98,8 @@ def _valid_index(idx: Any) -> bool:
         st = rec.get("st") if isinstance(rec, dict) else None
         if not (isinstance(name, str) and name.endswith(SUFFIX) and isinstance(st, list)
                 and len(st) == 4 and all(type(x) is int for x in st)
-                and isinstance(rec.get("kind"), str)):
+                and isinstance(rec.get("kind"), str)
+                and isinstance(rec.get("light", ""), str)):
             return False
     for path, rec in idx["files"].items():
         if not (isinstance(path, str) and isinstance(rec, list) and len(rec) == 6
@@ -430,8 +435,8 @@ class ResultCache:
         The record leaves the index read at the start either way: one this run uses goes
         to the index it writes (where a second look finds it), one of a file written
         since (a results folder copied elsewhere has every file new) is let go with its
-        light JSON, which at a 64x campaign is 42 MB of Python objects when kept to the
-        end of the run.
+        light value (:func:`pack_light`), which at a 64x campaign is about 8 MB of text
+        when kept to the end of the run (42 MB as JSON objects).
         """
         rec = self._index.pop(name, None) or self._next.get(name)  # asked for again
         if rec is None or self.folder is None:
@@ -508,10 +513,12 @@ class ResultCache:
             name = self._entry(kind, parts)
             rec = self._unchanged(name)
             if rec is not None and rec.get("kind") == kind and "light" in rec:
-                kept = rec["light"]  # JSON; a LightOf where this run restored it before
+                # packed (pack_light); a LightOf where this run restored it before
+                kept = rec["light"]
                 try:
-                    value = light.restore(kept() if isinstance(kept, LightOf) else kept)
-                except (TypeError, ValueError, KeyError, AttributeError):
+                    value = light.restore(kept() if isinstance(kept, LightOf)
+                                          else unpack_light(kept))
+                except (TypeError, ValueError, KeyError, AttributeError, RecursionError):
                     value = None
                 if value is not None:
                     self.hits += 1
@@ -701,9 +708,10 @@ class ResultCache:
         would write it, in pieces of :data:`INDEX_PIECE` entries or input files' hash
         records: at a 64x campaign the index is 17 MB, which as one text and its bytes took
         35 MB more of the run's memory at its very end (pieces of 1000 entries: 6 MB); the
-        hash records of a 128x campaign's 13 315 files are 2.5 MB of text.  An entry whose
-        light value is not plain JSON is written without it."""
-        dumps = json.JSONEncoder(separators=(",", ":"), default=_light_json).encode
+        hash records of a 128x campaign's 13 315 files are 2.5 MB of text.  A light value is
+        written packed (:func:`pack_light`); an entry whose light value is not plain JSON
+        is written without it."""
+        dumps = json.JSONEncoder(separators=(",", ":")).encode
 
         def members(pairs: list[tuple[str, Any]], value: Callable[[Any], str]) -> Iterator[str]:
             """``"key":value`` members of a JSON object, :data:`INDEX_PIECE` at a time."""
@@ -712,10 +720,14 @@ class ResultCache:
                               for j, (k, v) in enumerate(pairs[i:i + INDEX_PIECE], start=i))
 
         def entry(rec: dict[str, Any]) -> str:
-            try:
+            kept = rec.get("light")
+            if kept is None:
                 return dumps(rec)
+            try:
+                packed = kept if isinstance(kept, str) else pack_light(kept)
             except (TypeError, ValueError):  # a light value that is not plain JSON
                 return dumps({k: v for k, v in rec.items() if k != "light"})
+            return dumps({**rec, "light": packed})
 
         yield f'{{"torlab":{dumps(version)},"entries":{{'
         yield from members([(n, r) for n, r in self._next.items() if n in self.used], entry)
@@ -935,6 +947,50 @@ class LightOf:
 
     def __call__(self) -> Any:
         return self.light(self.value)
+
+
+def pack_light(value: Any) -> str:
+    """A light value as the index holds it: its JSON, compressed (zlib), in base64.
+
+    A run that finds nothing changed but one file still reads the whole index; its light
+    values as JSON objects took about 11 kB of Python objects per HPT log (a 64x
+    campaign's 6656 logs: 72 MB) from the moment the index was read, where this text takes
+    about 1.2 kB until the value is asked for (:func:`unpack_light`).
+
+    Raises
+    ------
+    TypeError, ValueError
+        ``value`` is not plain JSON.  A number that is not finite is written as Python's
+        :mod:`json` writes and reads it (``NaN``, ``Infinity``), as the index always was.
+    """
+    import base64
+    import zlib
+
+    text = json.dumps(value, separators=(",", ":"), default=_light_json)
+    return base64.b64encode(zlib.compress(text.encode("utf-8"), 6)).decode("ascii")
+
+
+def unpack_light(text: str) -> Any:
+    """The light value :func:`pack_light` made ``text`` of.
+
+    Raises
+    ------
+    ValueError
+        ``text`` is not base64 of zlib-compressed JSON, or that JSON is longer than
+        :data:`LIGHT_MAX_BYTES` (it is not inflated further) or nested too deep.
+    """
+    import base64
+    import binascii
+    import zlib
+
+    try:
+        d = zlib.decompressobj()
+        raw = d.decompress(base64.b64decode(text, validate=True), LIGHT_MAX_BYTES)
+        if not d.eof or d.unconsumed_tail or d.unused_data:
+            raise ValueError("a light value: truncated, trailing bytes or too long")
+        return json.loads(raw)
+    except (binascii.Error, zlib.error, RecursionError, UnicodeDecodeError) as e:
+        raise ValueError(f"a light value: {e}") from None
 
 
 def _light_json(o: Any) -> Any:
