@@ -419,3 +419,32 @@ def test_figures_drawn_ahead_wait_in_files_not_in_memory(tmp_path):
     with pytest.raises(ValueError, match="outside"):
         _read_drawn({"png": str(outside)}, str(tmp_path / "folder"))
     assert outside.exists()
+
+
+def test_figures_the_store_holds_are_not_read_until_they_are_written(tmp_path, monkeypatch):
+    """A run that reuses its figures does not hold their images while it computes: starting
+    the figures reads none of those the store holds, each is read once when written; one
+    whose sidecar no longer matches is not drawn ahead and is drawn when written, with the
+    bytes of a plain drawing."""
+    from torlab.protocols.cache import FigureStore, ResultCache
+    from torlab.reports.render import FiguresAhead, figure_key, plot_digest, render_figures
+
+    items = _plots()
+    plain, _ = render_figures(items, ("png",))
+    store = FigureStore(ResultCache(tmp_path / "cache"))
+    render_figures(items, ("png",), store=store)  # both stored
+    reads: list[str] = []
+    real = FigureStore.get
+    monkeypatch.setattr(FigureStore, "get", lambda self, k, f: reads.append(k) or real(self, k, f))
+    with ProcessExecutor(2) as ex:
+        ahead = FiguresAhead(("png",), store=store, executor=ex)
+        assert ahead.start(items) == 0 and reads == []  # found, not read
+        got, st = render_figures(items, ("png",), store=store, executor=ex, ahead=ahead)
+        assert (st.drawn, st.reused) == (0, 2) and got == plain and len(reads) == 2
+        key = figure_key(items[1][1], "png", None, digest=plot_digest(items[1][1]))
+        mac = tmp_path / "cache" / f"fig-{key}.png.mac"
+        mac.write_text(mac.read_text().replace("a", "b").replace("0", "1"))
+        ahead = FiguresAhead(("png",), store=store, executor=ex)
+        assert ahead.start(items) == 0  # both files there: not drawn ahead
+        got, st = render_figures(items, ("png",), store=store, executor=ex, ahead=ahead)
+        assert (st.drawn, st.reused, st.ahead) == (1, 1, 0) and got == plain

@@ -802,6 +802,16 @@ class FigureStore:
         return hmac.new(self.cache.secret, f"{FORMAT} figure {name}\n".encode() + data,
                         hashlib.sha256).hexdigest()
 
+    def has(self, key: str, fmt: str) -> bool:
+        """Whether the store holds figure ``key`` in ``fmt`` (its file and its sidecar are
+        there; neither is read nor checked here: :meth:`get` does that when the figure is
+        taken, and gives None if the check fails)."""
+        c = self.cache
+        if c.folder is None:
+            return False
+        name = f"fig-{key}.{fmt}"
+        return (c.folder / name).is_file() and (c.folder / f"{name}.mac").is_file()
+
     def get(self, key: str, fmt: str) -> bytes | None:
         """The cached bytes of figure ``key`` in ``fmt``, or None."""
         c = self.cache
