@@ -471,6 +471,7 @@ def test_index_written_in_pieces_is_json_of_the_whole_and_signed(tmp_path):
     assert whole["torlab"] == __version__ and whole["files"] == files and whole["run"] is None
     got = whole["entries"]
     assert {n: _light(r) for n, r in got.items() if "light" in r} == lights
+    assert list(got) == list(want)  # in the order the run used them
     assert {n: {k: v for k, v in r.items() if k != "light"} for n, r in got.items()} == want
     again = ResultCache(tmp_path / "c")._read_index()
     assert again == whole  # signed: read back
